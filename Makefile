@@ -1,0 +1,31 @@
+# Two commands set everything up on a fresh machine: `make demo` and `make test`.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test lint format derivations clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test,plots]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/slbasis derive --family legendre --nmax 6
+
+test: $(STAMP)
+	$(BIN)/ruff check slbasis hdpbsid tests derivations bench
+	$(BIN)/ruff format --check slbasis hdpbsid tests derivations bench
+	$(BIN)/python -m pytest -n 2 -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check --fix slbasis hdpbsid tests derivations bench
+	$(BIN)/ruff format slbasis hdpbsid tests derivations bench
+
+derivations: $(STAMP)
+	$(BIN)/python derivations/generate.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache .hypothesis build *.egg-info

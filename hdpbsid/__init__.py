@@ -1,0 +1,3 @@
+"""hdpbsid: continuous-time predictor-based subspace identification in a basis domain."""
+
+__all__: list[str] = []

@@ -1,0 +1,1 @@
+"""Exact (sympy) derivations for Sturm–Liouville eigenproblems."""
