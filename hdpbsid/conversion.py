@@ -1,0 +1,127 @@
+"""Exact conversion between continuous-time and ZOH-sampled innovation models.
+
+Convention (stated once, used everywhere in hdpbsid): the continuous-time innovation
+model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e`` is sampled with period ``T``
+treating **both** ``u`` and ``e`` as held constant over each interval (zero-order hold).
+Then, with the augmented matrix (Franklin, Powell & Workman, *Digital Control*, sec. 6.3;
+Van Loan 1978)
+
+    expm([[A, B, K], [0, 0, 0], [0, 0, 0]] T) = [[Ad, Bd, Kd], [0, I, 0], [0, 0, I]],
+
+``Ad = e^{A T}``, ``[Bd, Kd] = int_0^T e^{A s} ds [B, K]``, and ``C, D`` are unchanged.
+The sampled model ``x_{k+1} = Ad x_k + Bd u_k + Kd e_k``, ``y_k = C x_k + D u_k + e_k``
+has the same one-step predictor as the held-innovation continuous model, which is what a
+sampled-data subspace method estimates.  (This is *not* the Kalman-Bucy gain of a model
+driven by continuous white noise; for that, ``K`` has to be recomputed from the
+continuous noise intensities.)
+
+``d2c`` inverts the map with the principal matrix logarithm of the augmented matrix.  It
+exists as a real matrix only when ``Ad`` has no eigenvalue on the closed negative real
+axis (zero included), and it returns the sampled continuous model only when every
+continuous eigenvalue satisfies ``|Im(lambda)| T < pi`` (no aliasing: the Nyquist
+condition).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm, logm
+
+from .validation import check_state_space
+
+__all__ = ["c2d", "d2c", "check_log_exists"]
+
+Array = NDArray[np.float64]
+
+
+def _check_dt(dt: float) -> float:
+    if isinstance(dt, bool) or not isinstance(dt, int | float | np.floating | np.integer):
+        raise TypeError(f"dt must be a positive real number, got {type(dt).__name__}")
+    dt = float(dt)
+    if not np.isfinite(dt) or dt <= 0:
+        raise ValueError(f"dt must be a positive finite sampling interval, got {dt}")
+    return dt
+
+
+def c2d(
+    A: Array, B: Array, C: Array, D: Array | None, K: Array | None, dt: float
+) -> tuple[Array, Array, Array, Array, Array]:
+    """Zero-order-hold sampling of ``(A, B, C, D, K)`` with period ``dt``.
+
+    Implements the augmented exponential of the module docstring.  ``D`` and ``K``
+    default to zeros.  Returns ``(Ad, Bd, C, D, Kd)``.
+    """
+    A, B, C, D, K = check_state_space(A, B, C, D, K)
+    dt = _check_dt(dt)
+    n, m, l = A.shape[0], B.shape[1], C.shape[0]
+    M = np.zeros((n + m + l, n + m + l))
+    M[:n, :n] = A
+    M[:n, n : n + m] = B
+    M[:n, n + m :] = K
+    E = expm(M * dt)
+    return E[:n, :n], E[:n, n : n + m], C.copy(), D.copy(), E[:n, n + m :]
+
+
+def check_log_exists(Ad: Array, rtol: float = 1e-10) -> None:
+    """Raise ``ValueError`` if ``Ad`` has no real logarithm (eigenvalue on (-inf, 0]).
+
+    An eigenvalue counts as real when ``|Im| <= rtol * max(|lambda|, 1)``; zero counts as
+    on the axis when ``|lambda| <= rtol * max(1, ||Ad||)``.
+    """
+    ev = np.linalg.eigvals(Ad)
+    scale = max(1.0, float(np.linalg.norm(Ad, 2))) if Ad.size else 1.0
+    for lam in ev:
+        if abs(lam) <= rtol * scale:
+            raise ValueError(
+                f"Ad has an eigenvalue at zero ({lam:.3g}): a ZOH-sampled continuous model "
+                f"never has one (e^(A dt) is invertible), so no continuous model exists"
+            )
+        if abs(lam.imag) <= rtol * max(abs(lam), 1.0) and lam.real < 0:
+            raise ValueError(
+                f"Ad has an eigenvalue on the negative real axis ({lam.real:.6g}): it has no "
+                f"real matrix logarithm, so no real continuous-time model sampled with ZOH "
+                f"gives this discrete model (a sign alternating mode faster than Nyquist, or "
+                f"an identification artefact); reduce the order or resample"
+            )
+
+
+def d2c(
+    Ad: Array, Bd: Array, C: Array, D: Array | None, Kd: Array | None, dt: float
+) -> tuple[Array, Array, Array, Array, Array]:
+    """Exact inverse of :func:`c2d`: ``[A, B, K] = logm([[Ad, Bd, Kd], [0, I, 0],
+    [0, 0, I]]) / dt`` (first block row, principal logarithm).
+
+    Raises ``ValueError`` when ``Ad`` has an eigenvalue on the closed negative real axis
+    (no real logarithm).  Eigenvalues close to the negative real axis give
+    ``|Im(lambda)| dt`` close to ``pi`` (the Nyquist limit); a ``RuntimeWarning`` is issued
+    when the result needed a complex logarithm with a non-negligible imaginary part.
+    """
+    Ad, Bd, C, D, Kd = check_state_space(Ad, Bd, C, D, Kd)
+    dt = _check_dt(dt)
+    check_log_exists(Ad)
+    n, m, l = Ad.shape[0], Bd.shape[1], C.shape[0]
+    M = np.eye(n + m + l)
+    M[:n, :n] = Ad
+    M[:n, n : n + m] = Bd
+    M[:n, n + m :] = Kd
+    with warnings.catch_warnings():
+        # logm warns about its own accuracy estimate; accuracy is checked below instead
+        warnings.simplefilter("ignore", RuntimeWarning)
+        L = logm(M)
+    L = np.asarray(L)
+    if np.iscomplexobj(L):
+        imag = float(np.max(np.abs(L.imag))) if L.size else 0.0
+        if imag > 1e-8 * max(1.0, float(np.max(np.abs(L.real)))):
+            warnings.warn(
+                f"d2c: the matrix logarithm has an imaginary part of size {imag:.3g}; "
+                f"the continuous model is unreliable (eigenvalues of Ad near the negative "
+                f"real axis)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+        L = L.real
+    L = L / dt
+    return L[:n, :n], L[:n, n : n + m], C.copy(), D.copy(), L[:n, n + m :]

@@ -1,0 +1,293 @@
+"""The PBSID core (VARX form): VARX -> Gamma L -> SVD/state -> (C, D) -> (A, B, K).
+
+Steps 2 and 3 of DESIGN.md "The discrete core", after the toolbox pipeline
+``dordvarx -> dmodx -> dx2abcdk`` (Houtzager's PBSID toolbox; Chiuso 2007, Automatica
+43(6), sec. 4; van Wingerden & Verhaegen 2009).  Everything is generic over the
+:class:`~hdpbsid.varx.LagOperator`, so the same code identifies a sampled model
+(``SampleShift``) or a "system in the basis index" (``MatrixLag``).
+
+Notation (rows = signals, columns = time/basis index): ``z = [u; y]``, predictor
+``x_{k+1} = At x_k + Bt z_k``, ``y_k = C x_k + D u_k + e_k``, ``At = A - K C``,
+``Bt = [B - K D, K]``, VARX coefficients ``Xi_j = C At^{j-1} Bt``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import solve_discrete_are
+
+from .varx import LagOperator, SampleShift, VarxResult, varx
+
+__all__ = [
+    "gamma_l",
+    "state_sequence",
+    "select_order",
+    "estimate_cd",
+    "estimate_abk",
+    "riccati_gain",
+    "CoreResult",
+    "pbsid_core",
+]
+
+Array = NDArray[np.float64]
+
+
+def gamma_l(coef: Array, p: int, f: int, m: int, l: int) -> Array:
+    """Build ``Gamma_f L_p`` (``f l x p (m + l)``) from the VARX coefficients.
+
+    ``coef = [Xi_p, ..., Xi_1]``.  Row block ``i`` (``0 <= i < f``) is
+    ``C At^i [At^{p-1} Bt, ..., Bt] ~= [0 (i blocks), Xi_p, ..., Xi_{i+1}]``: the terms
+    ``Xi_j`` with ``j > p`` are negligible (``At^p ~= 0``) and set to zero, so no future
+    data are needed (Chiuso 2007, eq. (21); toolbox ``dordvarx`` with ``weight=0``).
+    """
+    if f > p:
+        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
+    d = m + l
+    LK = np.zeros((f * l, p * d))
+    for i in range(f):
+        LK[i * l : (i + 1) * l, i * d :] = coef[:, : (p - i) * d]
+    return LK
+
+
+def state_sequence(LK: Array, Zp: Array, order: int | None) -> tuple[Array, Array, Array]:
+    """SVD ``Gamma L Zp = U S V^T``; state ``X = S_n^{1/2} V_n^T`` (toolbox ``dmodx``).
+
+    Returns ``(X, s, U)`` with all singular values ``s``; ``X`` has ``order`` rows (all
+    ``len(s)`` rows when ``order`` is None, to be cut by the caller).
+    """
+    U, s, Vt = np.linalg.svd(LK @ Zp, full_matrices=False)
+    n = s.size if order is None else order
+    X = np.sqrt(s[:n])[:, None] * Vt[:n, :]
+    return X, s, U
+
+
+def select_order(s: Array, max_order: int | None = None) -> tuple[int, dict]:
+    """Choose the model order from the singular values of ``Gamma L Zp``.
+
+    Criterion: the largest gap on a log scale, ``n = argmax_i log(s_i / s_{i+1})`` over
+    ``1 <= i <= min(max_order, len(s) - 1)``.  Singular values below
+    ``s_1 * len(s) * eps`` are treated as exact zeros (floored there), so a noise-free
+    record picks its true order.  Returns ``(n, info)``; ``info`` records the criterion
+    and the gaps.
+    """
+    s = np.asarray(s, dtype=float)
+    if s.size < 2:
+        raise ValueError(
+            "order selection needs at least 2 singular values; increase the windows p and f"
+        )
+    kmax = s.size - 1 if max_order is None else min(max_order, s.size - 1)
+    floor = max(s[0], np.finfo(float).tiny) * s.size * np.finfo(float).eps
+    ls = np.log(np.maximum(s, floor))
+    gaps = ls[:kmax] - ls[1 : kmax + 1]
+    n = int(np.argmax(gaps)) + 1
+    return n, {"criterion": "largest log gap of singular values", "log_gaps": gaps}
+
+
+def estimate_cd(X: Array, U: Array, Y: Array, feedthrough: bool) -> tuple[Array, Array, Array]:
+    """Least squares ``Y = C X + D U + E`` (toolbox ``dx2abcdk``, first step).
+
+    ``X, U, Y`` are restricted to the same columns.  Returns ``(C, D, E)``; ``E`` is the
+    innovation estimate (the residual).  ``D = 0`` when ``feedthrough`` is False.
+    """
+    m = U.shape[0]
+    reg = np.vstack([X, U]) if (feedthrough and m > 0) else X
+    theta = np.linalg.lstsq(reg.T, Y.T, rcond=None)[0].T
+    n = X.shape[0]
+    C = theta[:, :n]
+    D = theta[:, n:] if (feedthrough and m > 0) else np.zeros((Y.shape[0], m))
+    E = Y - theta @ reg
+    return C, D, E
+
+
+def _lag_on_columns(
+    W: Array, valid: NDArray[np.bool_], lag: LagOperator
+) -> tuple[Array, NDArray[np.bool_]]:
+    """Lag a matrix known only on ``valid`` columns (zero-filled elsewhere) once."""
+    Wf = np.where(valid[None, :], W, 0.0)
+    return lag.apply(Wf, 1), lag.valid_columns(valid, 1)
+
+
+def estimate_abk(
+    X: Array,
+    U: Array,
+    E: Array,
+    columns: NDArray[np.intp],
+    ncols: int,
+    lag: LagOperator,
+) -> tuple[Array, Array, Array, Array, Array]:
+    """Least squares ``X = A lag(X) + B lag(U) + K lag(E)`` (``dx2abcdk``, second step).
+
+    For sampled data ``lag`` is one sample back, i.e. ``x_{k+1} = A x_k + B u_k + K e_k``;
+    in a basis domain with ``lag = M`` it is ``X = A X M + B U M + K E M``.  ``X, E`` live
+    on ``columns`` of an ``ncols``-column record, ``U`` on all columns.  Returns
+    ``(A, B, K, W, V)`` where ``W = X - A lag(X) - B lag(U)`` and ``V = lag(E)`` on the
+    columns used (for :func:`riccati_gain`).
+    """
+    n, m, l = X.shape[0], U.shape[0], E.shape[0]
+    known = np.zeros(ncols, dtype=bool)
+    known[columns] = True
+    Xf = np.zeros((n, ncols))
+    Xf[:, columns] = X
+    Ef = np.zeros((l, ncols))
+    Ef[:, columns] = E
+    LX, vx = _lag_on_columns(Xf, known, lag)
+    LE, ve = _lag_on_columns(Ef, known, lag)
+    LU, vu = _lag_on_columns(U, np.ones(ncols, dtype=bool), lag)
+    use = np.flatnonzero(known & vx & ve & vu)
+    if use.size <= n + m + l:
+        raise ValueError(
+            f"too few usable columns ({use.size}) to estimate A, B, K with "
+            f"{n + m + l} regressors per state; supply more data or reduce p/order"
+        )
+    reg = np.vstack([LX[:, use], LU[:, use], LE[:, use]])
+    target = Xf[:, use]
+    theta = np.linalg.lstsq(reg.T, target.T, rcond=None)[0].T
+    A, B, K = theta[:, :n], theta[:, n : n + m], theta[:, n + m :]
+    W = target - A @ LX[:, use] - B @ LU[:, use]
+    V = LE[:, use]
+    return A, B, K, W, V
+
+
+def riccati_gain(A: Array, C: Array, W: Array, V: Array) -> Array:
+    """Kalman predictor gain from residual covariances (toolbox ``dx2abcdk`` 'stable').
+
+    With the process residual ``w = x_+ - A x - B u`` and the innovation ``v`` (aligned),
+    ``Q = cov(w)``, ``R = cov(v)``, ``S = cov(w, v)``; solve the filter DARE
+
+        P = A P A^T + Q - (A P C^T + S)(C P C^T + R)^{-1}(A P C^T + S)^T
+
+    (``scipy.linalg.solve_discrete_are(A^T, C^T, Q, R, s=S)``) and return
+    ``K = (A P C^T + S)(C P C^T + R)^{-1}``, which makes ``A - K C`` stable.
+    """
+    N = W.shape[1]
+    Q = W @ W.T / N
+    R = V @ V.T / N
+    S = W @ V.T / N
+    P = solve_discrete_are(A.T, C.T, Q, R, s=S)
+    return np.linalg.solve(C @ P @ C.T + R, (A @ P @ C.T + S).T).T
+
+
+@dataclass
+class CoreResult:
+    """Model in the index domain (sampled or basis) and everything the core computed."""
+
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+    K: Array
+    order: int
+    singular_values: Array
+    states: Array
+    innovations: Array
+    columns: NDArray[np.intp]
+    varx: VarxResult
+    noise_covariance: Array
+    options: dict = field(default_factory=dict)
+
+    @property
+    def eigenvalues(self) -> NDArray[np.complex128]:
+        """Eigenvalues of ``A``."""
+        return np.linalg.eigvals(self.A)
+
+
+def pbsid_core(
+    U: Array,
+    Y: Array,
+    p: int,
+    f: int | None = None,
+    order: int | None = None,
+    lag: LagOperator | None = None,
+    feedthrough: bool = False,
+    regularize: bool | str | float | None = False,
+    stable_k: bool = False,
+    max_order: int | None = None,
+) -> CoreResult:
+    """Identify ``(A, B, C, D, K)`` of the innovation model in the lag-operator domain.
+
+    ``U`` (m x N) and ``Y`` (l x N) are data matrices (rows = signals).  Steps:
+
+    1. VARX ``Y = sum_j Xi_j lag^j(Z) + D U + E`` (:func:`hdpbsid.varx.varx`);
+    2. ``Gamma L`` (:func:`gamma_l`), SVD of ``Gamma L Zp``, order from the singular
+       values when ``order`` is None (:func:`select_order`), ``X = S_n^{1/2} V_n^T``;
+    3. ``C, D`` and the innovations ``E`` (:func:`estimate_cd`), then ``A, B, K``
+       (:func:`estimate_abk`); with ``stable_k`` the gain is replaced by the Riccati
+       (Kalman) gain from the residual covariances (:func:`riccati_gain`).
+
+    ``f`` defaults to ``p`` (``f <= p`` is required).  The returned ``noise_covariance``
+    is the sample covariance of ``E``.
+    """
+    lag = SampleShift() if lag is None else lag
+    m, l = U.shape[0], Y.shape[0]
+    f = p if f is None else f
+    if f > p:
+        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
+    if order is not None and order > f * l:
+        raise ValueError(
+            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
+            f"increase f (and p) or reduce the order"
+        )
+    vx = varx(U, Y, p, lag=lag, feedthrough=feedthrough, regularize=regularize)
+    LK = gamma_l(vx.coef, p, f, m, l)
+    Xall, s, _ = state_sequence(LK, vx.Zp, None)
+    info: dict = {}
+    if order is None:
+        n, info = select_order(s, max_order)
+    else:
+        n = order
+    if n > Xall.shape[0]:
+        raise ValueError(
+            f"order={n} exceeds the rank available ({Xall.shape[0]} singular values); "
+            f"increase f or supply more data"
+        )
+    X = Xall[:n]
+    cols = vx.columns
+    C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
+    A, B, K, W, V = estimate_abk(X, U, E, cols, Y.shape[1], lag)
+    k_method = "least squares"
+    if stable_k:
+        try:
+            K = riccati_gain(A, C, W, V)
+            k_method = "riccati"
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            warnings.warn(
+                f"stable_k: the Riccati equation has no stabilising solution ({exc}); "
+                f"keeping the least-squares K",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+    noise_cov = E @ E.T / E.shape[1]
+    options = {
+        "p": p,
+        "f": f,
+        "order": n,
+        "order_selected": order is None,
+        "feedthrough": feedthrough,
+        "regularize": vx.regularize,
+        "ridge": vx.ridge,
+        "stable_k": stable_k,
+        "k_method": k_method,
+        "lag": repr(lag),
+    }
+    if info:
+        options["order_criterion"] = info["criterion"]
+        options["max_order"] = max_order
+    return CoreResult(
+        A=A,
+        B=B,
+        C=C,
+        D=D,
+        K=K,
+        order=n,
+        singular_values=s,
+        states=X,
+        innovations=E,
+        columns=cols,
+        varx=vx,
+        noise_covariance=noise_cov,
+        options=options,
+    )

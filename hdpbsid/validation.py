@@ -1,0 +1,169 @@
+"""Input checking shared by every identification routine.
+
+Signal arrays follow the :func:`scipy.signal.lsim` convention (DESIGN.md, "Conventions"):
+``t`` has shape ``(Ns,)``, ``u`` shape ``(Ns, m)`` and ``y`` shape ``(Ns, l)``; a 1-D
+``u`` or ``y`` is accepted for a single channel.  Every problem raises a ``ValueError``
+(or ``TypeError`` for non-numeric data) that names the argument and says what was
+expected.  Nothing is silently clipped, reshaped beyond the 1-D -> one-column rule, or
+dropped.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "as_float_array",
+    "check_time",
+    "check_signal",
+    "check_data",
+    "check_uniform",
+    "check_positive_int",
+    "check_matrix",
+    "check_state_space",
+]
+
+
+def as_float_array(x: Any, name: str) -> NDArray[np.float64]:
+    """Convert ``x`` to a float64 array, rejecting complex, object and non-numeric data."""
+    if x is None:
+        raise TypeError(f"{name} must be an array of real numbers, got None")
+    try:
+        arr = np.asarray(x)
+    except Exception as exc:  # pragma: no cover - numpy rarely fails here
+        raise TypeError(f"{name} must be an array of real numbers: {exc}") from exc
+    if arr.dtype == object or arr.dtype.kind not in "biuf":
+        if arr.dtype.kind == "c":
+            raise TypeError(f"{name} must be real-valued, got complex dtype {arr.dtype}")
+        raise TypeError(f"{name} must be an array of real numbers, got dtype {arr.dtype}")
+    arr = arr.astype(np.float64, copy=False)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        idx = np.argwhere(bad)[0]
+        kind = "NaN" if np.isnan(arr[tuple(idx)]) else "inf"
+        raise ValueError(
+            f"{name} must be finite, but contains {int(bad.sum())} NaN/inf value(s) "
+            f"(first {kind} at index {tuple(int(i) for i in idx)})"
+        )
+    return arr
+
+
+def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.float64]:
+    """Check a time vector: 1-D, finite, strictly increasing, at least ``min_samples`` long."""
+    arr = as_float_array(t, name)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D array of shape (Ns,), got shape {arr.shape}")
+    if arr.shape[0] < min_samples:
+        raise ValueError(f"{name} must have at least {min_samples} samples, got {arr.shape[0]}")
+    d = np.diff(arr)
+    if np.any(d <= 0):
+        k = int(np.argmax(d <= 0))
+        what = "duplicate" if d[k] == 0 else "decreasing"
+        raise ValueError(
+            f"{name} must be strictly increasing, but has {what} times at indices "
+            f"{k} and {k + 1} ({arr[k]!r}, {arr[k + 1]!r})"
+        )
+    return arr
+
+
+def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64]:
+    """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
+
+    Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.
+    """
+    arr = as_float_array(x, name)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    elif arr.ndim != 2:
+        raise ValueError(
+            f"{name} must have shape (Ns,) or (Ns, channels) as in scipy.signal.lsim, "
+            f"got shape {arr.shape}"
+        )
+    if ns is not None and arr.shape[0] != ns:
+        hint = ""
+        if arr.shape[1] == ns:
+            hint = " (did you pass the transpose? signals are columns: shape (Ns, channels))"
+        raise ValueError(
+            f"{name} must have {ns} rows (one per time sample), got shape {arr.shape}{hint}"
+        )
+    return arr
+
+
+def check_data(
+    t: Any, u: Any, y: Any, min_samples: int = 2
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Check an identification record ``(t, u, y)``.
+
+    ``u`` may be ``None`` (no measured input, a pure time series): it becomes an
+    ``(Ns, 0)`` array.  Returns ``t`` (Ns,), ``u`` (Ns, m), ``y`` (Ns, l).
+    """
+    t = check_time(t, "t", min_samples=min_samples)
+    ns = t.shape[0]
+    y = check_signal(y, "y", ns)
+    if y.shape[1] == 0:
+        raise ValueError("y must have at least one output channel, got shape (Ns, 0)")
+    u = np.zeros((ns, 0)) if u is None else check_signal(u, "u", ns)
+    return t, u, y
+
+
+def check_uniform(t: NDArray[np.float64], rtol: float = 1e-6, name: str = "t") -> float:
+    """Return the sampling interval of a uniformly sampled ``t``.
+
+    Raises ``ValueError`` naming the largest deviation ``max |diff(t) - dt|`` when it
+    exceeds ``rtol * dt`` (``dt`` is the mean spacing).
+    """
+    d = np.diff(t)
+    dt = float((t[-1] - t[0]) / (t.shape[0] - 1))
+    dev = float(np.max(np.abs(d - dt)))
+    if dev > rtol * dt:
+        k = int(np.argmax(np.abs(d - dt)))
+        raise ValueError(
+            f"{name} must be uniformly sampled for this method: the sample spacing deviates "
+            f"from the mean spacing {dt:.6g} by up to {dev:.3g} (at index {k}, relative "
+            f"{dev / dt:.3g} > rtol={rtol:g}); use a basis-domain method for non-uniform data"
+        )
+    return dt
+
+
+def check_positive_int(value: Any, name: str, minimum: int = 1) -> int:
+    """Check that ``value`` is an integer ``>= minimum`` (bools are rejected)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value}")
+    return int(value)
+
+
+def check_matrix(x: Any, name: str, shape: tuple[int | None, int | None]) -> NDArray[np.float64]:
+    """Check a finite real 2-D matrix; ``None`` entries in ``shape`` are free."""
+    arr = as_float_array(x, name)
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D matrix, got shape {arr.shape}")
+    for axis, want in enumerate(shape):
+        if want is not None and arr.shape[axis] != want:
+            expected = tuple("*" if s is None else s for s in shape)
+            raise ValueError(f"{name} must have shape {expected}, got {arr.shape}")
+    return arr
+
+
+def check_state_space(
+    A: Any, B: Any, C: Any, D: Any | None = None, K: Any | None = None
+) -> tuple[NDArray[np.float64], ...]:
+    """Check state-space matrices for consistent shapes.
+
+    Returns ``(A, B, C, D, K)`` with ``D`` defaulting to zeros ``(l, m)`` and ``K`` to
+    zeros ``(n, l)``.
+    """
+    A = check_matrix(A, "A", (None, None))
+    n = A.shape[0]
+    if A.shape[1] != n:
+        raise ValueError(f"A must be square (n, n), got shape {A.shape}")
+    B = check_matrix(B, "B", (n, None))
+    C = check_matrix(C, "C", (None, n))
+    m, l = B.shape[1], C.shape[0]
+    D = np.zeros((l, m)) if D is None else check_matrix(D, "D", (l, m))
+    K = np.zeros((n, l)) if K is None else check_matrix(K, "K", (n, l))
+    return A, B, C, D, K

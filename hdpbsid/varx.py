@@ -1,0 +1,357 @@
+"""VARX least squares in predictor form, generic over the "past" operator.
+
+Step 1 of the PBSID pipeline (PBSID toolbox ``dordvarx``; Chiuso 2007, Automatica 43(6),
+eq. (8)): with ``z = [u; y]`` estimate
+
+    y_k = sum_{j=1..p} Xi_j z_{k-j} + D u_k + e_k,        Xi_j = C At^{j-1} Bt,
+
+where ``At = A - K C`` and ``Bt = [B - K D, K]`` are the predictor matrices.
+
+Data are matrices with one row per signal and one column per "time" index (a sample for
+sampled data, a basis index for basis-domain data).  "Shift back ``j`` times" is a
+:class:`LagOperator`: :class:`SampleShift` for sampled data (``z_{k-j}``) and
+:class:`MatrixLag` for coefficient sequences (``Z M^j`` with an operator matrix ``M``,
+e.g. the integrator of HD-PBSID).  Everything downstream only sees the lagged blocks, so
+the same code serves both.
+
+Regularisation follows the toolbox's ``regress(..., 'tikh', 'gcv')``: Tikhonov (ridge)
+least squares whose parameter minimises the generalised cross-validation function
+(Golub, Heath & Wahba 1979; Hansen, *Rank-deficient and discrete ill-posed problems*,
+sec. 7.4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import minimize_scalar
+
+__all__ = [
+    "LagOperator",
+    "SampleShift",
+    "MatrixLag",
+    "past_blocks",
+    "VarxResult",
+    "ridge_gcv",
+    "varx",
+    "select_past_window",
+]
+
+Array = NDArray[np.float64]
+Mask = NDArray[np.bool_]
+
+
+@runtime_checkable
+class LagOperator(Protocol):
+    """The operator that replaces "one sample back" (the backward shift ``q^{-1}``).
+
+    ``apply(W, j)`` maps a data matrix ``W`` (signals x columns) to the matrix lagged
+    ``j`` times, same shape.  ``valid_columns(valid, j)`` says which output columns are
+    fully determined when only the input columns flagged in ``valid`` are known (the
+    others are zero-filled before ``apply``).  ``apply(W, j)`` must equal ``j``
+    applications of ``apply(., 1)`` (a linear operator and its powers).
+    """
+
+    def apply(self, W: Array, j: int) -> Array: ...
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask: ...
+
+
+class SampleShift:
+    """Backward shift on sampled data: ``apply(W, j)[:, k] = W[:, k - j]``.
+
+    The first ``j`` output columns would need samples before the record; they are
+    zero-filled and reported invalid by :meth:`valid_columns`.
+    """
+
+    def apply(self, W: Array, j: int) -> Array:
+        out = np.zeros_like(W)
+        if j == 0:
+            out[...] = W
+        elif j < W.shape[1]:
+            out[:, j:] = W[:, :-j]
+        return out
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask:
+        out = np.zeros_like(valid)
+        if j == 0:
+            out[...] = valid
+        elif j < valid.shape[0]:
+            out[j:] = valid[:-j]
+        return out
+
+    def __repr__(self) -> str:
+        return "SampleShift()"
+
+
+class MatrixLag:
+    """Lag by right-multiplication with an operator matrix: ``apply(W, j) = W @ M^j``.
+
+    Use for coefficient sequences (columns = basis index), e.g. ``M = D'^{-1}`` in the
+    integrator form of HD-PBSID.  An output column is valid when every input column that
+    contributes to it through the sparsity pattern of ``M^j`` is valid.  Powers are
+    cached.
+    """
+
+    def __init__(self, M: Array) -> None:
+        M = np.asarray(M, dtype=float)
+        if M.ndim != 2 or M.shape[0] != M.shape[1]:
+            raise ValueError(f"M must be a square matrix, got shape {M.shape}")
+        if not np.all(np.isfinite(M)):
+            raise ValueError("M must be finite (no NaN/inf)")
+        self.M = M
+        self._powers: dict[int, Array] = {0: np.eye(M.shape[0]), 1: M}
+
+    def power(self, j: int) -> Array:
+        """``M^j``, computed by repeated multiplication and cached."""
+        if j not in self._powers:
+            self._powers[j] = self.power(j - 1) @ self.M
+        return self._powers[j]
+
+    def apply(self, W: Array, j: int) -> Array:
+        return W @ self.power(j)
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask:
+        if valid.all():
+            return valid.copy()
+        touches_invalid = (np.abs(self.power(j))[~valid, :] > 0).any(axis=0)
+        return ~touches_invalid
+
+    def __repr__(self) -> str:
+        return f"MatrixLag(M of shape {self.M.shape})"
+
+
+def past_blocks(Z: Array, p: int, lag: LagOperator) -> tuple[Array, Mask]:
+    """Stack the past ``Zp = [Z_p; Z_{p-1}; ...; Z_1]`` with ``Z_j = lag^j Z``.
+
+    Oldest block first, as in the toolbox's ``dordvarx``.  Returns ``Zp`` (all columns)
+    and the mask of columns on which every block is valid.
+    """
+    ncols = Z.shape[1]
+    all_valid = np.ones(ncols, dtype=bool)
+    blocks = []
+    valid = all_valid.copy()
+    for j in range(p, 0, -1):
+        blocks.append(lag.apply(Z, j))
+        valid &= lag.valid_columns(all_valid, j)
+    return np.vstack(blocks), valid
+
+
+@dataclass
+class VarxResult:
+    """Output of :func:`varx`.
+
+    ``Xi`` has shape ``(p, l, m + l)`` with ``Xi[j - 1] = Xi_j`` (the coefficient of
+    ``z_{k-j}``); ``coef`` is the toolbox layout ``[Xi_p, ..., Xi_1]`` (l x p(m+l)).
+    ``Zp`` and ``residuals`` are restricted to ``columns`` (the indices actually used).
+    """
+
+    Xi: Array
+    coef: Array
+    D: Array
+    Zp: Array
+    columns: NDArray[np.intp]
+    residuals: Array
+    ridge: float
+    regularize: str
+    gcv: float | None = None
+    extra: dict = field(default_factory=dict)
+
+
+def _ridge_from_svd(Ut: Array, s: Array, Vt: Array, YT: Array, lam: float) -> Array:
+    """Tikhonov solution ``Theta^T = V diag(s / (s^2 + lam^2)) U^T Y^T``."""
+    filt = s / (s**2 + lam**2)
+    return Vt.T @ (filt[:, None] * (Ut.T @ YT))
+
+
+def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, float, float | None]:
+    """Tikhonov least squares ``min ||Y - Theta Phi||_F^2 + lam^2 ||Theta||_F^2``.
+
+    ``Phi`` is (d x N) regressors, ``Y`` (l x N) targets.  With ``lam=None`` the
+    parameter minimises the GCV function (Hansen, sec. 7.4)
+
+        G(lam) = ||Y - Theta_lam Phi||_F^2 / (N - sum_i f_i)^2,   f_i = s_i^2/(s_i^2+lam^2),
+
+    with the SVD ``Phi^T = U S V^T``: a log-grid search over ``[s_min/1e3, s_max]``
+    refined by a bounded scalar minimisation on ``log lam``.  Returns ``(Theta, lam, G)``.
+    """
+    N = Phi.shape[1]
+    U, s, Vt = np.linalg.svd(Phi.T, full_matrices=False)
+    YT = Y.T
+    beta = U.T @ YT  # d x l
+    beta2 = np.sum(beta**2, axis=1)
+    out_of_range = max(float(np.sum(YT**2) - np.sum(beta2)), 0.0)
+
+    def gcv(loglam: float) -> float:
+        lam2 = np.exp(2.0 * loglam)
+        f = s**2 / (s**2 + lam2)
+        rss = out_of_range + float(np.sum((1.0 - f) ** 2 * beta2))
+        dof = N - float(np.sum(f))
+        return rss / dof**2
+
+    if lam is not None:
+        if not np.isfinite(lam) or lam < 0:
+            raise ValueError(f"regularize (the ridge parameter) must be >= 0, got {lam}")
+        return _ridge_from_svd(U, s, Vt, YT, float(lam)).T, float(lam), None
+    smax = float(s[0]) if s.size else 1.0
+    smin = float(s[s > 0][-1]) if np.any(s > 0) else smax
+    lo, hi = np.log(max(smin * 1e-3, smax * 1e-14)), np.log(smax)
+    grid = np.linspace(lo, hi, 60)
+    vals = np.array([gcv(g) for g in grid])
+    i = int(np.argmin(vals))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    if b > a:
+        res = minimize_scalar(gcv, bounds=(a, b), method="bounded", options={"xatol": 1e-4})
+        best = float(res.x) if res.fun <= vals[i] else float(grid[i])
+    else:
+        best = float(grid[i])
+    lam_opt = float(np.exp(best))
+    return _ridge_from_svd(U, s, Vt, YT, lam_opt).T, lam_opt, gcv(best)
+
+
+def _parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
+    """Map the user option to ``(kind, lam)``: kind in {"none", "gcv", "fixed"}."""
+    if regularize is None or regularize is False:
+        return "none", None
+    if regularize is True or (isinstance(regularize, str) and regularize.lower() == "gcv"):
+        return "gcv", None
+    if isinstance(regularize, str):
+        if regularize.lower() == "none":
+            return "none", None
+        raise ValueError(
+            f"regularize must be False/'none', True/'gcv' or a ridge parameter >= 0, "
+            f"got {regularize!r}"
+        )
+    if isinstance(regularize, int | float | np.floating | np.integer):
+        lam = float(regularize)
+        if not np.isfinite(lam) or lam < 0:
+            raise ValueError(f"regularize (the ridge parameter) must be >= 0, got {regularize}")
+        return "fixed", lam
+    raise TypeError(
+        f"regularize must be a bool, 'none', 'gcv' or a float, got {type(regularize).__name__}"
+    )
+
+
+def varx(
+    U: Array,
+    Y: Array,
+    p: int,
+    lag: LagOperator | None = None,
+    feedthrough: bool = False,
+    regularize: bool | str | float | None = False,
+) -> VarxResult:
+    """Estimate the VARX predictor ``y_k = sum_j Xi_j z_{k-j} + D u_k + e_k``.
+
+    ``U`` is (m x N), ``Y`` (l x N) (rows = signals).  ``lag`` defaults to
+    :class:`SampleShift`.  With ``feedthrough=False`` the term ``D u_k`` is left out
+    (the toolbox's ``noD=1``; needed in closed loop when the controller has direct
+    feedthrough, since then ``u_k`` is correlated with ``e_k``).  ``regularize`` selects
+    plain least squares (``False``), ridge with GCV (``True``/``"gcv"``) or ridge with a
+    given parameter (a float); see :func:`ridge_gcv`.
+    """
+    lag = SampleShift() if lag is None else lag
+    m, l = U.shape[0], Y.shape[0]
+    Z = np.vstack([U, Y])
+    Zp_all, valid = past_blocks(Z, p, lag)
+    cols = np.flatnonzero(valid)
+    Zp = Zp_all[:, cols]
+    Yc = Y[:, cols]
+    Phi = np.vstack([Zp, U[:, cols]]) if (feedthrough and m > 0) else Zp
+    nreg = Phi.shape[0]
+    if cols.size <= nreg:
+        raise ValueError(
+            f"the VARX regression has {nreg} regressors (p*(m+l) = {p}*({m}+{l})"
+            f"{' + m' if feedthrough and m else ''}) but only {cols.size} usable columns: "
+            f"reduce p (past window) or supply more data"
+        )
+    kind, lam = _parse_regularize(regularize)
+    gcv_val = None
+    if kind == "none":
+        theta = np.linalg.lstsq(Phi.T, Yc.T, rcond=None)[0].T
+        lam_used = 0.0
+    else:
+        theta, lam_used, gcv_val = ridge_gcv(Phi, Yc, lam if kind == "fixed" else None)
+    coef = theta[:, : p * (m + l)]
+    D = theta[:, p * (m + l) :] if (feedthrough and m > 0) else np.zeros((l, m))
+    # coef = [Xi_p, ..., Xi_1]  ->  Xi[j-1] = Xi_j
+    Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
+    residuals = Yc - theta @ Phi
+    return VarxResult(
+        Xi=Xi,
+        coef=coef,
+        D=D,
+        Zp=Zp,
+        columns=cols,
+        residuals=residuals,
+        ridge=lam_used,
+        regularize=kind,
+        gcv=gcv_val,
+    )
+
+
+def select_past_window(
+    U: Array,
+    Y: Array,
+    p_max: int,
+    p_min: int = 1,
+    lag: LagOperator | None = None,
+    feedthrough: bool = False,
+    criterion: str = "aic",
+    rel_floor: float = 1e-12,
+) -> tuple[int, Array]:
+    """Choose the past window ``p`` by an information criterion on the VARX fit.
+
+    For ``p = 1..p_max`` the VARX models are nested, so one QR factorisation of
+    ``[Phi_{p_max}^T, Y^T]`` (regressors ordered ``u_k, z_{k-1}, z_{k-2}, ...``) on the
+    columns valid for ``p_max`` gives every residual covariance ``Sigma_p``.  Then
+
+        AIC(p) = N log det Sigma_p + 2 l d_p,     BIC(p) = N log det Sigma_p + log(N) l d_p,
+
+    with ``d_p = p (m + l) (+ m with feedthrough)`` regressors per output.  ``Sigma_p`` is
+    computed on outputs scaled to unit RMS and floored at ``rel_floor`` (a noise-free
+    record fits to rounding level for every ``p >= n``; the floor stops round-off from
+    choosing among exact fits, so the smallest exact ``p`` wins).  Returns ``(p, crit)``
+    with ``crit[p - 1]`` the criterion value (``inf`` for ``p < p_min``).
+    """
+    lag = SampleShift() if lag is None else lag
+    m, l = U.shape[0], Y.shape[0]
+    Z = np.vstack([U, Y])
+    ncols = Z.shape[1]
+    all_valid = np.ones(ncols, dtype=bool)
+    valid = all_valid.copy()
+    blocks = []
+    for j in range(1, p_max + 1):
+        blocks.append(lag.apply(Z, j))
+        valid &= lag.valid_columns(all_valid, j)
+    cols = np.flatnonzero(valid)
+    scale = np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))
+    scale[scale == 0] = 1.0
+    Yc = Y[:, cols] / scale[:, None]
+    head = [U[:, cols]] if (feedthrough and m > 0) else []
+    Phi = np.vstack(head + [b[:, cols] for b in blocks])
+    N = cols.size
+    d0 = m if (feedthrough and m > 0) else 0
+    if N <= Phi.shape[0] + l:
+        raise ValueError(
+            f"p_max={p_max} needs {Phi.shape[0]} VARX regressors but only {N} usable columns"
+        )
+    # column scaling keeps the QR well conditioned; it does not change the fit
+    cscale = np.sqrt(np.mean(Phi**2, axis=1))
+    cscale[cscale == 0] = 1.0
+    R = np.linalg.qr(np.hstack([(Phi / cscale[:, None]).T, Yc.T]), mode="r")
+    dtot = Phi.shape[0]
+    Ry = R[:, dtot:]
+    crit = np.full(p_max, np.inf)
+    pen = {"aic": 2.0, "bic": np.log(N)}
+    if criterion not in pen:
+        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    for p in range(max(p_min, 1), p_max + 1):
+        q = d0 + p * (m + l)
+        res = Ry[q:, :]
+        sigma = res.T @ res / N + rel_floor * np.eye(l)
+        sign, logdet = np.linalg.slogdet(sigma)
+        crit[p - 1] = N * logdet + pen[criterion] * l * q
+    return int(np.argmin(crit)) + 1, crit
