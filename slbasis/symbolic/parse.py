@@ -1,0 +1,122 @@
+"""Parsing and validating the coefficients ``p0, p1, q0`` of the eigenproblem (seed eq. 8).
+
+``p0(x) f'' + p1(x) f' - q0(x) f = -lambda f``.  ``p0`` and ``p1`` must be polynomials in the
+independent variable; ``q0`` a polynomial or a rational function (rational ``q0`` arise from
+the Liouville normal form of Jacobi-type problems).  Everything is converted to the one
+canonical real symbol :data:`X`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import sympy as sp
+
+#: The canonical independent variable of every derivation.
+X = sp.Symbol("x", real=True)
+#: The canonical (non-negative integer) index of eigenfunctions.
+N = sp.Symbol("n", integer=True, nonnegative=True)
+
+Coefficient = str | int | float | sp.Expr
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    """Validated coefficients, polynomials in :data:`X` with the parameters as symbols."""
+
+    p0: sp.Expr
+    p1: sp.Expr
+    q0: sp.Expr
+    params: tuple[sp.Symbol, ...]
+
+    def poly(self, which: str) -> sp.Poly:
+        """``p0`` or ``p1`` as a :class:`sympy.Poly` in ``x`` (parameters in the domain)."""
+        return sp.Poly(getattr(self, which), X)
+
+
+def _to_expr(value: Coefficient, name: str, local: dict[str, sp.Symbol]) -> sp.Expr:
+    if isinstance(value, sp.Basic):
+        expr = value
+    elif isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise TypeError(
+            f"{name} must be a string, a number or a sympy expression in x; "
+            f"got {type(value).__name__}"
+        )
+    elif isinstance(value, float):
+        expr = sp.nsimplify(value, rational=True)
+    else:
+        try:
+            expr = sp.sympify(value, locals=local, rational=True)
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise ValueError(f"{name}={value!r} is not a valid expression: {exc}") from exc
+    if not isinstance(expr, sp.Expr):
+        raise TypeError(f"{name} must be a scalar expression, got {expr!r}")
+    return expr
+
+
+def parse_coefficients(
+    p0: Coefficient,
+    p1: Coefficient,
+    q0: Coefficient = 0,
+    *,
+    var: str | sp.Symbol = "x",
+    params: Iterable[str | sp.Symbol] = (),
+) -> Coefficients:
+    """Convert and validate ``p0, p1, q0``.
+
+    ``var`` names the independent variable used in the inputs (default ``x``); ``params``
+    names the symbols that are parameters (e.g. Jacobi's ``alpha, beta``).  Any other free
+    symbol is an error, so that ``p0="1 - t**2"`` without ``var="t"`` is caught.
+
+    Raises ``ValueError`` when ``p0`` or ``p1`` is not a polynomial in the variable, when
+    ``q0`` is not rational in it, or when an undeclared symbol appears.
+    """
+    var_name = var.name if isinstance(var, sp.Symbol) else str(var)
+    param_syms = []
+    local: dict[str, sp.Symbol] = {}
+    for prm in params:
+        sym = prm if isinstance(prm, sp.Symbol) else sp.Symbol(str(prm), real=True)
+        if sym.name == var_name:
+            raise ValueError(f"params: {sym.name!r} is the independent variable, not a parameter")
+        param_syms.append(sym)
+        local[sym.name] = sym
+    user_var = var if isinstance(var, sp.Symbol) else sp.Symbol(var_name)
+    local[var_name] = user_var
+    exprs = {}
+    for name, value in (("p0", p0), ("p1", p1), ("q0", q0)):
+        expr = _to_expr(value, name, local)
+        # Symbols given as sympy objects may carry other assumptions: match them by name.
+        by_name = {s.name: s for s in expr.free_symbols}
+        if var_name in by_name:
+            expr = expr.subs(by_name[var_name], X)
+        for sym in param_syms:
+            if sym.name in by_name and by_name[sym.name] != sym:
+                expr = expr.subs(by_name[sym.name], sym)
+        unknown = sorted(s.name for s in expr.free_symbols if s != X and s not in param_syms)
+        if unknown:
+            if not any(s == X for s in expr.free_symbols) and len(unknown) == 1:
+                hint = f"; if {unknown[0]!r} is the independent variable pass var={unknown[0]!r}"
+            else:
+                hint = "; declare parameters with params=[...]"
+            raise ValueError(
+                f"{name}={value!s} contains the undeclared symbol(s) {', '.join(unknown)} "
+                f"(independent variable is {var_name!r}){hint}"
+            )
+        exprs[name] = sp.expand(expr)
+    for name in ("p0", "p1"):
+        if not exprs[name].is_polynomial(X):
+            raise ValueError(
+                f"{name}={exprs[name]} is not a polynomial in {var_name}; "
+                "the classical theory (seed eq. 8-10) needs polynomial p0 and p1"
+            )
+    if not exprs["q0"].is_rational_function(X):
+        raise ValueError(f"q0={exprs['q0']} is not a polynomial or rational function of {var_name}")
+    if exprs["p0"] == 0:
+        raise ValueError("p0 must not be identically zero (the problem must be second order)")
+    return Coefficients(
+        p0=exprs["p0"],
+        p1=exprs["p1"],
+        q0=sp.cancel(exprs["q0"]),
+        params=tuple(param_syms),
+    )
