@@ -136,7 +136,7 @@ class ClosedForms:
     # ----- three-term recurrence of the standard polynomials ----------------------------
     @cached_property
     def recurrence(self) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
-        """``(alpha_n, beta_n, gamma_n)`` of ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}``."""
+        """``(alpha, beta, gamma)``: ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}``."""
         r1, r2 = self.rho1, self.rho2
         alpha = _simplify(1 / self.kappa)
         beta = _simplify(r1 - r1.subs(N, N + 1))

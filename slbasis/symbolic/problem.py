@@ -18,7 +18,7 @@ from .ladder import (
     ladder_relations,
     printed_eq11,
 )
-from .parse import N, X, Coefficient, parse_coefficients
+from .parse import Coefficient, N, X, parse_coefficients
 from .weight import WeightForm, classify
 
 FRAMES = ("functions", "polynomials", "eigenfunctions")

@@ -1,0 +1,36 @@
+"""The affine map between a record's time axis and a family's natural variable.
+
+``x = (t - centre) * scale`` and ``t = centre + x / scale`` (``scale > 0``). Under this map
+the L^2(dt)-orthonormal functions are ``phi_n(t) = sqrt(scale) phi_n(x(t))``, derivatives
+obey ``d/dt = scale d/dx`` and integrals ``int f dt = int f dx / scale``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["TimeMap"]
+
+
+@dataclass(frozen=True)
+class TimeMap:
+    """``x = (t - centre) * scale``; ``centre`` is the time that maps to ``x = 0``."""
+
+    centre: float
+    scale: float
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.centre):
+            raise ValueError(f"centre: expected a finite number, got {self.centre!r}")
+        if not (np.isfinite(self.scale) and self.scale > 0):
+            raise ValueError(f"scale: expected a finite number > 0, got {self.scale!r}")
+
+    def to_x(self, t: np.ndarray) -> np.ndarray:
+        """Natural variable ``x`` of the times ``t``."""
+        return (np.asarray(t, dtype=float) - self.centre) * self.scale
+
+    def to_t(self, x: np.ndarray) -> np.ndarray:
+        """Times ``t`` of the natural variable ``x``."""
+        return self.centre + np.asarray(x, dtype=float) / self.scale
