@@ -113,19 +113,20 @@ def check_uniform(t: NDArray[np.float64], rtol: float = 1e-6, name: str = "t") -
     """Return the sampling interval of a uniformly sampled ``t``.
 
     Raises ``ValueError`` naming the largest deviation ``max |diff(t) - dt|`` when it
-    exceeds ``rtol * dt`` (``dt`` is the mean spacing).
+    exceeds ``rtol * dt`` (``dt`` is the median spacing).  The returned ``dt`` is the
+    mean spacing ``(t[-1] - t[0]) / (Ns - 1)``.
     """
     d = np.diff(t)
-    dt = float((t[-1] - t[0]) / (t.shape[0] - 1))
-    dev = float(np.max(np.abs(d - dt)))
-    if dev > rtol * dt:
-        k = int(np.argmax(np.abs(d - dt)))
+    med = float(np.median(d))
+    dev = float(np.max(np.abs(d - med)))
+    if dev > rtol * med:
+        k = int(np.argmax(np.abs(d - med)))
         raise ValueError(
             f"{name} must be uniformly sampled for this method: the sample spacing deviates "
-            f"from the mean spacing {dt:.6g} by up to {dev:.3g} (at index {k}, relative "
-            f"{dev / dt:.3g} > rtol={rtol:g}); use a basis-domain method for non-uniform data"
+            f"from the median spacing {med:.6g} by up to {dev:.3g} (at index {k}, relative "
+            f"{dev / med:.3g} > rtol={rtol:g}); use a basis-domain method for non-uniform data"
         )
-    return dt
+    return float((t[-1] - t[0]) / (t.shape[0] - 1))
 
 
 def check_positive_int(value: Any, name: str, minimum: int = 1) -> int:
@@ -144,7 +145,7 @@ def check_matrix(x: Any, name: str, shape: tuple[int | None, int | None]) -> NDA
         raise ValueError(f"{name} must be a 2-D matrix, got shape {arr.shape}")
     for axis, want in enumerate(shape):
         if want is not None and arr.shape[axis] != want:
-            expected = tuple("*" if s is None else s for s in shape)
+            expected = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
             raise ValueError(f"{name} must have shape {expected}, got {arr.shape}")
     return arr
 
