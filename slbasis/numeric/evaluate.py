@@ -104,12 +104,30 @@ def _split_log(logabs: np.ndarray, sign: np.ndarray) -> tuple[np.ndarray, np.nda
     return m, k.astype(np.int64)
 
 
+def _scale_rows(block: np.ndarray, e: np.ndarray) -> None:
+    """``block *= 2^e`` (per column) in place.
+
+    ``np.ldexp`` costs ~5 ns per element; multiplying by the float ``2^e`` costs ~0.2 ns and
+    is exact whenever ``2^e`` and the result are normal numbers. Columns with
+    ``e < -1022`` get a second multiplication by ``2^(e + 1022)``; the only rounding is
+    then in the subnormal range (absolute error < 2^-1073 ~ 1e-323).
+    """
+    if block.shape[0] == 0:
+        return
+    if e.min() >= -1022 and e.max() <= 1023:
+        block *= np.ldexp(1.0, e)
+        return
+    lo = np.clip(e, -1022, 1023)
+    block *= np.ldexp(1.0, lo)
+    block *= np.ldexp(1.0, np.maximum(e - lo, -1100))
+
+
 def _fill(rec: Recurrence, nrows: int, x: np.ndarray, out: np.ndarray, m0, e0) -> None:
     """Fill ``out[:nrows]`` (shape ``(nrows, len(x))``) with phi_0..phi_{nrows-1} at ``x``."""
     e = e0.copy()
     out[0] = m0
     if nrows == 1:
-        np.ldexp(out[0], e, out=out[0])
+        _scale_rows(out[:1], e)
         return
     fin = np.isfinite(x)
     xmin = float(np.min(x[fin])) if fin.any() else 0.0
@@ -126,7 +144,7 @@ def _fill(rec: Recurrence, nrows: int, x: np.ndarray, out: np.ndarray, m0, e0) -
             # keep row n as a mantissa of the next block (exponent e + k)
             prev = out[n - 1].copy()
             cur = out[n]
-            np.ldexp(out[start:n], e, out=out[start:n])
+            _scale_rows(out[start:n], e)
             big = np.maximum(np.abs(prev), np.abs(cur))
             _, k = np.frexp(big)
             k = np.where(np.isfinite(big), k, 0)
@@ -147,7 +165,7 @@ def _fill(rec: Recurrence, nrows: int, x: np.ndarray, out: np.ndarray, m0, e0) -
             np.multiply(mprev, Ap[n], out=tmp2)
             np.subtract(tmp, tmp2, out=tmp)
         np.multiply(tmp, iA[n], out=out[n + 1])
-    np.ldexp(out[start:nrows], e, out=out[start:nrows])
+    _scale_rows(out[start:nrows], e)
 
 
 def _check_x(x) -> np.ndarray:
