@@ -74,7 +74,9 @@ class Recurrence:
         b = self.b[:nsteps]
         dist = np.maximum(np.abs(xmax - b), np.abs(xmin - b))
         with np.errstate(divide="ignore"):
-            g = np.log2(np.maximum(1.0, (dist + self.abs_A_prev[:nsteps]) * self.abs_inv_A[:nsteps]))
+            g = np.log2(
+                np.maximum(1.0, (dist + self.abs_A_prev[:nsteps]) * self.abs_inv_A[:nsteps])
+            )
         points = []
         acc = 0.0
         last = 0

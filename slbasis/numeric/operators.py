@@ -1,0 +1,159 @@
+"""Operator matrices in the basis: multiplication by ``x``, ``2 p0 d/dx`` and ``d/dx``.
+
+Convention: a function ``f = sum_n c_n phi_n`` is its coefficient column ``c``; an
+operator ``L`` is the matrix with ``(L phi_n) = sum_m M[m, n] phi_m``, so ``L f`` has
+coefficients ``M @ c``. Column ``n`` is the image of ``phi_n``.
+
+Truncation is explicit (DESIGN.md, "slbasis: the numeric layer"): the image of
+``phi_0..phi_{N-1}`` under a tridiagonal operator lives in ``phi_0..phi_N``, so the exact
+matrix is rectangular ``(N+1) x N``. The square ``N x N`` cut has exact entries but drops
+row ``N``; used as an operator on a series that is *not* band-limited to ``N`` terms it is
+also wrong in its last row, by the coupling to the discarded ``c_N`` (Hermite functions:
+``sqrt(N/2) |c_N|`` for ``d/dx``).
+
+* :func:`multiplication_matrix` -- the Jacobi matrix ``x phi_n = A_n phi_{n-1} + b_n phi_n
+  + A_{n+1} phi_{n+1}`` (exact, tridiagonal, sparse).
+* :func:`derivative_operator` -- ``2 p0(x) d/dx`` from ``kernel.derivative_bands`` (exact,
+  tridiagonal, sparse; DESIGN.md / seed eq. 11).
+* :func:`derivative_matrix` -- ``d/dx`` itself. For constant ``p0 = c0`` it is
+  ``derivative_operator / (2 c0)``: exact, sparse, ``q = 1`` extra row. Otherwise it is in
+  general dense (Laguerre functions: ``l_n' = -l_n/2 - sum_{k<n} l_k``; Legendre:
+  ``p_n' = sum_{k<n, n-k odd} sqrt((2n+1)(2k+1)) p_k``) and is obtained by solving
+  ``p0(J) G = (2 p0 d/dx) / 2`` with the *exact* ``M x M`` section of the pentadiagonal
+  ``p0(J)`` (``(J^2)_M`` taken from ``J_{M+1}``, not ``(J_M)^2``), ``M = N + pad``.
+  This is exact (up to rounding, amplified by ``cond p0(J_M)``) whenever the true
+  ``phi_n'`` lie in ``span{phi_0..phi_{M-1}}`` -- true for every polynomial family with
+  ``p1 - p0'`` divisible by ``p0`` (Laguerre, Legendre, Jacobi with integer exponents).
+  When ``phi_n'`` is not in L^2 (e.g. Chebyshev-T functions ``(1-x^2)^{-1/4} T_n``), the
+  result depends on ``M``; we solve twice (``M`` and ``M + pad``), and a
+  ``RuntimeWarning`` reports the difference if it is not at rounding level.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .kernel import Kernel
+from .validate import as_int_at_least
+
+__all__ = [
+    "multiplication_matrix",
+    "derivative_operator",
+    "derivative_matrix",
+    "extra_rows",
+]
+
+_SHAPES = ("square", "rectangular")
+
+
+def _check_shape(shape: str) -> None:
+    if shape not in _SHAPES:
+        raise ValueError(f"shape: expected 'square' or 'rectangular', got {shape!r}")
+
+
+def _tridiag(n_cols: int, n_rows: int, sub, dia, sup) -> sp.csr_matrix:
+    """Matrix with column n = sub[n] e_{n-1} + dia[n] e_n + sup[n] e_{n+1}, cut to n_rows."""
+    n = np.arange(n_cols)
+    rows = np.concatenate((n[1:] - 1, n, n + 1))
+    cols = np.concatenate((n[1:], n, n))
+    vals = np.concatenate((np.asarray(sub)[1:], dia, sup))
+    keep = rows < n_rows
+    return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n_rows, n_cols))
+
+
+def multiplication_matrix(kernel: Kernel, N: int, shape: str = "square") -> sp.csr_matrix:
+    """The Jacobi matrix of multiplication by ``x``: ``N x N`` or exact ``(N+1) x N``."""
+    N = as_int_at_least(N, "N")
+    _check_shape(shape)
+    diag, off = (np.asarray(v, dtype=float) for v in kernel.jacobi(N))
+    sub = np.concatenate(([0.0], off[:-1]))  # A_n on phi_{n-1}
+    return _tridiag(N, N + (shape == "rectangular"), sub, diag, off)
+
+
+def derivative_operator(kernel: Kernel, N: int, shape: str = "rectangular") -> sp.csr_matrix:
+    """``2 p0(x) d/dx``: the exact ``(N+1) x N`` matrix (or its ``N x N`` cut)."""
+    N = as_int_at_least(N, "N")
+    _check_shape(shape)
+    sub, dia, sup = (np.asarray(v, dtype=float) for v in kernel.derivative_bands(N))
+    return _tridiag(N, N + (shape == "rectangular"), sub, dia, sup)
+
+
+def _p0_section(kernel: Kernel, M: int) -> np.ndarray:
+    """Banded storage (2 sub, 2 super) of the exact M x M section of p0(J)."""
+    c0, c1, c2 = (float(c) for c in kernel.p0)
+    J = multiplication_matrix(kernel, M + 1, "square").toarray()
+    P = c0 * np.eye(M) + c1 * J[:M, :M] + c2 * (J[:M, :] @ J[:, :M])
+    ab = np.zeros((5, M))
+    for k in range(-2, 3):
+        d = np.diagonal(P, k)
+        if k >= 0:
+            ab[2 - k, k:] = d
+        else:
+            ab[2 - k, : M + k] = d
+    return ab
+
+
+def _solve_derivative(kernel: Kernel, N: int, M: int) -> np.ndarray:
+    D2 = derivative_operator(kernel, N, "rectangular").toarray()
+    rhs = np.zeros((M, N))
+    rhs[: N + 1] = 0.5 * D2[: min(N + 1, M)]
+    return sla.solve_banded((2, 2), _p0_section(kernel, M), rhs)
+
+
+def extra_rows(kernel: Kernel) -> int | None:
+    """``q``: rows beyond ``N`` in the exact image of the first ``N`` functions under d/dx.
+
+    1 for constant ``p0`` (tridiagonal ``d/dx``); ``None`` (decided numerically by
+    :func:`derivative_matrix`) otherwise.
+    """
+    c0, c1, c2 = (float(c) for c in kernel.p0)
+    return 1 if (c1 == 0 and c2 == 0) else None
+
+
+def derivative_matrix(
+    kernel: Kernel, N: int, shape: str = "rectangular", *, pad: int = 32
+) -> sp.csr_matrix | np.ndarray:
+    """``d/dx`` on the first ``N`` functions (see the module docstring for what is exact).
+
+    ``shape="rectangular"``: all rows ``m`` with a nonzero coefficient of the image of
+    ``phi_0..phi_{N-1}`` (``(N+1) x N`` for constant ``p0``; ``N x N`` when the images stay
+    in the span, as for Laguerre and Legendre; for other families the rows up to ``N + 2 pad``
+    whose entries stand above the rounding noise).
+
+    Accuracy of the solved (non-constant ``p0``) case: entrywise ~ ``eps cond(p0(J_M))``
+    times the largest entry (Legendre, N = 2000: ~2e-8 absolute on entries up to 4e3, i.e.
+    rounding level relative to ``||d/dx|| ~ N^2``; Laguerre, N = 2000: ~1e-11). ``shape="square"``: the ``N x N`` cut.
+    Constant ``p0``: ``scipy.sparse`` CSR; otherwise a dense ``ndarray``.
+    """
+    N = as_int_at_least(N, "N")
+    pad = as_int_at_least(pad, "pad", 2)
+    _check_shape(shape)
+    c0, c1, c2 = (float(c) for c in kernel.p0)
+    if c1 == 0 and c2 == 0:
+        if c0 == 0:
+            raise ValueError("kernel.p0: p0 is identically zero")
+        return (derivative_operator(kernel, N, shape) / (2 * c0)).tocsr()
+    G1 = _solve_derivative(kernel, N, N + pad)
+    G2 = _solve_derivative(kernel, N, N + 2 * pad)
+    scale = np.abs(G2).max()
+    diff = np.abs(G2[: N + pad] - G1).max()
+    if diff > 1e-8 * scale:
+        warnings.warn(
+            f"derivative_matrix: d/dx of these functions is not well represented in the "
+            f"basis (changing the truncation from {N + pad} to {N + 2 * pad} rows changes "
+            f"the result by {diff:.1e} relative to {scale:.1e}); the matrix depends on the "
+            f"truncation.",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    if shape == "square":
+        return G2[:N].copy()
+    # rows whose entries stand above the rounding noise (estimated by the M-dependence)
+    noise = max(1e-12 * scale, 10 * diff)
+    big = np.flatnonzero(np.abs(G2).max(axis=1) > noise)
+    last = max(N, int(big[-1]) + 1 if big.size else N)
+    return G2[:last].copy()
