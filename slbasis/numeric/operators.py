@@ -126,7 +126,8 @@ def derivative_matrix(
 
     Accuracy of the solved (non-constant ``p0``) case: entrywise ~ ``eps cond(p0(J_M))``
     times the largest entry (Legendre, N = 2000: ~2e-8 absolute on entries up to 4e3, i.e.
-    rounding level relative to ``||d/dx|| ~ N^2``; Laguerre, N = 2000: ~1e-11). ``shape="square"``: the ``N x N`` cut.
+    rounding level relative to ``||d/dx|| ~ N^2``; Laguerre, N = 2000: ~1e-11).
+    ``shape="square"``: the ``N x N`` cut.
     Constant ``p0``: ``scipy.sparse`` CSR; otherwise a dense ``ndarray``.
     """
     N = as_int_at_least(N, "N")

@@ -161,7 +161,7 @@ def reconstruct(
     *,
     chunk: int | None = None,
 ) -> np.ndarray:
-    """``y(t) = sum_n c_n phi_n(t)``; ``c`` of shape ``(N,)`` or ``(N, k)`` -> ``(Ns,)``/``(Ns, k)``."""
+    """``y(t) = sum_n c_n phi_n(t)``; ``c``: ``(N,)`` or ``(N, k)`` -> ``(Ns,)`` / ``(Ns, k)``."""
     N = as_int_at_least(N, "N")
     ta = as_times(t, "t", increasing=False)
     ca = np.asarray(c, dtype=float)
