@@ -208,8 +208,17 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
         best = float(res.x) if res.fun <= vals[i] else float(grid[i])
     else:
         best = float(grid[i])
+    g_best = gcv(best)
+    # lam = 0 (plain least squares on the numerical range) is a candidate as well: on
+    # exact data GCV decreases all the way to 0 and any lam > 0 would only add bias
+    rank_tol = smax * max(Phi.shape) * np.finfo(float).eps
+    r = int(np.sum(s > rank_tol))
+    rss0 = out_of_range + float(np.sum(beta2[r:]))
+    g0 = rss0 / (N - r) ** 2 if N > r else np.inf
+    if g0 <= g_best:
+        return _ridge_from_svd(U[:, :r], s[:r], Vt[:r], YT, 0.0).T, 0.0, g0
     lam_opt = float(np.exp(best))
-    return _ridge_from_svd(U, s, Vt, YT, lam_opt).T, lam_opt, gcv(best)
+    return _ridge_from_svd(U, s, Vt, YT, lam_opt).T, lam_opt, g_best
 
 
 def _parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:

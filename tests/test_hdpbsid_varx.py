@@ -121,3 +121,13 @@ def test_nested_qr_aic_equals_direct_least_squares(seed, pmax):
         # same least-squares problem, QR vs lstsq: rounding on O(N) criterion values
         assert crit[p - 1] == pytest.approx(aic, rel=1e-9, abs=1e-7)
     assert p_best == int(np.argmin(crit)) + 1
+
+
+def test_ridge_gcv_keeps_exact_data_exact():
+    rng = np.random.default_rng(5)
+    Phi = rng.standard_normal((4, 50))
+    theta_true = rng.standard_normal((2, 4))
+    theta, lam, _ = ridge_gcv(Phi, theta_true @ Phi)
+    # GCV -> 0 as lam -> 0 on consistent data, so lam = 0 (plain LS) must win
+    assert lam == 0.0
+    np.testing.assert_allclose(theta, theta_true, atol=1e-12)  # well-conditioned 4x4 LS
