@@ -143,6 +143,12 @@ def identify_discrete(
     if f is not None:
         f = check_positive_int(f, "f")
     mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    if p_criterion not in ("aic", "bic"):
+        raise ValueError(f"p_criterion must be 'aic' or 'bic', got {p_criterion!r}")
+    if isinstance(dt, bool) or not isinstance(dt, int | float | np.floating | np.integer):
+        raise TypeError(f"dt must be a positive real number, got {type(dt).__name__}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive finite sampling interval, got {dt}")
     fw = f if f is not None else p
     if order is None and max_order is None and fw is not None:
         # explicit windows: consider every order the f*l singular values allow

@@ -113,3 +113,14 @@ def test_state_space_shapes():
         model.simulate(np.arange(5.0), np.ones(5), x0=[1.0])
     with pytest.raises(ValueError, match=r"method must be 'zoh' or 'foh'"):
         model.simulate(np.arange(5.0), np.ones(5), method="cubic")
+
+
+def test_discrete_option_checks():
+    rng = np.random.default_rng(12)
+    u, y = rng.standard_normal((300, 1)), rng.standard_normal((300, 1))
+    with pytest.raises(ValueError, match=r"p_criterion must be 'aic' or 'bic', got 'hqc'"):
+        identify_discrete(u, y, order=1, p_criterion="hqc")
+    with pytest.raises(ValueError, match=r"dt must be a positive finite sampling interval"):
+        identify_discrete(u, y, order=1, dt=-1.0)
+    with pytest.raises(ValueError, match=r"order selection needs f\*l >= 2 singular values"):
+        identify_discrete(u, y, p=1)
