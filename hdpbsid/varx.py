@@ -130,14 +130,34 @@ def past_blocks(Z: Array, p: int, lag: LagOperator) -> tuple[Array, Mask]:
     Oldest block first, as in the toolbox's ``dordvarx``.  Returns ``Zp`` (all columns)
     and the mask of columns on which every block is valid.
     """
-    ncols = Z.shape[1]
+    d, ncols = Z.shape
     all_valid = np.ones(ncols, dtype=bool)
-    blocks = []
     valid = all_valid.copy()
-    for j in range(p, 0, -1):
-        blocks.append(lag.apply(Z, j))
+    Zp = np.empty((p * d, ncols))
+    for i, j in enumerate(range(p, 0, -1)):
+        Zp[i * d : (i + 1) * d] = lag.apply(Z, j)
         valid &= lag.valid_columns(all_valid, j)
-    return np.vstack(blocks), valid
+    return Zp, valid
+
+
+def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
+    """Triangular factor ``R`` of ``[Phi^T, Y^T] = Q R``, computed over column chunks.
+
+    Tall-skinny QR: ``R`` is updated with ``qr([R; next chunk])``, so memory stays at
+    ``O((d + l)(d + l + chunk))`` beyond the data.  ``R`` is ``(d + l) x (d + l)``
+    (zero-padded when there are fewer columns than unknowns); ``R[:d, :d]`` has the
+    singular values of ``Phi``, ``R[:d, d:] = Q_1^T Y^T`` and ``||R[d:, d:]||_F^2`` is the
+    least-squares residual.
+    """
+    d, N = Phi.shape
+    w = d + Y.shape[0]
+    R = np.zeros((0, w))
+    for a in range(0, N, chunk):
+        blk = np.hstack([Phi[:, a : a + chunk].T, Y[:, a : a + chunk].T])
+        R = np.linalg.qr(np.vstack([R, blk]), mode="r")
+    if R.shape[0] < w:
+        R = np.vstack([R, np.zeros((w - R.shape[0], w))])
+    return R
 
 
 @dataclass
@@ -161,10 +181,10 @@ class VarxResult:
     extra: dict = field(default_factory=dict)
 
 
-def _ridge_from_svd(Ut: Array, s: Array, Vt: Array, YT: Array, lam: float) -> Array:
-    """Tikhonov solution ``Theta^T = V diag(s / (s^2 + lam^2)) U^T Y^T``."""
+def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> Array:
+    """Tikhonov solution ``Theta^T = V diag(s / (s^2 + lam^2)) (Q Ur)^T Y^T``."""
     filt = s / (s**2 + lam**2)
-    return Vt.T @ (filt[:, None] * (Ut.T @ YT))
+    return Vt.T @ (filt[:, None] * (Ur.T @ QtY))
 
 
 def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, float, float | None]:
@@ -178,12 +198,14 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
     with the SVD ``Phi^T = U S V^T``: a log-grid search over ``[s_min/1e3, s_max]``
     refined by a bounded scalar minimisation on ``log lam``.  Returns ``(Theta, lam, G)``.
     """
-    N = Phi.shape[1]
-    U, s, Vt = np.linalg.svd(Phi.T, full_matrices=False)
-    YT = Y.T
-    beta = U.T @ YT  # d x l
+    d, N = Phi.shape
+    # Phi^T = Q R11 and R11 = Ur S V^T give the SVD Phi^T = (Q Ur) S V^T without forming Q
+    R = r_factor(Phi, Y)
+    Ur, s, Vt = np.linalg.svd(R[:d, :d])
+    QtY = R[:d, d:]  # Q^T Y^T (d x l)
+    beta = Ur.T @ QtY  # (Q Ur)^T Y^T
     beta2 = np.sum(beta**2, axis=1)
-    out_of_range = max(float(np.sum(YT**2) - np.sum(beta2)), 0.0)
+    out_of_range = float(np.sum(R[d:, d:] ** 2))
 
     def gcv(loglam: float) -> float:
         lam2 = np.exp(2.0 * loglam)
@@ -195,7 +217,7 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
     if lam is not None:
         if not np.isfinite(lam) or lam < 0:
             raise ValueError(f"regularize (the ridge parameter) must be >= 0, got {lam}")
-        return _ridge_from_svd(U, s, Vt, YT, float(lam)).T, float(lam), None
+        return _ridge_from_svd(Ur, s, Vt, QtY, float(lam)).T, float(lam), None
     smax = float(s[0]) if s.size else 1.0
     smin = float(s[s > 0][-1]) if np.any(s > 0) else smax
     lo, hi = np.log(max(smin * 1e-3, smax * 1e-14)), np.log(smax)
@@ -216,9 +238,9 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
     rss0 = out_of_range + float(np.sum(beta2[r:]))
     g0 = rss0 / (N - r) ** 2 if N > r else np.inf
     if g0 <= g_best:
-        return _ridge_from_svd(U[:, :r], s[:r], Vt[:r], YT, 0.0).T, 0.0, g0
+        return _ridge_from_svd(Ur[:, :r], s[:r], Vt[:r], QtY, 0.0).T, 0.0, g0
     lam_opt = float(np.exp(best))
-    return _ridge_from_svd(U, s, Vt, YT, lam_opt).T, lam_opt, g_best
+    return _ridge_from_svd(Ur, s, Vt, QtY, lam_opt).T, lam_opt, g_best
 
 
 def _parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
@@ -279,7 +301,10 @@ def varx(
     kind, lam = _parse_regularize(regularize)
     gcv_val = None
     if kind == "none":
-        theta = np.linalg.lstsq(Phi.T, Yc.T, rcond=None)[0].T
+        # minimum-norm least squares from the R factor (same rcond as numpy.linalg.lstsq)
+        R = r_factor(Phi, Yc)
+        rcond = np.finfo(float).eps * max(Phi.shape)
+        theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
         lam_used = 0.0
     else:
         theta, lam_used, gcv_val = ridge_gcv(Phi, Yc, lam if kind == "fixed" else None)
@@ -326,37 +351,39 @@ def select_past_window(
     with ``crit[p - 1]`` the criterion value (``inf`` for ``p < p_min``).
     """
     lag = SampleShift() if lag is None else lag
+    if criterion not in ("aic", "bic"):
+        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
     m, l = U.shape[0], Y.shape[0]
     Z = np.vstack([U, Y])
     ncols = Z.shape[1]
     all_valid = np.ones(ncols, dtype=bool)
     valid = all_valid.copy()
-    blocks = []
     for j in range(1, p_max + 1):
-        blocks.append(lag.apply(Z, j))
         valid &= lag.valid_columns(all_valid, j)
     cols = np.flatnonzero(valid)
+    N = cols.size
+    d0 = m if (feedthrough and m > 0) else 0
+    dtot = d0 + p_max * (m + l)
+    if N <= dtot + l:
+        raise ValueError(f"p_max={p_max} needs {dtot} VARX regressors but only {N} usable columns")
     scale = np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))
     scale[scale == 0] = 1.0
     Yc = Y[:, cols] / scale[:, None]
-    head = [U[:, cols]] if (feedthrough and m > 0) else []
-    Phi = np.vstack(head + [b[:, cols] for b in blocks])
-    N = cols.size
-    d0 = m if (feedthrough and m > 0) else 0
-    if N <= Phi.shape[0] + l:
-        raise ValueError(
-            f"p_max={p_max} needs {Phi.shape[0]} VARX regressors but only {N} usable columns"
-        )
-    # column scaling keeps the QR well conditioned; it does not change the fit
+    # regressors u_k, z_{k-1}, ..., z_{k-p_max}: the models for p = 1..p_max are nested
+    Phi = np.empty((dtot, N))
+    if d0:
+        Phi[:d0] = U[:, cols]
+    for j in range(1, p_max + 1):
+        Phi[d0 + (j - 1) * (m + l) : d0 + j * (m + l)] = lag.apply(Z, j)[:, cols]
+    # row scaling keeps the QR well conditioned; it does not change the fit
     cscale = np.sqrt(np.mean(Phi**2, axis=1))
     cscale[cscale == 0] = 1.0
-    R = np.linalg.qr(np.hstack([(Phi / cscale[:, None]).T, Yc.T]), mode="r")
+    Phi /= cscale[:, None]
+    R = r_factor(Phi, Yc)
     dtot = Phi.shape[0]
     Ry = R[:, dtot:]
     crit = np.full(p_max, np.inf)
     pen = {"aic": 2.0, "bic": np.log(N)}
-    if criterion not in pen:
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
     for p in range(max(p_min, 1), p_max + 1):
         q = d0 + p * (m + l)
         res = Ry[q:, :]
