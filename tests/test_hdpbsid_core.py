@@ -23,7 +23,8 @@ def test_toolbox_example_eigenvalues(closed_loop, regularize):
     d = closed_loop
     res = pbsid_core(d["u"].T, d["y"].T, p=10, f=10, order=4, regularize=regularize)
     err = eigenvalue_errors(res.eigenvalues, true_eigs())
-    # spec: <= 2 %; measured 0.2-0.5 % over seeds 0-4 (variance ~ N^-1/2 at N = 4000)
+    # spec: <= 2 %; measured 0.8 % for this seed, 0.2-0.6 % over seeds 0-9
+    # (bench/identify_dt.py); variance-limited, ~ N^-1/2 at N = 4000
     assert err.max() < 0.02
     if regularize:
         assert res.varx.ridge > 0 and res.options["regularize"] == "gcv"
