@@ -39,9 +39,8 @@ __all__ = ["Basis"]
 
 
 def _extreme_nodes(kernel: Kernel, N: int) -> tuple[float, float]:
+    N = max(N, 2)  # one node has no spread: use the two nodes of phi_2 for N = 1
     diag, off = (np.asarray(v, dtype=float) for v in kernel.jacobi(N))
-    if N == 1:
-        return float(diag[0]), float(diag[0])
     lo = eigh_tridiagonal(
         diag, np.abs(off[:-1]), eigvals_only=True, select="i", select_range=(0, 0)
     )
