@@ -43,6 +43,15 @@ from .parse import N, X
 _J = sp.Symbol("j", integer=True, nonnegative=True)
 
 
+def gamma_simplify(expr: sp.Expr) -> sp.Expr:
+    """Simplify ratios of Gamma functions whose arguments differ by integers.
+
+    ``gammasimp`` alone misses ``Γ(λ+n+3/2)/Γ(λ+n+1/2)``; ``expand_func`` first peels the
+    integer offsets off.
+    """
+    return sp.gammasimp(sp.expand_func(expr))
+
+
 def _simplify(expr: sp.Expr) -> sp.Expr:
     """Canonical form for rational expressions in n (fast and deterministic)."""
     return sp.factor(sp.cancel(sp.together(expr)))
@@ -93,7 +102,7 @@ class ClosedForms:
     @cached_property
     def c_ratio(self) -> sp.Expr:
         """``c_{n+1}/c_n``."""
-        return sp.simplify(sp.combsimp(self.c(N + 1) / self.c(N)))
+        return sp.simplify(gamma_simplify(self.c(N + 1) / self.c(N)))
 
     def eigenvalue(self, n: sp.Expr = N) -> sp.Expr:
         """``lambda_n = -n (p1' + (n-1) p0''/2)``."""

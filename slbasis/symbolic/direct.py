@@ -9,64 +9,165 @@ the few small ``n`` where a cancelled factor makes a closed form degenerate (Che
 
 Rodrigues by polynomial recursion: ``(d/dx)^k (w p0^n) = w p0^(n-k) Q_k`` with
 ``Q_0 = 1``, ``Q_{k+1} = p0 Q_k' + (p1 + (n-k-1) p0') Q_k`` (differentiate and use
-``w'/w = (p1 - p0')/p0``); so ``P_n = c_n Q_n`` with polynomial arithmetic only.
+``w'/w = (p1 - p0')/p0``); so ``P_n = c_n Q_n``.  All arithmetic is on the *free* polynomials
+``Q_n`` (``c_n = 1``) with coefficients in the field of rational functions of the parameters,
+so it stays fast for symbolic ``alpha, beta``; the constants ``c_n`` (which may hold Gamma
+functions) enter only at the end, through ratios ``c_n/c_m`` and signs.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import sympy as sp
 
+from .closed_forms import gamma_simplify
 from .parse import N, X
 from .weight import WeightForm
+
+
+def _domain(*exprs: sp.Expr):
+    params = sorted(set().union(*(e.free_symbols for e in exprs)) - {X}, key=str)
+    try:
+        dom = sp.QQ.frac_field(*params) if params else sp.QQ
+        for e in exprs:
+            sp.Poly(e, X, domain=dom)
+        return dom
+    except (sp.polys.polyerrors.PolynomialError, sp.polys.polyerrors.CoercionFailed):
+        return sp.EX  # irrational constants: fall back to expression coefficients
+
+
+def _ring(domain):
+    """The polynomial ring under a fraction field (``QQ`` and ``EX`` are their own)."""
+    return domain.get_ring() if domain.is_FractionField else domain
 
 
 class DirectComputation:
     """Exact ``P_n``, norms and expansions of a polynomial problem, for integer ``n``."""
 
     def __init__(self, p0: sp.Expr, p1: sp.Expr, standardization: sp.Expr, form: WeightForm):
-        params = sorted((p0.free_symbols | p1.free_symbols) - {X}, key=str)
-        self._gens = (X,)
-        self._domain_syms = params
-        self.p0 = sp.Poly(p0, X)
-        self.p1 = sp.Poly(p1, X)
+        self.domain = _domain(p0, p1)
+        self.p0 = sp.Poly(p0, X, domain=self.domain)
+        self.p1 = sp.Poly(p1, X, domain=self.domain)
         self.c_n = sp.sympify(standardization)
         self.form = form
-        self.rodrigues_poly = lru_cache(maxsize=None)(self._rodrigues_poly)
-        self.norm2 = lru_cache(maxsize=None)(self._norm2)
+        self.free = lru_cache(maxsize=None)(self._free)
+        # Integration runs in the polynomial ring of the parameters (no gcd per operation);
+        # the normal-form data are rational numbers or polynomials in the parameters.
+        self.ring = _ring(self.domain)
+        self._ring_data = {k: self.ring.from_sympy(v) for k, v in form.data.items()}
+        self.norm2_ratio = lru_cache(maxsize=None)(self._norm2_ratio)
 
-    def _rodrigues_poly(self, n: int) -> sp.Poly:
-        """``Q_n`` of the recursion above (``P_n`` with ``c_n = 1``)."""
-        q = sp.Poly(1, X, domain=self.p0.domain.unify(self.p1.domain))
+    def poly(self, expr: sp.Expr) -> sp.Poly:
+        """``expr`` as a Poly in ``x`` over the working domain."""
+        return sp.Poly(sp.expand(expr), X, domain=self.domain)
+
+    def _free(self, n: int) -> sp.Poly:
+        """``Q_n = P_n / c_n`` by the recursion above."""
+        q = sp.Poly(1, X, domain=self.domain)
         dp0 = self.p0.diff(X)
         for k in range(n):
             q = self.p0 * q.diff(X) + (self.p1 + (n - k - 1) * dp0) * q
         return q
 
+    @cache  # noqa: B019 - one instance per problem
+    def c(self, n: int) -> sp.Expr:
+        """``c_n`` at integer ``n``."""
+        return gamma_simplify(self.c_n.subs(N, n))
+
     def polynomial(self, n: int) -> sp.Poly:
-        """``P_n = c_n / w (d/dx)^n (w p0^n)`` as a Poly."""
-        return self.rodrigues_poly(n) * self.c_n.subs(N, n)
+        """``P_n = c_n / w (d/dx)^n (w p0^n)`` as a Poly (expression coefficients)."""
+        return sp.Poly(self.free(n).as_expr() * self.c(n), X)
 
-    def _norm2(self, n: int) -> sp.Expr:
+    def _norm2_ratio(self, n: int) -> sp.Expr:
+        """``∫ Q_n^2 w / ∫ w`` (rational in the parameters)."""
+        return self.integrate(self.free(n) ** 2)
+
+    @cache  # noqa: B019 - one instance per problem
+    def norm2(self, n: int) -> sp.Expr:
         """``d_n^2 = ∫ P_n^2 w`` (seed eq. 7), exactly."""
-        return self.form.integrate_polynomial(self.polynomial(n) ** 2)
+        return gamma_simplify(self.c(n) ** 2 * self.form.total_mass * self.norm2_ratio(n))
 
-    def expand(self, q: sp.Expr, degree: int) -> list[sp.Expr]:
-        """Coefficients ``e_m`` with ``q = sum_{m<=degree} e_m P_m`` (triangular solve).
+    def integrate(self, poly: sp.Poly) -> sp.Expr:
+        """``∫ poly w / ∫ w`` exactly, for a Poly over the working domain.
 
-        Raises ``ValueError`` if ``q`` has degree above ``degree``.
+        In the normal-form variable ``t`` (``x = shift + scale t``) the moment ratios are
+        products ``M_i = prod_{j<=i} a_j / b_j`` (Euler integrals, see
+        :meth:`WeightForm.moment_ratio`): ``a_j/b_j = (A1+j-1)/(A1+A2+j-1)`` (Jacobi),
+        ``(A+j-1)/s`` (Laguerre); Hermite has ``M_odd = 0`` and
+        ``M_{2j} = M_{2j-2} (2j-1)/(2s)``.  Summing over the common denominator
+        ``prod b_j`` keeps every step polynomial in the parameters, with a single division
+        at the end (a fraction-field sum would compute a gcd per term).
         """
-        rest = sp.Poly(sp.expand(q), X)
-        if rest.degree() > degree:
-            raise ValueError(f"cannot expand a degree-{rest.degree()} polynomial up to {degree}")
+        dom, d, kind = self.ring, self._ring_data, self.form.kind
+        if kind == "jacobi":
+            shift, scale = d["r1"], d["r2"] - d["r1"]
+        elif kind == "laguerre":
+            shift, scale = d["r"], d["side"]
+        else:
+            shift, scale = d["m"], dom.one
+        variable = sp.Poly(dom.to_sympy(shift) + dom.to_sympy(scale) * X, X, domain=dom)
+        coeffs = poly.set_domain(dom).compose(variable).all_coeffs()[::-1]  # c_0..c_K in t
+        if kind == "hermite":
+            coeffs = coeffs[::2]
+            factors = [(dom.convert(2 * j - 1), 2 * d["s"]) for j in range(1, len(coeffs))]
+        elif kind == "jacobi":
+            factors = [(d["A1"] + j - 1, d["A1"] + d["A2"] + j - 1) for j in range(1, len(coeffs))]
+        else:
+            factors = [(d["A"] + j - 1, d["s"]) for j in range(1, len(coeffs))]
+        tail = [dom.one] * len(coeffs)  # tail[i] = prod_{j > i} b_j
+        for i in range(len(coeffs) - 2, -1, -1):
+            tail[i] = tail[i + 1] * factors[i][1]
+        total, head = dom.zero, dom.one  # head = prod_{j <= i} a_j
+        for i, c in enumerate(coeffs):
+            if i:
+                head = head * factors[i - 1][0]
+            if c:
+                total += dom.convert(c) * head * tail[i]
+        return sp.factor(sp.cancel(dom.to_sympy(total) / dom.to_sympy(tail[0])))
+
+    def expand_free(self, q: sp.Poly, degree: int) -> list[sp.Expr]:
+        """Coefficients ``e_m`` with ``q = sum_{m<=degree} e_m Q_m`` (triangular solve)."""
+        if q.degree() > degree:
+            raise ValueError(f"cannot expand a degree-{q.degree()} polynomial up to {degree}")
         coeffs: list[sp.Expr] = [sp.Integer(0)] * (degree + 1)
+        rest = q
         for m in range(degree, -1, -1):
-            pm = self.polynomial(m)
-            lead = pm.coeff_monomial(X**m)
-            coef = sp.cancel(rest.coeff_monomial(X**m) / lead)
+            qm = self.free(m)
+            coef = sp.cancel(rest.nth(m) / qm.LC())
             coeffs[m] = coef
-            rest = sp.Poly(sp.expand(rest.as_expr() - coef * pm.as_expr()), X)
+            if coef != 0:
+                rest = rest - qm * sp.Poly(coef, X, domain=self.domain)
         if not rest.is_zero:
             raise ArithmeticError("expansion left a non-zero remainder")
         return coeffs
+
+    def orthonormal_coefficients(self, q: sp.Poly, n: int, degree: int) -> list[sp.Expr]:
+        """Coefficients on ``p_m`` of ``(q / Q_n-normalisation)``: if ``q`` is the image of
+        ``Q_n`` under a linear map ``T``, returns the coefficients ``<p_m, T p_n>``.
+
+        ``T p_n = (c_n/d_n) T Q_n = sum_m e_m (c_n/d_n) Q_m = sum_m e_m (c_n/c_m)(d_m/d_n) p_m``
+        and ``d_m = |c_m| dfree_m``, so the coefficient is
+        ``e_m sign(c_n c_m) sqrt(dfree_m^2 / dfree_n^2)``.
+        """
+        coeffs = self.expand_free(q, degree)
+        out = []
+        for m, e in enumerate(coeffs):
+            if e == 0:
+                out.append(sp.Integer(0))
+                continue
+            sign = self.sign_c(n) * self.sign_c(m)
+            ratio = sp.factor(sp.cancel(self.norm2_ratio(m) / self.norm2_ratio(n)))
+            out.append(sign * e * sp.sqrt(ratio))
+        return out
+
+    def sign_c(self, n: int) -> int:
+        """Sign of ``c_n`` (read at a sample point for symbolic parameters)."""
+        value = self.c(n)
+        if value.is_positive:
+            return 1
+        if value.is_negative:
+            return -1
+        syms = sorted(value.free_symbols, key=str)
+        sample = {s: sp.Rational(1, 3) + sp.Rational(i, 7) for i, s in enumerate(syms)}
+        return 1 if sp.N(value.subs(sample)) > 0 else -1

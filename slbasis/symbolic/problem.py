@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
-from functools import cached_property
+from functools import cache, cached_property
 
 import sympy as sp
 
-from .closed_forms import ClosedForms, PolynomialData
+from .closed_forms import ClosedForms, PolynomialData, gamma_simplify
 from .direct import DirectComputation
 from .gauge import Gauge, find_gauge
 from .ladder import (
@@ -84,6 +84,8 @@ class SturmLiouville:
             self.weight_form.total_mass,
             self.weight_form.p0_sign,
         )
+        #: Textbook closed forms (set by the catalogue; used only by :meth:`verify`).
+        self.oracle = None
         self.direct = DirectComputation(
             self.p0, self.p1_poly, self.standardization, self.weight_form
         )
@@ -113,7 +115,25 @@ class SturmLiouville:
     @property
     def assumptions(self) -> tuple[str, ...]:
         """Conditions on symbolic parameters assumed (not decidable from their symbols)."""
-        return self.weight_form.assumptions
+        return tuple(f"{e} > 0" for e in dict.fromkeys(self.weight_form.assumptions))
+
+    def positive_substitution(self) -> dict[sp.Symbol, sp.Expr]:
+        """``{param: u - c}`` with positive symbols ``u`` encoding the assumptions.
+
+        Each assumption ``param + c > 0`` linear in one parameter becomes ``param = u - c``
+        with ``u > 0``, so that sympy may simplify ``sqrt((alpha+1)^2) = alpha + 1``.
+        """
+        subst: dict[sp.Symbol, sp.Expr] = {}
+        for expr in dict.fromkeys(self.weight_form.assumptions):
+            syms = [s for s in expr.free_symbols if s in self.params]
+            if len(syms) != 1 or syms[0] in subst or not expr.is_polynomial(syms[0]):
+                continue
+            (sym,) = syms
+            if sp.degree(expr, sym) != 1:
+                continue
+            u = sp.Symbol(f"{sym.name}_pos", positive=True)
+            subst[sym] = sp.solve(sp.Eq(expr, u), sym)[0]
+        return subst
 
     @property
     def polynomial_weight(self) -> sp.Expr:
@@ -151,6 +171,7 @@ class SturmLiouville:
         """``k_n = c_n prod_{j<n} (p1~' + (n+j-1) p0''/2)``."""
         return self.closed.leading.subs(N, n)
 
+    @cache  # noqa: B019 - one instance per problem
     def norm2(self, n: int | sp.Expr = N) -> sp.Expr:
         """``d_n^2 = ∫ f_n^2 w`` (eq. 7), closed form in ``n`` or its exact value."""
         if isinstance(n, sp.Basic) and not n.is_Integer:
@@ -158,7 +179,7 @@ class SturmLiouville:
         n = _index(n)
         if n < self.norm_start:
             return self.direct.norm2(n)
-        return sp.simplify(sp.gammasimp(self.norm_squared.subs(N, n)))
+        return sp.simplify(gamma_simplify(self.norm_squared.subs(N, n)))
 
     def orthonormal_polynomial(self, n: int) -> sp.Expr:
         """``p_n = P_n / d_n`` (orthonormal in ``L^2(w~)``)."""
@@ -278,12 +299,12 @@ class SturmLiouville:
         if n in self.exceptional:
             return self._direct_bands(n, frame)
         form = self.derivative_operator_form(frame)
-        sub = sp.Integer(0) if n == 0 else form.sub_factor.subs(N, n) * self._value("A_next", n - 1)
-        return (
-            sp.simplify(sub),
-            sp.simplify(form.diag.subs(N, n)),
-            sp.simplify(form.sup_factor.subs(N, n) * self._value("A_next", n)),
-        )
+
+        def rational(expr: sp.Expr) -> sp.Expr:
+            return sp.factor(sp.cancel(expr.subs(N, n)))
+
+        sub = sp.Integer(0) if n == 0 else rational(form.sub_factor) * self._value("A_next", n - 1)
+        return (sub, rational(form.diag), rational(form.sup_factor) * self._value("A_next", n))
 
     # ----- exact values at integer n, with the degenerate indices handled ----------------
     @cached_property
@@ -338,40 +359,32 @@ class SturmLiouville:
     def _direct_local(self, n: int) -> dict[str, sp.Expr]:
         """``B_n``, ``A_{n+1}^2`` and the standardisation-free ``d_{n+1}^2/d_n^2`` directly."""
         d = self.direct
-        coeffs = d.expand(X * d.polynomial(n).as_expr(), n + 1)
-        ratio = sp.simplify(d.norm2(n + 1) / d.norm2(n))
-        c_ratio = self.standardization.subs(N, n + 1) / self.standardization.subs(N, n)
+        coeffs = d.orthonormal_coefficients(d.poly(X) * d.free(n), n, n + 1)
         return {
-            "B": sp.simplify(coeffs[n]),
-            "A_sq": sp.simplify(coeffs[n + 1] ** 2 * ratio),
-            "norm_ratio": sp.simplify(ratio / c_ratio**2),
+            "B": coeffs[n],
+            "A_sq": sp.factor(sp.cancel(coeffs[n + 1] ** 2)),
+            "norm_ratio": sp.factor(sp.cancel(d.norm2_ratio(n + 1) / d.norm2_ratio(n))),
         }
 
+    @cache  # noqa: B019 - one instance per problem
     def _value(self, key: str, n: int) -> sp.Expr:
         """Exact ``A_{n+1}`` (``"A_next"``) or ``B_n`` (``"B"``) at integer ``n``."""
         if n in self.exceptional:
             d = self.direct
-            coeffs = d.expand(X * d.polynomial(n).as_expr(), n + 1)
-            if key == "B":
-                return sp.simplify(coeffs[n])
-            return sp.simplify(coeffs[n + 1] * sp.sqrt(d.norm2(n + 1) / d.norm2(n)))
-        table = {"A_next": self.closed.jacobi_offdiag, "B": self.closed.jacobi_diag}
-        return sp.simplify(table[key].subs(N, n))
+            coeffs = d.orthonormal_coefficients(d.poly(X) * d.free(n), n, n + 1)
+            return coeffs[n] if key == "B" else coeffs[n + 1]
+        cf = self.closed
+        if key == "B":
+            return sp.factor(sp.cancel(cf.jacobi_diag.subs(N, n)))
+        return cf.jacobi_sign * sp.sqrt(sp.factor(sp.cancel(cf.jacobi_offdiag_squared.subs(N, n))))
 
     def _direct_bands(self, n: int, frame: str) -> tuple[sp.Expr, ...]:
         """Bands of ``2 p0 d/dx`` at ``n`` by expanding ``2 p0 p_n' + (p1~ - p1f) p_n``."""
         d = self.direct
-        poly = d.polynomial(n).as_expr()
-        image = 2 * self.p0 * sp.diff(poly, X) + (self.p1_poly - self.frame_p1(frame)) * poly
-        coeffs = d.expand(image, n + 1)
-        scale = [sp.sqrt(d.norm2(m)) for m in range(max(n - 1, 0), n + 2)]
-        dn = sp.sqrt(d.norm2(n))
-        sub = sp.Integer(0) if n == 0 else coeffs[n - 1] * scale[0] / dn
-        return (
-            sp.simplify(sub),
-            sp.simplify(coeffs[n]),
-            sp.simplify(coeffs[n + 1] * sp.sqrt(d.norm2(n + 1)) / dn),
-        )
+        q = d.free(n)
+        image = 2 * d.p0 * q.diff(X) + d.poly(self.p1_poly - self.frame_p1(frame)) * q
+        coeffs = d.orthonormal_coefficients(image, n, n + 1)
+        return (sp.Integer(0) if n == 0 else coeffs[n - 1], coeffs[n], coeffs[n + 1])
 
     # ----- verification and reports ------------------------------------------------------
     def verify(self, nmax: int = 10):  # -> VerificationReport (import cycle avoided)

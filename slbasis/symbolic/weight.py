@@ -37,7 +37,7 @@ class NotClassicalError(ValueError):
     """``(p0, p1)`` admits no interval with a positive weight and vanishing boundary terms."""
 
 
-def _sign(expr: sp.Expr, what: str, assumptions: list[str]) -> int:
+def _sign(expr: sp.Expr, what: str, assumptions: list[sp.Expr]) -> int:
     """+1 / -1 when decidable; otherwise assume positive and record the assumption."""
     expr = sp.simplify(expr)
     if expr.is_positive:
@@ -46,17 +46,17 @@ def _sign(expr: sp.Expr, what: str, assumptions: list[str]) -> int:
         return -1
     if expr.is_zero:
         raise NotClassicalError(f"{what} is zero")
-    assumptions.append(f"{expr} > 0")
+    assumptions.append(expr)
     return 1
 
 
-def _require_positive(expr: sp.Expr, message: str, assumptions: list[str]) -> None:
+def _require_positive(expr: sp.Expr, message: str, assumptions: list[sp.Expr]) -> None:
     expr = sp.simplify(expr)
     if expr.is_positive:
         return
     if expr.is_positive is False:
         raise NotClassicalError(message + f" (here {expr} <= 0)")
-    assumptions.append(f"{expr} > 0")
+    assumptions.append(expr)
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,7 @@ class WeightForm:
     p0_sign: int  # sign of p0 on the interval
     data: dict[str, sp.Expr]  # s, m | r, A, s, side | r1, r2, A1, A2
     endpoints: tuple[str, str]  # boundary behaviour, human readable
-    assumptions: tuple[str, ...] = field(default=())
+    assumptions: tuple[sp.Expr, ...] = field(default=())  # each assumed > 0
 
     @cached_property
     def total_mass(self) -> sp.Expr:
@@ -146,7 +146,7 @@ def classify(p0: sp.Expr, p1: sp.Expr) -> WeightForm:
         )
     d = P1.coeff_monomial(X)
     e = P1.coeff_monomial(1)
-    assumptions: list[str] = []
+    assumptions: list[sp.Expr] = []
     if deg0 == 0:
         c = P0.coeff_monomial(1)
         if d == 0:
