@@ -1,3 +1,25 @@
-"""slbasis: orthonormal bases from Sturm–Liouville eigenproblems, derived and verified."""
+"""slbasis: orthonormal bases from Sturm–Liouville eigenproblems, derived and verified.
 
-__all__: list[str] = []
+* :class:`SturmLiouville` — give it ``p0, p1, q0`` of ``p0 f'' + p1 f' - q0 f = -lambda f``
+  and it derives (exactly, with sympy) the weight, interval, eigenvalues, Rodrigues
+  eigenfunctions, norms, recurrences, ladder operators and the banded derivative operator,
+  and verifies them (:meth:`SturmLiouville.verify`).
+* :data:`families` — the catalogue of classical families with their textbook oracles.
+* :mod:`slbasis.numeric` — stable evaluation, quadrature, projection and operator matrices.
+"""
+
+from .families import families
+from .numeric import Basis, Kernel, KernelSpec, TimeMap, check_kernel, evaluate, gauss
+from .symbolic.problem import SturmLiouville
+
+__all__ = [
+    "Basis",
+    "Kernel",
+    "KernelSpec",
+    "SturmLiouville",
+    "TimeMap",
+    "check_kernel",
+    "evaluate",
+    "families",
+    "gauss",
+]

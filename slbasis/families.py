@@ -36,7 +36,8 @@ class Oracle:
     norm2_from: int = 0  # closed form valid for n >= this
     recurrence: tuple[sp.Expr, sp.Expr, sp.Expr] | None = None  # alpha, beta, gamma
     recurrence_from: int = 0
-    derivative_bands: dict[str, sp.Expr] = field(default_factory=dict)  # 2 p0 d/dx, functions
+    # closed forms of the bands of 2 p0 d/dx: (frame, {"sub", "diag", "sup"}, valid from n)
+    derivative: tuple[str, dict[str, sp.Expr], int] | None = None
 
 
 @dataclass(frozen=True)
@@ -104,7 +105,7 @@ def _hermite_functions() -> tuple[SturmLiouville, Oracle]:
         polynomial=lambda n: sp.hermite(n, X),
         norm2=sp.sqrt(sp.pi) * 2**N * sp.factorial(N),
         recurrence=(sp.Rational(1, 2), sp.Integer(0), N),
-        derivative_bands=bands,
+        derivative=("functions", bands, 0),
     )
     return prob, oracle
 
@@ -124,7 +125,11 @@ def _laguerre(alpha: sp.Expr) -> tuple[SturmLiouville, Oracle]:
         # DLMF 18.9.13: (n+1) L_{n+1} = (2n+alpha+1-x) L_n - (n+alpha) L_{n-1}
         recurrence=(-(N + 1), 2 * N + alpha + 1, -(N + alpha)),
         # DESIGN.md (alpha = 0): t d/dt l_n = ((n+1) l_{n+1} - l_n - n l_{n-1})/2
-        derivative_bands=({"sub": -N, "diag": sp.Integer(-1), "sup": N + 1} if alpha == 0 else {}),
+        derivative=(
+            ("functions", {"sub": -N, "diag": sp.Integer(-1), "sup": N + 1}, 0)
+            if alpha == 0
+            else None
+        ),
     )
     return prob, oracle
 
@@ -182,7 +187,7 @@ def _legendre() -> tuple[SturmLiouville, Oracle]:
         polynomial=lambda n: sp.legendre(n, X),
         norm2=2 / (2 * N + 1),
         recurrence=((N + 1) / (2 * N + 1), sp.Integer(0), N / (2 * N + 1)),
-        derivative_bands=bands,
+        derivative=("functions", bands, 0),
     )
     return prob, oracle
 
@@ -197,8 +202,9 @@ def _chebyshev_t() -> tuple[SturmLiouville, Oracle]:
         norm2_from=1,  # d_0^2 = pi
         recurrence=(sp.Rational(1, 2), sp.Integer(0), sp.Rational(1, 2)),
         recurrence_from=1,  # x T_0 = T_1
-        # (1-x^2) T_n' = n (T_{n-1} - T_{n+1})/2 (DLMF 18.9.20 with T_n = p_n sqrt(pi/2)),
-        # on the functions (1-x^2)^(-1/4) T_n add p0'/2 - p1/2 ... derived, not tabulated
+        # DLMF 18.9.20 with 18.9.1: (1-x^2) T_n' = n (T_{n-1} - T_{n+1})/2, so on the
+        # orthonormal polynomials (T_n sqrt(2/pi) for n >= 1) 2 p0 p_n' = n p_{n-1} - n p_{n+1}
+        derivative=("polynomials", {"sub": N, "diag": sp.Integer(0), "sup": -N}, 2),
     )
     return prob, oracle
 

@@ -41,11 +41,43 @@ class Gauge:
     alternatives: tuple[sp.Expr, ...] = ()  # other admissible p1~ (rare)
 
 
-def find_gauge(p0: sp.Expr, p1: sp.Expr, q0: sp.Expr) -> Gauge:
+def _exp_integral(h: sp.Expr, interval: tuple[sp.Expr, sp.Expr]) -> sp.Expr:
+    """``g = exp(∫ h)`` written with bases that are positive on ``interval``.
+
+    ``h`` is rational with denominator ``p0``: partial fractions give
+    ``c/(x - r) -> |x - r|^c`` (``(x - r)^c`` left of the interval, ``(r - x)^c`` right of
+    it) and a polynomial part integrated in the exponent.
+    """
+    left = interval[0]
+    powers, rest = sp.Integer(1), sp.Integer(0)
+    for term in sp.Add.make_args(sp.apart(sp.together(h), X)):
+        num, den = sp.fraction(sp.together(term))
+        den_poly = sp.Poly(den, X)
+        if den_poly.degree() == 1 and not num.has(X):
+            root = sp.solve(den, X)[0]
+            c = sp.simplify(num / den_poly.LC())
+            base = (X - root) if (left == -sp.oo or sp.simplify(root - left) <= 0) else (root - X)
+            powers *= base**c
+        else:
+            rest += term
+    return powers * sp.exp(sp.simplify(sp.integrate(rest, X))) if rest != 0 else powers
+
+
+def find_gauge(p0: sp.Expr, p1: sp.Expr, q0: sp.Expr, prefer: sp.Expr | None = None) -> Gauge:
     """Solve for the gauge that turns ``(p0, p1, q0)`` into a classical polynomial problem.
 
-    Raises ``ValueError`` when no gauge with a linear ``p1~`` and constant ``K`` exists, or
-    when none of the candidate polynomial problems has an orthogonality interval.
+    With singular endpoints in the limit-circle case (rational ``q0``) several gauges may be
+    admissible — they are different boundary conditions, e.g. ``(1-x^2)^(1/4) U_n`` and
+    ``(1-x^2)^(-1/4) T_n`` for ``q0 = 1/(4(1-x^2))`` — and a problem may be admissible on
+    two intervals (``x f'' + f' - x f/4``: ``(0, oo)`` and ``(-oo, 0)``).  The default has
+    ``p0 > 0`` on its interval (eigenvalues bounded below) and is the most regular (largest
+    weight exponents ``A_i``: the principal solutions at the endpoints, i.e. the Friedrichs
+    extension); ``prefer`` (a ``p1~``) selects another.  The rest are listed in
+    :attr:`Gauge.alternatives`.
+
+    Raises ``ValueError`` when no gauge with a linear ``p1~`` and constant ``K`` exists, when
+    none of the candidate polynomial problems has an orthogonality interval, or when
+    ``prefer`` is not among the admissible ones.
     """
     D, E, K = sp.symbols("D_ E_ K_")
     h = (D * X + E - p1) / (2 * p0)
@@ -76,6 +108,27 @@ def find_gauge(p0: sp.Expr, p1: sp.Expr, q0: sp.Expr) -> Gauge:
             f"q0 = {q0} is not a gauge (Liouville) transform of a classical polynomial "
             f"problem with p0 = {p0}, p1 = {p1}: {detail}"
         )
-    p1_poly, hh, shift, form = candidates[0]
-    factor = sp.simplify(sp.exp(sp.integrate(hh, X)))
-    return Gauge(p1_poly, hh, shift, factor, form, tuple(c[0] for c in candidates[1:]))
+
+    def regularity(candidate: tuple) -> tuple:
+        # p0 > 0 on the interval first (eigenvalues bounded below), then the most regular
+        data = candidate[3].data
+        exps = [data[k] for k in ("A1", "A2", "A") if k in data]
+        total = sp.Add(*exps) if exps else sp.Integer(0)
+        return (candidate[3].p0_sign, float(total), str(candidate[0]))
+
+    if prefer is not None:
+        chosen = [c for c in candidates if sp.expand(c[0] - prefer) == 0]
+        if not chosen:
+            raise ValueError(
+                f"gauge: p1~ = {prefer} is not admissible; admissible: "
+                f"{[str(c[0]) for c in candidates]}"
+            )
+    else:
+        try:
+            chosen = sorted(candidates, key=regularity, reverse=True)
+        except TypeError:  # symbolic exponents cannot be ordered: keep sympy's order
+            chosen = candidates
+    p1_poly, hh, shift, form = chosen[0]
+    factor = _exp_integral(hh, form.interval)
+    others = tuple(c[0] for c in candidates if c[0] != p1_poly)
+    return Gauge(p1_poly, hh, shift, factor, form, others)

@@ -41,6 +41,8 @@ class SturmLiouville:
         default ``(-1)^n`` if ``p0 > 0`` on the interval (else ``1``), which makes every
         leading coefficient positive.
     name : label used in reports.
+    gauge : for ``q0 != 0`` with several admissible gauges (limit-circle endpoints), the
+        ``p1~`` of the polynomial problem to use; default: the most regular one.
 
     Everything is a sympy expression in the canonical symbols ``x`` (:data:`X`) and ``n``
     (:data:`N`).  Closed forms in ``n`` hold for all ``n >= 0`` except the indices in
@@ -58,6 +60,7 @@ class SturmLiouville:
         params: Iterable[str | sp.Symbol] = (),
         standardization: Coefficient | None = None,
         name: str | None = None,
+        gauge: Coefficient | None = None,
     ) -> None:
         self.coefficients = parse_coefficients(p0, p1, q0, var=var, params=params)
         c = self.coefficients
@@ -69,7 +72,10 @@ class SturmLiouville:
             self.gauge = None
             self.weight_form: WeightForm = classify(self.p0, self.p1)
         else:
-            self.gauge = find_gauge(self.p0, self.p1, self.q0)
+            prefer = None
+            if gauge is not None:
+                prefer = parse_coefficients(self.p0, gauge, var=var, params=self.params).p1
+            self.gauge = find_gauge(self.p0, self.p1, self.q0, prefer)
             self.weight_form = self.gauge.weight_form
         #: ``p1`` of the underlying polynomial problem (``p1~``; equal to ``p1`` if ``q0 = 0``).
         self.p1_poly = self.p1 if self.gauge is None else self.gauge.p1_poly
@@ -84,6 +90,7 @@ class SturmLiouville:
             self.weight_form.total_mass,
             self.weight_form.p0_sign,
         )
+        self._verified: dict[int, object] = {}
         #: Textbook closed forms (set by the catalogue; used only by :meth:`verify`).
         self.oracle = None
         self.direct = DirectComputation(
@@ -351,9 +358,16 @@ class SturmLiouville:
         }
         bad = set()
         for key, value in direct.items():
+            if key == "A_sign":
+                continue
             cval = closed[key].subs(N, n)
             if cval.has(sp.nan, sp.zoo) or sp.simplify(cval - value) != 0:
                 bad.add(key)
+        # the sign of A_{n+1} is the sign of c_{n+1}/c_n, which need not be constant
+        # (Gegenbauer with lambda < 0: C_0 = 1 but the leading coefficients of C_n, n >= 1,
+        # are negative)
+        if self.closed.jacobi_sign != direct["A_sign"]:
+            bad.add("A_sign")
         return bad
 
     def _direct_local(self, n: int) -> dict[str, sp.Expr]:
@@ -361,6 +375,7 @@ class SturmLiouville:
         d = self.direct
         coeffs = d.orthonormal_coefficients(d.poly(X) * d.free(n), n, n + 1)
         return {
+            "A_sign": sp.sign(sp.N(coeffs[n + 1], 30)),
             "B": coeffs[n],
             "A_sq": sp.factor(sp.cancel(coeffs[n + 1] ** 2)),
             "norm_ratio": sp.factor(sp.cancel(d.norm2_ratio(n + 1) / d.norm2_ratio(n))),
@@ -391,7 +406,9 @@ class SturmLiouville:
         """Run every check (ODE, orthogonality, textbook oracles, recurrences, eq. 11)."""
         from .verify import verify
 
-        return verify(self, nmax=nmax)
+        if nmax not in self._verified:
+            self._verified[nmax] = verify(self, nmax=nmax)
+        return self._verified[nmax]
 
     def report(self, fmt: str = "markdown", nmax: int = 6) -> str:
         """The derivation report (Markdown or LaTeX)."""
