@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint format derivations clean
+.PHONY: demo test lint format derivations kernels clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -26,6 +26,9 @@ lint: $(STAMP)
 
 derivations: $(STAMP)
 	$(BIN)/python derivations/generate.py
+
+kernels: $(STAMP)
+	$(BIN)/python -m slbasis.kernels
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis build *.egg-info

@@ -8,6 +8,7 @@
 * :mod:`slbasis.numeric` — stable evaluation, quadrature, projection and operator matrices.
 """
 
+from .bases import basis, kernel
 from .families import families
 from .numeric import Basis, Kernel, KernelSpec, TimeMap, check_kernel, evaluate, gauss
 from .symbolic.problem import SturmLiouville
@@ -18,6 +19,8 @@ __all__ = [
     "KernelSpec",
     "SturmLiouville",
     "TimeMap",
+    "basis",
+    "kernel",
     "check_kernel",
     "evaluate",
     "families",

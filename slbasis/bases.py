@@ -1,0 +1,94 @@
+"""``slbasis.basis(...)``: a numeric :class:`~slbasis.numeric.Basis` for a catalogue family,
+a custom :class:`~slbasis.symbolic.problem.SturmLiouville` problem, or any kernel.
+
+>>> import numpy as np, slbasis
+>>> B = slbasis.basis("hermite", N=64, t_span=(0.0, 10.0))
+>>> t = np.linspace(0.0, 10.0, 2001)
+>>> c = B.project(t, np.exp(-(t - 5.0) ** 2))
+>>> float(np.max(np.abs(B.reconstruct(c, t) - np.exp(-(t - 5.0) ** 2)))) < 1e-8
+True
+"""
+
+from __future__ import annotations
+
+import importlib
+import types
+from functools import partial
+
+from .codegen import CATALOGUE, kernel_module
+from .numeric import Basis, Kernel, KernelSpec
+from .symbolic.problem import SturmLiouville
+
+
+def catalogue_kernel_module(family: str) -> types.ModuleType:
+    """The committed generated kernel module of a catalogue family."""
+    if family not in CATALOGUE:
+        raise ValueError(f"family must be one of {sorted(CATALOGUE)}, got {family!r}")
+    return importlib.import_module(f"slbasis.kernels.{CATALOGUE[family][0]}")
+
+
+def bind_kernel(module: types.ModuleType, **params: float) -> KernelSpec:
+    """Fix the parameters of a generated kernel module: a :class:`KernelSpec`.
+
+    Missing parameters take the module's ``DEFAULTS``; unknown ones are a ``TypeError``;
+    values outside the admissible range a ``ValueError`` (from ``check_parameters``).
+    """
+    unknown = set(params) - set(module.PARAMETERS)
+    if unknown:
+        raise TypeError(
+            f"{module.name}: unknown parameter(s) {sorted(unknown)}; "
+            f"it takes {module.PARAMETERS or 'none'}"
+        )
+    values = {}
+    for name in module.PARAMETERS:
+        if name in params:
+            values[name] = float(params[name])
+        elif name in module.DEFAULTS:
+            values[name] = float(module.DEFAULTS[name])
+        else:
+            raise TypeError(f"{module.name}: parameter {name!r} has no default; pass it")
+    module.check_parameters(**values)
+    suffix = "".join(f", {k}={v:g}" for k, v in values.items())
+    return KernelSpec(
+        name=f"{module.name}{'(' + suffix[2:] + ')' if suffix else ''}",
+        interval=tuple(float(v) for v in module.interval),
+        p0=tuple(module.p0),
+        jacobi=partial(module.jacobi, **values),
+        log_phi0=partial(module.log_phi0, **values),
+        derivative_bands=partial(module.derivative_bands, **values),
+    )
+
+
+def kernel(family: str | SturmLiouville, **params: float) -> KernelSpec:
+    """The numeric kernel of a catalogue family name or of a custom problem."""
+    if isinstance(family, SturmLiouville):
+        return bind_kernel(kernel_module(family), **params)
+    if isinstance(family, str):
+        return bind_kernel(catalogue_kernel_module(family), **params)
+    raise TypeError(
+        f"family must be a catalogue name or a SturmLiouville problem, got {type(family).__name__}"
+    )
+
+
+def basis(
+    family: str | SturmLiouville | Kernel,
+    N: int,
+    t_span: tuple[float, float],
+    scale: float | None = None,
+    centre: float | None = None,
+    **params: float,
+) -> Basis:
+    """A numeric basis of ``N`` orthonormal functions on the time window ``t_span``.
+
+    ``family``: a catalogue name (``"hermite"``, ``"laguerre"``, ``"legendre"``, ...), a
+    :class:`SturmLiouville` problem (its kernel is generated on demand) or a kernel object.
+    ``params``: family parameters (``alpha`` for Laguerre, ...).  ``scale``/``centre``
+    override the default affine time map (see :class:`~slbasis.numeric.Basis`).
+    """
+    if isinstance(family, (str, SturmLiouville)):
+        k = kernel(family, **params)
+    elif params:
+        raise TypeError("parameters apply to a family name or a problem, not to a kernel")
+    else:
+        k = family
+    return Basis(k, N, t_span, scale=scale, centre=centre)

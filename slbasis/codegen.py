@@ -1,0 +1,258 @@
+"""Code generation: numeric kernel modules from the derived closed forms.
+
+For a :class:`~slbasis.symbolic.problem.SturmLiouville` problem this emits a plain
+Python + numpy module (no sympy at import or run time) implementing the kernel interface of
+:mod:`slbasis.numeric.kernel` for the L^2-orthonormal functions ``phi_n = sqrt(w) p_n``:
+
+* ``jacobi(N, **params)``: ``B_n`` and ``A_{n+1}`` of ``x phi_n = A_{n+1} phi_{n+1} + B_n phi_n
+  + A_n phi_{n-1}`` from the closed forms in ``n`` (``A_{n+1}^2`` and ``B_n`` rational in
+  ``n``; the sign of ``A_{n+1}`` is ``-sign(p0) sign(c_{n+1}/c_n)``), with the first
+  :data:`SMALL_N` entries replaced by exact values computed directly (Rodrigues + exact
+  integrals) — so removable singularities of the closed forms at special parameter values
+  (Chebyshev T at ``n = 0``, Jacobi ``alpha + beta = 0`` in ``B_0``, Gegenbauer ``lambda < 0``
+  signs) never reach the numbers;
+* ``derivative_bands(N, **params)``: ``2 p0 d/dx`` on ``phi_n`` by the commutator form
+  ``(J Lambda - Lambda J) - p0'(J)`` (seed eq. 11, proved equal to the ladder form);
+* ``log_phi0(x, **params)``: ``log|phi_0| = log(w)/2 - log(∫w)/2``, sign ``sign(c_0)``.
+
+The catalogue's modules are generated into ``slbasis/kernels/`` and committed
+(``python -m slbasis.kernels``, or ``make kernels``); a test regenerates them and fails if they
+differ.  A custom problem gets its module on demand, compiled in memory
+(:func:`kernel_module`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import sys
+import types
+from functools import lru_cache
+from pathlib import Path
+
+import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+
+from .symbolic.closed_forms import gamma_simplify
+from .symbolic.parse import N, X
+from .symbolic.problem import SturmLiouville
+
+#: Entries ``n < SMALL_N`` come from direct exact computation (see the module docstring).
+SMALL_N = 4
+KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
+
+#: Catalogue families -> (module name, default numeric parameter values).
+CATALOGUE = {
+    "hermite": ("hermite", {}),
+    "hermite_functions": ("hermite_functions", {}),
+    "laguerre": ("laguerre", {"alpha": 0}),
+    "legendre": ("legendre", {}),
+    "chebyshev_t": ("chebyshev_t", {}),
+    "chebyshev_u": ("chebyshev_u", {}),
+    "gegenbauer": ("gegenbauer", {"lam": 1}),
+    "jacobi": ("jacobi", {"alpha": 0, "beta": 0}),
+}
+
+
+class _Printer(NumPyPrinter):
+    """numpy for arrays in ``n`` / ``x``; ``math`` for Gamma functions of the parameters."""
+
+    def _print_loggamma(self, expr: sp.Expr) -> str:
+        return f"math.lgamma({self._print(expr.args[0])})"
+
+    def _print_gamma(self, expr: sp.Expr) -> str:
+        return f"math.gamma({self._print(expr.args[0])})"
+
+
+def _code(expr: sp.Expr, names: dict[sp.Symbol, str]) -> str:
+    expr = sp.sympify(expr).subs({s: sp.Symbol(v) for s, v in names.items()})
+    if expr.has(sp.gamma) and expr.free_symbols & {sp.Symbol("n"), sp.Symbol("x")}:
+        raise ValueError(f"codegen: Gamma function of n or x left in {expr}")
+    return _Printer({"fully_qualified_modules": True}).doprint(expr)
+
+
+def _log_expr(expr: sp.Expr) -> sp.Expr:
+    """``log(expr)`` expanded (positive factors on the interval) with ``log Γ -> loggamma``."""
+    out = sp.expand_log(sp.log(expr), force=True)
+    return out.replace(
+        lambda e: isinstance(e, sp.log) and isinstance(e.args[0], sp.gamma),
+        lambda e: sp.loggamma(e.args[0].args[0]),
+    )
+
+
+def _rational(expr: sp.Expr) -> sp.Expr:
+    return sp.factor(sp.cancel(gamma_simplify(expr)))
+
+
+def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
+    """Source code of the kernel module for ``problem`` (functions frame)."""
+    p = problem
+    cf = p.closed
+    params = tuple(p.params)
+    pnames = {s: f"{s.name}" for s in params}
+    names = {N: "n", X: "x", **pnames}
+    signature = "".join(f", {s.name}" for s in params)
+    call = "".join(f", {s.name}={s.name}" for s in params)
+    p0 = sp.Poly(p.p0, X)
+    p0_coeffs = tuple(sp.sympify(p0.coeff_monomial(X**k)) for k in range(3))
+    if any(c.free_symbols for c in p0_coeffs):
+        raise ValueError("codegen: p0 with symbolic parameters is not supported")
+    dp0 = sp.diff(p.p0, X)
+    slope, intercept = sp.Poly(dp0, X).coeff_monomial(X), sp.Poly(dp0, X).coeff_monomial(1)
+    a_sq = _rational(cf.jacobi_offdiag_squared)
+    diag = _rational(cf.jacobi_diag)
+    c_ratio = _rational(cf.c_ratio)
+    lam = sp.expand(cf.eigenvalue(N))
+    d = p.direct
+    small_a, small_b, small_c = [], [], []
+    for k in range(SMALL_N):
+        coeffs = d.expand_free(d.poly(X) * d.free(k), k + 1)
+        ratio = d.norm2_ratio(k + 1) / d.norm2_ratio(k)
+        small_b.append(_rational(coeffs[k]))
+        small_a.append(_rational(coeffs[k + 1] ** 2 * ratio))
+        small_c.append(_rational(d.c(k + 1) / d.c(k)))
+    log_w = _log_expr(p.polynomial_weight)
+    log_mass = _log_expr(p.weight_form.total_mass)
+    sign_c0 = int(sp.sign(d.c(0)))
+    a, b = p.interval
+    checks = "".join(
+        f"    if not ({_code(e, names)}) > 0:\n"
+        f'        raise ValueError("{name}: parameters must satisfy {e} > 0")\n'
+        for e in dict.fromkeys(p.weight_form.assumptions)
+    )
+    defaults = CATALOGUE.get(name, (name, {}))[1]
+    lines = [
+        f'"""Generated kernel for {p.name}: {name}. DO NOT EDIT.',
+        "",
+        f"Regenerate with ``{regenerate}``. Source: SturmLiouville(p0={p.p0}, p1={p.p1}, "
+        f"q0={p.q0}),",
+        f"standardisation c_n = {p.standardization}. Functions frame phi_n = sqrt(w) p_n,",
+        "L^2-orthonormal on the interval; conventions in slbasis.numeric.kernel.",
+        '"""',
+        "",
+        "import math",
+        "",
+        "import numpy",
+        "",
+        f"name = {name!r}",
+        f"interval = ({_code(a, names)}, {_code(b, names)})".replace("numpy.inf", "math.inf"),
+        f"p0 = ({float(p0_coeffs[0])!r}, {float(p0_coeffs[1])!r}, {float(p0_coeffs[2])!r})",
+        f"PARAMETERS = {tuple(s.name for s in params)!r}",
+        f"DEFAULTS = {dict((k, v) for k, v in defaults.items())!r}",
+        f"SMALL_N = {SMALL_N}",
+        "",
+        "",
+        f"def check_parameters({signature.lstrip(', ')}):",
+        '    """Raise ValueError when the parameters leave the admissible range."""',
+        checks + "    return None",
+        "",
+        "",
+        f"def eigenvalues(N{signature}):",
+        '    """lambda_n of the polynomial problem, n = 0..N-1."""',
+        "    n = numpy.arange(N, dtype=float)",
+        f"    return numpy.broadcast_to({_code(lam, names)}, (N,)).astype(float)",
+        "",
+        "",
+        f"def jacobi(N{signature}):",
+        '    """(B_n, A_{n+1}), n < N: x phi_n = A_{n+1} phi_{n+1} + B_n phi_n + A_n phi_{n-1}."""',
+        f"    check_parameters({call.lstrip(', ')})",
+        "    n = numpy.arange(N, dtype=float)",
+        "    with numpy.errstate(all='ignore'):",
+        f"        diag = numpy.broadcast_to({_code(diag, names)}, (N,)).astype(float)",
+        f"        a_sq = numpy.broadcast_to({_code(a_sq, names)}, (N,)).astype(float)",
+        f"        c_ratio = numpy.broadcast_to({_code(c_ratio, names)}, (N,)).astype(float)",
+        f"    small_b = ({', '.join(_code(v, names) for v in small_b)},)",
+        f"    small_a = ({', '.join(_code(v, names) for v in small_a)},)",
+        f"    small_c = ({', '.join(_code(v, names) for v in small_c)},)",
+        "    for k in range(min(N, SMALL_N)):",
+        "        diag[k], a_sq[k], c_ratio[k] = small_b[k], small_a[k], small_c[k]",
+        f"    offdiag = {-p.weight_form.p0_sign} * numpy.sign(c_ratio) * numpy.sqrt(a_sq)",
+        "    return diag, offdiag",
+        "",
+        "",
+        f"def derivative_bands(N{signature}):",
+        '    """(sub, diag, sup) of 2 p0 d/dx phi_n = sub phi_{n-1} + diag phi_n + sup phi_{n+1}.',
+        "",
+        "    Commutator form (J Lambda - Lambda J) - p0'(J), exact for the infinite operator.",
+        '    """',
+        f"    diag_j, off = jacobi(N{call})",
+        f"    lam = eigenvalues(N + 1{call})",
+        "    sup = off * (lam[:-1] - lam[1:] - " + _code(slope, names) + ")",
+        "    sub = numpy.zeros(N)",
+        "    sub[1:] = off[:-1] * (lam[1:N] - lam[: N - 1] - " + _code(slope, names) + ")",
+        f"    diag = -({_code(slope, names)} * diag_j + {_code(intercept, names)})",
+        "    return sub, diag, sup",
+        "",
+        "",
+        f"def log_phi0(x{signature}):",
+        '    """(log|phi_0(x)|, sign phi_0(x)) with phi_0 = sqrt(w) c_0 / d_0."""',
+        "    x = numpy.asarray(x, dtype=float)",
+        "    with numpy.errstate(divide='ignore', invalid='ignore'):",
+        f"        log_w = numpy.broadcast_to({_code(log_w, names)}, x.shape)",
+        f"    value = 0.5 * log_w - 0.5 * ({_code(log_mass, names)})",
+        f"    return value, numpy.full(x.shape, {float(sign_c0)!r})",
+        "",
+    ]
+    source = "\n".join(lines)
+    if "math." not in source.split('"""', 2)[2]:
+        source = source.replace("import math\n\n", "", 1)
+    return source
+
+
+def _format(source: str) -> str:
+    """Format with ruff when available (committed modules pass ``ruff format --check``)."""
+    import shutil
+    import subprocess
+
+    ruff = shutil.which("ruff") or str(Path(sys.executable).with_name("ruff"))
+    try:
+        out = subprocess.run(
+            [ruff, "format", "--quiet", "--line-length", "100", "-"],
+            input=source,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return source
+    return out.stdout
+
+
+def catalogue_source(family: str) -> str:
+    """The committed source of the catalogue family's kernel module."""
+    from .families import families
+
+    return _format(
+        generate_source(families[family](), CATALOGUE[family][0], "python -m slbasis.kernels")
+    )
+
+
+def write_catalogue(names: list[str] | None = None) -> list[Path]:
+    """(Re)write ``slbasis/kernels/<family>.py`` for the catalogue."""
+    KERNEL_DIR.mkdir(exist_ok=True)
+    written = []
+    for family in names or list(CATALOGUE):
+        path = KERNEL_DIR / f"{CATALOGUE[family][0]}.py"
+        path.write_text(catalogue_source(family), encoding="utf-8")
+        written.append(path)
+    return written
+
+
+@lru_cache(maxsize=64)
+def _compile(source: str, module_name: str) -> types.ModuleType:
+    module = types.ModuleType(module_name)
+    exec(compile(source, f"<slbasis kernel {module_name}>", "exec"), module.__dict__)  # noqa: S102
+    return module
+
+
+def kernel_module(problem: SturmLiouville) -> types.ModuleType:
+    """Kernel module for any problem, generated on demand and compiled in memory (cached)."""
+    source = generate_source(problem, "custom", "slbasis.codegen.kernel_module(problem)")
+    digest = hashlib.sha256(source.encode()).hexdigest()[:12]
+    return _compile(source, f"slbasis_kernel_{digest}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m slbasis.kernels [FAMILY ...]``: regenerate the catalogue's kernels."""
+    for path in write_catalogue(argv or None):
+        print(f"wrote {path}")
+    return 0

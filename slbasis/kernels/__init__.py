@@ -1,0 +1,1 @@
+"""Generated numeric kernels, one module per catalogue family (see slbasis.codegen)."""
