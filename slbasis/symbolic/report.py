@@ -66,9 +66,9 @@ def _printed_comparison(p: SturmLiouville) -> Section:
             "2 p0 d/dx for this family; the derivation wins."
         )
     items = (
-        Item("printed sub_n", sp.simplify(printed.sub)),
+        Item("printed sub_n", printed.sub),
         Item("printed diag_n", printed.diag),
-        Item("printed sup_n", sp.simplify(printed.sup)),
+        Item("printed sup_n", printed.sup),
         Item("derived - printed, sup factor", diff["sup"]),
         Item("derived - printed, diag", diff["diag"]),
         Item("derived - printed, sub factor", diff["sub"]),
