@@ -1,0 +1,430 @@
+"""Quadrotor pitch benchmark (ANT-X drone at hover) in its closed loop.
+
+DESIGN.md, "Benchmark systems", "Quadrotor pitch": states ``[u, q, theta]`` (forward
+velocity, pitch rate, pitch angle), input the (normalised) pitching moment ``delta``::
+
+    A = [[Xu, Xq, -g], [Mu, Mq, 0], [0, 1, 0]],   B = [[Xd], [Md], [0]]
+
+with ``Xu = -0.1068, Xq = 0.1192, Mu = -5.9755, Mq = -2.6478, Xd = -10.1647,
+Md = 450.7085, g = 9.81``.  Open loop the airframe is unstable (eigenvalues
+``-2.92 +- 3.24i`` and ``+3.08``), so data come from a closed loop:
+
+* attitude P: ``q_ref = K_theta (theta_ref - theta_meas)``, ``K_theta = 12``;
+* pitch-rate PID on ``e_q = q_ref - q_meas``: ``Kp = 0.09, Ki = 0.21, Kd = 0.0016`` with
+  the derivative filtered as ``Kd N s / (s + N)``, ``N = 100``;
+* optional velocity PI on top: ``theta_ref = -(Kp_v e_u + Ki_v int e_u)``,
+  ``e_u = u_ref - u``, ``(Kp_v, Ki_v) = (0.5, 0.04)`` (the minus sign because a nose-down
+  attitude accelerates forward: ``du/dt = ... - g theta``);
+* the excitation is added to the moment command, the sum saturated to ``+-1``;
+* the controller runs at 250 Hz (``Ts = 0.004`` s): it samples the noisy sensors at
+  ``t_k``, and its moment is held (ZOH) on ``[t_k, t_k + Ts)``.
+
+Discretisation of the controller (the usual PX4-style implementation): integrators by
+forward Euler, ``I_{k+1} = I_k + Ts e_k``; the filtered derivative by backward Euler,
+``d_k = (d_{k-1} + Kd N (e_k - e_{k-1})) / (1 + N Ts)`` (stable for any ``N Ts``; at
+``N Ts = 0.4`` the bilinear form would also do, backward Euler avoids its ringing).
+
+The plant is propagated *exactly* between controller samples: ``x_{k+1} = Phi x_k +
+Gamma delta_k`` with ``[[Phi, Gamma], [0, I]] = expm([[A, B], [0, 0]] Ts)``.  Sensor
+noise is white Gaussian on ``q`` and ``theta`` (and on ``u`` / ``a_x`` when they are
+chosen as outputs) at a requested SNR; see :func:`simulate_pitch_closed_loop` for the
+definition.  The identified input is the total (applied) moment; outputs ``q`` and
+``theta`` (or ``a_x = Xu u + Xq q + Xd delta``) as DESIGN.md says.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+
+__all__ = [
+    "PITCH_PARAMETERS",
+    "CONTROLLER_DEFAULTS",
+    "OUTPUT_NAMES",
+    "PitchData",
+    "pitch_model",
+    "pitch_output_matrices",
+    "pitch_excitation",
+    "simulate_pitch_closed_loop",
+]
+
+Array = NDArray[np.float64]
+
+#: Stability and control derivatives of the ANT-X pitch model (DESIGN.md).
+PITCH_PARAMETERS: dict[str, float] = {
+    "Xu": -0.1068,
+    "Xq": 0.1192,
+    "Mu": -5.9755,
+    "Mq": -2.6478,
+    "Xd": -10.1647,
+    "Md": 450.7085,
+    "g": 9.81,
+}
+
+#: Controller of DESIGN.md: attitude P over rate PID, velocity PI, saturation, 250 Hz.
+CONTROLLER_DEFAULTS: dict[str, float] = {
+    "k_theta": 12.0,
+    "kp_q": 0.09,
+    "ki_q": 0.21,
+    "kd_q": 0.0016,
+    "n_filter": 100.0,
+    "kp_u": 0.5,
+    "ki_u": 0.04,
+    "saturation": 1.0,
+    "rate_hz": 250.0,
+}
+
+#: Output names accepted by :func:`pitch_output_matrices` (``u`` is the forward velocity).
+OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x")
+
+
+def pitch_model() -> tuple[Array, Array, Array, Array]:
+    """Open-loop pitch model ``(A, B, C, D)`` with all three states as outputs.
+
+    ``C = I_3``, ``D = 0``.  Eigenvalues ``-2.92 +- 3.24i`` and ``+3.08`` (DESIGN.md,
+    "Benchmark systems"; checked in ``tests/test_hdpbsid_quadrotor.py``).
+    """
+    p = PITCH_PARAMETERS
+    A = np.array(
+        [
+            [p["Xu"], p["Xq"], -p["g"]],
+            [p["Mu"], p["Mq"], 0.0],
+            [0.0, 1.0, 0.0],
+        ]
+    )
+    B = np.array([[p["Xd"]], [p["Md"]], [0.0]])
+    return A, B, np.eye(3), np.zeros((3, 1))
+
+
+def pitch_output_matrices(outputs: Any = ("q", "theta")) -> tuple[Array, Array, tuple[str, ...]]:
+    """Rows ``(C, D)`` of the chosen outputs among ``u, q, theta, a_x``.
+
+    ``a_x = Xu u + Xq q + Xd delta`` (the accelerometer: specific force, so no gravity
+    term; DESIGN.md).  Returns ``(C (l, 3), D (l, 1), names)``.
+    """
+    if isinstance(outputs, str):
+        outputs = (outputs,)
+    try:
+        names = tuple(outputs)
+    except TypeError as exc:
+        raise TypeError(
+            f"outputs must be a sequence of names from {OUTPUT_NAMES}, got {outputs!r}"
+        ) from exc
+    if not names:
+        raise ValueError(f"outputs must name at least one of {OUTPUT_NAMES}, got ()")
+    bad = [o for o in names if o not in OUTPUT_NAMES]
+    if bad:
+        raise ValueError(f"outputs must be names from {OUTPUT_NAMES}, got unknown {bad}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"outputs must not repeat a name, got {names}")
+    p = PITCH_PARAMETERS
+    rows = {
+        "u": ([1.0, 0.0, 0.0], 0.0),
+        "q": ([0.0, 1.0, 0.0], 0.0),
+        "theta": ([0.0, 0.0, 1.0], 0.0),
+        "a_x": ([p["Xu"], p["Xq"], 0.0], p["Xd"]),
+    }
+    C = np.array([rows[o][0] for o in names])
+    D = np.array([[rows[o][1]] for o in names])
+    return C, D, names
+
+
+def pitch_excitation(
+    kind: str,
+    t: Array,
+    amplitude: float = 0.05,
+    f0: float = 1.0,
+    f1: float = 4.0,
+    pulse: float = 0.1,
+    period: float = 2.0,
+) -> Array:
+    """Excitation added to the moment command (DESIGN.md: sine sweep 1-4 Hz or a 3211).
+
+    * ``"sweep"``: linear chirp ``amplitude sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))``
+      over the record ``[0, T]`` (``f0 = 1``, ``f1 = 4`` Hz by default);
+    * ``"3211"``: the multistep of widths ``3, 2, 1, 1`` x ``pulse`` with signs
+      ``+, -, +, -``, repeated every ``period`` seconds, starting at ``period / 2``.
+
+    ``t`` are the controller sample times (starting at 0).  Returns shape ``(Ns,)``.
+    """
+    t = np.asarray(t, dtype=float)
+    tt = t - t[0]
+    if kind == "sweep":
+        T = max(float(tt[-1]), np.finfo(float).tiny)
+        phase = 2.0 * np.pi * (f0 * tt + 0.5 * (f1 - f0) * tt**2 / T)
+        return amplitude * np.sin(phase)
+    if kind == "3211":
+        if pulse <= 0 or period < 7 * pulse:
+            raise ValueError(
+                f"a 3211 needs pulse > 0 and period >= 7 pulse, got pulse={pulse}, period={period}"
+            )
+        local = np.mod(tt - period / 2.0, period)
+        started = tt >= period / 2.0
+        edges = np.array([0.0, 3.0, 5.0, 6.0, 7.0]) * pulse
+        signs = np.array([1.0, -1.0, 1.0, -1.0])
+        out = np.zeros_like(tt)
+        for i in range(4):
+            on = started & (local >= edges[i] - 1e-12) & (local < edges[i + 1] - 1e-12)
+            out[on] = amplitude * signs[i]
+        return out
+    raise ValueError(f"excitation must be 'sweep', '3211' or an array, got {kind!r}")
+
+
+@dataclass
+class PitchData:
+    """One closed-loop flight record (controller-rate samples, ``Ns`` of them).
+
+    ``t (Ns,)``; ``u (Ns, 1)`` the total applied moment (the identified input, after
+    saturation); ``y (Ns, l)`` the measured (noisy) chosen outputs and ``y_clean`` their
+    noise-free values; ``q``, ``theta``, ``a_x`` measured signals and ``q_clean``,
+    ``theta_clean``, ``a_x_clean``, ``x_clean (Ns, 3)`` noise-free ones; ``excitation``,
+    ``command`` (moment before saturation), ``saturated`` (bool per sample);
+    ``A, B, C, D`` the true open-loop model for the chosen ``outputs``;
+    ``noise_std`` per measured signal; ``options`` everything used.
+    """
+
+    t: Array
+    u: Array
+    y: Array
+    y_clean: Array
+    q: Array
+    theta: Array
+    a_x: Array
+    q_clean: Array
+    theta_clean: Array
+    a_x_clean: Array
+    x_clean: Array
+    excitation: Array
+    command: Array
+    saturated: NDArray[np.bool_]
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+    outputs: tuple[str, ...]
+    noise_std: dict[str, float] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def saturation_fraction(self) -> float:
+        """Fraction of controller samples whose moment command hit the saturation."""
+        return float(np.mean(self.saturated))
+
+    @property
+    def true_eigenvalues(self) -> NDArray[np.complex128]:
+        """Open-loop eigenvalues of ``A`` (what identification should recover)."""
+        return np.linalg.eigvals(self.A)
+
+
+def _run_loop(
+    Phi: Array,
+    Gam: Array,
+    exc: Array,
+    noise_q: Array,
+    noise_th: Array,
+    ctrl: dict[str, float],
+    velocity_loop: bool,
+    u_ref: float,
+    x0: Array,
+) -> tuple[Array, Array, Array]:
+    """The sampled closed loop; returns states ``x_k``, commands and applied moments."""
+    ns = exc.shape[0]
+    ts = 1.0 / ctrl["rate_hz"]
+    k_th, kp, ki, kd, nf = (ctrl[k] for k in ("k_theta", "kp_q", "ki_q", "kd_q", "n_filter"))
+    kp_u, ki_u, sat = ctrl["kp_u"], ctrl["ki_u"], ctrl["saturation"]
+    d_gain = kd * nf / (1.0 + nf * ts)
+    d_pole = 1.0 / (1.0 + nf * ts)
+    X = np.empty((ns, 3))
+    cmd = np.empty(ns)
+    mom = np.empty(ns)
+    x = x0.astype(float).copy()
+    i_q = 0.0
+    i_u = 0.0
+    d = 0.0
+    e_prev = None
+    p00, p01, p02 = Phi[0]
+    p10, p11, p12 = Phi[1]
+    p20, p21, p22 = Phi[2]
+    g0, g1, g2 = Gam
+    for k in range(ns):
+        X[k] = x
+        q_m = x[1] + noise_q[k]
+        th_m = x[2] + noise_th[k]
+        if velocity_loop:
+            e_u = u_ref - x[0]
+            th_ref = -(kp_u * e_u + ki_u * i_u)
+            i_u += ts * e_u
+        else:
+            th_ref = 0.0
+        q_ref = k_th * (th_ref - th_m)
+        e_q = q_ref - q_m
+        if e_prev is not None:
+            d = d_pole * d + d_gain * (e_q - e_prev)
+        e_prev = e_q
+        c = kp * e_q + ki * i_q + d + exc[k]
+        i_q += ts * e_q
+        cmd[k] = c
+        m = min(max(c, -sat), sat)
+        mom[k] = m
+        x0_, x1_, x2_ = x
+        x = np.array(
+            [
+                p00 * x0_ + p01 * x1_ + p02 * x2_ + g0 * m,
+                p10 * x0_ + p11 * x1_ + p12 * x2_ + g1 * m,
+                p20 * x0_ + p21 * x1_ + p22 * x2_ + g2 * m,
+            ]
+        )
+        if not np.all(np.isfinite(x)) or np.max(np.abs(x)) > 1e6:
+            raise ValueError(
+                f"the closed loop diverged at t = {k * ts:.3f} s (|x| > 1e6): check the "
+                f"controller gains and the excitation amplitude"
+            )
+    return X, cmd, mom
+
+
+def simulate_pitch_closed_loop(
+    rng: np.random.Generator,
+    duration: float = 30.0,
+    snr_db: float | None = 20.0,
+    excitation: str | Any = "sweep",
+    outputs: Any = ("q", "theta"),
+    amplitude: float = 0.05,
+    velocity_loop: bool = False,
+    u_ref: float = 0.0,
+    x0: Any | None = None,
+    controller: dict[str, float] | None = None,
+    f0: float = 1.0,
+    f1: float = 4.0,
+    pulse: float = 0.1,
+    period: float = 2.0,
+) -> PitchData:
+    """Simulate the ANT-X pitch dynamics in the DESIGN.md cascade loop (module docstring).
+
+    ``rng`` (``numpy.random.Generator``) draws the sensor noise.  ``duration`` seconds at
+    the controller rate (250 Hz: ``Ns = round(duration * 250) + 1`` samples from 0).
+    ``excitation``: ``"sweep"`` (1-4 Hz chirp), ``"3211"`` or an array of ``Ns`` values
+    added to the moment command (``amplitude``, ``f0``, ``f1``, ``pulse``, ``period`` shape
+    the built-in ones, see :func:`pitch_excitation`).  ``outputs``: names from
+    ``u, q, theta, a_x``.  ``controller`` overrides entries of :data:`CONTROLLER_DEFAULTS`.
+
+    Noise: ``snr_db=None`` means none.  Otherwise the SNR is on signal power (mean
+    square, as :func:`hdpbsid.systems.add_noise`): a noise-free run of the same loop
+    gives each measured signal's power ``P``, and the sensor noise has standard
+    deviation ``sqrt(P) 10^(-snr_db/20)``.  (The noise then circulates through the
+    controller, so the noisy run's own clean signals differ slightly from the
+    noise-free run's; ``y_clean`` are the clean signals *of the noisy run*.)
+
+    Returns a :class:`PitchData`; ``data.u`` and ``data.y`` are what to identify from.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    ctrl = dict(CONTROLLER_DEFAULTS)
+    if controller is not None:
+        unknown = set(controller) - set(ctrl)
+        if unknown:
+            raise ValueError(
+                f"controller has unknown key(s) {sorted(unknown)}; known: {sorted(ctrl)}"
+            )
+        ctrl.update({k: float(v) for k, v in controller.items()})
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration}")
+    if snr_db is not None and not np.isfinite(snr_db):
+        raise ValueError(f"snr_db must be finite or None, got {snr_db}")
+    C, D, names = pitch_output_matrices(outputs)
+    ts = 1.0 / ctrl["rate_hz"]
+    ns = int(round(duration / ts)) + 1
+    t = np.arange(ns) * ts
+    if isinstance(excitation, str):
+        exc = pitch_excitation(excitation, t, amplitude, f0=f0, f1=f1, pulse=pulse, period=period)
+        exc_name = excitation
+    else:
+        exc = np.asarray(excitation, dtype=float).reshape(-1)
+        if exc.shape[0] != ns:
+            raise ValueError(
+                f"excitation array must have Ns = {ns} samples (duration {duration} s at "
+                f"{ctrl['rate_hz']:g} Hz), got {exc.shape[0]}"
+            )
+        if not np.all(np.isfinite(exc)):
+            raise ValueError("excitation must be finite (no NaN/inf)")
+        exc_name = "array"
+    xinit = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
+    if xinit.shape != (3,):
+        raise ValueError(f"x0 must have 3 entries [u, q, theta], got shape {xinit.shape}")
+
+    A, B, _, _ = pitch_model()
+    n, m = 3, 1
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A * ts
+    M[:n, n:] = B * ts
+    E = expm(M)
+    Phi, Gam = E[:n, :n], E[:n, n]
+
+    p = PITCH_PARAMETERS
+    zero = np.zeros(ns)
+    noise_std = {k: 0.0 for k in ("u", "q", "theta", "a_x")}
+    nq = nth = zero
+    if snr_db is not None:
+        Xc, _, mc = _run_loop(Phi, Gam, exc, zero, zero, ctrl, velocity_loop, u_ref, xinit)
+        axc = p["Xu"] * Xc[:, 0] + p["Xq"] * Xc[:, 1] + p["Xd"] * mc
+        scale = 10.0 ** (-snr_db / 20.0)
+        for name, sig in (("u", Xc[:, 0]), ("q", Xc[:, 1]), ("theta", Xc[:, 2]), ("a_x", axc)):
+            noise_std[name] = float(np.sqrt(np.mean(sig**2)) * scale)
+        # one draw per sensor, in a fixed order, so the same seed gives the same record
+        draws = {k: rng.standard_normal(ns) for k in ("q", "theta", "u", "a_x")}
+        nq = noise_std["q"] * draws["q"]
+        nth = noise_std["theta"] * draws["theta"]
+    else:
+        draws = {k: zero for k in ("q", "theta", "u", "a_x")}
+    X, cmd, mom = _run_loop(Phi, Gam, exc, nq, nth, ctrl, velocity_loop, u_ref, xinit)
+    ax_clean = p["Xu"] * X[:, 0] + p["Xq"] * X[:, 1] + p["Xd"] * mom
+    meas = {
+        "u": X[:, 0] + noise_std["u"] * draws["u"],
+        "q": X[:, 1] + nq,
+        "theta": X[:, 2] + nth,
+        "a_x": ax_clean + noise_std["a_x"] * draws["a_x"],
+    }
+    clean = {"u": X[:, 0], "q": X[:, 1], "theta": X[:, 2], "a_x": ax_clean}
+    options = {
+        "duration": float(duration),
+        "snr_db": snr_db,
+        "snr_definition": "mean-square power of the noise-free run / noise variance",
+        "excitation": exc_name,
+        "amplitude": amplitude if exc_name != "array" else None,
+        "f0": f0,
+        "f1": f1,
+        "pulse": pulse,
+        "period": period,
+        "velocity_loop": velocity_loop,
+        "u_ref": u_ref,
+        "controller": ctrl,
+        "sample_time": ts,
+        "x0": xinit,
+        "plant_discretisation": "exact ZOH (matrix exponential) between controller samples",
+    }
+    return PitchData(
+        t=t,
+        u=mom[:, None],
+        y=np.column_stack([meas[o] for o in names]),
+        y_clean=np.column_stack([clean[o] for o in names]),
+        q=meas["q"],
+        theta=meas["theta"],
+        a_x=meas["a_x"],
+        q_clean=clean["q"],
+        theta_clean=clean["theta"],
+        a_x_clean=ax_clean,
+        x_clean=X,
+        excitation=exc,
+        command=cmd,
+        saturated=np.abs(cmd) > ctrl["saturation"],
+        A=A,
+        B=B,
+        C=C,
+        D=D,
+        outputs=names,
+        noise_std={k: noise_std[k] for k in dict.fromkeys(("q", "theta", *names))},
+        options=options,
+    )
