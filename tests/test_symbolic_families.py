@@ -74,3 +74,15 @@ def test_derivative_matrix_is_rectangular_and_exact() -> None:
     assert mat.shape == (5, 4)
     assert mat[4, 3] == -sp.sqrt(8)  # the row a square cut would lose: -sqrt(2 (n+1)), n = 3
     assert sp.simplify(mat[:4, :] + mat[:4, :].T) == sp.zeros(4, 4)  # skew part is all of it
+
+
+@pytest.mark.parametrize("name", ["hermite", "laguerre", "legendre", "chebyshev_t", "jacobi"])
+def test_printed_eq11_pattern_documented_in_derivations(name: str) -> None:
+    """derivations/README.md: printed eq. (11) == -(J Lambda - Lambda J) - p0'' (A_n on phi_{n-1})."""
+    prob = families[name]()
+    printed = prob.derivative_operator_form("functions", "printed")
+    lam = prob.closed.eigenvalue
+    p0_second = sp.diff(prob.p0, X, 2)
+    assert sp.simplify(printed.sup_factor + (lam(N) - lam(N + 1))) == 0
+    assert sp.simplify(printed.sub_factor + (lam(N) - lam(N - 1)) + p0_second) == 0
+    assert sp.simplify(printed.diag) == 0
