@@ -1,0 +1,300 @@
+"""Shared machinery of the basis-domain methods (HD-PBSID, CT-PBSID, Legendre PBSID).
+
+DESIGN.md "The same core in a basis domain": the record is projected onto ``N``
+orthonormal functions, signals become coefficient rows (rows = signals, columns = basis
+index) and "one sample back" becomes a linear operator ``M`` on those rows.  This module
+holds what the methods share:
+
+* :class:`SolveLag` -- a :class:`~hdpbsid.varx.LagOperator` ``W -> W M^j`` where ``M`` is
+  applied by a (banded) solve, never formed as a dense inverse;
+* :class:`BlockShift` -- the sample shift inside blocks of columns (Laguerre filters);
+* :func:`bandwidth` -- the data bandwidth used by the default rules;
+* :func:`run_core` -- normalisation, pseudo-input rows (boundary and truncation terms),
+  the default past window and the PBSID core (:func:`hdpbsid.pbsid.pbsid_core`).
+
+Pseudo-inputs: terms of the coefficient equation with a *known* coefficient row and an
+*unknown* vector factor (the boundary terms ``x(t0) phi(t0)^T - x(tN) phi(tN)^T`` of a
+record that does not start and end at rest, the truncation of the last column of a cut
+derivative operator) are appended to the inputs; their ``B`` columns are estimated with
+the rest and discarded.  They do not enter the output equation (``D = 0`` for them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .pbsid import CoreResult, pbsid_core
+from .validation import check_positive_int
+from .varx import LagOperator, select_past_window
+
+__all__ = [
+    "SolveLag",
+    "BlockShift",
+    "bandwidth",
+    "CoreOut",
+    "run_core",
+    "check_method_args",
+]
+
+Array = NDArray[np.float64]
+Mask = NDArray[np.bool_]
+
+#: fraction of the (detrended) signal energy below the bandwidth estimate
+ENERGY_FRACTION = 0.99
+#: default past windows tried by the AIC rule
+P_DEFAULT_RANGE = (3, 12)
+#: basis-domain "samples" per VARX regressor and output kept by the default p rule
+COLS_PER_REGRESSOR = 8
+DEFAULT_MAX_ORDER = 10
+
+
+class SolveLag:
+    """``apply(W, j) = W M^j`` with ``W M`` computed by ``solve(W)`` (a callable).
+
+    ``solve`` maps a ``(rows, N)`` array to ``W M`` (e.g. a banded solve with ``D'^T``).
+    Every column is valid (the basis-domain equations hold on all columns once the
+    boundary and truncation terms are pseudo-inputs).  The last argument's powers are
+    cached, so ``past_blocks`` (``j = p, ..., 1``) costs ``p`` solves.
+    """
+
+    def __init__(self, solve: Callable[[Array], Array], name: str = "M") -> None:
+        self._solve = solve
+        self._name = name
+        self._key: tuple[int, tuple[int, ...]] | None = None
+        self._cache: list[Array] = []
+
+    def apply(self, W: Array, j: int) -> Array:
+        W = np.asarray(W, dtype=float)
+        key = (id(W), W.shape)
+        if self._key != key or not self._cache or not np.array_equal(self._cache[0], W):
+            self._key = key
+            self._cache = [W.copy()]
+        while len(self._cache) <= j:
+            self._cache.append(self._solve(self._cache[-1]))
+        return self._cache[j].copy()
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask:
+        # M mixes all columns: one unknown column spoils every lagged column
+        return valid.copy() if valid.all() else np.zeros_like(valid)
+
+    def __repr__(self) -> str:
+        return f"SolveLag({self._name})"
+
+
+class BlockShift:
+    """Sample shift inside consecutive blocks of ``block`` columns (index shift per block).
+
+    Used by the Laguerre-filter variant, whose data are, for every sample time, a block
+    of ``N`` filter outputs indexed by the Laguerre index.  Columns whose lag would reach
+    into the previous block are invalid.
+    """
+
+    def __init__(self, block: int) -> None:
+        self.block = check_positive_int(block, "block")
+
+    def apply(self, W: Array, j: int) -> Array:
+        nb = W.shape[1] // self.block
+        V = W.reshape(W.shape[0], nb, self.block)
+        out = np.zeros_like(V)
+        if j == 0:
+            out[...] = V
+        elif j < self.block:
+            out[:, :, j:] = V[:, :, :-j]
+        return out.reshape(W.shape)
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask:
+        nb = valid.shape[0] // self.block
+        V = valid.reshape(nb, self.block)
+        out = np.zeros_like(V)
+        if j == 0:
+            out[...] = V
+        elif j < self.block:
+            out[:, j:] = V[:, :-j]
+        return out.reshape(valid.shape)
+
+    def __repr__(self) -> str:
+        return f"BlockShift({self.block})"
+
+
+def bandwidth(t: Array, x: Array, fraction: float = ENERGY_FRACTION) -> float:
+    """Angular frequency (rad/s) below which ``fraction`` of the energy of ``x`` lies.
+
+    ``x`` is ``(Ns, k)``; each column is detrended (mean and linear trend removed, so a
+    record that does not start and end at rest does not look broadband) and resampled
+    linearly onto a uniform grid with the mean step (non-uniform ``t``).  The result is
+    the largest value over the columns.  White measurement noise adds energy spread up to
+    Nyquist; at SNR 20 dB it is 1 % of the power, which is why ``fraction`` is 0.99 and
+    the inputs (usually noise free) are included.
+    """
+    ns = t.shape[0]
+    tu = np.linspace(t[0], t[-1], ns)
+    dt = (t[-1] - t[0]) / (ns - 1)
+    best = 0.0
+    for k in range(x.shape[1]):
+        xk = np.interp(tu, t, x[:, k])
+        xk = xk - np.polyval(np.polyfit(tu - tu[0], xk, 1), tu - tu[0])
+        P = np.abs(np.fft.rfft(xk)) ** 2
+        if P.sum() == 0:
+            continue
+        c = np.cumsum(P) / P.sum()
+        i = int(np.searchsorted(c, fraction))
+        w = 2 * np.pi * np.fft.rfftfreq(ns, dt)
+        best = max(best, float(w[min(i, w.size - 1)]))
+    return best
+
+
+def check_method_args(
+    order: int | None, p: int | None, f: int | None, max_order: int | None
+) -> tuple[int | None, int | None, int | None, int]:
+    """Common integer checks of the method functions."""
+    if order is not None:
+        order = check_positive_int(order, "order")
+    if p is not None:
+        p = check_positive_int(p, "p")
+    if f is not None:
+        f = check_positive_int(f, "f")
+    mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    return order, p, f, mo
+
+
+def _rms_rows(W: Array, name: str) -> Array:
+    r = np.sqrt(np.mean(W**2, axis=1))
+    if np.any(r == 0):
+        k = int(np.flatnonzero(r == 0)[0])
+        raise ValueError(f"{name}[:, {k}] is identically zero: nothing to identify from it")
+    return r
+
+
+@dataclass
+class CoreOut:
+    """Core result in the basis domain, scaled back to the user's units.
+
+    ``A`` is the index-domain ``A'``; ``B`` has the real inputs only (pseudo-input
+    columns dropped, kept in ``B_pseudo``); ``C, D, K`` in user units.
+    """
+
+    A: Array
+    B: Array
+    C: Array
+    D: Array
+    K: Array
+    B_pseudo: Array
+    noise_covariance: Array
+    core: CoreResult
+    options: dict
+
+
+def run_core(
+    U: Array,
+    Y: Array,
+    P: Array,
+    lag: LagOperator,
+    *,
+    order: int | None,
+    p: int | None,
+    f: int | None,
+    max_order: int,
+    regularize: bool | str | float | None,
+    feedthrough: bool,
+    stable_k: bool,
+    normalize: bool,
+    p_range: tuple[int, int] | None = None,
+) -> CoreOut:
+    """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) and pseudo
+    inputs ``P`` (q x N) with the lag operator ``lag``.
+
+    Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.varx.select_past_window`)
+    over ``p_range`` (default 3..12), capped so that ``p (m + q + l) <= ncols / 8`` (the
+    regression has ``p (m + q + l)`` unknowns per output but only ``ncols`` columns);
+    ``f = p``.  Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
+    """
+    m, l, q = U.shape[0], Y.shape[0], P.shape[0]
+    ncols = Y.shape[1]
+    need = order if order is not None else max_order + 1
+    f_min = -(-need // l)
+    d = m + q + l
+    su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
+    sy = _rms_rows(Y, "y") if normalize else np.ones(l)
+    sp_ = np.sqrt(np.mean(P**2, axis=1)) if q else np.ones(0)
+    if q and np.any(sp_ == 0):
+        raise ValueError("internal: a pseudo-input row is identically zero")
+    Uz = np.vstack([U / su[:, None], P / sp_[:, None]]) if q else U / su[:, None]
+    Yz = Y / sy[:, None]
+    p_cap = ncols // (COLS_PER_REGRESSOR * d)
+    crit = None
+    if p is not None:
+        if p * d >= ncols - p:
+            raise ValueError(
+                f"p={p} is too large for the basis: the VARX has p*(m+q+l) = {p}*{d} = "
+                f"{p * d} regressors per output (q = {q} boundary/truncation rows) but only "
+                f"{ncols} basis coefficients; reduce p or increase N"
+            )
+        if f is None and p * l < need:
+            raise ValueError(
+                f"order {need if order is not None else f'selection up to {max_order}'} "
+                f"needs f*l >= {need}, but f = p = {p}; increase p"
+            )
+        p_rule = "given"
+    else:
+        lo, hi = p_range if p_range is not None else P_DEFAULT_RANGE
+        lo = max(lo, f_min, f or 1)
+        hi = min(hi, p_cap)
+        if hi < lo:
+            raise ValueError(
+                f"the basis is too small for the requested order: it needs a past window "
+                f"p >= {lo}, but N = {ncols} coefficients and m+q+l = {d} rows allow only "
+                f"p <= {hi} (p*(m+q+l) <= N/{COLS_PER_REGRESSOR}); increase N, pass p, or "
+                f"ask for a smaller order"
+            )
+        if hi == lo:
+            p = lo
+        else:
+            p, crit = select_past_window(Uz, Yz, hi, p_min=lo, lag=lag, feedthrough=feedthrough)
+        p_rule = (
+            f"min AIC of the VARX fit over p in [{lo}, {hi}] "
+            f"(p*(m+q+l) <= N/{COLS_PER_REGRESSOR}, f*l >= required rows)"
+        )
+    if f is not None and f > p:
+        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
+    if f is not None and f * l < need:
+        raise ValueError(f"order needs f*l >= {need}, but f*l = {f * l}; increase f")
+    f_used = p if f is None else f
+    mo = min(max_order, f_used * l - 1) if order is None else None
+    if mo is not None and mo < 1:
+        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+    core = pbsid_core(
+        Uz,
+        Yz,
+        p,
+        f=f_used,
+        order=order,
+        lag=lag,
+        feedthrough=feedthrough,
+        regularize=regularize,
+        stable_k=stable_k,
+        max_order=mo,
+    )
+    B = core.B[:, :m] / su[None, :] if m else core.B[:, :0]
+    Bp = core.B[:, m:] / sp_[None, :] if q else core.B[:, m:]
+    C = core.C * sy[:, None]
+    D = (sy[:, None] * core.D[:, :m] / su[None, :]) if m else core.D[:, :0]
+    K = core.K / sy[None, :]
+    ncov = sy[:, None] * core.noise_covariance * sy[None, :]
+    opts: dict[str, Any] = dict(core.options)
+    opts.update(
+        {
+            "normalize": normalize,
+            "input_scale": su,
+            "output_scale": sy,
+            "p_rule": p_rule,
+            "p_criterion_values": crit,
+            "f_rule": "given" if f is not None else "f = p",
+            "n_pseudo_inputs": q,
+        }
+    )
+    return CoreOut(core.A, B, C, D, K, Bp, ncov, core, opts)
