@@ -36,6 +36,7 @@ __all__ = [
     "SolveLag",
     "BlockShift",
     "bandwidth",
+    "data_bandwidth",
     "CoreOut",
     "run_core",
     "check_method_args",
@@ -47,7 +48,7 @@ Mask = NDArray[np.bool_]
 #: fraction of the (detrended) signal energy below the bandwidth estimate
 ENERGY_FRACTION = 0.99
 #: default past windows tried by the AIC rule
-P_DEFAULT_RANGE = (3, 12)
+P_DEFAULT_RANGE = (2, 6)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
 COLS_PER_REGRESSOR = 8
 DEFAULT_MAX_ORDER = 10
@@ -125,7 +126,8 @@ def bandwidth(t: Array, x: Array, fraction: float = ENERGY_FRACTION) -> float:
     """Angular frequency (rad/s) below which ``fraction`` of the energy of ``x`` lies.
 
     ``x`` is ``(Ns, k)``; each column is detrended (mean and linear trend removed, so a
-    record that does not start and end at rest does not look broadband) and resampled
+    record that does not start and end at rest does not look broadband), Hann-windowed
+    (the jump between the ends would otherwise leak energy to high frequencies) and resampled
     linearly onto a uniform grid with the mean step (non-uniform ``t``).  The result is
     the largest value over the columns.  White measurement noise adds energy spread up to
     Nyquist; at SNR 20 dB it is 1 % of the power, which is why ``fraction`` is 0.99 and
@@ -138,7 +140,7 @@ def bandwidth(t: Array, x: Array, fraction: float = ENERGY_FRACTION) -> float:
     for k in range(x.shape[1]):
         xk = np.interp(tu, t, x[:, k])
         xk = xk - np.polyval(np.polyfit(tu - tu[0], xk, 1), tu - tu[0])
-        P = np.abs(np.fft.rfft(xk)) ** 2
+        P = np.abs(np.fft.rfft(xk * np.hanning(ns))) ** 2
         if P.sum() == 0:
             continue
         c = np.cumsum(P) / P.sum()
@@ -146,6 +148,17 @@ def bandwidth(t: Array, x: Array, fraction: float = ENERGY_FRACTION) -> float:
         w = 2 * np.pi * np.fft.rfftfreq(ns, dt)
         best = max(best, float(w[min(i, w.size - 1)]))
     return best
+
+
+def data_bandwidth(t: Array, u: Array, y: Array) -> float:
+    """Bandwidth of a record: 99 % of the input energy, 95 % of the output energy.
+
+    The outputs get the lower fraction because white measurement noise spreads its power
+    (1 % of the signal at SNR 20 dB) up to Nyquist, which would otherwise make the basis
+    follow the noise; the inputs bound the excited band of an LTI system.
+    """
+    wu = bandwidth(t, u, 0.99) if u.shape[1] else 0.0
+    return max(wu, bandwidth(t, y, 0.95))
 
 
 def check_method_args(
@@ -209,13 +222,15 @@ def run_core(
     inputs ``P`` (q x N) with the lag operator ``lag``.
 
     Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.varx.select_past_window`)
-    over ``p_range`` (default 3..12), capped so that ``p (m + q + l) <= ncols / 8`` (the
+    over ``p_range`` (default 2..6), capped so that ``p (m + q + l) <= ncols / 8`` (the
     regression has ``p (m + q + l)`` unknowns per output but only ``ncols`` columns);
     ``f = p``.  Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
     """
     m, l, q = U.shape[0], Y.shape[0], P.shape[0]
     ncols = Y.shape[1]
-    need = order if order is not None else max_order + 1
+    # order selection needs at least 2 singular values (f l >= 2); the candidates are then
+    # the orders 1..min(max_order, f l - 1)
+    need = order if order is not None else 2
     f_min = -(-need // l)
     d = m + q + l
     su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
@@ -236,8 +251,8 @@ def run_core(
             )
         if f is None and p * l < need:
             raise ValueError(
-                f"order {need if order is not None else f'selection up to {max_order}'} "
-                f"needs f*l >= {need}, but f = p = {p}; increase p"
+                f"order {order if order is not None else 'selection'} needs f*l >= {need}, "
+                f"but f = p = {p}; increase p"
             )
         p_rule = "given"
     else:

@@ -31,11 +31,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import slbasis
 from numpy.typing import NDArray
 from scipy.linalg import solve_banded
 
-from .basis_domain import SolveLag, bandwidth, check_method_args, run_core
+import slbasis
+
+from .basis_domain import SolveLag, check_method_args, data_bandwidth, run_core
 from .model import StateSpaceModel
 from .validation import check_data, check_positive_int
 
@@ -143,12 +144,11 @@ def identify_hermite(
     """
     t, u, y = check_data(t, u, y)
     ns, m = u.shape
-    l = y.shape[1]
     order, p, f, mo = check_method_args(order, p, f, max_order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
     T = float(t[-1] - t[0])
-    wb = bandwidth(t, np.hstack([u, y]))
+    wb = data_bandwidth(t, u, y)
     if N is None:
         N, n_rule = default_hermite_N(T, wb, ns)
     else:
