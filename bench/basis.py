@@ -9,7 +9,7 @@ Run:  python bench/basis.py [--quick]
 (``env -u OPENBLAS_CORETYPE -u OPENBLAS_L2_SIZE`` avoids a slow BLAS set-up on some machines.)
 Projection is timed in a fresh subprocess per N; peak memory is that process's VmHWM
 (peak RSS; 'increase' = during the projection call, inputs of 16 MB excluded).
-Until the generated kernels exist the kernels come from tests/numeric_kernels_fixture.py.
+The kernels are the generated ones (slbasis/kernels/, via slbasis.kernel).
 """
 
 from __future__ import annotations
@@ -28,12 +28,13 @@ import numpy as np
 import scipy.special as sps
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
-from numeric_kernels_fixture import HERMITE, LAGUERRE  # noqa: E402
-
+import slbasis  # noqa: E402
 from slbasis.numeric import Basis, evaluate  # noqa: E402
+
+HERMITE = slbasis.kernel("hermite_functions")
+LAGUERRE = slbasis.kernel("laguerre", alpha=0)
 
 
 def hermite_mp(n: int, x: float) -> float:
