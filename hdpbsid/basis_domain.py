@@ -235,9 +235,12 @@ def run_core(
     d = m + q + l
     su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
     sy = _rms_rows(Y, "y") if normalize else np.ones(l)
+    # pseudo-input rows that vanish (e.g. a Laguerre boundary row underflowing at tN)
+    # carry no term: drop them
+    P = P[np.sqrt(np.mean(P**2, axis=1)) > 0] if q else P
+    q = P.shape[0]
+    d = m + q + l
     sp_ = np.sqrt(np.mean(P**2, axis=1)) if q else np.ones(0)
-    if q and np.any(sp_ == 0):
-        raise ValueError("internal: a pseudo-input row is identically zero")
     Uz = np.vstack([U / su[:, None], P / sp_[:, None]]) if q else U / su[:, None]
     Yz = Y / sy[:, None]
     p_cap = ncols // (COLS_PER_REGRESSOR * d)
