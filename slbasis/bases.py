@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import importlib
 import types
-from functools import partial
 
 from .codegen import CATALOGUE, kernel_module
-from .numeric import Basis, Kernel, KernelSpec
+from .numeric import Basis, Kernel
+from .numeric.closed_form_kernel import ClosedFormKernel
 from .symbolic.problem import SturmLiouville
 
 
@@ -27,8 +27,8 @@ def catalogue_kernel_module(family: str) -> types.ModuleType:
     return importlib.import_module(f"slbasis.kernels.{CATALOGUE[family][0]}")
 
 
-def bind_kernel(module: types.ModuleType, **params: float) -> KernelSpec:
-    """Fix the parameters of a generated kernel module: a :class:`KernelSpec`.
+def bind_kernel(module: types.ModuleType, **params: float) -> ClosedFormKernel:
+    """Fix the parameters of a generated closed-form module: a kernel.
 
     Missing parameters take the module's ``DEFAULTS``; unknown ones are a ``TypeError``;
     values outside the admissible range a ``ValueError`` (from ``check_parameters``).
@@ -47,19 +47,10 @@ def bind_kernel(module: types.ModuleType, **params: float) -> KernelSpec:
             values[name] = float(module.DEFAULTS[name])
         else:
             raise TypeError(f"{module.name}: parameter {name!r} has no default; pass it")
-    module.check_parameters(**values)
-    suffix = "".join(f", {k}={v:g}" for k, v in values.items())
-    return KernelSpec(
-        name=f"{module.name}{'(' + suffix[2:] + ')' if suffix else ''}",
-        interval=tuple(float(v) for v in module.interval),
-        p0=tuple(module.p0),
-        jacobi=partial(module.jacobi, **values),
-        log_phi0=partial(module.log_phi0, **values),
-        derivative_bands=partial(module.derivative_bands, **values),
-    )
+    return ClosedFormKernel(module, values)
 
 
-def kernel(family: str | SturmLiouville, **params: float) -> KernelSpec:
+def kernel(family: str | SturmLiouville, **params: float) -> ClosedFormKernel:
     """The numeric kernel of a catalogue family name or of a custom problem."""
     if isinstance(family, SturmLiouville):
         return bind_kernel(kernel_module(family), **params)

@@ -1,23 +1,18 @@
-"""Code generation: numeric kernel modules from the derived closed forms.
+"""Code generation: numeric closed-form modules from the derivations.
 
 For a :class:`~slbasis.symbolic.problem.SturmLiouville` problem this emits a plain
-Python + numpy module (no sympy at import or run time) implementing the kernel interface of
-:mod:`slbasis.numeric.kernel` for the L^2-orthonormal functions ``phi_n = sqrt(w) p_n``:
-
-* ``jacobi(N, **params)``: ``B_n`` and ``A_{n+1}`` of ``x phi_n = A_{n+1} phi_{n+1} + B_n phi_n
-  + A_n phi_{n-1}`` from the closed forms in ``n`` (``A_{n+1}^2`` and ``B_n`` rational in
-  ``n``; the sign of ``A_{n+1}`` is ``-sign(p0) sign(c_{n+1}/c_n)``), with the first
-  :data:`SMALL_N` entries replaced by exact values computed directly (Rodrigues + exact
-  integrals) — so removable singularities of the closed forms at special parameter values
-  (Chebyshev T at ``n = 0``, Jacobi ``alpha + beta = 0`` in ``B_0``, Gegenbauer ``lambda < 0``
-  signs) never reach the numbers;
-* ``derivative_bands(N, **params)``: ``2 p0 d/dx`` on ``phi_n`` by the commutator form
-  ``(J Lambda - Lambda J) - p0'(J)`` (seed eq. 11, proved equal to the ladder form);
-* ``log_phi0(x, **params)``: ``log|phi_0| = log(w)/2 - log(∫w)/2``, sign ``sign(c_0)``.
+Python + numpy module (no sympy at import or run time) with the *data* of its
+L^2-orthonormal functions ``phi_n = sqrt(w) p_n``: the closed forms in ``n`` of ``B_n``,
+``A_{n+1}^2`` and ``c_{n+1}/c_n`` (rational in ``n``: Gamma ratios simplified away at
+generation time), ``lambda_n``, the exact values for ``n <`` :data:`SMALL_N` from direct
+computation (Rodrigues + exact integrals, symbolic in the parameters), ``log w(x)``,
+``log ∫ w``, the interval, ``p0`` and the parameter checks.  The generic algorithm that turns
+them into a kernel (signs, small-``n`` overrides, the banded derivative operator of eq. 11 in
+commutator form) is written once, in :class:`slbasis.numeric.closed_form_kernel.ClosedFormKernel`.
 
 The catalogue's modules are generated into ``slbasis/kernels/`` and committed
-(``python -m slbasis.kernels``, or ``make kernels``); a test regenerates them and fails if they
-differ.  A custom problem gets its module on demand, compiled in memory
+(``python -m slbasis.kernels``, or ``make kernels``); a test regenerates them and fails if
+they differ.  A custom problem gets its module on demand, compiled in memory
 (:func:`kernel_module`).
 """
 
@@ -91,13 +86,10 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
     pnames = {s: f"{s.name}" for s in params}
     names = {N: "n", X: "x", **pnames}
     signature = "".join(f", {s.name}" for s in params)
-    call = "".join(f", {s.name}={s.name}" for s in params)
     p0 = sp.Poly(p.p0, X)
     p0_coeffs = tuple(sp.sympify(p0.coeff_monomial(X**k)) for k in range(3))
     if any(c.free_symbols for c in p0_coeffs):
         raise ValueError("codegen: p0 with symbolic parameters is not supported")
-    dp0 = sp.diff(p.p0, X)
-    slope, intercept = sp.Poly(dp0, X).coeff_monomial(X), sp.Poly(dp0, X).coeff_monomial(1)
     a_sq = _rational(cf.jacobi_offdiag_squared)
     diag = _rational(cf.jacobi_diag)
     c_ratio = _rational(cf.c_ratio)
@@ -120,13 +112,26 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         for e in dict.fromkeys(p.weight_form.assumptions)
     )
     defaults = CATALOGUE.get(name, (name, {}))[1]
+
+    def function(fname: str, args: str, doc: str, expr: sp.Expr, shape: str) -> list[str]:
+        return [
+            f"def {fname}({args}{signature}):",
+            f'    """{doc}"""',
+            f"    return numpy.broadcast_to({_code(expr, names)}, {shape}).astype(float)",
+            "",
+            "",
+        ]
+
+    def values(vals: list[sp.Expr]) -> str:
+        return "(" + ", ".join(_code(v, names) for v in vals) + ")"
+
     lines = [
-        f'"""Generated kernel for {p.name}: {name}. DO NOT EDIT.',
+        f'"""Generated closed forms for {p.name}: {name}. DO NOT EDIT.',
         "",
-        f"Regenerate with ``{regenerate}``. Source: SturmLiouville(p0={p.p0}, p1={p.p1}, "
-        f"q0={p.q0}),",
-        f"standardisation c_n = {p.standardization}. Functions frame phi_n = sqrt(w) p_n,",
-        "L^2-orthonormal on the interval; conventions in slbasis.numeric.kernel.",
+        f"Regenerate with ``{regenerate}``.",
+        f"Source: SturmLiouville(p0={p.p0}, p1={p.p1}, q0={p.q0}),",
+        f"standardisation c_n = {p.standardization}. Functions n -> closed forms in n (arrays),",
+        "used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).",
         '"""',
         "",
         "import math",
@@ -137,8 +142,9 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         f"interval = ({_code(a, names)}, {_code(b, names)})".replace("numpy.inf", "math.inf"),
         f"p0 = ({float(p0_coeffs[0])!r}, {float(p0_coeffs[1])!r}, {float(p0_coeffs[2])!r})",
         f"PARAMETERS = {tuple(s.name for s in params)!r}",
-        f"DEFAULTS = {dict((k, v) for k, v in defaults.items())!r}",
-        f"SMALL_N = {SMALL_N}",
+        f"DEFAULTS = {dict(defaults.items())!r}",
+        f"P0_SIGN = {p.weight_form.p0_sign}  # sign of p0 on the interval",
+        f"SIGN_C0 = {sign_c0}  # sign of the Rodrigues constant c_0",
         "",
         "",
         f"def check_parameters({signature.lstrip(', ')}):",
@@ -146,50 +152,25 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         checks + "    return None",
         "",
         "",
-        f"def eigenvalues(N{signature}):",
-        '    """lambda_n of the polynomial problem, n = 0..N-1."""',
-        "    n = numpy.arange(N, dtype=float)",
-        f"    return numpy.broadcast_to({_code(lam, names)}, (N,)).astype(float)",
+        *function("eigenvalue", "n", "lambda_n of the polynomial problem.", lam, "n.shape"),
+        *function("jacobi_diag", "n", "B_n (closed form).", diag, "n.shape"),
+        *function("jacobi_offdiag_squared", "n", "A_{n+1}^2 (closed form).", a_sq, "n.shape"),
+        *function(
+            "c_ratio",
+            "n",
+            "c_{n+1}/c_n (its sign fixes the sign of A_{n+1}).",
+            c_ratio,
+            "n.shape",
+        ),
+        f"def small_values({signature.lstrip(', ')}):",
+        '    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""',
+        f"    return {values(small_b)}, {values(small_a)}, {values(small_c)}",
         "",
         "",
-        f"def jacobi(N{signature}):",
-        '    """(B_n, A_{n+1}), n < N: x phi_n = A_{n+1} phi_{n+1} + B_n phi_n + A_n phi_{n-1}."""',
-        f"    check_parameters({call.lstrip(', ')})",
-        "    n = numpy.arange(N, dtype=float)",
-        "    with numpy.errstate(all='ignore'):",
-        f"        diag = numpy.broadcast_to({_code(diag, names)}, (N,)).astype(float)",
-        f"        a_sq = numpy.broadcast_to({_code(a_sq, names)}, (N,)).astype(float)",
-        f"        c_ratio = numpy.broadcast_to({_code(c_ratio, names)}, (N,)).astype(float)",
-        f"    small_b = ({', '.join(_code(v, names) for v in small_b)},)",
-        f"    small_a = ({', '.join(_code(v, names) for v in small_a)},)",
-        f"    small_c = ({', '.join(_code(v, names) for v in small_c)},)",
-        "    for k in range(min(N, SMALL_N)):",
-        "        diag[k], a_sq[k], c_ratio[k] = small_b[k], small_a[k], small_c[k]",
-        f"    offdiag = {-p.weight_form.p0_sign} * numpy.sign(c_ratio) * numpy.sqrt(a_sq)",
-        "    return diag, offdiag",
-        "",
-        "",
-        f"def derivative_bands(N{signature}):",
-        '    """(sub, diag, sup) of 2 p0 d/dx phi_n = sub phi_{n-1} + diag phi_n + sup phi_{n+1}.',
-        "",
-        "    Commutator form (J Lambda - Lambda J) - p0'(J), exact for the infinite operator.",
-        '    """',
-        f"    diag_j, off = jacobi(N{call})",
-        f"    lam = eigenvalues(N + 1{call})",
-        "    sup = off * (lam[:-1] - lam[1:] - " + _code(slope, names) + ")",
-        "    sub = numpy.zeros(N)",
-        "    sub[1:] = off[:-1] * (lam[1:N] - lam[: N - 1] - " + _code(slope, names) + ")",
-        f"    diag = -({_code(slope, names)} * diag_j + {_code(intercept, names)})",
-        "    return sub, diag, sup",
-        "",
-        "",
-        f"def log_phi0(x{signature}):",
-        '    """(log|phi_0(x)|, sign phi_0(x)) with phi_0 = sqrt(w) c_0 / d_0."""',
-        "    x = numpy.asarray(x, dtype=float)",
-        "    with numpy.errstate(divide='ignore', invalid='ignore'):",
-        f"        log_w = numpy.broadcast_to({_code(log_w, names)}, x.shape)",
-        f"    value = 0.5 * log_w - 0.5 * ({_code(log_mass, names)})",
-        f"    return value, numpy.full(x.shape, {float(sign_c0)!r})",
+        *function("log_weight", "x", "log w(x) of the normal-form weight.", log_w, "x.shape"),
+        f"def log_mass({signature.lstrip(', ')}):",
+        '    """log of d_0^2 / c_0^2 = ∫ w."""',
+        f"    return {_code(log_mass, names)}",
         "",
     ]
     source = "\n".join(lines)

@@ -1,8 +1,9 @@
-"""Generated kernel for Gegenbauer C_n^(lam): gegenbauer. DO NOT EDIT.
+"""Generated closed forms for Gegenbauer C_n^(lam): gegenbauer. DO NOT EDIT.
 
-Regenerate with ``python -m slbasis.kernels``. Source: SturmLiouville(p0=1 - x**2, p1=-2*lam*x - x, q0=0),
-standardisation c_n = (-1)**n*gamma(lam + 1/2)*gamma(2*lam + n)/(2**n*factorial(n)*gamma(2*lam)*gamma(lam + n + 1/2)). Functions frame phi_n = sqrt(w) p_n,
-L^2-orthonormal on the interval; conventions in slbasis.numeric.kernel.
+Regenerate with ``python -m slbasis.kernels``.
+Source: SturmLiouville(p0=1 - x**2, p1=-2*lam*x - x, q0=0),
+standardisation c_n = (-1)**n*gamma(lam + 1/2)*gamma(2*lam + n)/(2**n*factorial(n)*gamma(2*lam)*gamma(lam + n + 1/2)). Functions n -> closed forms in n (arrays),
+used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 """
 
 import math
@@ -14,7 +15,8 @@ interval = (-1, 1)
 p0 = (1.0, 0.0, -1.0)
 PARAMETERS = ("lam",)
 DEFAULTS = {"lam": 1}
-SMALL_N = 4
+P0_SIGN = 1  # sign of p0 on the interval
+SIGN_C0 = 1  # sign of the Rodrigues constant c_0
 
 
 def check_parameters(lam):
@@ -24,70 +26,56 @@ def check_parameters(lam):
     return None
 
 
-def eigenvalues(N, lam):
-    """lambda_n of the polynomial problem, n = 0..N-1."""
-    n = numpy.arange(N, dtype=float)
-    return numpy.broadcast_to(2 * lam * n + n**2, (N,)).astype(float)
+def eigenvalue(n, lam):
+    """lambda_n of the polynomial problem."""
+    return numpy.broadcast_to(2 * lam * n + n**2, n.shape).astype(float)
 
 
-def jacobi(N, lam):
-    """(B_n, A_{n+1}), n < N: x phi_n = A_{n+1} phi_{n+1} + B_n phi_n + A_n phi_{n-1}."""
-    check_parameters(lam=lam)
-    n = numpy.arange(N, dtype=float)
-    with numpy.errstate(all="ignore"):
-        diag = numpy.broadcast_to(0, (N,)).astype(float)
-        a_sq = numpy.broadcast_to(
-            (1 / 4) * (2 * lam + n) * (n + 1) / ((lam + n) * (lam + n + 1)), (N,)
-        ).astype(float)
-        c_ratio = numpy.broadcast_to(
-            -(2 * lam + n) / ((n + 1) * (2 * lam + 2 * n + 1)), (N,)
-        ).astype(float)
-    small_b = (
-        0,
-        0,
-        0,
-        0,
+def jacobi_diag(n, lam):
+    """B_n (closed form)."""
+    return numpy.broadcast_to(0, n.shape).astype(float)
+
+
+def jacobi_offdiag_squared(n, lam):
+    """A_{n+1}^2 (closed form)."""
+    return numpy.broadcast_to(
+        (1 / 4) * (2 * lam + n) * (n + 1) / ((lam + n) * (lam + n + 1)), n.shape
+    ).astype(float)
+
+
+def c_ratio(n, lam):
+    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1})."""
+    return numpy.broadcast_to(-(2 * lam + n) / ((n + 1) * (2 * lam + 2 * n + 1)), n.shape).astype(
+        float
     )
-    small_a = (
-        (1 / 2) / (lam + 1),
-        (1 / 2) * (2 * lam + 1) / ((lam + 1) * (lam + 2)),
-        (3 / 2) * (lam + 1) / ((lam + 2) * (lam + 3)),
-        (2 * lam + 3) / ((lam + 3) * (lam + 4)),
+
+
+def small_values(lam):
+    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""
+    return (
+        (0, 0, 0, 0),
+        (
+            (1 / 2) / (lam + 1),
+            (1 / 2) * (2 * lam + 1) / ((lam + 1) * (lam + 2)),
+            (3 / 2) * (lam + 1) / ((lam + 2) * (lam + 3)),
+            (2 * lam + 3) / ((lam + 3) * (lam + 4)),
+        ),
+        (
+            -2 * lam / (2 * lam + 1),
+            -1 / 2 * (2 * lam + 1) / (2 * lam + 3),
+            -2 / 3 * (lam + 1) / (2 * lam + 5),
+            -1 / 4 * (2 * lam + 3) / (2 * lam + 7),
+        ),
     )
-    small_c = (
-        -2 * lam / (2 * lam + 1),
-        -1 / 2 * (2 * lam + 1) / (2 * lam + 3),
-        -2 / 3 * (lam + 1) / (2 * lam + 5),
-        -1 / 4 * (2 * lam + 3) / (2 * lam + 7),
-    )
-    for k in range(min(N, SMALL_N)):
-        diag[k], a_sq[k], c_ratio[k] = small_b[k], small_a[k], small_c[k]
-    offdiag = -1 * numpy.sign(c_ratio) * numpy.sqrt(a_sq)
-    return diag, offdiag
 
 
-def derivative_bands(N, lam):
-    """(sub, diag, sup) of 2 p0 d/dx phi_n = sub phi_{n-1} + diag phi_n + sup phi_{n+1}.
-
-    Commutator form (J Lambda - Lambda J) - p0'(J), exact for the infinite operator.
-    """
-    diag_j, off = jacobi(N, lam=lam)
-    lam = eigenvalues(N + 1, lam=lam)
-    sup = off * (lam[:-1] - lam[1:] - -2)
-    sub = numpy.zeros(N)
-    sub[1:] = off[:-1] * (lam[1:N] - lam[: N - 1] - -2)
-    diag = -(-2 * diag_j + 0)
-    return sub, diag, sup
+def log_weight(x, lam):
+    """log w(x) of the normal-form weight."""
+    return numpy.broadcast_to(
+        (lam - 1 / 2) * numpy.log(1 - x) + (lam - 1 / 2) * numpy.log(x + 1), x.shape
+    ).astype(float)
 
 
-def log_phi0(x, lam):
-    """(log|phi_0(x)|, sign phi_0(x)) with phi_0 = sqrt(w) c_0 / d_0."""
-    x = numpy.asarray(x, dtype=float)
-    with numpy.errstate(divide="ignore", invalid="ignore"):
-        log_w = numpy.broadcast_to(
-            (lam - 1 / 2) * numpy.log(1 - x) + (lam - 1 / 2) * numpy.log(x + 1), x.shape
-        )
-    value = 0.5 * log_w - 0.5 * (
-        2 * lam * numpy.log(2) + 2 * math.lgamma(lam + 1 / 2) - math.lgamma(2 * lam + 1)
-    )
-    return value, numpy.full(x.shape, 1.0)
+def log_mass(lam):
+    """log of d_0^2 / c_0^2 = ∫ w."""
+    return 2 * lam * numpy.log(2) + 2 * math.lgamma(lam + 1 / 2) - math.lgamma(2 * lam + 1)

@@ -1,8 +1,9 @@
-"""Generated kernel for Hermite functions h_n: hermite_functions. DO NOT EDIT.
+"""Generated closed forms for Hermite functions h_n: hermite_functions. DO NOT EDIT.
 
-Regenerate with ``python -m slbasis.kernels``. Source: SturmLiouville(p0=1, p1=0, q0=x**2),
-standardisation c_n = (-1)**n. Functions frame phi_n = sqrt(w) p_n,
-L^2-orthonormal on the interval; conventions in slbasis.numeric.kernel.
+Regenerate with ``python -m slbasis.kernels``.
+Source: SturmLiouville(p0=1, p1=0, q0=x**2),
+standardisation c_n = (-1)**n. Functions n -> closed forms in n (arrays),
+used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 """
 
 import math
@@ -14,7 +15,8 @@ interval = (-math.inf, math.inf)
 p0 = (1.0, 0.0, 0.0)
 PARAMETERS = ()
 DEFAULTS = {}
-SMALL_N = 4
+P0_SIGN = 1  # sign of p0 on the interval
+SIGN_C0 = 1  # sign of the Rodrigues constant c_0
 
 
 def check_parameters():
@@ -22,62 +24,36 @@ def check_parameters():
     return None
 
 
-def eigenvalues(N):
-    """lambda_n of the polynomial problem, n = 0..N-1."""
-    n = numpy.arange(N, dtype=float)
-    return numpy.broadcast_to(2 * n, (N,)).astype(float)
+def eigenvalue(n):
+    """lambda_n of the polynomial problem."""
+    return numpy.broadcast_to(2 * n, n.shape).astype(float)
 
 
-def jacobi(N):
-    """(B_n, A_{n+1}), n < N: x phi_n = A_{n+1} phi_{n+1} + B_n phi_n + A_n phi_{n-1}."""
-    check_parameters()
-    n = numpy.arange(N, dtype=float)
-    with numpy.errstate(all="ignore"):
-        diag = numpy.broadcast_to(0, (N,)).astype(float)
-        a_sq = numpy.broadcast_to((1 / 2) * n + 1 / 2, (N,)).astype(float)
-        c_ratio = numpy.broadcast_to(-1, (N,)).astype(float)
-    small_b = (
-        0,
-        0,
-        0,
-        0,
-    )
-    small_a = (
-        1 / 2,
-        1,
-        3 / 2,
-        2,
-    )
-    small_c = (
-        -1,
-        -1,
-        -1,
-        -1,
-    )
-    for k in range(min(N, SMALL_N)):
-        diag[k], a_sq[k], c_ratio[k] = small_b[k], small_a[k], small_c[k]
-    offdiag = -1 * numpy.sign(c_ratio) * numpy.sqrt(a_sq)
-    return diag, offdiag
+def jacobi_diag(n):
+    """B_n (closed form)."""
+    return numpy.broadcast_to(0, n.shape).astype(float)
 
 
-def derivative_bands(N):
-    """(sub, diag, sup) of 2 p0 d/dx phi_n = sub phi_{n-1} + diag phi_n + sup phi_{n+1}.
-
-    Commutator form (J Lambda - Lambda J) - p0'(J), exact for the infinite operator.
-    """
-    diag_j, off = jacobi(N)
-    lam = eigenvalues(N + 1)
-    sup = off * (lam[:-1] - lam[1:] - 0)
-    sub = numpy.zeros(N)
-    sub[1:] = off[:-1] * (lam[1:N] - lam[: N - 1] - 0)
-    diag = -(0 * diag_j + 0)
-    return sub, diag, sup
+def jacobi_offdiag_squared(n):
+    """A_{n+1}^2 (closed form)."""
+    return numpy.broadcast_to((1 / 2) * n + 1 / 2, n.shape).astype(float)
 
 
-def log_phi0(x):
-    """(log|phi_0(x)|, sign phi_0(x)) with phi_0 = sqrt(w) c_0 / d_0."""
-    x = numpy.asarray(x, dtype=float)
-    with numpy.errstate(divide="ignore", invalid="ignore"):
-        log_w = numpy.broadcast_to(-(x**2), x.shape)
-    value = 0.5 * log_w - 0.5 * ((1 / 2) * numpy.log(numpy.pi))
-    return value, numpy.full(x.shape, 1.0)
+def c_ratio(n):
+    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1})."""
+    return numpy.broadcast_to(-1, n.shape).astype(float)
+
+
+def small_values():
+    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""
+    return (0, 0, 0, 0), (1 / 2, 1, 3 / 2, 2), (-1, -1, -1, -1)
+
+
+def log_weight(x):
+    """log w(x) of the normal-form weight."""
+    return numpy.broadcast_to(-(x**2), x.shape).astype(float)
+
+
+def log_mass():
+    """log of d_0^2 / c_0^2 = ∫ w."""
+    return (1 / 2) * numpy.log(numpy.pi)

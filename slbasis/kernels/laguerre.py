@@ -1,8 +1,9 @@
-"""Generated kernel for Laguerre L_n^(alpha): laguerre. DO NOT EDIT.
+"""Generated closed forms for Laguerre L_n^(alpha): laguerre. DO NOT EDIT.
 
-Regenerate with ``python -m slbasis.kernels``. Source: SturmLiouville(p0=x, p1=alpha - x + 1, q0=0),
-standardisation c_n = 1/factorial(n). Functions frame phi_n = sqrt(w) p_n,
-L^2-orthonormal on the interval; conventions in slbasis.numeric.kernel.
+Regenerate with ``python -m slbasis.kernels``.
+Source: SturmLiouville(p0=x, p1=alpha - x + 1, q0=0),
+standardisation c_n = 1/factorial(n). Functions n -> closed forms in n (arrays),
+used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 """
 
 import math
@@ -14,7 +15,8 @@ interval = (0, math.inf)
 p0 = (0.0, 1.0, 0.0)
 PARAMETERS = ("alpha",)
 DEFAULTS = {"alpha": 0}
-SMALL_N = 4
+P0_SIGN = 1  # sign of p0 on the interval
+SIGN_C0 = 1  # sign of the Rodrigues constant c_0
 
 
 def check_parameters(alpha):
@@ -24,62 +26,40 @@ def check_parameters(alpha):
     return None
 
 
-def eigenvalues(N, alpha):
-    """lambda_n of the polynomial problem, n = 0..N-1."""
-    n = numpy.arange(N, dtype=float)
-    return numpy.broadcast_to(n, (N,)).astype(float)
+def eigenvalue(n, alpha):
+    """lambda_n of the polynomial problem."""
+    return numpy.broadcast_to(n, n.shape).astype(float)
 
 
-def jacobi(N, alpha):
-    """(B_n, A_{n+1}), n < N: x phi_n = A_{n+1} phi_{n+1} + B_n phi_n + A_n phi_{n-1}."""
-    check_parameters(alpha=alpha)
-    n = numpy.arange(N, dtype=float)
-    with numpy.errstate(all="ignore"):
-        diag = numpy.broadcast_to(alpha + 2 * n + 1, (N,)).astype(float)
-        a_sq = numpy.broadcast_to((n + 1) * (alpha + n + 1), (N,)).astype(float)
-        c_ratio = numpy.broadcast_to((n + 1) ** (-1.0), (N,)).astype(float)
-    small_b = (
-        alpha + 1,
-        alpha + 3,
-        alpha + 5,
-        alpha + 7,
+def jacobi_diag(n, alpha):
+    """B_n (closed form)."""
+    return numpy.broadcast_to(alpha + 2 * n + 1, n.shape).astype(float)
+
+
+def jacobi_offdiag_squared(n, alpha):
+    """A_{n+1}^2 (closed form)."""
+    return numpy.broadcast_to((n + 1) * (alpha + n + 1), n.shape).astype(float)
+
+
+def c_ratio(n, alpha):
+    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1})."""
+    return numpy.broadcast_to((n + 1) ** (-1.0), n.shape).astype(float)
+
+
+def small_values(alpha):
+    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""
+    return (
+        (alpha + 1, alpha + 3, alpha + 5, alpha + 7),
+        (alpha + 1, 2 * alpha + 4, 3 * alpha + 9, 4 * alpha + 16),
+        (1, 1 / 2, 1 / 3, 1 / 4),
     )
-    small_a = (
-        alpha + 1,
-        2 * alpha + 4,
-        3 * alpha + 9,
-        4 * alpha + 16,
-    )
-    small_c = (
-        1,
-        1 / 2,
-        1 / 3,
-        1 / 4,
-    )
-    for k in range(min(N, SMALL_N)):
-        diag[k], a_sq[k], c_ratio[k] = small_b[k], small_a[k], small_c[k]
-    offdiag = -1 * numpy.sign(c_ratio) * numpy.sqrt(a_sq)
-    return diag, offdiag
 
 
-def derivative_bands(N, alpha):
-    """(sub, diag, sup) of 2 p0 d/dx phi_n = sub phi_{n-1} + diag phi_n + sup phi_{n+1}.
-
-    Commutator form (J Lambda - Lambda J) - p0'(J), exact for the infinite operator.
-    """
-    diag_j, off = jacobi(N, alpha=alpha)
-    lam = eigenvalues(N + 1, alpha=alpha)
-    sup = off * (lam[:-1] - lam[1:] - 0)
-    sub = numpy.zeros(N)
-    sub[1:] = off[:-1] * (lam[1:N] - lam[: N - 1] - 0)
-    diag = -(0 * diag_j + 1)
-    return sub, diag, sup
+def log_weight(x, alpha):
+    """log w(x) of the normal-form weight."""
+    return numpy.broadcast_to(alpha * numpy.log(x) - x, x.shape).astype(float)
 
 
-def log_phi0(x, alpha):
-    """(log|phi_0(x)|, sign phi_0(x)) with phi_0 = sqrt(w) c_0 / d_0."""
-    x = numpy.asarray(x, dtype=float)
-    with numpy.errstate(divide="ignore", invalid="ignore"):
-        log_w = numpy.broadcast_to(alpha * numpy.log(x) - x, x.shape)
-    value = 0.5 * log_w - 0.5 * (math.lgamma(alpha + 1))
-    return value, numpy.full(x.shape, 1.0)
+def log_mass(alpha):
+    """log of d_0^2 / c_0^2 = ∫ w."""
+    return math.lgamma(alpha + 1)
