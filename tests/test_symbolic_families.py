@@ -78,7 +78,7 @@ def test_derivative_matrix_is_rectangular_and_exact() -> None:
 
 @pytest.mark.parametrize("name", ["hermite", "laguerre", "legendre", "chebyshev_t", "jacobi"])
 def test_printed_eq11_pattern_documented_in_derivations(name: str) -> None:
-    """derivations/README.md: printed eq. (11) == -(J Lambda - Lambda J) - p0'' (A_n on phi_{n-1})."""
+    """derivations/README.md: printed (11) == -(J Lambda - Lambda J) - p0'' (A_n on phi_{n-1})."""
     prob = families[name]()
     printed = prob.derivative_operator_form("functions", "printed")
     lam = prob.closed.eigenvalue
