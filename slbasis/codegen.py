@@ -48,8 +48,16 @@ CATALOGUE = {
 }
 
 
+class _XLogY(sp.Function):
+    """``c * log(z)`` with ``0 * log(0) = 0`` (printed as ``scipy.special.xlogy``)."""
+
+
 class _Printer(NumPyPrinter):
     """numpy for arrays in ``n`` / ``x``; ``math`` for Gamma functions of the parameters."""
+
+    def _print__XLogY(self, expr: sp.Expr) -> str:
+        c, z = (self._print(a) for a in expr.args)
+        return f"scipy.special.xlogy({c}, {z})"
 
     def _print_loggamma(self, expr: sp.Expr) -> str:
         return f"math.lgamma({self._print(expr.args[0])})"
@@ -66,12 +74,23 @@ def _code(expr: sp.Expr, names: dict[sp.Symbol, str]) -> str:
 
 
 def _log_expr(expr: sp.Expr) -> sp.Expr:
-    """``log(expr)`` expanded (positive factors on the interval) with ``log Γ -> loggamma``."""
+    """``log(expr)`` expanded (positive factors on the interval) with ``log Γ -> loggamma``
+    and ``c log(z) -> xlogy(c, z)`` (so that ``w = x^0 e^-x`` is finite at ``x = 0``)."""
     out = sp.expand_log(sp.log(expr), force=True)
-    return out.replace(
+    out = out.replace(
         lambda e: isinstance(e, sp.log) and isinstance(e.args[0], sp.gamma),
         lambda e: sp.loggamma(e.args[0].args[0]),
     )
+    terms = []
+    for term in sp.Add.make_args(sp.expand(out)):
+        factors = sp.Mul.make_args(term)
+        logs = [f for f in factors if isinstance(f, sp.log) and f.has(X)]
+        if len(logs) == 1:
+            coeff = sp.Mul(*[f for f in factors if f is not logs[0]])
+            terms.append(_XLogY(coeff, logs[0].args[0]))
+        else:
+            terms.append(term)
+    return sp.Add(*terms)
 
 
 def _rational(expr: sp.Expr) -> sp.Expr:
@@ -137,6 +156,7 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         "import math",
         "",
         "import numpy",
+        "import scipy.special",
         "",
         f"name = {name!r}",
         f"interval = ({_code(a, names)}, {_code(b, names)})".replace("numpy.inf", "math.inf"),
@@ -174,8 +194,11 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         "",
     ]
     source = "\n".join(lines)
-    if "math." not in source.split('"""', 2)[2]:
+    body = source.split('"""', 2)[2]
+    if "math." not in body:
         source = source.replace("import math\n\n", "", 1)
+    if "scipy.special." not in body.replace("import scipy.special", ""):
+        source = source.replace("import scipy.special\n", "", 1)
     return source
 
 

@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from generated_kernels import ALL, HERMITE, LAGUERRE, LEGENDRE
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numeric_kernels_fixture import ALL, HERMITE, LAGUERRE, LEGENDRE
 
 from slbasis.numeric import Basis, gauss
 

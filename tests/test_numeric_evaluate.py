@@ -3,9 +3,9 @@
 import mpmath
 import numpy as np
 import pytest
+from generated_kernels import CHEBYSHEV_T, HERMITE, LAGUERRE, LEGENDRE
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numeric_kernels_fixture import CHEBYSHEV_T, HERMITE, LAGUERRE, LEGENDRE
 
 from slbasis.numeric import evaluate
 from slbasis.numeric.quadrature import gauss

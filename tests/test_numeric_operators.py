@@ -4,7 +4,7 @@ import warnings
 
 import numpy as np
 import pytest
-from numeric_kernels_fixture import ALL, CHEBYSHEV_T, HERMITE, LAGUERRE, LEGENDRE
+from generated_kernels import ALL, CHEBYSHEV_T, HERMITE, LAGUERRE, LEGENDRE
 
 from slbasis.numeric import (
     Basis,

@@ -4,9 +4,9 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from generated_kernels import HERMITE, LEGENDRE
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numeric_kernels_fixture import HERMITE, LEGENDRE
 
 from slbasis.numeric import Basis, sample_weights
 

@@ -4,7 +4,7 @@ import mpmath
 import numpy as np
 import pytest
 import scipy.special as sps
-from numeric_kernels_fixture import ALL, HERMITE, LAGUERRE, LEGENDRE
+from generated_kernels import ALL, HERMITE, LAGUERRE, LEGENDRE
 
 from slbasis.numeric import evaluate, gauss
 

@@ -7,6 +7,7 @@ used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 """
 
 import numpy
+import scipy.special
 
 name = "chebyshev_u"
 interval = (-1, 1)
@@ -50,7 +51,7 @@ def small_values():
 def log_weight(x):
     """log w(x) of the normal-form weight."""
     return numpy.broadcast_to(
-        (1 / 2) * numpy.log(1 - x) + (1 / 2) * numpy.log(x + 1), x.shape
+        scipy.special.xlogy(1 / 2, 1 - x) + scipy.special.xlogy(1 / 2, x + 1), x.shape
     ).astype(float)
 
 

@@ -9,6 +9,7 @@ used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 import math
 
 import numpy
+import scipy.special
 
 name = "gegenbauer"
 interval = (-1, 1)
@@ -72,7 +73,11 @@ def small_values(lam):
 def log_weight(x, lam):
     """log w(x) of the normal-form weight."""
     return numpy.broadcast_to(
-        (lam - 1 / 2) * numpy.log(1 - x) + (lam - 1 / 2) * numpy.log(x + 1), x.shape
+        scipy.special.xlogy(-1 / 2, 1 - x)
+        + scipy.special.xlogy(-1 / 2, x + 1)
+        + scipy.special.xlogy(lam, 1 - x)
+        + scipy.special.xlogy(lam, x + 1),
+        x.shape,
     ).astype(float)
 
 

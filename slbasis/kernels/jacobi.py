@@ -9,6 +9,7 @@ used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 import math
 
 import numpy
+import scipy.special
 
 name = "jacobi"
 interval = (-1, 1)
@@ -96,16 +97,18 @@ def small_values(alpha, beta):
 
 def log_weight(x, alpha, beta):
     """log w(x) of the normal-form weight."""
-    return numpy.broadcast_to(alpha * numpy.log(1 - x) + beta * numpy.log(x + 1), x.shape).astype(
-        float
-    )
+    return numpy.broadcast_to(
+        scipy.special.xlogy(alpha, 1 - x) + scipy.special.xlogy(beta, x + 1), x.shape
+    ).astype(float)
 
 
 def log_mass(alpha, beta):
     """log of d_0^2 / c_0^2 = ∫ w."""
     return (
-        (alpha + beta + 1) * numpy.log(2)
+        alpha * numpy.log(2)
+        + beta * numpy.log(2)
         + math.lgamma(alpha + 1)
         + math.lgamma(beta + 1)
         - math.lgamma(alpha + beta + 2)
+        + numpy.log(2)
     )

@@ -9,6 +9,7 @@ used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).
 import math
 
 import numpy
+import scipy.special
 
 name = "laguerre"
 interval = (0, math.inf)
@@ -57,7 +58,7 @@ def small_values(alpha):
 
 def log_weight(x, alpha):
     """log w(x) of the normal-form weight."""
-    return numpy.broadcast_to(alpha * numpy.log(x) - x, x.shape).astype(float)
+    return numpy.broadcast_to(-x + scipy.special.xlogy(alpha, x), x.shape).astype(float)
 
 
 def log_mass(alpha):

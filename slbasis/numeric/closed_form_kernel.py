@@ -14,7 +14,8 @@ and lives here, once:
   ``phi_n = sqrt(w) p_n`` (seed eq. 11 in commutator form, proved equal to the ladder form):
   ``sup_n = A_{n+1}(lambda_n - lambda_{n+1} - 2 c2)``, ``diag_n = -(2 c2 B_n + c1)``,
   ``sub_n = A_n(lambda_n - lambda_{n-1} - 2 c2)`` for ``p0 = c0 + c1 x + c2 x^2``;
-* ``log_phi0(x) = log(w)/2 - log(∫ w)/2`` with the sign of ``c_0``.
+* ``log_phi0(x) = log(w)/2 - log(∫ w)/2`` with the sign of ``c_0`` (``-inf`` outside the
+  interval: ``phi_n = 0`` there).
 """
 
 from __future__ import annotations
@@ -85,4 +86,6 @@ class ClosedFormKernel:
         with np.errstate(divide="ignore", invalid="ignore"):
             log_w = self.module.log_weight(x, **self.params)
         value = 0.5 * log_w - 0.5 * self.module.log_mass(**self.params)
+        a, b = self.interval
+        value = np.where((x < a) | (x > b), -np.inf, value)  # the functions live on (a, b)
         return value, np.full(x.shape, float(self.module.SIGN_C0))
