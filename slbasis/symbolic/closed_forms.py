@@ -207,10 +207,3 @@ class ClosedForms:
     def jacobi_diag(self) -> sp.Expr:
         """``B_n = beta_n``."""
         return self.recurrence_free[1]
-
-    def linear_coefficients(self, poly: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
-        """``(slope, intercept)`` of a polynomial of degree <= 1 in x."""
-        P = sp.Poly(poly, X)
-        if P.degree() > 1:
-            raise ValueError(f"{poly} has degree > 1")
-        return P.coeff_monomial(X), P.coeff_monomial(1)

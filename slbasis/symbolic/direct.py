@@ -92,8 +92,8 @@ class DirectComputation:
         """``∫ poly w / ∫ w`` exactly, for a Poly over the working domain.
 
         In the normal-form variable ``t`` (``x = shift + scale t``) the moment ratios are
-        products ``M_i = prod_{j<=i} a_j / b_j`` (Euler integrals, see
-        :meth:`WeightForm.moment_ratio`): ``a_j/b_j = (A1+j-1)/(A1+A2+j-1)`` (Jacobi),
+        products ``M_i = prod_{j<=i} a_j / b_j`` (ratios of Euler integrals, Pochhammer
+        symbols): ``a_j/b_j = (A1+j-1)/(A1+A2+j-1)`` (Jacobi),
         ``(A+j-1)/s`` (Laguerre); Hermite has ``M_odd = 0`` and
         ``M_{2j} = M_{2j-2} (2j-1)/(2s)``.  Summing over the common denominator
         ``prod b_j`` keeps every step polynomial in the parameters, with a single division

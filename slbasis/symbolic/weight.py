@@ -87,44 +87,6 @@ class WeightForm:
             return sp.gamma(d["A"]) / d["s"] ** d["A"]
         return sp.sqrt(sp.pi / d["s"])
 
-    def moment_ratio(self, k: int) -> sp.Expr:
-        """``∫ x^k w / ∫ w`` exactly; a rational function of the parameters.
-
-        Shift to the normal-form variable and expand ``x^k`` binomially; the ratios of
-        Euler integrals are Pochhammer symbols: ``B(i+A1, A2)/B(A1, A2) = (A1)_i/(A1+A2)_i``,
-        ``Γ(i+A)/(Γ(A) s^i) = (A)_i/s^i``, ``Γ(j+1/2)/(Γ(1/2) s^j) = (1/2)_j/s^j``.
-        """
-        d = self.data
-        rf = sp.RisingFactorial
-        if self.kind == "jacobi":
-            r1, length, a1, a2 = d["r1"], d["r2"] - d["r1"], d["A1"], d["A2"]
-            terms = [
-                sp.binomial(k, i) * r1 ** (k - i) * length**i * rf(a1, i) / rf(a1 + a2, i)
-                for i in range(k + 1)
-            ]
-        elif self.kind == "laguerre":
-            r, a, s, side = d["r"], d["A"], d["s"], d["side"]
-            terms = [
-                sp.binomial(k, i) * r ** (k - i) * side**i * rf(a, i) / s**i for i in range(k + 1)
-            ]
-        else:
-            m, s = d["m"], d["s"]
-            terms = [
-                sp.binomial(k, i) * m ** (k - i) * rf(sp.Rational(1, 2), i // 2) / s ** (i // 2)
-                for i in range(0, k + 1, 2)
-            ]
-        return sp.cancel(sp.expand_func(sp.Add(*terms)))
-
-    def moment(self, k: int) -> sp.Expr:
-        """``∫ x^k w(x) dx`` over the interval, exactly."""
-        return self.total_mass * self.moment_ratio(k)
-
-    def integrate_polynomial(self, poly: sp.Expr | sp.Poly) -> sp.Expr:
-        """``∫ poly(x) w(x) dx`` exactly, by linearity over the moments."""
-        p = poly if isinstance(poly, sp.Poly) else sp.Poly(sp.expand(poly), X)
-        ratio = sp.Add(*(coef * self.moment_ratio(k) for (k,), coef in p.terms()))
-        return self.total_mass * sp.factor(sp.cancel(ratio))
-
 
 def classify(p0: sp.Expr, p1: sp.Expr) -> WeightForm:
     """Weight, interval and class of ``p0 P'' + p1 P' = -lambda P`` (seed eq. 9).
