@@ -50,7 +50,7 @@ ENERGY_FRACTION = 0.99
 #: default past windows tried by the AIC rule
 P_DEFAULT_RANGE = (2, 6)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
-COLS_PER_REGRESSOR = 8
+COLS_PER_REGRESSOR = 6
 DEFAULT_MAX_ORDER = 10
 
 
@@ -222,15 +222,15 @@ def run_core(
     inputs ``P`` (q x N) with the lag operator ``lag``.
 
     Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.varx.select_past_window`)
-    over ``p_range`` (default 2..6), capped so that ``p (m + q + l) <= ncols / 8`` (the
+    over ``p_range`` (default 2..6), capped so that ``p (m + q + l) <= ncols / 6`` (the
     regression has ``p (m + q + l)`` unknowns per output but only ``ncols`` columns);
     ``f = p``.  Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
     """
     m, l, q = U.shape[0], Y.shape[0], P.shape[0]
     ncols = Y.shape[1]
-    # order selection needs at least 2 singular values (f l >= 2); the candidates are then
-    # the orders 1..min(max_order, f l - 1)
-    need = order if order is not None else 2
+    # order selection: at least 3 singular values (f l >= 3, so that orders 1 and 2 are
+    # both candidates); the candidates are the orders 1..min(max_order, f l - 1)
+    need = order if order is not None else 3
     f_min = -(-need // l)
     d = m + q + l
     su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)

@@ -136,7 +136,7 @@ def identify_hermite(
     * ``scale``: the record fills 90 % of the effective support (``slbasis.basis``);
     * ``alpha = 4 * scale``, ``beta = gamma = 1`` (DESIGN.md: 0.1-1 % errors at SNR 20 dB;
       ``A' = (A/alpha + beta I)/gamma`` is then stable for every ``|lambda| < alpha``);
-    * ``p``: AIC over 3..12 with ``p (m + q + l) <= N / 8``; ``f = p``;
+    * ``p``: AIC over 3..12 with ``p (m + q + l) <= N / 6``; ``f = p``;
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``

@@ -52,7 +52,7 @@ Array = NDArray[np.float64]
 
 #: Laguerre functions: largest node ``x_N ~ 4 N``; record fills 90 % of ``[0, x_N]``
 LAGUERRE_SUPPORT = 4.0 * 0.9
-N_MIN, N_MAX = 50, 600
+N_MIN, N_MAX = 100, 600
 
 
 def cayley(A: Array, B: Array, C: Array, D: Array, a: float) -> tuple[Array, Array, Array, Array]:
@@ -129,8 +129,8 @@ def identify_laguerre(
     * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
       energy), so the Laguerre pole sits inside the excited band;
     * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
-      ``N = 2 a T / 3.6`` clipped to ``[50, 600]`` and ``<= Ns / 2``; (filter): 30;
-    * ``p``: AIC over 2..6 (projection: ``p (m + q + l) <= N / 8``); ``f = p``;
+      ``N = 2 a T / 3.6`` clipped to ``[100, 600]`` and ``<= Ns / 2``; (filter): 30;
+    * ``p``: AIC over 2..6 (projection: ``p (m + q + l) <= N / 6``); ``f = p``;
     * ``order``: largest log-gap of the singular values;
     * filter variant: ``burn_in = min(T / 4, 10 / a)`` s skipped, ``n_times = 300``
       evenly spaced sample times after it;
@@ -157,7 +157,7 @@ def identify_laguerre(
         if N is None:
             N = int(np.ceil(2 * a * T / LAGUERRE_SUPPORT))
             N = min(max(N_MIN, min(N, N_MAX)), ns // 2)
-            n_rule = f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT} in [50, 600]"
+            n_rule = f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT} in [100, 600]"
         else:
             N = check_positive_int(N, "N", 2)
             n_rule = "given"
