@@ -235,9 +235,12 @@ def run_core(
     d = m + q + l
     su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
     sy = _rms_rows(Y, "y") if normalize else np.ones(l)
-    # pseudo-input rows that vanish (e.g. a Laguerre boundary row underflowing at tN)
-    # carry no term: drop them
-    P = P[np.sqrt(np.mean(P**2, axis=1)) > 0] if q else P
+    # pseudo-input rows that (nearly) vanish, e.g. the Laguerre boundary row at tN where
+    # the functions have decayed to ~e^{-a T}, carry no term: normalising them to unit RMS
+    # would only inject rounding noise, so rows below 1e-8 of the largest are dropped
+    if q:
+        rp = np.sqrt(np.mean(P**2, axis=1))
+        P = P[rp > 1e-8 * rp.max()] if rp.max() > 0 else P[:0]
     q = P.shape[0]
     d = m + q + l
     sp_ = np.sqrt(np.mean(P**2, axis=1)) if q else np.ones(0)
