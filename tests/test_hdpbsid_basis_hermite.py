@@ -1,0 +1,92 @@
+"""HD-PBSID (``identify_hermite``) on the second-order benchmark (seed §3.2, §5).
+
+Measured when written (seeds as below): noise-free 1e-5..3e-5; SNR 20 dB random smooth
+input 0.07-0.3 % (5 seeds); chirp 0.05-2 Hz, SNR 20 dB 0.17-0.43 %; jittered times
+(+-40 %) 0.07-0.2 %; x0 != 0 noise-free 1e-5 with boundary rows, 4-6 % without.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from test_hdpbsid_basis_common import TRUE_EIGS, eig_error, make_data
+
+from hdpbsid.hermite import identify_hermite
+
+
+def test_noise_free_eigenvalues() -> None:
+    for seed in range(2):
+        m = identify_hermite(*make_data(seed), order=2)
+        # issue target 1e-3; measured 3e-5 (trapezoid projection of FOH data, dt = 0.01)
+        assert eig_error(m) < 1e-3
+    m = identify_hermite(*make_data(5, kind="chirp"), order=2)
+    assert eig_error(m) < 1e-3
+
+
+def test_order_selected_and_options_reported() -> None:
+    m = identify_hermite(*make_data(1))
+    assert m.n == 2  # noise-free: the singular values drop by ~10 decades after 2
+    o = m.options
+    for key in ("N", "N_rule", "alpha", "alpha_rule", "beta", "gamma", "p", "p_rule", "scale"):
+        assert key in o
+    assert o["alpha"] == pytest.approx(4 * o["scale"])
+    assert o["beta"] == 1.0 and o["gamma"] == 1.0 and o["boundary"] is True
+    assert o["order_selected"] is True
+    # overrides are honoured and reported
+    m2 = identify_hermite(*make_data(1), order=2, N=250, p=4, alpha=3.0)
+    assert (m2.options["N"], m2.options["p"], m2.options["alpha"]) == (250, 4, 3.0)
+
+
+def test_snr20_random_input_five_seeds() -> None:
+    errs = [eig_error(identify_hermite(*make_data(10 + s, snr=20), order=2)) for s in range(5)]
+    # issue: std <= 2 % of |lambda| over 50 seeds; each of 5 seeds within 2 % (measured
+    # max 0.3 %, so 2 % leaves room for seed-to-seed spread without hiding a bias)
+    assert max(errs) < 0.02
+
+
+def test_chirp_snr20() -> None:
+    for s in range(3):
+        m = identify_hermite(*make_data(20 + s, snr=20, kind="chirp"), order=2)
+        # issue target: within 2 % (measured <= 0.43 %)
+        assert eig_error(m) < 0.02
+
+
+def test_initial_state_boundary_terms() -> None:
+    for s in range(2):
+        data = make_data(30 + s, x0=[1.0, -1.0])
+        on = eig_error(identify_hermite(*data, order=2))
+        off = eig_error(identify_hermite(*data, order=2, boundary=False))
+        # with the boundary rows the equation is exact: noise-free target 1e-3 (measured
+        # 1e-5); without them the missing x(t0) phi(t0) term biases by several percent
+        assert on < 1e-3
+        assert off > 10 * on
+
+
+def test_nonuniform_times_within_1p5_of_uniform() -> None:
+    uni = [eig_error(identify_hermite(*make_data(10 + s, snr=20), order=2)) for s in range(12)]
+    jit = [
+        eig_error(identify_hermite(*make_data(10 + s, snr=20, jitter=0.4), order=2))
+        for s in range(12)
+    ]
+    # issue target: accuracy within 1.5x of the uniform case.  Mean over the same 12 seeds
+    # (per-seed errors scatter 2-3x; 16 seeds measured: ratio 0.94)
+    assert np.mean(jit) <= 1.5 * np.mean(uni)
+
+
+@pytest.mark.slow
+def test_monte_carlo_bias_and_std() -> None:
+    """Bias and STD of the eigenvalues at SNR 20 dB (SLOW=1: the issue's 50 seeds)."""
+    n = 50 if os.environ.get("SLOW") else 12
+    est = []
+    for s in range(n):
+        ev = identify_hermite(*make_data(100 + s, snr=20), order=2).eigenvalues
+        est.append(ev[np.argsort(ev.imag)])
+    est = np.array(est)
+    tru = TRUE_EIGS[np.argsort(TRUE_EIGS.imag)]
+    bias = np.abs(est.mean(axis=0) - tru) / np.abs(tru)
+    std = np.sqrt(np.mean(np.abs(est - est.mean(axis=0)) ** 2, axis=0)) / np.abs(tru)
+    # issue targets: bias <= 1 %, std <= 2 % of |lambda| (measured ~0.1 % and ~0.1 %)
+    assert bias.max() <= 0.01
+    assert std.max() <= 0.02
