@@ -1,0 +1,445 @@
+"""Command line: ``hdpbsid identify FILE.csv ...`` and ``hdpbsid demo``.
+
+DESIGN.md, "The public surface" (command line) and issue 4, item 7.  :func:`main` takes
+an argument list and *returns* an exit code (0 success, 1 identification failed,
+2 usage / input error); it never calls ``sys.exit`` (DESIGN.md, "What users would pick
+instead": no ``sys.exit()`` inside a library).  Only this module prints.
+
+``identify`` reads a CSV with a header row, picks the time, input and output columns
+by name, identifies a continuous-time model, prints it with its eigenvalues and writes
+``model.json`` (:func:`model_to_dict`) and ``identification.png`` (singular values,
+measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
+
+``demo`` simulates the closed-loop quadrotor pitch benchmark
+(:func:`hdpbsid.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
+available method (``hermite`` if it is available, else ``dt``), prints identified vs
+true eigenvalues and the fit, and writes the same files plus ``eigenvalues.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import json
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from .identify import available_methods, identify, is_available
+from .metrics import eigenvalue_errors, match_eigenvalues
+from .model import StateSpaceModel
+
+__all__ = [
+    "main",
+    "build_parser",
+    "best_method",
+    "read_csv_columns",
+    "model_to_dict",
+    "model_from_dict",
+    "write_model_json",
+    "read_model_json",
+    "CLIError",
+]
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+
+
+class CLIError(Exception):
+    """A usage or input problem: reported on stderr, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse without ``sys.exit``: errors raise :class:`CLIError`."""
+
+    def error(self, message: str) -> Any:  # type: ignore[override]
+        raise CLIError(f"{self.prog}: {message}")
+
+    def exit(self, status: int = 0, message: str | None = None) -> Any:  # type: ignore[override]
+        if message:
+            sys.stderr.write(message)
+        raise _HelpExit(status)
+
+
+class _HelpExit(Exception):
+    def __init__(self, status: int) -> None:
+        super().__init__(status)
+        self.status = status
+
+
+# -- JSON ---------------------------------------------------------------------------------
+def _jsonable(x: Any) -> Any:
+    """Convert numpy arrays/scalars, complex numbers and containers to JSON values.
+
+    Complex numbers become ``{"real": ..., "imag": ...}``; anything else unknown becomes
+    its ``repr`` (options may hold callables or objects; they are recorded, not lost).
+    """
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, np.generic):
+        return _jsonable(x.item())
+    if isinstance(x, complex):
+        return {"real": x.real, "imag": x.imag}
+    if isinstance(x, float):
+        return x if np.isfinite(x) else repr(x)
+    if x is None or isinstance(x, bool | int | str):
+        return x
+    return repr(x)
+
+
+def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
+    """JSON-ready description of a model: ``A, B, C, D, K`` (nested lists),
+    ``eigenvalues`` (list of ``{"real", "imag"}``), ``singular_values``, ``options``,
+    ``n, m, l`` and ``"time": "continuous"``."""
+    sv = model.singular_values
+    return {
+        "time": "continuous",
+        "n": model.n,
+        "m": model.m,
+        "l": model.l,
+        "A": model.A.tolist(),
+        "B": model.B.tolist(),
+        "C": model.C.tolist(),
+        "D": model.D.tolist(),
+        "K": model.K.tolist(),
+        "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
+        "singular_values": None if sv is None else np.asarray(sv, dtype=float).tolist(),
+        "options": _jsonable(model.options),
+    }
+
+
+def model_from_dict(d: dict[str, Any]) -> StateSpaceModel:
+    """Inverse of :func:`model_to_dict` (options come back as plain JSON values)."""
+    try:
+        mats = [np.array(d[k], dtype=float) for k in ("A", "B", "C", "D", "K")]
+    except KeyError as exc:
+        raise ValueError(f"model dict lacks the matrix {exc.args[0]!r}") from exc
+    n, m, l = int(d["n"]), int(d["m"]), int(d["l"])
+    shapes = [(n, n), (n, m), (l, n), (l, m), (n, l)]
+    mats = [M.reshape(s) for M, s in zip(mats, shapes, strict=True)]
+    sv = d.get("singular_values")
+    return StateSpaceModel(
+        *mats,
+        singular_values=None if sv is None else np.asarray(sv, dtype=float),
+        options=dict(d.get("options") or {}),
+    )
+
+
+def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
+    """Write :func:`model_to_dict` to ``path`` (indented JSON); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(model_to_dict(model), indent=2) + "\n")
+    return path
+
+
+def read_model_json(path: str | Path) -> StateSpaceModel:
+    """Read a model written by :func:`write_model_json`."""
+    return model_from_dict(json.loads(Path(path).read_text()))
+
+
+# -- CSV ----------------------------------------------------------------------------------
+def _split_columns(values: list[str] | None) -> list[str]:
+    out: list[str] = []
+    for v in values or []:
+        out.extend(c.strip() for c in v.split(",") if c.strip())
+    return out
+
+
+def read_csv_columns(
+    path: str | Path, columns: list[str], delimiter: str | None = None
+) -> dict[str, np.ndarray]:
+    """Read the named columns of a CSV file with a header row as float arrays.
+
+    The delimiter is sniffed (``,``, ``;``, tab or space) unless given.  Raises
+    :class:`CLIError` for a missing file, a missing header, unknown column names (the
+    message lists the available ones) or non-numeric values.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CLIError(f"data file not found: {path}")
+    text = path.read_text()
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        raise CLIError(f"{path}: needs a header row and at least one data row")
+    if delimiter is None:
+        try:
+            delimiter = csv.Sniffer().sniff(lines[0], delimiters=",;\t ").delimiter
+        except csv.Error:
+            delimiter = ","
+    rows = list(csv.reader(lines, delimiter=delimiter, skipinitialspace=True))
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise CLIError(f"{path}: unknown column(s) {missing}; the header has {header}")
+    idx = {c: header.index(c) for c in columns}
+    out: dict[str, np.ndarray] = {}
+    for c, j in idx.items():
+        vals = []
+        for r, row in enumerate(rows[1:], start=2):
+            try:
+                vals.append(float(row[j]))
+            except (IndexError, ValueError) as exc:
+                cell = row[j] if j < len(row) else "<missing>"
+                raise CLIError(f"{path}: line {r}, column {c!r}: not a number: {cell!r}") from exc
+        out[c] = np.asarray(vals)
+    return out
+
+
+# -- commands -----------------------------------------------------------------------------
+def best_method() -> str:
+    """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
+    return "hermite" if is_available("hermite") else "dt"
+
+
+def _parse_options(items: list[str] | None) -> dict[str, Any]:
+    opts: dict[str, Any] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise CLIError(f"--option expects KEY=VALUE, got {item!r}")
+        key, val = item.split("=", 1)
+        try:
+            opts[key.strip()] = ast.literal_eval(val)
+        except (ValueError, SyntaxError):
+            opts[key.strip()] = val
+    return opts
+
+
+def _fmt_complex(z: complex) -> str:
+    if abs(z.imag) <= 1e-12 * max(1.0, abs(z)):
+        return f"{z.real:+.6g}"
+    return f"{z.real:+.6g} {z.imag:+.6g}j"
+
+
+def _print_model(model: StateSpaceModel, out: TextIO) -> None:
+    np.set_printoptions(precision=6, suppress=False, linewidth=100)
+    print(repr(model), file=out)
+    for name in ("A", "B", "C", "D", "K"):
+        print(f"{name} =\n{getattr(model, name)}", file=out)
+    print("eigenvalues:", file=out)
+    for z in model.eigenvalues:
+        print(f"  {_fmt_complex(complex(z))}", file=out)
+
+
+def _print_fit(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, names: list[str], out: TextIO
+) -> None:
+    from .plots import display_fit
+
+    fit = display_fit(model, t, u, y)
+    print(f"fit ({fit.kind}):", file=out)
+    for name, vaf in zip(names, fit.vaf, strict=True):
+        print(f"  VAF {name}: {vaf:.2f} %", file=out)
+
+
+def _check_method(method: str) -> None:
+    if not is_available(method):
+        raise CLIError(
+            f"unknown or unavailable method {method!r}; available: {available_methods()}"
+        )
+
+
+def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
+    inputs = _split_columns(args.inputs)
+    outputs = _split_columns(args.outputs)
+    if not outputs:
+        raise CLIError("--outputs needs at least one column name")
+    overlap = set(inputs) & set(outputs) | ({args.time} & (set(inputs) | set(outputs)))
+    if overlap:
+        raise CLIError(f"columns used twice (time/inputs/outputs): {sorted(overlap)}")
+    method = best_method() if args.method == "auto" else args.method
+    _check_method(method)
+    options = _parse_options(args.option)
+    cols = read_csv_columns(args.file, [args.time, *inputs, *outputs], args.delimiter)
+    t = cols[args.time]
+    u = np.column_stack([cols[c] for c in inputs]) if inputs else None
+    y = np.column_stack([cols[c] for c in outputs])
+    try:
+        model = identify(t, u, y, order=args.order, method=method, **options)
+    except (ValueError, TypeError) as exc:
+        print(f"hdpbsid identify: identification failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    model.options["columns"] = {"time": args.time, "inputs": inputs, "outputs": outputs}
+    model.options["source"] = str(args.file)
+    print(f"method: {method}  inputs: {inputs}  outputs: {outputs}  samples: {t.size}", file=out)
+    _print_model(model, out)
+    uu = np.zeros((t.size, 0)) if u is None else u
+    _print_fit(model, t, uu, y, outputs, out)
+    outdir = Path(args.out)
+    path = write_model_json(model, outdir / "model.json")
+    print(f"wrote {path}", file=out)
+    if not args.no_plot:
+        from .plots import plot_identification, save_figure
+
+        fig = plot_identification(model, t, uu, y, output_names=outputs, input_names=inputs)
+        print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
+    return EXIT_OK
+
+
+def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
+    from .quadrotor import simulate_pitch_closed_loop
+
+    method = best_method() if args.method == "auto" else args.method
+    _check_method(method)
+    snr = None if str(args.snr).lower() in ("none", "inf") else float(args.snr)
+    rng = np.random.default_rng(args.seed)
+    data = simulate_pitch_closed_loop(
+        rng,
+        duration=args.duration,
+        snr_db=snr,
+        excitation=args.excitation,
+        outputs=tuple(_split_columns(args.outputs)),
+    )
+    print(
+        f"quadrotor pitch closed loop (DESIGN.md): {data.t.size} samples at 250 Hz, "
+        f"{args.duration:g} s, excitation {args.excitation}, SNR "
+        f"{'none' if snr is None else f'{snr:g} dB'}, seed {args.seed}, "
+        f"saturated {100 * data.saturation_fraction:.1f} % of samples",
+        file=out,
+    )
+    print(f"identify(t, moment, {list(data.outputs)}, order=3, method={method!r})", file=out)
+    try:
+        model = identify(data.t, data.u, data.y, order=3, method=method)
+    except (ValueError, TypeError) as exc:
+        print(f"hdpbsid demo: identification with {method!r} failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    true = data.true_eigenvalues
+    est, tru = match_eigenvalues(model.eigenvalues, true)
+    errs = eigenvalue_errors(model.eigenvalues, true)
+    print("eigenvalues  identified            true                  rel. error", file=out)
+    for e, tv, err in zip(est, tru, errs, strict=True):
+        print(f"  {_fmt_complex(e):<22}{_fmt_complex(tv):<22}{100 * err:.3f} %", file=out)
+    _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
+    outdir = Path(args.out)
+    model.options["demo"] = {"seed": args.seed, "snr_db": snr, "duration": args.duration}
+    print(f"wrote {write_model_json(model, outdir / 'model.json')}", file=out)
+    if not args.no_plot:
+        from .plots import plot_eigenvalues, plot_identification, save_figure
+
+        truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
+        fig = plot_identification(
+            model,
+            data.t,
+            data.u,
+            data.y,
+            output_names=list(data.outputs),
+            input_names=["moment"],
+            true_model=truth,
+            title=f"Quadrotor pitch, closed loop: method {method!r}",
+        )
+        print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
+        fig = plot_eigenvalues(model.eigenvalues, true, title="Open-loop eigenvalues")
+        print(f"wrote {save_figure(fig, outdir / 'eigenvalues.png')}", file=out)
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``hdpbsid`` argument parser (errors raise :class:`CLIError`)."""
+    parser = _Parser(
+        prog="hdpbsid",
+        description="Continuous-time subspace identification (PBSID in a basis domain).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser(
+        "identify",
+        help="identify a continuous-time model from a CSV file",
+        description="Identify from FILE.csv (header row; columns chosen by name).",
+    )
+    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument(
+        "--inputs",
+        nargs="+",
+        default=[],
+        metavar="COLS",
+        help="input column names (space or comma separated; none = time series)",
+    )
+    p.add_argument(
+        "--outputs",
+        nargs="+",
+        required=True,
+        metavar="COLS",
+        help="output column names (space or comma separated)",
+    )
+    p.add_argument("--time", default="t", help="time column name (default: t)")
+    p.add_argument(
+        "--order",
+        type=int,
+        default=None,
+        help="model order (default: chosen from the singular values)",
+    )
+    p.add_argument(
+        "--method",
+        default="auto",
+        help="identification method (default: hermite if available, else dt)",
+    )
+    p.add_argument(
+        "--option",
+        action="append",
+        metavar="KEY=VALUE",
+        help="extra option for the method, e.g. --option p=20 (repeatable)",
+    )
+    p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
+    p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+    d = sub.add_parser(
+        "demo",
+        help="closed-loop quadrotor pitch example end to end",
+        description="Simulate the DESIGN.md quadrotor pitch closed loop and identify it.",
+    )
+    d.add_argument(
+        "--method",
+        default="auto",
+        help="identification method (default: hermite if available, else dt)",
+    )
+    d.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    d.add_argument("--snr", default="20", help="sensor SNR in dB, or 'none' (default 20)")
+    d.add_argument("--duration", type=float, default=30.0, help="seconds (default 30)")
+    d.add_argument("--excitation", choices=("sweep", "3211"), default="sweep")
+    d.add_argument(
+        "--outputs",
+        nargs="+",
+        default=["q,theta"],
+        metavar="NAMES",
+        help="outputs among u, q, theta, a_x (default: q theta)",
+    )
+    d.add_argument("--out", default="hdpbsid-demo", help="output directory")
+    d.add_argument("--no-plot", action="store_true", help="do not write figures")
+    return parser
+
+
+def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
+    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); returns the exit code.
+
+    0 success, 1 identification failed (message on stderr), 2 usage or input error
+    (missing file, unknown column, unknown method, bad arguments; message on stderr).
+    """
+    out = sys.stdout if stdout is None else stdout
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command == "identify":
+            return _cmd_identify(args, out)
+        return _cmd_demo(args, out)
+    except _HelpExit as exc:
+        return exc.status
+    except CLIError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except ValueError as exc:  # e.g. bad demo outputs or a bad --option value
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
