@@ -1,7 +1,8 @@
 """hdpbsid: continuous-time predictor-based subspace identification in a basis domain.
 
 Entry point: :func:`identify` (DESIGN.md, "The public surface").  The basis-domain
-methods (``identify_hermite``, ``identify_laguerre``, ``identify_legendre``) are
+methods (``identify_hermite``, ``identify_laguerre``, ``identify_legendre``,
+``identify_chebyshev``, ``identify_sl``) are
 imported on first access so that ``import hdpbsid`` stays light.
 """
 
@@ -26,7 +27,9 @@ from .varx import LagOperator, MatrixLag, SampleShift
 _LAZY_ATTRS = {
     "identify_hermite": "hdpbsid.hermite",
     "identify_laguerre": "hdpbsid.laguerre",
-    "identify_legendre": "hdpbsid.legendre",
+    "identify_legendre": "hdpbsid.sl_basis_method",
+    "identify_chebyshev": "hdpbsid.sl_basis_method",
+    "identify_sl": "hdpbsid.sl_basis_method",
 }
 
 

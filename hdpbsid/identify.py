@@ -7,10 +7,12 @@ callable with the call shape ``func(t, u, y, order=None, **options) ->
 StateSpaceModel``).
 
 * ``"dt"`` (:func:`hdpbsid.dt.identify_dt`) is registered on import;
-* the basis-domain methods are registered *lazily*: the first time ``"hermite"``,
-  ``"laguerre"`` or ``"legendre"`` is asked for, :mod:`hdpbsid.hermite` (resp.
-  ``laguerre``, ``legendre``) is imported and its ``identify_<name>`` function
-  registered.  A module may also call :func:`register_method` itself when imported;
+* the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
+  time ``"hermite"`` (:mod:`hdpbsid.hermite`), ``"laguerre"`` (:mod:`hdpbsid.laguerre`),
+  ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
+  family, option ``family=``; :mod:`hdpbsid.sl_basis_method`) is asked for, the module
+  is imported and its ``identify_<name>`` function registered.  A module may also call
+  :func:`register_method` itself when imported;
 * anything else can be added with :func:`register_method` (a user's own method, a
   wrapper around another tool for comparisons).
 """
@@ -39,11 +41,17 @@ IdentifyFunc = Callable[..., StateSpaceModel]
 #: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
 METHODS: dict[str, IdentifyFunc] = {}
 
-#: Methods imported on first use: name -> (module, function name).
-LAZY_METHODS: dict[str, tuple[str, str]] = {
-    "hermite": ("hdpbsid.hermite", "identify_hermite"),
-    "laguerre": ("hdpbsid.laguerre", "identify_laguerre"),
-    "legendre": ("hdpbsid.legendre", "identify_legendre"),
+#: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
+#: tried in order (the first module that imports and has the function wins).
+LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
+    "hermite": (("hdpbsid.hermite", "identify_hermite"),),
+    "laguerre": (("hdpbsid.laguerre", "identify_laguerre"),),
+    "legendre": (
+        ("hdpbsid.legendre", "identify_legendre"),
+        ("hdpbsid.sl_basis_method", "identify_legendre"),
+    ),
+    "chebyshev": (("hdpbsid.sl_basis_method", "identify_chebyshev"),),
+    "sl": (("hdpbsid.sl_basis_method", "identify_sl"),),
 }
 
 
@@ -70,20 +78,20 @@ def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> I
 
 
 def _load_lazy(name: str) -> IdentifyFunc | None:
-    """Import a lazily registered method; ``None`` if its module does not exist."""
-    module_name, func_name = LAZY_METHODS[name]
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        if exc.name == module_name:
-            return None
-        raise  # the module exists but one of *its* imports is missing: show that
-    if name not in METHODS:
+    """Import a lazily registered method; ``None`` if none of its modules exists."""
+    for module_name, func_name in LAZY_METHODS[name]:
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name == module_name:
+                continue
+            raise  # the module exists but one of *its* imports is missing: show that
+        if name in METHODS:  # the module registered itself on import
+            return METHODS[name]
         func = getattr(module, func_name, None)
-        if func is None:
-            return None
-        register_method(name, func)
-    return METHODS[name]
+        if func is not None:
+            return register_method(name, func)
+    return METHODS.get(name)
 
 
 def get_method(name: str) -> IdentifyFunc:
@@ -100,10 +108,10 @@ def get_method(name: str) -> IdentifyFunc:
         func = _load_lazy(name)
         if func is not None:
             return func
-        module_name, func_name = LAZY_METHODS[name]
+        where = " or ".join(f"{mod}.{fn}" for mod, fn in LAZY_METHODS[name])
         raise ValueError(
-            f"method {name!r} is not available: {module_name}.{func_name} could not be "
-            f"imported; available methods: {available_methods()}"
+            f"method {name!r} is not available: {where} could not be imported; "
+            f"available methods: {available_methods()}"
         )
     raise ValueError(f"unknown method {name!r}; known methods: {available_methods()}")
 
