@@ -40,6 +40,10 @@ __all__ = [
     "CoreOut",
     "run_core",
     "check_method_args",
+    "INPUT_HOLDS",
+    "project_record",
+    "resolve_holds",
+    "best_hold",
 ]
 
 Array = NDArray[np.float64]
@@ -52,6 +56,11 @@ P_DEFAULT_RANGE = (2, 6)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
 COLS_PER_REGRESSOR = 6
 DEFAULT_MAX_ORDER = 10
+#: input hold conventions accepted by :func:`project_record` ("auto" is resolved by the
+#: methods: both holds are fitted and the one with the smaller innovation variance kept)
+INPUT_HOLDS = ("auto", "zoh", "foh", "trapezoid")
+#: Gauss-Legendre nodes per sample interval in :func:`project_record`
+GAUSS_NODES = 3
 
 
 class SolveLag:
@@ -159,6 +168,92 @@ def data_bandwidth(t: Array, u: Array, y: Array) -> float:
     """
     wu = bandwidth(t, u, 0.99) if u.shape[1] else 0.0
     return max(wu, bandwidth(t, y, 0.95))
+
+
+def project_record(
+    basis: Any, t: Array, u: Array, y: Array, holds: tuple[str, ...] = ("foh",)
+) -> tuple[list[Array], Array]:
+    """Coefficient rows of the *interpolants* of the samples, integrated exactly.
+
+    Sampled data define a continuous signal only together with an interpolation rule.
+    The outputs (states seen through ``C``) are continuous: they are interpolated
+    linearly between samples.  The inputs follow ``holds`` (one projection per entry):
+
+    * ``"zoh"``: ``u(t) = u_k`` on ``[t_k, t_{k+1})`` -- a digital controller's command,
+      :func:`hdpbsid.systems.simulate_zoh`; the last sample is not used;
+    * ``"foh"``: linear between samples (``scipy.signal.lsim``'s default);
+    * ``"trapezoid"``: the product ``phi_n u`` by the trapezoid rule on the samples (the
+      former behaviour; like ``"foh"`` up to ``O(h^2 |phi_n''|)``).
+
+    ``int phi_n(t) s(t) dt`` is evaluated with ``GAUSS_NODES`` Gauss-Legendre nodes per
+    sample interval, exact up to the variation of ``phi_n`` inside one interval (local
+    frequency ``w``: relative error ``~ (w h)^6``).  Trapezoid quadrature of the product
+    instead errs by ``~ (w h)^2 / 12`` with ``w`` up to the basis band, and treating a
+    held input as linear shifts it by half a sample: on the closed-loop quadrotor (250 Hz
+    ZOH moment, unstable pole) that alone gave 21 % error on the real pole noise-free.
+
+    Returns ``([U_hold (m, N) for hold in holds], Y (l, N))``.
+    """
+    x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    h = np.diff(t)
+    g = GAUSS_NODES
+    tn = (t[:-1, None] + h[:, None] * (1.0 + x[None, :]) / 2.0).ravel()
+    wn = (h[:, None] * w[None, :] / 2.0).ravel()
+    # linear interpolation weights of the nodes between samples k and k+1
+    lam = np.tile((1.0 + x) / 2.0, t.size - 1)[:, None]
+
+    def lin(s: Array) -> Array:
+        return (1.0 - lam) * np.repeat(s[:-1], g, axis=0) + lam * np.repeat(s[1:], g, axis=0)
+
+    m = u.shape[1]
+    cols: list[Array] = []
+    trap = []
+    for hold in holds:
+        if hold == "zoh":
+            cols.append(np.repeat(u[:-1], g, axis=0))
+        elif hold == "foh":
+            cols.append(lin(u))
+        elif hold == "trapezoid":
+            trap.append(len(cols))
+            cols.append(np.zeros((tn.size, m)))
+        else:
+            raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {hold!r}")
+    cols.append(lin(y))
+    c = basis.project(tn, np.hstack(cols), weights=wn)
+    c = c.reshape(c.shape[0], -1).T
+    Us = [c[i * m : (i + 1) * m] for i in range(len(holds))]
+    for i in trap:
+        Us[i] = basis.project(t, u).reshape(c.shape[1], -1).T if m else Us[i]
+    return Us, c[len(holds) * m :]
+
+
+def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:
+    """The holds to project for ``input_hold`` (``"auto"``: both ``zoh`` and ``foh``)."""
+    if not isinstance(input_hold, str) or input_hold not in INPUT_HOLDS:
+        raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {input_hold!r}")
+    if input_hold == "auto":
+        return ("zoh", "foh") if m else ("foh",)
+    return (input_hold,)
+
+
+def best_hold(
+    holds: tuple[str, ...], Us: list[Array], fit: Callable[[Array], CoreOut]
+) -> tuple[CoreOut, str, dict[str, float]]:
+    """Fit every input projection and keep the one with the smallest innovation
+    log-determinant (the output coefficients are the same for all, so the residuals are
+    comparable).  The wrong hold leaves a deterministic misfit in the residual: on
+    noise-free data the right one wins by orders of magnitude."""
+    best: tuple[float, CoreOut, str] | None = None
+    crit: dict[str, float] = {}
+    for hold, U in zip(holds, Us, strict=True):
+        out = fit(U)
+        sign, ld = np.linalg.slogdet(np.atleast_2d(out.noise_covariance))
+        val = float(ld) if sign > 0 else -np.inf
+        crit[hold] = val
+        if best is None or val < best[0]:
+            best = (val, out, hold)
+    assert best is not None
+    return best[1], best[2], crit
 
 
 def check_method_args(

@@ -36,7 +36,15 @@ from scipy.linalg import solve_banded
 
 import slbasis
 
-from .basis_domain import SolveLag, check_method_args, data_bandwidth, run_core
+from .basis_domain import (
+    SolveLag,
+    best_hold,
+    check_method_args,
+    data_bandwidth,
+    project_record,
+    resolve_holds,
+    run_core,
+)
 from .model import StateSpaceModel
 from .validation import check_data, check_positive_int
 
@@ -122,6 +130,7 @@ def identify_hermite(
     normalize: bool = True,
     max_order: int | None = None,
     scale: float | None = None,
+    input_hold: str = "auto",
 ) -> StateSpaceModel:
     """HD-PBSID (seed §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
@@ -138,6 +147,10 @@ def identify_hermite(
       ``A' = (A/alpha + beta I)/gamma`` is then stable for every ``|lambda| < alpha``);
     * ``p``: AIC over 3..12 with ``p (m + q + l) <= N / 6``; ``f = p``;
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
+    * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
+      ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
+      ``zoh`` and ``foh`` and keeps the smaller innovation variance
+      (:func:`~hdpbsid.basis_domain.project_record`);
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.dt.identify_dt`.
@@ -167,31 +180,31 @@ def identify_hermite(
     basis = slbasis.basis("hermite", N, (float(t[0]), float(t[-1])), scale=scale)
     s = basis.scale
     alpha = 4.0 * s if alpha is None else _real(alpha, "alpha")
-    Uc = basis.project(t, u).T if m else np.zeros((0, N))
-    Yc = basis.project(t, y).T
-    if Yc.ndim == 1:
-        Yc = Yc[None, :]
-    if m and Uc.ndim == 1:
-        Uc = Uc[None, :]
+    holds = resolve_holds(input_hold, m)
+    Us, Yc = project_record(basis, t, u, y, holds)
     lag, _ = hermite_lag(basis.derivative_matrix("square"), alpha, beta, gamma)
     rows = [np.eye(N)[N - 1]]  # truncation of the last column of the cut operator
     if boundary:
         rows += list(basis.eval(np.array([t[0], t[-1]])).T)
     P = np.array(rows)
-    out = run_core(
-        Uc,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=feedthrough,
-        stable_k=stable_k,
-        normalize=normalize,
-    )
+
+    def fit(Uc: NDArray[np.float64]) -> Any:
+        return run_core(
+            Uc,
+            Yc,
+            P,
+            lag,
+            order=order,
+            p=p,
+            f=f,
+            max_order=mo,
+            regularize=regularize,
+            feedthrough=feedthrough,
+            stable_k=stable_k,
+            normalize=normalize,
+        )
+
+    out, hold, hold_crit = best_hold(holds, Us, fit)
     n = out.A.shape[0]
     A = alpha * (gamma * out.A - beta * np.eye(n))
     B = alpha * gamma * out.B
@@ -210,6 +223,14 @@ def identify_hermite(
             "beta": beta,
             "gamma": gamma,
             "boundary": boundary,
+            "input_hold": hold,
+            "input_hold_rule": (
+                "given"
+                if input_hold != "auto"
+                else "auto: zoh and foh fitted, smaller innovation log-det kept"
+            ),
+            "input_hold_criterion": hold_crit,
+            "projection": "exact integral of the sample interpolants (Gauss nodes)",
             "truncation": "last column of the cut D absorbed as a pseudo-input",
             "n_samples": ns,
             "t0": float(t[0]),
