@@ -46,7 +46,16 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from .basis_domain import SolveLag, check_method_args, data_bandwidth, run_core
+from .basis_domain import (
+    SolveLag,
+    bandwidth,
+    best_hold,
+    check_method_args,
+    data_bandwidth,
+    project_record,
+    resolve_holds,
+    run_core,
+)
 from .hermite import _real
 from .model import StateSpaceModel
 from .validation import check_data, check_positive_int
@@ -59,6 +68,9 @@ Array = NDArray[np.float64]
 #: polynomials resolve x-frequencies up to ~N; ``dx/dt = 2/T``)
 N_MIN, N_MAX = 50, 600
 BAND_MARGIN = 1.5
+#: default alpha = ALPHA_FACTOR * (bandwidth holding OUTPUT_FRACTION of the output energy)
+ALPHA_FACTOR = 0.5
+OUTPUT_FRACTION = 0.95
 #: relative padding of the basis window for families singular at the interval ends
 PAD = 1e-3
 
@@ -127,6 +139,7 @@ def identify_sl(
     normalize: bool = True,
     max_order: int | None = None,
     family_params: dict | None = None,
+    input_hold: str = "auto",
 ) -> StateSpaceModel:
     """PBSID in a finite-interval Sturm-Liouville basis on the record window.
 
@@ -180,10 +193,15 @@ def identify_sl(
             f"identify_hermite / identify_laguerre for it"
         )
     if alpha is None:
-        if wb <= 0:
-            raise ValueError("cannot choose alpha: the data have no bandwidth; pass alpha")
-        alpha = 0.5 * wb
-        alpha_rule = "half the data bandwidth"
+        # the integrator's pole alpha belongs to the system's dynamics, not to the input:
+        # a step or ZOH input is broadband (half the data bandwidth gave alpha ~ 50 rad/s
+        # and 2-3e-2 error on the second-order system, whose poles are at |lambda| = 2);
+        # the outputs are the input low-passed by the system, so their bandwidth is used
+        wy = bandwidth(t, y, OUTPUT_FRACTION)
+        if wy <= 0:
+            raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
+        alpha = ALPHA_FACTOR * wy
+        alpha_rule = f"{ALPHA_FACTOR} * output bandwidth ({OUTPUT_FRACTION:.0%} of the energy)"
     else:
         alpha = _real(alpha, "alpha")
         alpha_rule = "given"
@@ -197,12 +215,12 @@ def identify_sl(
         return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
 
     lag = SolveLag(solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]")
-    Uc = basis.project(t, u).T if m else np.zeros((0, N))
-    Yc = basis.project(t, y).T
+    holds = resolve_holds(input_hold, m)
+    Us, Yc1 = project_record(basis, t, u, np.hstack([y, np.ones((ns, 1))]), holds)
+    Yc, one = Yc1[:-1], Yc1[-1]
     Jlu = sla.lu_factor(J.T)
     rows = [sla.lu_solve(Jlu, np.eye(N)[N - 1])]  # truncation: w J = e_{N-1}
     if boundary:
-        one = basis.project(t, np.ones_like(t))
         rows.append(sla.lu_solve(Jlu, one))  # initial state: w J = coefficients of 1
     P = np.array(rows)
     # default p: the smallest window that shows the order (order selection: 3 singular
@@ -211,21 +229,25 @@ def identify_sl(
     # 11 % for AIC over 2..6)
     need = order if order is not None else 3
     p_def = max(2, -(-need // y.shape[1]))
-    out = run_core(
-        Uc,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=feedthrough,
-        stable_k=stable_k,
-        normalize=normalize,
-        p_range=(p_def, p_def),
-    )
+
+    def fit(Uc: Array) -> Any:
+        return run_core(
+            Uc,
+            Yc,
+            P,
+            lag,
+            order=order,
+            p=p,
+            f=f,
+            max_order=mo,
+            regularize=regularize,
+            feedthrough=feedthrough,
+            stable_k=stable_k,
+            normalize=normalize,
+            p_range=(p_def, p_def),
+        )
+
+    out, hold, hold_crit = best_hold(holds, Us, fit)
     n = out.A.shape[0]
     A = alpha * (gamma * out.A - beta * np.eye(n))
     options = dict(out.options)
@@ -244,6 +266,14 @@ def identify_sl(
             "beta": beta,
             "gamma": gamma,
             "boundary": boundary,
+            "input_hold": hold,
+            "input_hold_rule": (
+                "given"
+                if input_hold != "auto"
+                else "auto: zoh and foh fitted, smaller innovation log-det kept"
+            ),
+            "input_hold_criterion": hold_crit,
+            "projection": "exact integral of the sample interpolants (Gauss nodes)",
             "integration": j_how,
             "window_padding": pad,
             "n_samples": ns,
