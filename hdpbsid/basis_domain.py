@@ -56,6 +56,12 @@ P_DEFAULT_RANGE = (2, 6)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
 COLS_PER_REGRESSOR = 6
 DEFAULT_MAX_ORDER = 10
+#: lower bound of the GCV ridge parameter relative to the largest singular value of the
+#: VARX regressors: projected data are exact only to the quadrature/interpolation
+#: precision (~1e-5..1e-4 relative), and on noise-free closed-loop data GCV picks 0,
+#: letting near-collinear regressors (u ~ controller(y)) blow the VARX up (quadrotor,
+#: noise-free: real pole 80-570 % off at p = 3..4; with the floor 0.1-0.6 %)
+RIDGE_FLOOR = 1e-6
 #: input hold conventions accepted by :func:`project_record` ("auto" is resolved by the
 #: methods: both holds are fitted and the one with the smaller innovation variance kept)
 INPUT_HOLDS = ("auto", "zoh", "foh", "trapezoid")
@@ -312,6 +318,7 @@ def run_core(
     stable_k: bool,
     normalize: bool,
     p_range: tuple[int, int] | None = None,
+    ridge_floor: float | None = None,
 ) -> CoreOut:
     """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) and pseudo
     inputs ``P`` (q x N) with the lag operator ``lag``.
@@ -394,6 +401,7 @@ def run_core(
         regularize=regularize,
         stable_k=stable_k,
         max_order=mo,
+        ridge_floor=RIDGE_FLOOR if ridge_floor is None else ridge_floor,
     )
     B = core.B[:, :m] / su[None, :] if m else core.B[:, :0]
     Bp = core.B[:, m:] / sp_[None, :] if q else core.B[:, m:]

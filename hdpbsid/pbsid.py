@@ -204,6 +204,7 @@ def pbsid_core(
     lag: LagOperator | None = None,
     feedthrough: bool = False,
     regularize: bool | str | float | None = False,
+    ridge_floor: float = 0.0,
     stable_k: bool = False,
     max_order: int | None = None,
 ) -> CoreResult:
@@ -231,7 +232,9 @@ def pbsid_core(
             f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
             f"increase f (and p) or reduce the order"
         )
-    vx = varx(U, Y, p, lag=lag, feedthrough=feedthrough, regularize=regularize)
+    vx = varx(
+        U, Y, p, lag=lag, feedthrough=feedthrough, regularize=regularize, ridge_floor=ridge_floor
+    )
     LK = gamma_l(vx.coef, p, f, m, l)
     Xall, s, _ = state_sequence(LK, vx.Zp, None)
     info: dict = {}
@@ -269,6 +272,7 @@ def pbsid_core(
         "feedthrough": feedthrough,
         "regularize": vx.regularize,
         "ridge": vx.ridge,
+        "ridge_floor": ridge_floor,
         "stable_k": stable_k,
         "k_method": k_method,
         "lag": repr(lag),

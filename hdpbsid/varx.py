@@ -187,7 +187,9 @@ def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> A
     return Vt.T @ (filt[:, None] * (Ur.T @ QtY))
 
 
-def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, float, float | None]:
+def ridge_gcv(
+    Phi: Array, Y: Array, lam: float | None = None, floor: float = 0.0
+) -> tuple[Array, float, float | None]:
     """Tikhonov least squares ``min ||Y - Theta Phi||_F^2 + lam^2 ||Theta||_F^2``.
 
     ``Phi`` is (d x N) regressors, ``Y`` (l x N) targets.  With ``lam=None`` the
@@ -197,6 +199,9 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
 
     with the SVD ``Phi^T = U S V^T``: a log-grid search over ``[s_min/1e3, s_max]``
     refined by a bounded scalar minimisation on ``log lam``.  Returns ``(Theta, lam, G)``.
+    ``floor`` (relative to the largest singular value of ``Phi``) is a lower bound on the
+    GCV choice: data known only to a relative precision (quadrature of projected data)
+    make the exact-fit solution meaningless along the near-null directions of ``Phi``.
     """
     d, N = Phi.shape
     # Phi^T = Q R11 and R11 = Ur S V^T give the SVD Phi^T = (Q Ur) S V^T without forming Q
@@ -237,9 +242,12 @@ def ridge_gcv(Phi: Array, Y: Array, lam: float | None = None) -> tuple[Array, fl
     r = int(np.sum(s > rank_tol))
     rss0 = out_of_range + float(np.sum(beta2[r:]))
     g0 = rss0 / (N - r) ** 2 if N > r else np.inf
-    if g0 <= g_best:
+    lam_floor = floor * smax
+    if g0 <= g_best and lam_floor == 0:
         return _ridge_from_svd(Ur[:, :r], s[:r], Vt[:r], QtY, 0.0).T, 0.0, g0
-    lam_opt = float(np.exp(best))
+    lam_opt = max(float(np.exp(best)), lam_floor)
+    if lam_opt == lam_floor:
+        g_best = gcv(np.log(lam_floor))
     return _ridge_from_svd(Ur, s, Vt, QtY, lam_opt).T, lam_opt, g_best
 
 
@@ -273,6 +281,7 @@ def varx(
     lag: LagOperator | None = None,
     feedthrough: bool = False,
     regularize: bool | str | float | None = False,
+    ridge_floor: float = 0.0,
 ) -> VarxResult:
     """Estimate the VARX predictor ``y_k = sum_j Xi_j z_{k-j} + D u_k + e_k``.
 
@@ -307,7 +316,9 @@ def varx(
         theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
         lam_used = 0.0
     else:
-        theta, lam_used, gcv_val = ridge_gcv(Phi, Yc, lam if kind == "fixed" else None)
+        theta, lam_used, gcv_val = ridge_gcv(
+            Phi, Yc, lam if kind == "fixed" else None, floor=ridge_floor if kind == "gcv" else 0.0
+        )
     coef = theta[:, : p * (m + l)]
     D = theta[:, p * (m + l) :] if (feedthrough and m > 0) else np.zeros((l, m))
     # coef = [Xi_p, ..., Xi_1]  ->  Xi[j-1] = Xi_j
