@@ -13,7 +13,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/slbasis derive --family legendre --nmax 6
+	$(BIN)/slbasis derive --family hermite_functions --nmax 3
+	$(BIN)/hdpbsid demo --out out/demo
 
 test: $(STAMP)
 	$(BIN)/ruff check slbasis hdpbsid tests derivations bench
