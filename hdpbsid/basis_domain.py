@@ -28,8 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .model import StateSpaceModel
 from .pbsid import CoreResult, pbsid_core
-from .validation import check_positive_int
+from .validation import check_method_args, check_positive_int
 from .varx import LagOperator, select_past_window
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "project_record",
     "resolve_holds",
     "best_hold",
+    "integrator_model",
 ]
 
 Array = NDArray[np.float64]
@@ -55,7 +57,6 @@ ENERGY_FRACTION = 0.99
 P_DEFAULT_RANGE = (2, 6)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
 COLS_PER_REGRESSOR = 6
-DEFAULT_MAX_ORDER = 10
 #: lower bound of the GCV ridge parameter relative to the largest singular value of the
 #: VARX regressors: projected data are exact only to the quadrature/interpolation
 #: precision (~1e-5..1e-4 relative), and on noise-free closed-loop data GCV picks 0,
@@ -262,18 +263,57 @@ def best_hold(
     return best[1], best[2], crit
 
 
-def check_method_args(
-    order: int | None, p: int | None, f: int | None, max_order: int | None
-) -> tuple[int | None, int | None, int | None, int]:
-    """Common integer checks of the method functions."""
-    if order is not None:
-        order = check_positive_int(order, "order")
-    if p is not None:
-        p = check_positive_int(p, "p")
-    if f is not None:
-        f = check_positive_int(f, "f")
-    mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    return order, p, f, mo
+def integrator_model(
+    out: CoreOut,
+    alpha: float,
+    beta: float,
+    gamma: float,
+    options: dict[str, Any],
+    *,
+    input_hold: str,
+    hold: str,
+    hold_criterion: dict[str, float],
+    order: int | None,
+    max_order: int,
+) -> StateSpaceModel:
+    """Continuous-time model from the basis-domain system of the integrator form.
+
+    The core identified ``X D' = A' X + B' U + K' E`` with ``D' = (D/alpha + beta I)/gamma``
+    (seed §3.2); mapping back: ``A = alpha (gamma A' - beta I)``, ``B = alpha gamma B'``,
+    ``K = alpha gamma K'``, ``C, D`` unchanged.  ``options`` (method-specific) are merged
+    with the core's and with the shared ones (operator parameters, input hold, ``A'``).
+    """
+    n = out.A.shape[0]
+    merged = dict(out.options)
+    merged.update(
+        {
+            "alpha": alpha,
+            "beta": beta,
+            "gamma": gamma,
+            "input_hold": hold,
+            "input_hold_rule": (
+                "given"
+                if input_hold != "auto"
+                else "auto: zoh and foh fitted, smaller innovation log-det kept"
+            ),
+            "input_hold_criterion": hold_criterion,
+            "projection": "exact integral of the sample interpolants (Gauss nodes)",
+            "A_prime": out.A,
+        }
+    )
+    merged.update(options)
+    if order is None:
+        merged["max_order"] = max_order
+    return StateSpaceModel(
+        alpha * (gamma * out.A - beta * np.eye(n)),
+        alpha * gamma * out.B,
+        out.C,
+        out.D,
+        alpha * gamma * out.K,
+        singular_values=out.core.singular_values,
+        options=merged,
+        noise_covariance=out.noise_covariance,
+    )
 
 
 def _rms_rows(W: Array, name: str) -> Array:

@@ -37,7 +37,12 @@ from numpy.typing import NDArray
 
 from .model import DiscreteModel, StateSpaceModel
 from .pbsid import pbsid_core
-from .validation import check_data, check_positive_int, check_signal, check_uniform
+from .validation import (
+    check_data,
+    check_method_args,
+    check_signal,
+    check_uniform,
+)
 from .varx import select_past_window
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
@@ -49,7 +54,6 @@ SAMPLES_PER_REGRESSOR = 10
 #: upper limit of the default past window
 P_CAP = 200
 #: default largest order considered by the singular-value order selection
-DEFAULT_MAX_ORDER = 10
 
 
 def default_windows(
@@ -136,13 +140,7 @@ def identify_discrete(
         raise ValueError("y must have at least one output channel, got shape (Ns, 0)")
     u = np.zeros((ns, 0)) if u is None else check_signal(u, "u", ns)
     m = u.shape[1]
-    if order is not None:
-        order = check_positive_int(order, "order")
-    if p is not None:
-        p = check_positive_int(p, "p")
-    if f is not None:
-        f = check_positive_int(f, "f")
-    mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    order, p, f, mo = check_method_args(order, p, f, max_order)
     if p_criterion not in ("aic", "bic"):
         raise ValueError(f"p_criterion must be 'aic' or 'bic', got {p_criterion!r}")
     if isinstance(dt, bool) or not isinstance(dt, int | float | np.floating | np.integer):

@@ -41,6 +41,7 @@ from .basis_domain import (
     best_hold,
     check_method_args,
     data_bandwidth,
+    integrator_model,
     project_record,
     resolve_holds,
     run_core,
@@ -206,47 +207,28 @@ def identify_hermite(
         )
 
     out, hold, hold_crit = best_hold(holds, Us, fit)
-    n = out.A.shape[0]
-    A = alpha * (gamma * out.A - beta * np.eye(n))
-    B = alpha * gamma * out.B
-    K = alpha * gamma * out.K
-    options = dict(out.options)
-    options.update(
-        {
-            "method": "hermite",
-            "N": N,
-            "N_rule": n_rule,
-            "bandwidth": wb,
-            "scale": s,
-            "centre": basis.centre,
-            "alpha": alpha,
-            "alpha_rule": "4 * scale" if alpha == 4.0 * s else "given",
-            "beta": beta,
-            "gamma": gamma,
-            "boundary": boundary,
-            "input_hold": hold,
-            "input_hold_rule": (
-                "given"
-                if input_hold != "auto"
-                else "auto: zoh and foh fitted, smaller innovation log-det kept"
-            ),
-            "input_hold_criterion": hold_crit,
-            "projection": "exact integral of the sample interpolants (Gauss nodes)",
-            "truncation": "last column of the cut D absorbed as a pseudo-input",
-            "n_samples": ns,
-            "t0": float(t[0]),
-            "A_prime": out.A,
-        }
-    )
-    if order is None:
-        options["max_order"] = mo
-    return StateSpaceModel(
-        A,
-        B,
-        out.C,
-        out.D,
-        K,
-        singular_values=out.core.singular_values,
-        options=options,
-        noise_covariance=out.noise_covariance,
+    options = {
+        "method": "hermite",
+        "N": N,
+        "N_rule": n_rule,
+        "bandwidth": wb,
+        "scale": s,
+        "centre": basis.centre,
+        "alpha_rule": "4 * scale" if alpha == 4.0 * s else "given",
+        "boundary": boundary,
+        "truncation": "last column of the cut D absorbed as a pseudo-input",
+        "n_samples": ns,
+        "t0": float(t[0]),
+    }
+    return integrator_model(
+        out,
+        alpha,
+        beta,
+        gamma,
+        options,
+        input_hold=input_hold,
+        hold=hold,
+        hold_criterion=hold_crit,
+        order=order,
+        max_order=mo,
     )

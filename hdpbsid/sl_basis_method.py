@@ -52,6 +52,7 @@ from .basis_domain import (
     best_hold,
     check_method_args,
     data_bandwidth,
+    integrator_model,
     project_record,
     resolve_holds,
     run_core,
@@ -248,50 +249,33 @@ def identify_sl(
         )
 
     out, hold, hold_crit = best_hold(holds, Us, fit)
-    n = out.A.shape[0]
-    A = alpha * (gamma * out.A - beta * np.eye(n))
-    options = dict(out.options)
-    options.update(
-        {
-            "method": "legendre" if family == "legendre" else "sl",
-            "family": family if isinstance(family, str) else repr(family),
-            "family_params": dict(family_params or {}),
-            "N": N,
-            "N_rule": n_rule,
-            "bandwidth": wb,
-            "scale": basis.scale,
-            "centre": basis.centre,
-            "alpha": alpha,
-            "alpha_rule": alpha_rule,
-            "beta": beta,
-            "gamma": gamma,
-            "boundary": boundary,
-            "input_hold": hold,
-            "input_hold_rule": (
-                "given"
-                if input_hold != "auto"
-                else "auto: zoh and foh fitted, smaller innovation log-det kept"
-            ),
-            "input_hold_criterion": hold_crit,
-            "projection": "exact integral of the sample interpolants (Gauss nodes)",
-            "integration": j_how,
-            "window_padding": pad,
-            "n_samples": ns,
-            "t0": float(t[0]),
-            "A_prime": out.A,
-        }
-    )
-    if order is None:
-        options["max_order"] = mo
-    return StateSpaceModel(
-        A,
-        alpha * gamma * out.B,
-        out.C,
-        out.D,
-        alpha * gamma * out.K,
-        singular_values=out.core.singular_values,
-        options=options,
-        noise_covariance=out.noise_covariance,
+    options = {
+        "method": "legendre" if family == "legendre" else "sl",
+        "family": family if isinstance(family, str) else repr(family),
+        "family_params": dict(family_params or {}),
+        "N": N,
+        "N_rule": n_rule,
+        "bandwidth": wb,
+        "scale": basis.scale,
+        "centre": basis.centre,
+        "alpha_rule": alpha_rule,
+        "boundary": boundary,
+        "integration": j_how,
+        "window_padding": pad,
+        "n_samples": ns,
+        "t0": float(t[0]),
+    }
+    return integrator_model(
+        out,
+        alpha,
+        beta,
+        gamma,
+        options,
+        input_hold=input_hold,
+        hold=hold,
+        hold_criterion=hold_crit,
+        order=order,
+        max_order=mo,
     )
 
 

@@ -168,3 +168,23 @@ def check_state_space(
     D = np.zeros((l, m)) if D is None else check_matrix(D, "D", (l, m))
     K = np.zeros((n, l)) if K is None else check_matrix(K, "K", (n, l))
     return A, B, C, D, K
+
+
+#: Default largest order considered by the order selection of every method.
+DEFAULT_MAX_ORDER = 10
+
+
+def check_method_args(
+    order: int | None, p: int | None, f: int | None, max_order: int | None
+) -> tuple[int | None, int | None, int | None, int]:
+    """Common integer checks of the identification methods: ``order``, the windows ``p``,
+    ``f`` (each ``None`` or a positive int) and ``max_order`` (default
+    :data:`DEFAULT_MAX_ORDER`)."""
+    if order is not None:
+        order = check_positive_int(order, "order")
+    if p is not None:
+        p = check_positive_int(p, "p")
+    if f is not None:
+        f = check_positive_int(f, "f")
+    mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    return order, p, f, mo
