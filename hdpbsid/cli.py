@@ -1,4 +1,4 @@
-"""Command line: ``hdpbsid identify FILE.csv ...`` and ``hdpbsid demo``.
+"""Command line: ``hdpbsid identify FILE.csv ...``, ``hdpbsid demo`` and ``hdpbsid study NAME``.
 
 DESIGN.md, "The public surface" (command line) and issue 4, item 7.  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
@@ -14,6 +14,12 @@ measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``
 (:func:`hdpbsid.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
 available method (``hermite`` if it is available, else ``dt``), prints identified vs
 true eigenvalues and the fit, and writes the same files plus ``eigenvalues.png``.
+
+``study NAME`` runs one of the simulation studies of :mod:`hdpbsid.studies` (``snr``,
+``samples``, ``basis-order``, ``operator``, ``table1``, ``quadrotor``; source §5-6) with
+a progress bar, serially, on local processes (``--jobs``) or on a Dask cluster
+(``--scheduler``), prints its table and writes ``results.jsonl`` (per task, resumable),
+``summary.csv``, ``summary.json``, ``records.csv`` and PNG figures to ``--out``.
 """
 
 from __future__ import annotations
@@ -341,6 +347,42 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     return EXIT_OK
 
 
+STUDY_NAMES = ("snr", "samples", "basis-order", "operator", "table1", "quadrotor")
+
+
+def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
+    from . import studies
+
+    settings = _parse_options(args.set)
+    outdir = Path(args.out) if args.out else Path("hdpbsid-study") / args.name
+    try:
+        result = studies.run_study(
+            args.name,
+            runs=args.runs,
+            seed=args.seed,
+            jobs=args.jobs,
+            scheduler=args.scheduler,
+            out=outdir,
+            progress=not args.no_progress,
+            resume=not args.no_resume,
+            **settings,
+        )
+    except TypeError as exc:  # unknown --set keys or wrongly typed values
+        raise CLIError(str(exc)) from exc
+    print(result.table(), file=out)
+    n_fail = sum(not r["ok"] for r in result.records)
+    print(
+        f"{len(result.records)} tasks ({n_fail} failed identifications recorded), "
+        f"runs {result.settings['runs']}, seed {args.seed}, "
+        f"{result.elapsed:.1f} s",
+        file=out,
+    )
+    print(f"wrote {outdir}/: results.jsonl summary.csv summary.json records.csv", file=out)
+    for name in sorted(result.figures):
+        print(f"wrote {result.figures[name]}", file=out)
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``hdpbsid`` argument parser (errors raise :class:`CLIError`)."""
     parser = _Parser(
@@ -415,6 +457,30 @@ def build_parser() -> argparse.ArgumentParser:
     )
     d.add_argument("--out", default="hdpbsid-demo", help="output directory")
     d.add_argument("--no-plot", action="store_true", help="do not write figures")
+
+    st = sub.add_parser(
+        "study",
+        help="run a simulation study of the source (§5-6)",
+        description="Run a Monte Carlo study; prints its table, writes CSV/JSON/PNG to --out.",
+    )
+    st.add_argument("name", choices=STUDY_NAMES, metavar="NAME", help=", ".join(STUDY_NAMES))
+    st.add_argument("--runs", type=int, default=None, help="runs per case (default: study's)")
+    st.add_argument("--seed", type=int, default=0, help="base random seed (default 0)")
+    st.add_argument("--jobs", type=int, default=1, help="local processes (joblib; default 1)")
+    st.add_argument(
+        "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
+    )
+    st.add_argument("--out", default=None, help="output directory (default hdpbsid-study/NAME)")
+    st.add_argument("--no-progress", action="store_true", help="no progress bar")
+    st.add_argument(
+        "--no-resume", action="store_true", help="recompute tasks already in results.jsonl"
+    )
+    st.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="study setting, e.g. --set snrs=(50,6) --set methods=('hermite',) (repeatable)",
+    )
     return parser
 
 
@@ -430,6 +496,8 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.command == "identify":
             return _cmd_identify(args, out)
+        if args.command == "study":
+            return _cmd_study(args, out)
         return _cmd_demo(args, out)
     except _HelpExit as exc:
         return exc.status

@@ -25,6 +25,10 @@ __all__ = [
     "save_figure",
     "display_fit",
     "DisplayFit",
+    "plot_singular_values",
+    "plot_bode",
+    "plot_eigenvalue_scatter",
+    "plot_outputs",
 ]
 
 
@@ -200,4 +204,150 @@ def plot_eigenvalues(identified: Any, true: Any | None = None, title: str = "Eig
     ax.set_ylabel("Im")
     ax.set_title(title)
     ax.legend()
+    return fig
+
+
+# -- study figures (issue 5, item 3) ------------------------------------------------------
+def plot_singular_values(
+    singular_values: Any, order: int | None = None, ax: Any | None = None, title: str = ""
+) -> Any:
+    """Singular values of the PBSID SVD step on a log scale, ``order`` marked.
+
+    Draws on ``ax`` if given (returns it), else on a new figure (returns the figure).
+    """
+    fig = None
+    if ax is None:
+        fig = new_figure((5.5, 4.0))
+        ax = fig.add_subplot(1, 1, 1)
+    sv = np.asarray(singular_values, dtype=float).ravel()
+    idx = np.arange(1, sv.size + 1)
+    ax.semilogy(idx, sv, "o-", ms=4)
+    if order is not None:
+        ax.axvline(order + 0.5, color="C3", ls="--", label=f"order {order}")
+        ax.legend(loc="upper right")
+    ax.set_xlabel("index")
+    ax.set_ylabel("singular value")
+    ax.set_title(title or "Singular values (order selection)")
+    ax.grid(True, which="both", alpha=0.3)
+    return fig if fig is not None else ax
+
+
+def plot_bode(
+    models: dict[str, StateSpaceModel],
+    w: Any,
+    true_model: StateSpaceModel | None = None,
+    input_names: list[str] | None = None,
+    output_names: list[str] | None = None,
+    title: str = "Bode diagram",
+) -> Any:
+    """Magnitude and phase of every input-output pair of several models (solid) and of
+    ``true_model`` (black dashed) over ``w`` rad/s; one column per output."""
+    w = np.asarray(w, dtype=float).ravel()
+    first = next(iter(models.values())) if models else true_model
+    if first is None:
+        raise ValueError("plot_bode needs at least one model")
+    l, m = first.l, first.m
+    onames = output_names or [f"y{i + 1}" for i in range(l)]
+    inames = input_names or [f"u{j + 1}" for j in range(m)]
+    fig = new_figure((4.5 * l * m + 1.0, 6.0))
+    axes = [[fig.add_subplot(2, l * m, 1 + k + r * l * m) for k in range(l * m)] for r in range(2)]
+    curves = list(models.items())
+    if true_model is not None:
+        curves.append(("true", true_model))
+    for c, (label, mod) in enumerate(curves):
+        G = mod.frequency_response(w)
+        style = {"color": "k", "ls": "--", "lw": 1.2} if label == "true" else {"color": f"C{c}"}
+        for i in range(l):
+            for j in range(m):
+                k = i * m + j
+                g = G[i, j]
+                axes[0][k].semilogx(
+                    w, 20 * np.log10(np.maximum(np.abs(g), 1e-300)), label=label, **style
+                )
+                axes[1][k].semilogx(w, np.degrees(np.unwrap(np.angle(g))), **style)
+                axes[0][k].set_title(f"{inames[j]} -> {onames[i]}")
+    for k in range(l * m):
+        axes[0][k].set_ylabel("|G| [dB]")
+        axes[1][k].set_ylabel("phase [deg]")
+        axes[1][k].set_xlabel("frequency [rad/s]")
+        for r in range(2):
+            axes[r][k].grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize="small")
+    fig.suptitle(title)
+    return fig
+
+
+def plot_eigenvalue_scatter(
+    groups: dict[str, Any],
+    true: Any | None = None,
+    zoom: float | None = 1.5,
+    title: str = "Identified eigenvalues",
+) -> Any:
+    """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
+    true ones (circles), as in the source's Figure 1.
+
+    ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
+    axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
+    detail"); points outside are counted in the panel title.  ``None``: autoscale.
+    """
+    k = max(len(groups), 1)
+    fig = new_figure((4.2 * k, 4.2))
+    tv = None if true is None else np.asarray(true, dtype=complex).ravel()
+    for n, (label, ev) in enumerate(groups.items()):
+        ax = fig.add_subplot(1, k, n + 1)
+        ev = np.asarray(ev, dtype=complex).ravel()
+        ev = ev[np.isfinite(ev)]
+        outside = 0
+        if tv is not None and zoom is not None:
+            r = zoom * float(np.max(np.abs(tv)))
+            x0, x1 = tv.real.min() - r, tv.real.max() + r
+            y0, y1 = tv.imag.min() - r, tv.imag.max() + r
+            inside = (ev.real >= x0) & (ev.real <= x1) & (ev.imag >= y0) & (ev.imag <= y1)
+            outside = int(np.sum(~inside))
+            ax.set_xlim(x0, x1)
+            ax.set_ylim(y0, y1)
+            ev = ev[inside]
+        ax.plot(ev.real, ev.imag, ".", ms=3, alpha=0.5, color=f"C{n}", label="identified")
+        if tv is not None:
+            ax.plot(tv.real, tv.imag, "o", mfc="none", mec="k", ms=10, mew=1.5, label="true")
+        ax.axvline(0.0, color="0.6", lw=0.8)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_xlabel("Re")
+        ax.set_ylabel("Im")
+        ax.set_title(f"{label}" + (f"\n({outside} outside the view)" if outside else ""))
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(title)
+    return fig
+
+
+def plot_outputs(
+    t: Any,
+    measured: Any,
+    simulated: dict[str, Any],
+    output_names: list[str] | None = None,
+    title: str = "Measured and simulated outputs",
+    window: tuple[float, float] | None = None,
+) -> Any:
+    """Measured outputs (grey) with one or more simulated ones (source Figure 2 style);
+    ``window`` restricts the time axis (a few seconds are readable, 30 s are not)."""
+    t = np.asarray(t, dtype=float).ravel()
+    y = np.asarray(measured, dtype=float).reshape(t.size, -1)
+    l = y.shape[1]
+    names = output_names or [f"y{i + 1}" for i in range(l)]
+    fig = new_figure((10.0, 2.6 * l + 0.8))
+    sel = slice(None)
+    if window is not None:
+        sel = (t >= window[0]) & (t <= window[1])
+    for i in range(l):
+        ax = fig.add_subplot(l, 1, i + 1)
+        ax.plot(t[sel], y[sel, i], color="0.6", lw=0.8, label="measured")
+        for c, (label, ys) in enumerate(simulated.items()):
+            ys = np.asarray(ys, dtype=float).reshape(t.size, -1)
+            ax.plot(t[sel], ys[sel, i], color=f"C{c}", lw=1.0, label=label)
+        ax.set_ylabel(names[i])
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+    ax.set_xlabel("time [s]")
+    fig.suptitle(title)
     return fig

@@ -50,6 +50,7 @@ __all__ = [
     "pitch_output_matrices",
     "pitch_excitation",
     "simulate_pitch_closed_loop",
+    "hermite_sweep_excitation",
 ]
 
 Array = NDArray[np.float64]
@@ -78,8 +79,9 @@ CONTROLLER_DEFAULTS: dict[str, float] = {
     "rate_hz": 250.0,
 }
 
-#: Output names accepted by :func:`pitch_output_matrices` (``u`` is the forward velocity).
-OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x")
+#: Output names accepted by :func:`pitch_output_matrices` (``u`` is the forward velocity,
+#: ``q_dot`` the angular acceleration ``Mu u + Mq q + Md delta``, source §6).
+OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x", "q_dot")
 
 
 def pitch_model() -> tuple[Array, Array, Array, Array]:
@@ -101,10 +103,11 @@ def pitch_model() -> tuple[Array, Array, Array, Array]:
 
 
 def pitch_output_matrices(outputs: Any = ("q", "theta")) -> tuple[Array, Array, tuple[str, ...]]:
-    """Rows ``(C, D)`` of the chosen outputs among ``u, q, theta, a_x``.
+    """Rows ``(C, D)`` of the chosen outputs among ``u, q, theta, a_x, q_dot``.
 
     ``a_x = Xu u + Xq q + Xd delta`` (the accelerometer: specific force, so no gravity
-    term; DESIGN.md).  Returns ``(C (l, 3), D (l, 1), names)``.
+    term; DESIGN.md); ``q_dot = Mu u + Mq q + Md delta`` (the angular acceleration the
+    source's §6 measures).  Returns ``(C (l, 3), D (l, 1), names)``.
     """
     if isinstance(outputs, str):
         outputs = (outputs,)
@@ -127,6 +130,7 @@ def pitch_output_matrices(outputs: Any = ("q", "theta")) -> tuple[Array, Array, 
         "q": ([0.0, 1.0, 0.0], 0.0),
         "theta": ([0.0, 0.0, 1.0], 0.0),
         "a_x": ([p["Xu"], p["Xq"], 0.0], p["Xd"]),
+        "q_dot": ([p["Mu"], p["Mq"], 0.0], p["Md"]),
     }
     C = np.array([rows[o][0] for o in names])
     D = np.array([[rows[o][1]] for o in names])
@@ -365,29 +369,42 @@ def simulate_pitch_closed_loop(
 
     p = PITCH_PARAMETERS
     zero = np.zeros(ns)
-    noise_std = {k: 0.0 for k in ("u", "q", "theta", "a_x")}
+    sensors = ("u", "q", "theta", "a_x", "q_dot")
+    noise_std = {k: 0.0 for k in sensors}
     nq = nth = zero
     if snr_db is not None:
         Xc, _, mc = _run_loop(Phi, Gam, exc, zero, zero, ctrl, velocity_loop, u_ref, xinit)
         axc = p["Xu"] * Xc[:, 0] + p["Xq"] * Xc[:, 1] + p["Xd"] * mc
+        qdc = p["Mu"] * Xc[:, 0] + p["Mq"] * Xc[:, 1] + p["Md"] * mc
         scale = 10.0 ** (-snr_db / 20.0)
-        for name, sig in (("u", Xc[:, 0]), ("q", Xc[:, 1]), ("theta", Xc[:, 2]), ("a_x", axc)):
+        for name, sig in (
+            ("u", Xc[:, 0]),
+            ("q", Xc[:, 1]),
+            ("theta", Xc[:, 2]),
+            ("a_x", axc),
+            ("q_dot", qdc),
+        ):
             noise_std[name] = float(np.sqrt(np.mean(sig**2)) * scale)
         # one draw per sensor, in a fixed order, so the same seed gives the same record
+        # (q_dot, added later, is drawn last and only when asked for: the other sensors'
+        # noise is unchanged by it)
         draws = {k: rng.standard_normal(ns) for k in ("q", "theta", "u", "a_x")}
+        draws["q_dot"] = rng.standard_normal(ns) if "q_dot" in names else zero
         nq = noise_std["q"] * draws["q"]
         nth = noise_std["theta"] * draws["theta"]
     else:
-        draws = {k: zero for k in ("q", "theta", "u", "a_x")}
+        draws = {k: zero for k in sensors}
     X, cmd, mom = _run_loop(Phi, Gam, exc, nq, nth, ctrl, velocity_loop, u_ref, xinit)
     ax_clean = p["Xu"] * X[:, 0] + p["Xq"] * X[:, 1] + p["Xd"] * mom
+    qd_clean = p["Mu"] * X[:, 0] + p["Mq"] * X[:, 1] + p["Md"] * mom
     meas = {
         "u": X[:, 0] + noise_std["u"] * draws["u"],
         "q": X[:, 1] + nq,
         "theta": X[:, 2] + nth,
         "a_x": ax_clean + noise_std["a_x"] * draws["a_x"],
+        "q_dot": qd_clean + noise_std["q_dot"] * draws["q_dot"],
     }
-    clean = {"u": X[:, 0], "q": X[:, 1], "theta": X[:, 2], "a_x": ax_clean}
+    clean = {"u": X[:, 0], "q": X[:, 1], "theta": X[:, 2], "a_x": ax_clean, "q_dot": qd_clean}
     options = {
         "duration": float(duration),
         "snr_db": snr_db,
@@ -428,3 +445,34 @@ def simulate_pitch_closed_loop(
         noise_std={k: noise_std[k] for k in dict.fromkeys(("q", "theta", *names))},
         options=options,
     )
+
+
+def hermite_sweep_excitation(
+    t: Any,
+    n_terms: int = 300,
+    amplitude: float = 0.05,
+    f0: float = 1.0,
+    f1: float = 4.0,
+) -> Array:
+    """The source's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
+    the first ``n_terms`` Hermite functions (``n_max,u``) of the record ``[t0, tN]``.
+
+    The sweep of :func:`pitch_excitation` is projected (:meth:`slbasis.Basis.project`,
+    the record filling 90 % of the functions' effective support, as the HD-PBSID basis
+    does) and reconstructed at ``t``, so the excitation lies exactly in the span of
+    ``n_terms`` Hermite functions and fades to ~0 at the record's ends.  The functions
+    reach about ``3.6 n_terms / T`` rad/s: over 30 s, 300 terms cover 36 rad/s (5.7 Hz)
+    and keep the whole 1-4 Hz sweep; fewer than ``2 pi f1 T / 3.6`` terms (209 for 4 Hz
+    over 30 s) cut its fast end.  Returns shape ``(Ns,)``.
+    """
+    import slbasis
+
+    t = np.asarray(t, dtype=float).reshape(-1)
+    if t.size < 2 or not np.all(np.diff(t) > 0):
+        raise ValueError("t must be increasing with at least 2 samples")
+    if isinstance(n_terms, bool) or not isinstance(n_terms, int | np.integer) or n_terms < 1:
+        raise ValueError(f"n_terms must be a positive integer, got {n_terms!r}")
+    sweep = pitch_excitation("sweep", t, amplitude, f0=f0, f1=f1)
+    basis = slbasis.basis("hermite", int(n_terms), (float(t[0]), float(t[-1])))
+    c = basis.project(t, sweep)
+    return np.asarray(basis.reconstruct(c, t), dtype=float).reshape(-1)

@@ -1,0 +1,212 @@
+"""Figures of the studies (issue 5, item 3): Monte Carlo eigenvalue scatter per method
+with the truth (source Figure 1), singular values, measured vs simulated outputs
+(source Figure 2), Bode plots of the true and identified models, and the study curves
+(error vs SNR / samples / basis size / operator parameters).
+
+Matplotlib through :mod:`hdpbsid.plots` (Agg canvas, never ``pyplot``: no window, no
+global backend change).  Every function takes a :class:`~hdpbsid.studies.StudyResult`
+and an output directory and returns ``{name: path}`` of the PNGs written.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..plots import (
+    new_figure,
+    plot_bode,
+    plot_eigenvalue_scatter,
+    plot_outputs,
+    plot_singular_values,
+    save_figure,
+)
+from .methods import LABELS
+
+__all__ = ["table1_figures", "curve_figure", "operator_figure", "quadrotor_figures"]
+
+
+def _eigs(results: list[dict[str, Any]]) -> np.ndarray:
+    z = [complex(a, b) for r in results for a, b in r.get("eigenvalues", [])]
+    return np.array(z, dtype=complex)
+
+
+def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
+    """Per SNR, the eigenvalue scatter of all runs per method (``table1_eig_<snr>dB.png``,
+    Figure 1 style, zoomed on the truth) and the STD of the pair / real pole vs SNR per
+    method (``table1_std.png``)."""
+    from ..quadrotor import pitch_model
+
+    out = Path(out)
+    true = np.linalg.eigvals(pitch_model()[0])
+    files: dict[str, Path] = {}
+    snrs: list[Any] = []
+    for r in result.records:
+        s = r["case"]["data"]["snr_db"]
+        if s not in snrs:
+            snrs.append(s)
+    for snr in snrs:
+        groups: dict[str, Any] = {}
+        for r in result.records:
+            if r["case"]["data"]["snr_db"] == snr and r["ok"]:
+                groups.setdefault(r["case"]["method"], []).append(r["result"])
+        if not groups:
+            continue
+        fig = plot_eigenvalue_scatter(
+            {LABELS.get(m, m): _eigs(res) for m, res in groups.items()},
+            true,
+            zoom=1.0,
+            title=f"Closed-loop quadrotor, SNR {snr:g} dB: {result.settings['runs']} runs",
+        )
+        name = f"table1_eig_{snr:g}dB.png"
+        files[name] = save_figure(fig, out / name)
+    fig = new_figure((10.0, 4.0))
+    for k, key in enumerate(("std pair", "std real")):
+        ax = fig.add_subplot(1, 2, k + 1)
+        methods = list(dict.fromkeys(row["method"] for row in result.summary))
+        for c, m in enumerate(methods):
+            rows = [row for row in result.summary if row["method"] == m]
+            x = [row["snr_db"] for row in rows]
+            y = [np.nan if row[key] is None else row[key] for row in rows]
+            ax.semilogy(x, y, "o-", color=f"C{c}", label=LABELS.get(m, m))
+        ax.set_xlabel("SNR [dB]")
+        ax.set_ylabel(f"{key} [rad/s]")
+        ax.set_title(f"STD of the {'pair -2.92±3.24j' if k == 0 else 'real pole +3.08'}")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize="small")
+    files["table1_std.png"] = save_figure(fig, out / "table1_std.png")
+    return files
+
+
+def curve_figure(
+    result: Any, out: str | Path, *, x: str, xlabel: str, name: str, logx: bool = False
+) -> dict[str, Path]:
+    """Median worst relative error (with every run as a dot) and relative STD vs ``x``,
+    one curve per method (``<name>.png``); failed runs are counted in the legend."""
+    fig = new_figure((10.0, 4.2))
+    ax1 = fig.add_subplot(1, 2, 1)
+    ax2 = fig.add_subplot(1, 2, 2)
+    methods = list(dict.fromkeys(row.get("method", "hermite") for row in result.summary))
+    for c, m in enumerate(methods):
+        rows = [row for row in result.summary if row.get("method", "hermite") == m]
+        xs = np.array([row[x] for row in rows], dtype=float)
+        med = np.array([np.nan if row["median err"] is None else row["median err"] for row in rows])
+        std = np.array([np.nan if row["rel std"] is None else row["rel std"] for row in rows])
+        fails = sum(row["failed"] for row in rows)
+        label = LABELS.get(m, m) + (f" ({fails} failed runs)" if fails else "")
+        for row in rows:
+            e = np.asarray(row["errors"], dtype=float)
+            ax1.plot(np.full(e.size, float(row[x])), e, ".", color=f"C{c}", alpha=0.3, ms=3)
+        ax1.plot(xs, med, "o-", color=f"C{c}", label=label)
+        ax2.plot(xs, std, "o-", color=f"C{c}", label=label)
+    for ax, lab in ((ax1, "worst relative eigenvalue error"), (ax2, "relative STD of -0.4+1.96j")):
+        ax.set_yscale("log")
+        if logx:
+            ax.set_xscale("log")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(lab)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize="small")
+    ax1.set_title("median (line) and every run (dots)")
+    ax2.set_title("spread over runs")
+    fig.suptitle(result.study.title if result.study else name)
+    return {f"{name}.png": save_figure(fig, Path(out) / f"{name}.png")}
+
+
+def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
+    """Median worst relative error vs each operator parameter (``operator.png``); the
+    default value is marked, failed runs are drawn as crosses at the top."""
+    fig = new_figure((12.0, 4.0))
+    params = list(dict.fromkeys(row["parameter"] for row in result.summary))
+    defaults = {"alpha/s": 4.0, "beta": 1.0, "gamma": 1.0}
+    for k, p in enumerate(params):
+        ax = fig.add_subplot(1, len(params), k + 1)
+        rows = [row for row in result.summary if row["parameter"] == p]
+        xs = np.array([row["value"] for row in rows], dtype=float)
+        med = np.array([np.nan if row["median err"] is None else row["median err"] for row in rows])
+        ax.plot(xs, med, "o-", label="median worst error")
+        for row in rows:
+            e = np.asarray(row["errors"], dtype=float)
+            ax.plot(np.full(e.size, row["value"]), e, ".", color="C0", alpha=0.3, ms=3)
+            if row["failed"]:
+                ax.plot([row["value"]], [1.0], "x", color="C3", ms=8)
+        ax.axvline(defaults.get(p, np.nan), color="0.5", ls="--", label="default")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(p)
+        ax.set_ylabel("worst relative eigenvalue error")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize="small", title="x at 1: runs that failed")
+    fig.suptitle(result.study.title if result.study else "operator")
+    return {"operator.png": save_figure(fig, Path(out) / "operator.png")}
+
+
+def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, Path]:
+    """The quadrotor example's figures for run ``run`` (its record is re-simulated from
+    the seed, exactly): singular values, eigenvalues vs truth, measured vs simulated
+    outputs on the validation record (Figure 2 style), Bode true vs identified."""
+    from ..model import StateSpaceModel
+    from ..plots import display_fit
+    from .quadrotor import identify_case
+    from .runner import task_rng
+
+    out = Path(out)
+    recs = [r for r in result.records if r["run"] == run and r["ok"]]
+    if not recs:
+        return {}
+    case = recs[0]["case"]
+    r = identify_case(case, task_rng(result.settings["seed"], case, run))
+    data, val, models, auto = r["data"], r["validation"], r["models"], r["auto"]
+    names = list(data.outputs)
+    files: dict[str, Path] = {}
+    fig = plot_singular_values(
+        auto.singular_values,
+        auto.n,
+        title=f"Singular values (largest log-gap picks order {auto.n})",
+    )
+    files["singular_values.png"] = save_figure(fig, out / "singular_values.png")
+    fig = new_figure((5.0 * len(models), 4.5))
+    true = data.true_eigenvalues
+    for k, (o, m) in enumerate(models.items()):
+        ax = fig.add_subplot(1, len(models), k + 1)
+        ax.plot(true.real, true.imag, "o", mfc="none", mec="k", ms=11, label="true")
+        ax.plot(m.eigenvalues.real, m.eigenvalues.imag, "x", ms=9, mew=2, label="identified")
+        ax.axvline(0.0, color="0.6", lw=0.8)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_title(f"order {o}")
+        ax.set_xlabel("Re")
+        ax.set_ylabel("Im")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    fig.suptitle("Open-loop eigenvalues: identified vs true")
+    files["eigenvalues.png"] = save_figure(fig, out / "eigenvalues.png")
+    sims = {}
+    for o, m in models.items():
+        fit = display_fit(m, val.t, val.u, val.y)
+        vaf = "/".join(f"{v:.1f}" for v in fit.vaf)
+        sims[f"order {o} (VAF {vaf} %)"] = fit.y_sim
+    T = float(val.t[-1])
+    fig = plot_outputs(
+        val.t,
+        val.y,
+        sims,
+        output_names=names,
+        title="Validation record (new noise): measured vs simulated, "
+        + "segments of an unstable model re-initialised by least squares",
+        window=(0.4 * T, 0.4 * T + 4.0),
+    )
+    files["outputs.png"] = save_figure(fig, out / "outputs.png")
+    truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
+    w = np.logspace(-1, 2.5, 400)
+    fig = plot_bode(
+        {f"order {o}": m for o, m in models.items()},
+        w,
+        true_model=truth,
+        input_names=["moment"],
+        output_names=names,
+        title="Bode: true (dashed) and identified; sweep excites 6.3-25 rad/s",
+    )
+    files["bode.png"] = save_figure(fig, out / "bode.png")
+    return files

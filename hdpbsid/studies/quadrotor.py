@@ -1,0 +1,190 @@
+"""Study ``quadrotor``: the source's §6 experiment, simulated (issue 5, item 2).
+
+The flight data of §6 are not public, so the ANT-X pitch model flies in its DESIGN.md
+closed loop (:mod:`hdpbsid.quadrotor`).  As in §5-6, the excitation added to the moment
+command is the Hermite projection of a 1-4 Hz sine sweep on ``n_max,u`` functions
+(:func:`~hdpbsid.quadrotor.hermite_sweep_excitation`); the identified input is the
+total moment and the outputs are the pitch rate ``q`` and the angular acceleration
+``q_dot`` (§6: "measurements of angular velocity and acceleration"; ``outputs`` can
+pick the angle ``theta`` instead).  ``q_dot = Mu u + Mq q + Md delta`` has a direct
+feedthrough of the moment, so HD-PBSID runs with ``feedthrough=True``.
+
+§6 identifies a *fourth-order* model "motivated by singular value analysis" with a
+400-term basis.  Our simulated plant has three states, so the study records the
+singular values and the order the largest log-gap selects, and identifies both
+``orders`` (default 3 and 4): the eigenvalues against the truth (a 4th-order model has
+one extra eigenvalue that the truth does not explain) and the fit (VAF) on the
+identification record and on a fresh validation record (same excitation, new noise)
+- the simulated-vs-measured comparison of the source's Figure 2.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .base import Study, model_record
+from .data import quadrotor_record
+from .methods import check_methods, identify_with
+
+__all__ = ["STUDY", "DEFAULTS", "make_cases", "task", "identify_case", "validation_rng"]
+
+DEFAULTS: dict[str, Any] = {
+    "runs": 1,
+    "snr_db": 20.0,
+    "duration": 30.0,
+    "excitation": "hermite-sweep",
+    "n_max_u": 300,
+    "amplitude": 0.05,
+    "outputs": ("q", "q_dot"),
+    "orders": (3, 4),
+    "method": "hermite",
+    "options": None,
+}
+
+COLUMNS = (
+    "run",
+    "order",
+    "auto order",
+    "max err (3 true)",
+    "extra eigenvalue",
+    "VAF ident",
+    "VAF valid",
+    "eigenvalues",
+)
+
+
+def _default_options(method: str, outputs: tuple[str, ...]) -> dict[str, Any]:
+    opts: dict[str, Any] = {}
+    # source §6 used a 400-term basis; the hermite default N is 400 on this record (its
+    # cap), while an explicit N=400 is refused (the 250 Hz steps' bandwidth ~770 rad/s
+    # exceeds the band 3.6 N / T), so the default is kept and recorded in the options
+    if "q_dot" in outputs or "a_x" in outputs:
+        if method in ("hermite", "dt", "legendre", "chebyshev"):
+            opts["feedthrough"] = True  # the accelerations have a moment feedthrough
+    return opts
+
+
+def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
+    """One case (the record and every order are handled in one task)."""
+    (method,) = check_methods((s["method"],))
+    outputs = tuple(s["outputs"])
+    orders = [int(o) for o in s["orders"]]
+    if not orders or min(orders) < 1:
+        raise ValueError(f"orders must be positive integers, got {s['orders']}")
+    snr = s["snr_db"]
+    data = {
+        "snr_db": None if snr is None else float(snr),
+        "duration": float(s["duration"]),
+        "excitation": s["excitation"],
+        "outputs": list(outputs),
+        "amplitude": float(s["amplitude"]),
+        "n_max_u": int(s["n_max_u"]) if s["excitation"] == "hermite-sweep" else None,
+    }
+    options = {**_default_options(method, outputs), **(s["options"] or {})}
+    return [{"data": data, "method": method, "orders": orders, "options": options}]
+
+
+def validation_rng(rng: np.random.Generator) -> np.random.Generator:
+    """The validation record's generator: the first child of the task's seed sequence
+    (independent noise, reproducible, never the identification record's stream)."""
+    seq = rng.bit_generator.seed_seq
+    return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(1,)))
+
+
+def identify_case(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
+    """Records and models of a case: ``{"data", "validation", "models": {order: model},
+    "auto": model with the order chosen from the singular values}``."""
+    data = quadrotor_record(rng, **case["data"])
+    val = quadrotor_record(validation_rng(rng), **case["data"])
+    models = {
+        o: identify_with(case["method"], data.t, data.u, data.y, o, case["options"])
+        for o in case["orders"]
+    }
+    auto = identify_with(case["method"], data.t, data.u, data.y, None, case["options"])
+    return {"data": data, "validation": val, "models": models, "auto": auto}
+
+
+def _vaf(model: Any, d: Any) -> list[float]:
+    from ..plots import display_fit
+
+    return [float(v) for v in display_fit(model, d.t, d.u, d.y).vaf]
+
+
+def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
+    """Identify every order; eigenvalues vs truth, VAF on both records, singular values."""
+    r = identify_case(case, rng)
+    data, val = r["data"], r["validation"]
+    true = data.true_eigenvalues
+    out: dict[str, Any] = {
+        "true": [[float(z.real), float(z.imag)] for z in true],
+        "outputs": list(data.outputs),
+        "saturation": data.saturation_fraction,
+        "auto_order": int(r["auto"].n),
+        "singular_values": [float(s) for s in np.ravel(r["auto"].singular_values)[:12]],
+        "models": {},
+    }
+    for o, m in r["models"].items():
+        rec = model_record(m, true)
+        if m.n > true.size:
+            from ..metrics import match_eigenvalues
+
+            est, _ = match_eigenvalues(m.eigenvalues, true)
+            extra = [z for z in m.eigenvalues if not np.any(np.isclose(z, est))]
+            rec["extra"] = [[float(z.real), float(z.imag)] for z in extra]
+        rec["vaf_identification"] = _vaf(m, data)
+        rec["vaf_validation"] = _vaf(m, val)
+        rec["matrices"] = {k: getattr(m, k).tolist() for k in ("A", "B", "C", "D", "K")}
+        out["models"][str(o)] = rec
+    return out
+
+
+def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per run and order."""
+    rows = []
+    for r in records:
+        if not r["ok"]:
+            rows.append({"run": r["run"], "order": None, "eigenvalues": r["error"][:60]})
+            continue
+        res = r["result"]
+        for o, m in res["models"].items():
+            extra = m.get("extra") or []
+            rows.append(
+                {
+                    "run": r["run"],
+                    "order": int(o),
+                    "auto order": res["auto_order"],
+                    "max err (3 true)": m.get("max_error"),
+                    "extra eigenvalue": ", ".join(_fmt(z) for z in extra) or "-",
+                    "VAF ident": "/".join(f"{v:.1f}" for v in m["vaf_identification"]),
+                    "VAF valid": "/".join(f"{v:.1f}" for v in m["vaf_validation"]),
+                    "eigenvalues": ", ".join(_fmt(z) for z in m["eigenvalues"]),
+                }
+            )
+    return rows
+
+
+def _fmt(z: list[float]) -> str:
+    re, im = z
+    return f"{re:.3g}" if abs(im) < 1e-9 else f"{re:.3g}{im:+.3g}j"
+
+
+def _figures(result: Any, out: Any) -> dict[str, Any]:
+    from .figures import quadrotor_figures
+
+    return quadrotor_figures(result, out)
+
+
+STUDY = Study(
+    name="quadrotor",
+    title="Quadrotor pitch (source §6, simulated): HD-PBSID, orders 3 and 4",
+    source="source §5-6, Tables 2-3, Figure 2",
+    task=task,
+    make_cases=make_cases,
+    summarize=summarize,
+    defaults=DEFAULTS,
+    columns=COLUMNS,
+    figures=_figures,
+    notes=__doc__ or "",
+)

@@ -1,0 +1,341 @@
+"""The Monte Carlo engine shared by every study (issue 5, item 1; source §5).
+
+A study is a list of **cases** (plain dicts of settings, JSON-serialisable) crossed with
+run indices ``0 .. runs - 1``.  Each *task* ``(case, run)`` calls the study's task
+function ``func(case, rng) -> dict`` with its own generator
+
+    rng = numpy.random.default_rng(numpy.random.SeedSequence([seed, data_id, run]))
+
+where ``data_id`` is a stable 32-bit hash of ``case["data"]`` (the settings that define
+the simulated record; the whole case if it has no ``"data"`` entry).  So
+
+* a task's numbers depend only on ``(seed, case data, run)``: identical whatever the
+  backend, the number of jobs, the order in which tasks finish, the number of runs or
+  the other cases in the study;
+* cases that differ only in the method (``case["method"]``) see the *same* record for
+  the same run (paired comparison, as in the source's Table 1).
+
+Backends: serial (``jobs=1``), joblib/loky processes (``jobs > 1``), or Dask
+(``scheduler="tcp://host:port"`` or a ``dask.distributed.Client``).  All three yield
+``(task, record)`` pairs into one collector that updates the tqdm bar and appends each
+record as one JSON line to ``OUT/results.jsonl`` as soon as it is known, so an
+interrupted study resumes where it stopped (``resume=True`` skips the tasks already in
+the file) and a rerun with more runs only computes the new ones.
+
+A task that raises is recorded as a failure (``ok: False``, exception type and
+message), never a crash of the study; warnings raised inside a task are recorded in
+the record (``warnings``), not printed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+import traceback
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "Task",
+    "run_tasks",
+    "execute_task",
+    "task_rng",
+    "data_id",
+    "case_key",
+    "check_runs",
+    "check_jobs",
+    "load_records",
+    "RESULTS_FILE",
+]
+
+#: name of the per-task results file inside ``out``
+RESULTS_FILE = "results.jsonl"
+
+TaskFunc = Callable[[dict[str, Any], np.random.Generator], dict[str, Any]]
+
+
+def _canonical(obj: Any) -> str:
+    """Canonical JSON text (sorted keys, no spaces) used for hashing and keys."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=repr)
+
+
+def data_id(case: dict[str, Any]) -> int:
+    """Stable 32-bit integer of the case's data settings (``case["data"]`` or the case).
+
+    SHA-256 of the canonical JSON, so it is the same in every process and Python
+    version (unlike ``hash``).
+    """
+    data = case.get("data", case)
+    digest = hashlib.sha256(_canonical(data).encode()).digest()
+    return int.from_bytes(digest[:4], "little")
+
+
+def case_key(case: dict[str, Any]) -> str:
+    """The case's identity for resuming: its canonical JSON text."""
+    return _canonical(case)
+
+
+def task_rng(seed: int, case: dict[str, Any], run: int) -> np.random.Generator:
+    """``default_rng(SeedSequence([seed, data_id(case), run]))`` (module docstring)."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), data_id(case), int(run)]))
+
+
+def check_runs(runs: Any, name: str = "runs") -> int:
+    """``runs`` must be an integer >= 1 (``ValueError``/``TypeError`` naming it)."""
+    if isinstance(runs, bool) or not isinstance(runs, int | np.integer):
+        raise TypeError(f"{name} must be an integer >= 1, got {type(runs).__name__} {runs!r}")
+    if runs < 1:
+        raise ValueError(f"{name} must be >= 1, got {runs}")
+    return int(runs)
+
+
+def check_jobs(jobs: Any) -> int:
+    """``jobs`` must be an integer >= 1, or -1 for every core."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int | np.integer):
+        raise TypeError(f"jobs must be an integer >= 1 (or -1), got {type(jobs).__name__}")
+    if jobs == -1:
+        return os.cpu_count() or 1
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1 or -1 (all cores), got {jobs}")
+    return int(jobs)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of work: ``case`` (settings dict) at position ``index`` of the study's
+    case list, Monte Carlo run ``run``."""
+
+    index: int
+    case: dict[str, Any]
+    run: int
+
+    @property
+    def key(self) -> tuple[str, int]:
+        return case_key(self.case), self.run
+
+
+def execute_task(
+    func: TaskFunc, study: str, seed: int, case: dict[str, Any], run: int
+) -> dict[str, Any]:
+    """Run one task and return its record (plain JSON data); never raises for a
+    failing identification.
+
+    Record: ``study, seed, run, case, ok, time`` (wall seconds of the task), then
+    ``result`` (what ``func`` returned) when ``ok``, else ``error_type``, ``error``
+    and ``traceback`` (last lines); ``warnings`` lists the warning messages caught.
+    """
+    rng = task_rng(seed, case, run)
+    rec: dict[str, Any] = {"study": study, "seed": int(seed), "run": int(run), "case": case}
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = func(case, rng)
+        except Exception as exc:  # a failed identification is data, not a crash
+            rec["ok"] = False
+            rec["error_type"] = type(exc).__name__
+            rec["error"] = str(exc)
+            rec["traceback"] = traceback.format_exc(limit=-3)
+        else:
+            rec["ok"] = True
+            rec["result"] = result
+    rec["time"] = time.perf_counter() - t0
+    msgs = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    rec["warnings"] = msgs[:10]
+    return _plain(rec)
+
+
+def _plain(x: Any) -> Any:
+    """numpy scalars/arrays -> Python; complex -> ``[re, im]``; non-finite floats kept
+    as ``None`` so that the JSON lines stay standard JSON."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, np.generic):
+        return _plain(x.item())
+    if isinstance(x, complex):
+        return [_plain(x.real), _plain(x.imag)]
+    if isinstance(x, float):
+        return x if np.isfinite(x) else None
+    if x is None or isinstance(x, bool | int | str):
+        return x
+    return repr(x)
+
+
+# -- backends: each yields (task, record) as tasks finish --------------------------------
+def _serial(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task]) -> Iterator:
+    for task in tasks:
+        yield task, execute_task(func, study, seed, task.case, task.run)
+
+
+def _joblib(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task], jobs: int) -> Iterator:
+    try:
+        from joblib import Parallel, delayed
+    except ImportError as exc:  # pragma: no cover - joblib is in the studies extra
+        raise ImportError("jobs > 1 needs joblib: pip install 'slbasis-hdpbsid[studies]'") from exc
+    par = Parallel(n_jobs=jobs, backend="loky", return_as="generator_unordered")
+    # the task travels with its record so that unordered results can be matched
+    results = par(delayed(_execute_with_task)(func, study, seed, task) for task in tasks)
+    yield from results
+
+
+def _execute_with_task(func: TaskFunc, study: str, seed: int, task: Task) -> tuple[Task, dict]:
+    return task, execute_task(func, study, seed, task.case, task.run)
+
+
+def _dask_client(scheduler: Any) -> tuple[Any, bool]:
+    """A ``dask.distributed.Client`` from an address string or a client; returns
+    ``(client, owned)`` (``owned``: we opened it and must close it)."""
+    try:
+        from dask.distributed import Client
+    except ImportError as exc:  # pragma: no cover - dask is in the cluster extra
+        raise ImportError(
+            "scheduler needs dask.distributed: pip install 'slbasis-hdpbsid[cluster]'"
+        ) from exc
+    if isinstance(scheduler, Client):
+        return scheduler, False
+    if not isinstance(scheduler, str):
+        raise TypeError(
+            "scheduler must be an address string like 'tcp://127.0.0.1:8786' or a "
+            f"dask.distributed.Client, got {type(scheduler).__name__}"
+        )
+    if "://" not in scheduler or not scheduler.split("://", 1)[1]:
+        raise ValueError(
+            f"scheduler must be an address like 'tcp://127.0.0.1:8786', got {scheduler!r}"
+        )
+    try:
+        return Client(scheduler, timeout="10s", set_as_default=False), True
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ValueError(
+            f"scheduler: could not connect to the Dask scheduler at {scheduler!r} ({exc})"
+        ) from exc
+
+
+def _dask(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task], scheduler: Any) -> Iterator:
+    from dask.distributed import as_completed
+
+    client, owned = _dask_client(scheduler)
+    try:
+        futures = [
+            client.submit(_execute_with_task, func, study, seed, task, pure=False) for task in tasks
+        ]
+        for fut in as_completed(futures):
+            yield fut.result()
+            fut.release()
+    finally:
+        if owned:
+            client.close()
+
+
+# -- persistence --------------------------------------------------------------------------
+def load_records(path: str | Path) -> list[dict[str, Any]]:
+    """Records of a ``results.jsonl`` file; a truncated last line (interrupted write) is
+    skipped with a ``RuntimeWarning``."""
+    path = Path(path)
+    if not path.is_file():
+        return []
+    out = []
+    bad = 0
+    for line in path.read_text().splitlines():
+        if not line.strip():
+            continue
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            bad += 1
+    if bad:
+        warnings.warn(
+            f"{path}: skipped {bad} unreadable line(s) (interrupted write?)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return out
+
+
+def _progress(total: int, desc: str, enabled: bool) -> Any:
+    if not enabled or total == 0:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:  # pragma: no cover - tqdm is in the studies extra
+        warnings.warn("tqdm is not installed: no progress bar", RuntimeWarning, stacklevel=3)
+        return None
+    return tqdm(total=total, desc=desc, unit="task", dynamic_ncols=True)
+
+
+def run_tasks(
+    func: TaskFunc,
+    cases: Sequence[dict[str, Any]],
+    runs: int,
+    *,
+    study: str = "study",
+    seed: int = 0,
+    jobs: int = 1,
+    scheduler: Any | None = None,
+    out: str | Path | None = None,
+    progress: bool = True,
+    resume: bool = True,
+) -> list[dict[str, Any]]:
+    """Run ``func`` on every ``(case, run)`` and return the records in task order
+    (case order, then run), whatever the backend.
+
+    ``out``: directory for ``results.jsonl`` (appended per task; ``resume=True`` reuses
+    the records of matching ``(study, seed, case, run)`` already there, ``resume=False``
+    starts the file afresh).  Records of runs beyond ``runs`` stay in the file but are
+    not returned.  ``scheduler`` (Dask) takes precedence over ``jobs``.
+    """
+    runs = check_runs(runs)
+    jobs = check_jobs(jobs)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    cases = [dict(c) for c in cases]
+    if not cases:
+        raise ValueError("the study has no cases: check its settings")
+    tasks = [Task(i, c, r) for i, c in enumerate(cases) for r in range(runs)]
+    done: dict[tuple[str, int], dict[str, Any]] = {}
+    path = None
+    if out is not None:
+        path = Path(out) / RESULTS_FILE
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if resume:
+            for rec in load_records(path):
+                if rec.get("study") == study and rec.get("seed") == seed and "case" in rec:
+                    done[(case_key(rec["case"]), int(rec["run"]))] = rec
+        else:
+            path.write_text("")
+    todo = [t for t in tasks if t.key not in done]
+    if scheduler is not None:
+        stream: Iterable = _dask(func, study, seed, todo, scheduler)
+    elif jobs > 1 and len(todo) > 1:
+        stream = _joblib(func, study, seed, todo, min(jobs, len(todo)))
+    else:
+        stream = _serial(func, study, seed, todo)
+    bar = _progress(len(todo), study, progress)
+    fh = path.open("a") if path is not None else None
+    try:
+        if todo:
+            for task, rec in stream:
+                done[task.key] = rec
+                if fh is not None:
+                    fh.write(json.dumps(rec) + "\n")
+                    fh.flush()
+                if bar is not None:
+                    bar.update(1)
+                    if not rec["ok"]:
+                        bar.set_postfix_str(f"last failure: {rec['error_type']}")
+    finally:
+        if bar is not None:
+            bar.close()
+        if fh is not None:
+            fh.close()
+    return [done[t.key] for t in tasks]

@@ -1,0 +1,104 @@
+"""The task and the summary shared by the second-order parameter studies (source §5:
+``snr``, ``samples``, ``basis_order``, ``operator``).
+
+A case is ``{"data": {...second_order_record settings}, "method": name, "order": 2,
+"options": {...identify options}, ...labels}``; the task simulates the record and
+identifies it; the summary groups records by the study's label keys and reports the
+relative bias and STD of the eigenvalue ``-0.4 + 1.96i`` and the median worst error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .base import eigen_stats, model_record
+from .data import SECOND_ORDER_TRUE, second_order_record
+from .methods import identify_with
+
+__all__ = ["task", "rows", "DATA_DEFAULTS", "COLUMNS"]
+
+#: the record of source §5: 40 s, 4001 samples, 0.05-1 Hz sweep on 100 Hermite functions
+DATA_DEFAULTS: dict[str, Any] = {
+    "snr_db": 20.0,
+    "samples": 4001,
+    "duration": 40.0,
+    "f0": 0.05,
+    "f1": 1.0,
+    "n_max_u": 100,
+}
+
+COLUMNS = ("n", "failed", "divergent", "rel bias", "rel std", "median err", "time ms")
+
+
+def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
+    """Simulate the second-order record and identify it (options may hold
+    ``alpha_factor``: ``alpha = alpha_factor * scale`` of the Hermite basis)."""
+    rec = second_order_record(rng, **case["data"])
+    options = dict(case.get("options") or {})
+    factor = options.pop("alpha_factor", None)
+    if factor is not None:
+        options["alpha"] = float(factor) * _hermite_scale(rec.t, options.get("N"), rec)
+    model = identify_with(case["method"], rec.t, rec.u, rec.y, case["order"], options)
+    return model_record(model, rec.true)
+
+
+def _hermite_scale(t: np.ndarray, N: int | None, rec: Any) -> float:
+    """The time scale ``s`` of the Hermite basis the method will use (it depends on N
+    only): read from a default identification's options."""
+    import slbasis
+
+    if N is None:
+        from ..identify import identify
+
+        m = identify(rec.t, rec.u, rec.y, 2, method="hermite")
+        return float(m.options["scale"])
+    return float(slbasis.basis("hermite", int(N), (float(t[0]), float(t[-1]))).scale)
+
+
+def rows(
+    records: list[dict[str, Any]], keys: Sequence[str], true: Any = SECOND_ORDER_TRUE
+) -> list[dict[str, Any]]:
+    """Summary rows grouped by the case labels ``keys`` (in first-seen order)."""
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in records:
+        groups.setdefault(tuple(_label(r["case"], k) for k in keys), []).append(r)
+    z = np.asarray(true)[np.argmax(np.asarray(true).imag)]
+    from .base import _eig_tag
+
+    tag = _eig_tag(z)
+    out = []
+    for label, recs in groups.items():
+        ok = [r["result"] for r in recs if r["ok"]]
+        st = eigen_stats(ok, true)
+        times = [r["time"] for r in recs if r["ok"] and r.get("time") is not None]
+        row = dict(zip(keys, label, strict=True))
+        row.update(
+            {
+                "n": len(recs),
+                "failed": sum(not r["ok"] for r in recs),
+                "divergent": st["divergent"],
+                "rel bias": st.get(f"rel_bias {tag}"),
+                "rel std": st.get(f"rel_std {tag}"),
+                "median err": st["median_error"],
+                "time ms": 1e3 * float(np.median(times)) if times else None,
+                "errors": [
+                    r["result"]["max_error"] for r in recs if r["ok"] and "max_error" in r["result"]
+                ],
+                "failures": sorted(
+                    {f"{r['error_type']}: {r['error'][:80]}" for r in recs if not r["ok"]}
+                ),
+            }
+        )
+        out.append(row)
+    return out
+
+
+def _label(case: dict[str, Any], key: str) -> Any:
+    if key in case:
+        return case[key]
+    if key in case.get("data", {}):
+        return case["data"][key]
+    return case.get("options", {}).get(key)
