@@ -35,7 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .identify import available_methods, identify, is_available
-from .metrics import eigenvalue_errors, match_eigenvalues
+from .metrics import match_eigenvalues
 from .model import StateSpaceModel
 
 __all__ = [
@@ -291,44 +291,101 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
-    from .quadrotor import simulate_pitch_closed_loop
+    """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, source §6) for one run."""
+    from . import studies
+    from .studies.data import quadrotor_record
+    from .studies.runner import task_rng
 
     method = best_method() if args.method == "auto" else args.method
     _check_method(method)
+    if method not in studies.methods.METHODS:
+        raise CLIError(f"demo: method must be one of {list(studies.methods.METHODS)}")
     snr = None if str(args.snr).lower() in ("none", "inf") else float(args.snr)
-    rng = np.random.default_rng(args.seed)
-    data = simulate_pitch_closed_loop(
-        rng,
-        duration=args.duration,
+    outputs = tuple(_split_columns(args.outputs))
+    orders = tuple(int(o) for o in _split_columns([args.orders]))
+    outdir = Path(args.out)
+    result = studies.run_study(
+        "quadrotor",
+        runs=1,
+        seed=args.seed,
+        out=None,
+        progress=False,
+        resume=False,
         snr_db=snr,
+        duration=args.duration,
         excitation=args.excitation,
-        outputs=tuple(_split_columns(args.outputs)),
+        n_max_u=args.n_max_u,
+        outputs=outputs,
+        orders=orders,
+        method=method,
     )
+    rec = result.records[0]
+    case = rec["case"]
+    data = quadrotor_record(task_rng(args.seed, case, 0), **case["data"])
+    exc = args.excitation + (f" (n_max,u = {args.n_max_u})" if "hermite" in args.excitation else "")
     print(
-        f"quadrotor pitch closed loop (DESIGN.md): {data.t.size} samples at 250 Hz, "
-        f"{args.duration:g} s, excitation {args.excitation}, SNR "
+        f"quadrotor pitch closed loop (source §6, simulated; DESIGN.md): {data.t.size} samples "
+        f"at 250 Hz, {args.duration:g} s, excitation {exc}, SNR "
         f"{'none' if snr is None else f'{snr:g} dB'}, seed {args.seed}, "
         f"saturated {100 * data.saturation_fraction:.1f} % of samples",
         file=out,
     )
-    print(f"identify(t, moment, {list(data.outputs)}, order=3, method={method!r})", file=out)
-    try:
-        model = identify(data.t, data.u, data.y, order=3, method=method)
-    except (ValueError, TypeError) as exc:
-        print(f"hdpbsid demo: identification with {method!r} failed: {exc}", file=sys.stderr)
+    print(
+        f"identify(t, moment, {list(data.outputs)}, order={list(orders)}, method={method!r})",
+        file=out,
+    )
+    if not rec["ok"]:
+        print(
+            f"hdpbsid demo: identification with {method!r} failed: {rec['error']}", file=sys.stderr
+        )
         return EXIT_FAILED
+    res = rec["result"]
+    sv = np.asarray(res["singular_values"], dtype=float)
+    print(
+        "singular values: "
+        + " ".join(f"{v:.3g}" for v in sv[:8])
+        + (f"  -> largest log-gap: order {res['auto_order']}" if res["auto_order"] else ""),
+        file=out,
+    )
     true = data.true_eigenvalues
-    est, tru = match_eigenvalues(model.eigenvalues, true)
-    errs = eigenvalue_errors(model.eigenvalues, true)
-    print("eigenvalues  identified            true                  rel. error", file=out)
-    for e, tv, err in zip(est, tru, errs, strict=True):
-        print(f"  {_fmt_complex(e):<22}{_fmt_complex(tv):<22}{100 * err:.3f} %", file=out)
+    models: dict[int, StateSpaceModel] = {}
+    for o, err in res["order_errors"].items():
+        print(f"order {o}: identification failed: {err}", file=out)
+    for o, mrec in res["models"].items():
+        mats = [np.asarray(mrec["matrices"][k], dtype=float) for k in ("A", "B", "C", "D", "K")]
+        model = StateSpaceModel(*mats, singular_values=sv, options=dict(mrec["options"]))
+        models[int(o)] = model
+        est, tru = match_eigenvalues(model.eigenvalues, true)
+        errs = np.abs(est - tru) / np.abs(tru)
+        print(
+            f"order {o}: eigenvalues  identified            true                  rel. error",
+            file=out,
+        )
+        for e, tv, err in zip(est, tru, errs, strict=True):
+            print(f"  {_fmt_complex(e):<22}{_fmt_complex(tv):<22}{100 * err:.3f} %", file=out)
+        for z in mrec.get("extra") or []:
+            print(f"  {_fmt_complex(complex(*z)):<22}{'(no true match)':<22}", file=out)
+        vaf_i = ", ".join(
+            f"{n} {v:.2f} %" for n, v in zip(data.outputs, mrec["vaf_identification"], strict=True)
+        )
+        vaf_v = ", ".join(
+            f"{n} {v:.2f} %" for n, v in zip(data.outputs, mrec["vaf_validation"], strict=True)
+        )
+        print(f"  VAF identification record: {vaf_i}; validation record: {vaf_v}", file=out)
+    main_order = 3 if 3 in models else min(models)
+    model = models[main_order]
     _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
-    outdir = Path(args.out)
-    model.options["demo"] = {"seed": args.seed, "snr_db": snr, "duration": args.duration}
-    print(f"wrote {write_model_json(model, outdir / 'model.json')}", file=out)
+    model.options["demo"] = {
+        "seed": args.seed,
+        "snr_db": snr,
+        "duration": args.duration,
+        "excitation": args.excitation,
+        "order": main_order,
+    }
+    print(f"wrote {write_model_json(model, outdir / 'model.json')} (order {main_order})", file=out)
     if not args.no_plot:
-        from .plots import plot_eigenvalues, plot_identification, save_figure
+        from .plots import plot_identification, save_figure
+        from .studies.figures import quadrotor_figures
 
         truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
         fig = plot_identification(
@@ -339,11 +396,11 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
             output_names=list(data.outputs),
             input_names=["moment"],
             true_model=truth,
-            title=f"Quadrotor pitch, closed loop: method {method!r}",
+            title=f"Quadrotor pitch, closed loop: method {method!r}, order {main_order}",
         )
         print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
-        fig = plot_eigenvalues(model.eigenvalues, true, title="Open-loop eigenvalues")
-        print(f"wrote {save_figure(fig, outdir / 'eigenvalues.png')}", file=out)
+        for _name, path in sorted(quadrotor_figures(result, outdir).items()):
+            print(f"wrote {path}", file=out)
     return EXIT_OK
 
 
@@ -447,13 +504,25 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     d.add_argument("--snr", default="20", help="sensor SNR in dB, or 'none' (default 20)")
     d.add_argument("--duration", type=float, default=30.0, help="seconds (default 30)")
-    d.add_argument("--excitation", choices=("sweep", "3211"), default="sweep")
+    d.add_argument(
+        "--excitation",
+        choices=("hermite-sweep", "sweep", "3211"),
+        default="hermite-sweep",
+        help="1-4 Hz sweep projected on --n-max-u Hermite functions (source §5-6, default), "
+        "the plain sweep or a 3211",
+    )
+    d.add_argument(
+        "--n-max-u", type=int, default=300, help="Hermite terms of the excitation (default 300)"
+    )
+    d.add_argument(
+        "--orders", default="3,4", help="model orders to identify (default 3,4; source §6: 4)"
+    )
     d.add_argument(
         "--outputs",
         nargs="+",
         default=["q,theta"],
         metavar="NAMES",
-        help="outputs among u, q, theta, a_x (default: q theta)",
+        help="outputs among u, q, theta, a_x, q_dot (default: q theta; source §6: q q_dot)",
     )
     d.add_argument("--out", default="hdpbsid-demo", help="output directory")
     d.add_argument("--no-plot", action="store_true", help="do not write figures")

@@ -34,11 +34,12 @@ _CACHE_SIZE = 8
 
 def _cache_key(rng: np.random.Generator, kind: str, settings: dict[str, Any]) -> str | None:
     seq = getattr(rng.bit_generator, "seed_seq", None)
-    if seq is None or getattr(seq, "spawn_key", ()) != ():
+    if seq is None:
         return None
     entropy = seq.entropy
     ent = list(entropy) if isinstance(entropy, list | tuple) else entropy
-    return json.dumps([kind, ent, settings], sort_keys=True, default=repr)
+    spawn = list(getattr(seq, "spawn_key", ()))
+    return json.dumps([kind, ent, spawn, settings], sort_keys=True, default=repr)
 
 
 def _cached(rng: np.random.Generator, kind: str, settings: dict[str, Any], make: Any) -> Any:

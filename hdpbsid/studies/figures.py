@@ -144,27 +144,37 @@ def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
 
 
 def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, Path]:
-    """The quadrotor example's figures for run ``run`` (its record is re-simulated from
-    the seed, exactly): singular values, eigenvalues vs truth, measured vs simulated
-    outputs on the validation record (Figure 2 style), Bode true vs identified."""
+    """The quadrotor example's figures for run ``run``: singular values, eigenvalues vs
+    truth, measured vs simulated outputs on the validation record (source Figure 2
+    style), Bode true vs identified.  The models come from the record's matrices and the
+    records are re-simulated from the seed (exactly; cached in the same process)."""
     from ..model import StateSpaceModel
     from ..plots import display_fit
-    from .quadrotor import identify_case
+    from .data import quadrotor_record
+    from .quadrotor import validation_rng
     from .runner import task_rng
 
     out = Path(out)
     recs = [r for r in result.records if r["run"] == run and r["ok"]]
     if not recs:
         return {}
-    case = recs[0]["case"]
-    r = identify_case(case, task_rng(result.settings["seed"], case, run))
-    data, val, models, auto = r["data"], r["validation"], r["models"], r["auto"]
+    case, res = recs[0]["case"], recs[0]["result"]
+    rng = task_rng(result.settings["seed"], case, run)
+    data = quadrotor_record(rng, **case["data"])
+    val = quadrotor_record(validation_rng(rng), **case["data"])
+    models = {
+        int(o): StateSpaceModel(
+            *[np.asarray(m["matrices"][k], dtype=float) for k in ("A", "B", "C", "D", "K")]
+        )
+        for o, m in res["models"].items()
+    }
     names = list(data.outputs)
     files: dict[str, Path] = {}
+    auto = res["auto_order"]
     fig = plot_singular_values(
-        auto.singular_values,
-        auto.n,
-        title=f"Singular values (largest log-gap picks order {auto.n})",
+        res["singular_values"],
+        auto,
+        title="Singular values" + ("" if auto is None else f" (largest log-gap: order {auto})"),
     )
     files["singular_values.png"] = save_figure(fig, out / "singular_values.png")
     fig = new_figure((5.0 * len(models), 4.5))
@@ -193,8 +203,8 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
         val.y,
         sims,
         output_names=names,
-        title="Validation record (new noise): measured vs simulated, "
-        + "segments of an unstable model re-initialised by least squares",
+        title="Validation record (new noise), 4 s shown: measured vs simulated "
+        "(unstable model: segments re-initialised by least squares)",
         window=(0.4 * T, 0.4 * T + 4.0),
     )
     files["outputs.png"] = save_figure(fig, out / "outputs.png")
@@ -206,7 +216,7 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
         true_model=truth,
         input_names=["moment"],
         output_names=names,
-        title="Bode: true (dashed) and identified; sweep excites 6.3-25 rad/s",
+        title="Bode: true (dashed) and identified; the sweep excites 6.3-25 rad/s",
     )
     files["bode.png"] = save_figure(fig, out / "bode.png")
     return files

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..quadrotor import pitch_output_matrices
 from .base import Study, model_record
 from .data import quadrotor_record
 from .methods import check_methods, identify_with
@@ -69,7 +70,7 @@ def _default_options(method: str, outputs: tuple[str, ...]) -> dict[str, Any]:
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
     """One case (the record and every order are handled in one task)."""
     (method,) = check_methods((s["method"],))
-    outputs = tuple(s["outputs"])
+    outputs = pitch_output_matrices(s["outputs"])[2]  # ValueError for unknown names
     orders = [int(o) for o in s["orders"]]
     if not orders or min(orders) < 1:
         raise ValueError(f"orders must be positive integers, got {s['orders']}")
@@ -95,15 +96,34 @@ def validation_rng(rng: np.random.Generator) -> np.random.Generator:
 
 def identify_case(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     """Records and models of a case: ``{"data", "validation", "models": {order: model},
-    "auto": model with the order chosen from the singular values}``."""
+    "errors": {order: "Type: message"}, "auto": model with the order chosen from the
+    singular values, or None}``.  An order whose identification raises is reported in
+    ``errors`` (the others still count); if every order fails the first error is raised.
+    """
     data = quadrotor_record(rng, **case["data"])
     val = quadrotor_record(validation_rng(rng), **case["data"])
-    models = {
-        o: identify_with(case["method"], data.t, data.u, data.y, o, case["options"])
-        for o in case["orders"]
-    }
-    auto = identify_with(case["method"], data.t, data.u, data.y, None, case["options"])
-    return {"data": data, "validation": val, "models": models, "auto": auto}
+    models: dict[int, Any] = {}
+    errors: dict[int, str] = {}
+    first: Exception | None = None
+    for o in case["orders"]:
+        try:
+            models[o] = identify_with(case["method"], data.t, data.u, data.y, o, case["options"])
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            errors[o] = f"{type(exc).__name__}: {exc}"
+            first = first or exc
+    if not models and first is not None:
+        raise first
+    try:
+        auto = identify_with(case["method"], data.t, data.u, data.y, None, case["options"])
+    except (ValueError, np.linalg.LinAlgError):
+        auto = None
+    return {"data": data, "validation": val, "models": models, "errors": errors, "auto": auto}
+
+
+def _singular_values(r: dict[str, Any]) -> list[float]:
+    m = r["auto"] or next(iter(r["models"].values()))
+    sv = m.singular_values
+    return [] if sv is None else [float(s) for s in np.ravel(sv)[:12]]
 
 
 def _vaf(model: Any, d: Any) -> list[float]:
@@ -121,9 +141,10 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
         "true": [[float(z.real), float(z.imag)] for z in true],
         "outputs": list(data.outputs),
         "saturation": data.saturation_fraction,
-        "auto_order": int(r["auto"].n),
-        "singular_values": [float(s) for s in np.ravel(r["auto"].singular_values)[:12]],
+        "auto_order": None if r["auto"] is None else int(r["auto"].n),
+        "singular_values": _singular_values(r),
         "models": {},
+        "order_errors": {str(o): e for o, e in r["errors"].items()},
     }
     for o, m in r["models"].items():
         rec = model_record(m, true)
@@ -148,6 +169,8 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
             rows.append({"run": r["run"], "order": None, "eigenvalues": r["error"][:60]})
             continue
         res = r["result"]
+        for o, e in res.get("order_errors", {}).items():
+            rows.append({"run": r["run"], "order": int(o), "eigenvalues": e[:60]})
         for o, m in res["models"].items():
             extra = m.get("extra") or []
             rows.append(

@@ -314,6 +314,13 @@ def run_tasks(
         else:
             path.write_text("")
     todo = [t for t in tasks if t.key not in done]
+    # execution order: the cases sharing a record (same data) run back to back for each
+    # run index, so a process simulates each record once (studies.data caches it); the
+    # returned order is the task order whatever the execution order
+    group: dict[int, int] = {}
+    for t in tasks:
+        group.setdefault(data_id(t.case), t.index)
+    todo.sort(key=lambda t: (group[data_id(t.case)], t.run, t.index))
     if scheduler is not None:
         stream: Iterable = _dask(func, study, seed, todo, scheduler)
     elif jobs > 1 and len(todo) > 1:

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..quadrotor import pitch_output_matrices
 from .base import Study, eigen_stats, model_record
 from .data import quadrotor_record
 from .methods import check_methods, identify_with
@@ -60,6 +61,7 @@ COLUMNS = (
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
     """One case per SNR x method; ``options`` maps a method to extra identify options."""
     methods = check_methods(s["methods"])
+    pitch_output_matrices(s["outputs"])  # ValueError for unknown output names
     opts = s["options"] or {}
     cases = []
     for snr in s["snrs"]:
