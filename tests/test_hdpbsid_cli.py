@@ -178,3 +178,24 @@ def test_demo_end_to_end(tmp_path: Path, capsys) -> None:
     _assert_png(out / "identification.png")
     _assert_png(out / "eigenvalues.png")
     assert main(["demo", "--outputs", "q,pitch", "--out", str(out)]) == 2
+
+
+def test_study_command(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "study"
+    argv = ["study", "snr", "--runs", "1", "--set", "snrs=(20,)", "--set", "methods=('hermite',)"]
+    assert main([*argv, "--set", "samples=1001", "--out", str(out), "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "snr_db" in text and "hermite" in text and "1 tasks" in text
+    for name in ("results.jsonl", "summary.csv", "summary.json", "records.csv"):
+        assert (out / name).is_file(), name
+    _assert_png(out / "snr.png")
+    # resumed: nothing recomputed, same table
+    assert main([*argv, "--set", "samples=1001", "--out", str(out), "--no-progress"]) == 0
+    assert len((out / "results.jsonl").read_text().splitlines()) == 1
+    capsys.readouterr()
+    assert main(["study", "nope"]) == 2
+    assert main(["study", "snr", "--runs", "0", "--out", str(out)]) == 2
+    assert main(["study", "snr", "--set", "bogus=1", "--out", str(out)]) == 2
+    assert "unknown setting" in capsys.readouterr().err
+    assert main(["study", "snr", "--scheduler", "localhost:1", "--out", str(out)]) == 2
+    assert "scheduler must be an address" in capsys.readouterr().err

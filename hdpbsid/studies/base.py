@@ -32,8 +32,11 @@ __all__ = [
     "DIVERGENCE",
 ]
 
-#: a run whose worst relative eigenvalue error exceeds this is counted as divergent
-DIVERGENCE = 1.0
+#: a run is *divergent* when an identified eigenvalue runs away: its error exceeds ten
+#: times the true eigenvalue's magnitude (source §5: CT-PBSID "divergent behavior";
+#: a biased but bounded estimate, e.g. a real pole pulled to the wrong side of the
+#: axis, is not counted here but shows in the bias and the median error)
+DIVERGENCE = 10.0
 
 
 @dataclass(frozen=True)
@@ -246,7 +249,7 @@ def eigen_stats(results: list[dict[str, Any]], true: Any) -> dict[str, Any]:
     ``std_j = sqrt(mean |est_j - mean(est_j)|^2)`` (absolute, in rad/s, like the
     source's Table 1), and the same divided by ``|lambda_j|`` (``rel_``).  Also
     ``median_error`` (median over runs of the worst relative error), ``divergent``
-    (runs with worst error > :data:`DIVERGENCE`), ``n`` (runs with a model).
+    (runs with worst relative error > :data:`DIVERGENCE`), ``n`` (runs with a model).
     """
     true = np.asarray(true, dtype=complex).ravel()
     res = [r for r in results if "matched" in r]

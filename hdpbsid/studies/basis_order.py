@@ -20,7 +20,7 @@ __all__ = ["STUDY", "DEFAULTS", "make_cases"]
 
 DEFAULTS: dict[str, Any] = {
     "runs": 20,
-    "basis_sizes": (10, 20, 30, 50, 100, 200, 500, 1000),
+    "basis_sizes": (10, 20, 30, 50, 60, 70, 80, 100, 150, 200, 300, 500, 1000),
     **second_order.DATA_DEFAULTS,
 }
 

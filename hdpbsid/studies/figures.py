@@ -28,6 +28,15 @@ from .methods import LABELS
 __all__ = ["table1_figures", "curve_figure", "operator_figure", "quadrotor_figures"]
 
 
+def _log_if_positive(ax: Any) -> None:
+    """Log y-axis when the drawn data have positive values (one run has STD 0: matplotlib
+    would warn and draw nothing on a log axis)."""
+    ys = [np.asarray(line.get_ydata(), dtype=float) for line in ax.get_lines()]
+    ys = [y[np.isfinite(y)] for y in ys]
+    if any(np.any(y > 0) for y in ys):
+        ax.set_yscale("log")
+
+
 def _eigs(results: list[dict[str, Any]]) -> np.ndarray:
     z = [complex(a, b) for r in results for a, b in r.get("eigenvalues", [])]
     return np.array(z, dtype=complex)
@@ -70,7 +79,8 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
             rows = [row for row in result.summary if row["method"] == m]
             x = [row["snr_db"] for row in rows]
             y = [np.nan if row[key] is None else row[key] for row in rows]
-            ax.semilogy(x, y, "o-", color=f"C{c}", label=LABELS.get(m, m))
+            ax.plot(x, y, "o-", color=f"C{c}", label=LABELS.get(m, m))
+        _log_if_positive(ax)
         ax.set_xlabel("SNR [dB]")
         ax.set_ylabel(f"{key} [rad/s]")
         ax.set_title(f"STD of the {'pair -2.92±3.24j' if k == 0 else 'real pole +3.08'}")
@@ -102,7 +112,7 @@ def curve_figure(
         ax1.plot(xs, med, "o-", color=f"C{c}", label=label)
         ax2.plot(xs, std, "o-", color=f"C{c}", label=label)
     for ax, lab in ((ax1, "worst relative eigenvalue error"), (ax2, "relative STD of -0.4+1.96j")):
-        ax.set_yscale("log")
+        _log_if_positive(ax)
         if logx:
             ax.set_xscale("log")
         ax.set_xlabel(xlabel)
@@ -134,7 +144,7 @@ def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
                 ax.plot([row["value"]], [1.0], "x", color="C3", ms=8)
         ax.axvline(defaults.get(p, np.nan), color="0.5", ls="--", label="default")
         ax.set_xscale("log")
-        ax.set_yscale("log")
+        _log_if_positive(ax)
         ax.set_xlabel(p)
         ax.set_ylabel("worst relative eigenvalue error")
         ax.grid(True, which="both", alpha=0.3)

@@ -229,7 +229,7 @@ def _dask(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task], schedule
         futures = [
             client.submit(_execute_with_task, func, study, seed, task, pure=False) for task in tasks
         ]
-        for fut in as_completed(futures):
+        for fut in as_completed(futures, loop=client.loop):
             yield fut.result()
             fut.release()
     finally:

@@ -14,7 +14,8 @@ identified eigenvalues matched to the truth (absolute, rad/s, like Table 1), for
 unstable-plant oscillatory pair ``-2.92 + 3.24i`` and the real pole ``+3.08``.  (The
 source's "Dim 1 / Dim 2" columns are not defined in the summary; we report the pair and
 the real pole instead.)  ``failed``: runs that raised; ``divergent``: runs whose worst
-relative eigenvalue error exceeds 100 %; ``median err``: median over runs of the worst
+relative eigenvalue error exceeds 1000 % (an estimate that ran away,
+:data:`~hdpbsid.studies.base.DIVERGENCE`); ``median err``: median over runs of the worst
 relative error.
 """
 
