@@ -40,7 +40,8 @@ quadrotor cases at SNR 20 dB): HD-PBSID and ``dt`` vs SIPPY N4SID.
 
 ``--readme`` rewrites the README section between ``<!-- peers:begin -->`` and
 ``<!-- peers:end -->`` with the summary table; ``--out DIR`` writes the per-run CSV, the
-summary JSON and the full markdown tables.
+summary JSON and the full markdown tables; ``--from-json DIR/summary.json`` re-renders
+the tables of an earlier run without rerunning it.
 """
 
 from __future__ import annotations
@@ -642,9 +643,9 @@ def summary_table(cells: Sequence[dict[str, object]]) -> str:
     head = (
         "| case | SNR | "
         + " | ".join(present)
-        + " | best peer, defaults | best peer, tuned on the truth |"
+        + " | best peer, defaults | best peer, tuned on the truth | most accurate |"
     )
-    lines = [head, "|" + "---|" * (len(present) + 4)]
+    lines = [head, "|" + "---|" * (len(present) + 5)]
     keys = list(dict.fromkeys((c["case"], c["snr"]) for c in cells))
     for case_name, snr in keys:
         cc = {c["method"]: c for c in cells if c["case"] == case_name and c["snr"] == snr}
@@ -658,6 +659,8 @@ def summary_table(cells: Sequence[dict[str, object]]) -> str:
                 continue
             best = min(peers, key=lambda c: c["error_median_fail_inf"])
             row.append(f"{_short(best)} {_peer_name(best)}")
+        winner = min(cc.values(), key=lambda c: c["error_median_fail_inf"])
+        row.append(_peer_name(winner)[1:-1] if winner["peer"] else f"**{winner['method']}**")
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines)
 
@@ -774,7 +777,20 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown")
     ap.add_argument("--readme", action="store_true", help="rewrite the README section")
     ap.add_argument("--no-timing", action="store_true", help="skip the 10^4-sample timing")
+    ap.add_argument(
+        "--from-json",
+        type=Path,
+        help="re-render the tables (and --readme) from a summary.json of an earlier run",
+    )
     args = ap.parse_args(argv)
+
+    if args.from_json:
+        saved = json.loads(args.from_json.read_text())
+        cells, timing, command = saved["cells"], saved["timing"], saved["command"]
+        print(summary_table(cells))
+        if args.readme:
+            write_readme(readme_section(cells, timing, command.strip()))
+        return
 
     command = "python bench/peers.py " + " ".join(sys.argv[1:] if argv is None else list(argv))
     print(f"# {machine_line()}", flush=True)
