@@ -58,13 +58,21 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
             snrs.append(s)
     for snr in snrs:
         groups: dict[str, Any] = {}
+        failed: dict[str, int] = {}
         for r in result.records:
-            if r["case"]["data"]["snr_db"] == snr and r["ok"]:
-                groups.setdefault(r["case"]["method"], []).append(r["result"])
-        if not groups:
-            continue
+            if r["case"]["data"]["snr_db"] == snr:
+                m = r["case"]["method"]
+                groups.setdefault(m, [])
+                if r["ok"]:
+                    groups[m].append(r["result"])
+                else:
+                    failed[m] = failed.get(m, 0) + 1
+        labels = {
+            m: LABELS.get(m, m) + (f" [{failed[m]} runs failed]" if failed.get(m) else "")
+            for m in groups
+        }
         fig = plot_eigenvalue_scatter(
-            {LABELS.get(m, m): _eigs(res) for m, res in groups.items()},
+            {labels[m]: _eigs(res) for m, res in groups.items()},
             true,
             zoom=1.0,
             title=f"Closed-loop quadrotor, SNR {snr:g} dB: {result.settings['runs']} runs",
