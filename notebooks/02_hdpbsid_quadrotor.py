@@ -130,7 +130,7 @@ save(fig, "data")
 # $x^2 + (\omega/\text{scale})^2 \lesssim 2n + 1$ (with $x = \text{scale}\,(t - t_c)$, $t_c$
 # the record's centre; the quantum oscillator's phase space).  A component of frequency
 # $\omega$ at time $t$ lands near $n \approx \tfrac12[(\omega/\text{scale})^2 + x^2]$.  For
-# the sweep this is $n \approx 45$ at mid-record (2.5 Hz) and rises towards the record's
+# the sweep this is $n \approx 42$ near mid-record (2.5 Hz) and rises towards the record's
 # ends, beyond $n_{max,u} = 300$: the truncation is what fades the excitation in and out.
 # Beyond $n_{max,u}$ only the noise and the controller's reaction to it remain.
 #

@@ -58,7 +58,8 @@ def test_notebooks_found() -> None:
 def test_notebook_runs(path: Path, kernel_manager_factory, monkeypatch, tmp_path) -> None:
     monkeypatch.setenv("HDPBSID_NOTEBOOK_SMALL", "1")
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.delenv("HDPBSID_NOTEBOOK_FIGDIR", raising=False)
+    for name in ("FIGDIR", "OUT", "RUNS", "JOBS"):  # a user's overrides must not leak in
+        monkeypatch.delenv(f"HDPBSID_NOTEBOOK_{name}", raising=False)
     # one thread per BLAS: the test suite runs notebooks in parallel on 2 cores
     monkeypatch.setenv("OMP_NUM_THREADS", "1")
     monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
