@@ -39,6 +39,10 @@ def __getattr__(name: str) -> Any:
         import importlib
 
         return getattr(importlib.import_module(_LAZY_ATTRS[name]), name)
+    if name == "studies":  # the simulation studies (issue 5), loaded on first use
+        import importlib
+
+        return importlib.import_module("hdpbsid.studies")
     raise AttributeError(f"module 'hdpbsid' has no attribute {name!r}")
 
 

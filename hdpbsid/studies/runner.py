@@ -11,7 +11,10 @@ the simulated record; the whole case if it has no ``"data"`` entry).  So
 
 * a task's numbers depend only on ``(seed, case data, run)``: identical whatever the
   backend, the number of jobs, the order in which tasks finish, the number of runs or
-  the other cases in the study;
+  the other cases in the study - provided the BLAS thread count is the same (threaded
+  BLAS reorders sums: last-bit differences, which the ill-conditioned DT fit amplified to
+  the third digit of a bias; the joblib workers and a serial run with one BLAS thread
+  gave bit-identical records for all 1437 table1 tasks compared);
 * cases that differ only in the method (``case["method"]``) see the *same* record for
   the same run (paired comparison, as in the source's Table 1).
 
