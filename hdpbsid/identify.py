@@ -25,6 +25,8 @@ from typing import Any
 
 from .dt import identify_dt
 from .model import StateSpaceModel
+from .refine import REFINE_CHOICES, is_uniform, refine_pem
+from .validation import check_time
 
 __all__ = [
     "METHODS",
@@ -137,6 +139,7 @@ def identify(
     y: Any,
     order: int | None = None,
     method: str = "hermite",
+    refine: str | None = None,
     **options: Any,
 ) -> StateSpaceModel:
     """Identify a continuous-time model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
@@ -148,17 +151,35 @@ def identify(
     ``"legendre"``, ``"dt"``; see :func:`available_methods`).  ``options`` go to the
     method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
 
+    ``refine="pem"`` follows the method with a prediction-error fit started from its
+    model (:func:`hdpbsid.refine.refine_pem`: efficient, consistent in closed loop,
+    reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, costs seconds);
+    ``"auto"`` does so when ``t`` is uniform and skips it otherwise; ``None`` (default)
+    returns the subspace model as the method produced it.  On the closed-loop quadrotor
+    at SNR 20 dB the refinement brought the largest eigenvalue error of HD-PBSID from
+    2.1-11.1 % (median 4.8 %) to 0.2-5.9 % (median 1.7 %; 12 seeds).
+
     The returned model's ``options`` hold every setting the method used plus
-    ``"method"`` and ``"requested_options"`` (the keyword arguments as passed here).
+    ``"method"``, ``"refine"`` and ``"requested_options"`` (the keyword arguments as
+    passed here).
     Raises ``ValueError`` for an unknown method (listing the known ones) and whatever
     the method raises for bad data.
     """
+    if refine not in REFINE_CHOICES:
+        raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     func = get_method(method)
     model = func(t, u, y, order=order, **options)
     if not isinstance(model, StateSpaceModel):
         raise TypeError(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
         )
+    if refine is not None:
+        tt = check_time(t, "t", min_samples=2)
+        if refine == "pem" or is_uniform(tt):
+            model = refine_pem(model, t, u, y)
+        else:
+            model.options["refine_rule"] = "auto: t is not uniformly sampled, no refinement"
+    model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
     model.options["requested_method"] = method
     model.options["requested_order"] = order

@@ -1,0 +1,131 @@
+"""Prediction-error refinement (hdpbsid.refine, identify(..., refine=...)).
+
+Oracles: simulated systems with known truth (noise-free: exact recovery from a perturbed
+start; noisy: the spread over seeds against the reported asymptotic standard deviation;
+the closed-loop quadrotor of DESIGN.md against its open-loop eigenvalues).
+
+Measured when written (closed-loop quadrotor, 30 s, SNR 20 dB, order 3, hermite then
+refine="pem"; largest relative eigenvalue error): seeds 0..11 HD-PBSID alone 4.1 2.1 3.2
+8.5 11.1 2.9 5.4 4.6 5.6 2.5 9.9 10.5 %, refined 4.45 1.33 3.85 1.36 1.61 5.90 0.67 1.45
+0.20 2.43 1.12 1.67 %.  Seed 5 (5.9 %) is not an optimiser failure: the refined model's
+prediction-error cost is *below* the true system's on that record, so the data
+themselves place the real pole there (the linearised standard deviation of the real pole
+at the truth is 2.1 %: 5 % is 2.4 sigma).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hdpbsid import identify
+from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.quadrotor import simulate_pitch_closed_loop
+from hdpbsid.refine import refine_pem
+from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
+
+A2, B2, C2, D2 = second_order()
+TRUE2 = np.linalg.eigvals(A2)
+
+
+def _perturbed(rng: np.random.Generator, hold: str = "zoh") -> StateSpaceModel:
+    """The true second-order model with every entry of A, B, C perturbed by ~5 %."""
+    model = StateSpaceModel(
+        A2 * (1 + 0.05 * rng.standard_normal(A2.shape)),
+        B2 * (1 + 0.05 * rng.standard_normal(B2.shape)),
+        C2 + 0.05 * rng.standard_normal(C2.shape),
+        D2,
+        np.zeros((2, 1)),
+        options={"input_hold": hold},
+    )
+    return model
+
+
+def test_noise_free_zoh_recovers_the_truth_from_a_perturbed_start() -> None:
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 20.0, 0.01)
+    u = random_steps(rng, t, hold=0.3)
+    y = simulate_zoh(A2, B2, C2, D2, t, u)
+    start = _perturbed(rng)
+    m = refine_pem(start, t, u, y)
+    # exact sampled model of exact data: limited by the LM tolerances (xtol 1e-10 on
+    # O(1) scaled parameters); 1e-6 leaves room for the conditioning of eig
+    assert eigenvalue_errors(m.eigenvalues, TRUE2).max() < 1e-6
+    assert eigenvalue_errors(start.eigenvalues, TRUE2).max() > 1e-2  # it had to move
+    assert m.options["refine"] == "pem" and m.options["refine_hold"] == "zoh"
+    assert m.options["refine_cost"]["final"] < m.options["refine_cost"]["initial"]
+
+
+def test_noise_free_foh_needs_the_foh_predictor() -> None:
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 20.0, 0.01)
+    u = np.sin(0.7 * t) + 0.5 * np.sin(2.3 * t + 1.0)
+    y = StateSpaceModel(A2, B2, C2, D2, np.zeros((2, 1))).simulate(t, u[:, None], method="foh")
+    start = _perturbed(rng, hold="foh")
+    foh = refine_pem(start, t, u, y)
+    zoh = refine_pem(start, t, u, y, hold="zoh")
+    # FOH data through the exact FOH predictor: as exact as the ZOH case above
+    assert eigenvalue_errors(foh.eigenvalues, TRUE2).max() < 1e-6
+    # the ZOH predictor treats the ramp as steps (half-sample delay): a bias of order
+    # h |lambda| / 2 ~ 1e-2; it must be clearly worse than the FOH fit
+    assert eigenvalue_errors(zoh.eigenvalues, TRUE2).max() > 100 * (
+        eigenvalue_errors(foh.eigenvalues, TRUE2).max() + 1e-12
+    )
+
+
+def test_reported_std_matches_the_monte_carlo_spread() -> None:
+    estimates, stds = [], []
+    for seed in range(12):
+        rng = np.random.default_rng(100 + seed)
+        t = np.arange(0.0, 20.0, 0.02)
+        u = random_steps(rng, t, hold=0.3)
+        y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 10.0, rng)
+        m = identify(t, u, y, 2, method="hermite", refine="pem")
+        ev = m.eigenvalues
+        estimates.append(ev[np.argmax(ev.imag)])
+        stds.append(m.options["eigenvalue_std"][np.argmax(ev.imag)])
+    estimates = np.array(estimates)
+    spread = np.sqrt(np.mean(np.abs(estimates - estimates.mean()) ** 2))
+    reported = float(np.median(stds))
+    # 12 runs estimate a standard deviation to ~20 % (1/sqrt(2*11)); a factor 2 either
+    # way separates a calibrated std from one that is off by an order of magnitude
+    assert 0.5 < spread / reported < 2.0, (spread, reported)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_quadrotor_20db_hermite_refined_within_5_percent(seed: int) -> None:
+    d = simulate_pitch_closed_loop(np.random.default_rng(seed), snr_db=20.0)
+    m = identify(d.t, d.u, d.y, 3, method="hermite", refine="pem")
+    err = eigenvalue_errors(m.eigenvalues, d.true_eigenvalues)
+    # issue 4: all three open-loop eigenvalues (including +3.08) within 5 %; measured
+    # 4.45, 1.33, 3.85, 1.36 % for seeds 0..3 (HD-PBSID alone: 4.1, 2.1, 3.2, 8.5 %)
+    assert err.max() < 0.05, err
+    assert np.all(np.isfinite(m.options["eigenvalue_std"]))
+
+
+def test_auto_skips_non_uniform_records_and_pem_rejects_them() -> None:
+    rng = np.random.default_rng(4)
+    t = np.cumsum(np.r_[0.0, 0.01 * (1 + 0.4 * rng.uniform(-1, 1, 1999))])
+    u = np.sin(0.9 * t)[:, None]
+    y = StateSpaceModel(A2, B2, C2, D2, np.zeros((2, 1))).simulate(t, u, method="foh")
+    m = identify(t, u, y, 2, method="hermite", refine="auto")
+    assert m.options["refine"] is None
+    assert "not uniformly sampled" in m.options["refine_rule"]
+    with pytest.raises(ValueError, match="uniformly sampled"):
+        identify(t, u, y, 2, method="hermite", refine="pem")
+
+
+def test_bad_arguments() -> None:
+    t = np.arange(0.0, 5.0, 0.01)
+    u = np.sin(t)
+    y = np.cos(t)
+    with pytest.raises(ValueError, match="refine must be one of"):
+        identify(t, u, y, 2, refine="newton")
+    with pytest.raises(TypeError, match="StateSpaceModel"):
+        refine_pem("model", t, u, y)  # type: ignore[arg-type]
+    model = StateSpaceModel(A2, B2, C2, D2, np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="columns"):
+        refine_pem(model, t, np.c_[u, u], y)
+    with pytest.raises(ValueError, match="hold must be"):
+        refine_pem(model, t, u, y, hold="cubic")
