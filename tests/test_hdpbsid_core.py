@@ -24,7 +24,7 @@ def test_toolbox_example_eigenvalues(closed_loop, regularize):
     res = pbsid_core(d["u"].T, d["y"].T, p=10, f=10, order=4, regularize=regularize)
     err = eigenvalue_errors(res.eigenvalues, true_eigs())
     # spec: <= 2 %; measured 0.8 % for this seed, 0.2-0.6 % over seeds 0-9
-    # (bench/identify_dt.py); variance-limited, ~ N^-1/2 at N = 4000
+    # (bench/identify.py); variance-limited, ~ N^-1/2 at N = 4000
     assert err.max() < 0.02
     if regularize:
         assert res.varx.ridge > 0 and res.options["regularize"] == "gcv"

@@ -1,0 +1,162 @@
+"""Accuracy and run time of every hdpbsid method on the benchmark systems (issue 4).
+
+Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
+[--cases second-order chirp quadrotor pbsid-mimo nonuniform] [--methods ...]``
+(``--quick``: 5 runs, SNR 20 only).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
+busy machine (the refinement's small-matrix loops).
+
+Prints, per case (the generators of ``bench/cases.py``, DESIGN.md "Benchmark systems"),
+SNR and method, over seeded Monte Carlo runs with the true order given:
+
+* ``bias %``: ``max_i |mean(lambda_i) - lambda_i| / |lambda_i|`` (eigenvalues paired
+  with the truth by :func:`hdpbsid.metrics.match_eigenvalues`);
+* ``std %``: ``max_i sqrt(mean |lambda_i - mean|^2) / |lambda_i|``;
+* ``median %``: median over runs of the largest relative error; ``<=5 %``: the share of
+  runs whose every eigenvalue is within 5 %;
+* ``failed``: runs that raised; ``time ms``: median wall time of the call.
+
+Methods: the registry's (``dt``, ``hermite``, ``laguerre``, ``legendre``, ``chebyshev``),
+``laguerre-filter`` (``variant="filter"``) and ``hermite+pem`` (``refine="pem"``).  The
+PBSID toolbox MIMO case is discrete: only ``dt`` (``identify_discrete``), eigenvalues in
+the z-plane.  Then the fit time for ``10^4`` samples with ``N = 400``.  Not a test:
+nothing is asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cases import DESCRIPTIONS, make_case  # noqa: E402
+
+from hdpbsid import identify, identify_discrete  # noqa: E402
+from hdpbsid.metrics import match_eigenvalues  # noqa: E402
+
+#: method label -> (registry name, extra keyword arguments of identify)
+METHODS: dict[str, tuple[str, dict[str, Any]]] = {
+    "dt": ("dt", {}),
+    "hermite": ("hermite", {}),
+    "hermite+pem": ("hermite", {"refine": "pem"}),
+    "laguerre": ("laguerre", {}),
+    "laguerre-filter": ("laguerre", {"variant": "filter"}),
+    "legendre": ("legendre", {}),
+    "chebyshev": ("chebyshev", {}),
+}
+DEFAULT_CASES = ("second-order", "chirp", "quadrotor", "pbsid-mimo", "nonuniform")
+#: the acceptance threshold of issue 4's closed-loop item
+WITHIN = 0.05
+
+
+def identify_case(label: str, case: Any) -> np.ndarray:
+    """Eigenvalues identified by method ``label`` on the estimation record of ``case``."""
+    rec = case.estimation
+    if case.discrete:
+        return np.linalg.eigvals(identify_discrete(rec.u, rec.y, case.order, p=10).A)
+    name, kw = METHODS[label]
+    return identify(rec.t, rec.u, rec.y, case.order, method=name, **kw).eigenvalues
+
+
+def monte_carlo(label: str, case_name: str, snr: float | None, runs: int) -> dict[str, float]:
+    """Statistics of ``runs`` seeded identifications (module docstring)."""
+    est, worst, times, failed = [], [], [], 0
+    true = None
+    for seed in range(runs):
+        case = make_case(case_name, seed, snr)
+        true = np.asarray(case.true_eigenvalues)
+        t0 = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ev = identify_case(label, case)
+        except (ValueError, np.linalg.LinAlgError):
+            failed += 1
+            continue
+        times.append(time.perf_counter() - t0)
+        paired, tr = match_eigenvalues(ev, true)
+        est.append(paired)
+        worst.append(float(np.max(np.abs(paired - tr) / np.abs(tr))))
+    if not est:
+        stats = dict.fromkeys(("bias", "std", "median", "within", "time"), float("nan"))
+        return {**stats, "failed": failed}
+    tr = match_eigenvalues(true, true)[1]
+    E = np.array(est)
+    mean = E.mean(axis=0)
+    return {
+        "bias": float(np.max(np.abs(mean - tr) / np.abs(tr))),
+        "std": float(np.max(np.sqrt(np.mean(np.abs(E - mean) ** 2, axis=0)) / np.abs(tr))),
+        "median": float(np.median(worst)),
+        "within": float(np.mean(np.array(worst) <= WITHIN)),
+        "failed": failed,
+        "time": float(np.median(times)),
+    }
+
+
+def fit_time(N: int = 400, ns: int = 10_000) -> None:
+    """Median of 3 fit times on ``ns`` samples of the second-order case with ``N`` terms."""
+    case = make_case("second-order", 7, 20.0)
+    rec = case.estimation
+    t, u, y = rec.t, rec.u, rec.y
+    while t.size < ns:  # extend by repeating the record (the fit time depends on Ns only)
+        t = np.r_[t, t[-1] + (t[1] - t[0]) + rec.t - rec.t[0]]
+        u, y = np.r_[u, rec.u], np.r_[y, rec.y]
+    t, u, y = t[:ns], u[:ns], y[:ns]
+    print(f"\nfit time for Ns = {t.size} samples, N = {N} (order 2, median of 3):")
+    for label in ("hermite", "laguerre", "legendre", "chebyshev", "dt", "hermite+pem"):
+        name, kw = METHODS[label]
+        kw = dict(kw) if name == "dt" else {**kw, "N": N}
+        el = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                identify(t, u, y, 2, method=name, **kw)
+            el.append(time.perf_counter() - t0)
+        print(f"  {label:16s} {np.median(el) * 1e3:9.1f} ms")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--snr", type=float, nargs="+", default=[40.0, 20.0, 10.0])
+    ap.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES))
+    ap.add_argument("--methods", nargs="+", default=list(METHODS), choices=list(METHODS))
+    ap.add_argument("--quick", action="store_true", help="5 runs at SNR 20 dB")
+    ap.add_argument("--no-fit-time", action="store_true")
+    args = ap.parse_args()
+    if args.quick:
+        args.runs, args.snr = 5, [20.0]
+    hdr = (
+        f"{'case':13s} {'method':16s} {'SNR':>5s} {'bias %':>8s} {'std %':>8s} "
+        f"{'median %':>9s} {'<=5 %':>6s} {'failed':>6s} {'time ms':>9s}"
+    )
+    print(f"{args.runs} seeds per row; eigenvalue errors relative to |lambda|")
+    for case_name in args.cases:
+        print(f"\n{case_name}: {DESCRIPTIONS[case_name]}")
+        print(hdr)
+        discrete = make_case(case_name, 0, 20.0).discrete
+        methods = ["dt"] if discrete else args.methods
+        snrs = [None] if case_name == "pbsid-mimo" else args.snr
+        for snr in snrs:
+            for label in methods:
+                r = monte_carlo(label, case_name, snr, args.runs)
+                snr_txt = "own" if snr is None else f"{snr:5.0f}"
+                print(
+                    f"{case_name:13s} {label:16s} {snr_txt:>5s} {100 * r['bias']:8.3f} "
+                    f"{100 * r['std']:8.3f} {100 * r['median']:9.3f} "
+                    f"{100 * r['within']:5.0f}% {r['failed']:6d} {1e3 * r['time']:9.1f}",
+                    flush=True,
+                )
+    if not args.no_fit_time:
+        fit_time()
+
+
+if __name__ == "__main__":
+    main()
