@@ -145,7 +145,10 @@ def identify_hermite(
       ``ValueError``;
     * ``scale``: the record fills 90 % of the effective support (``slbasis.basis``);
     * ``alpha = 4 * scale``, ``beta = gamma = 1`` (DESIGN.md: 0.1-1 % errors at SNR 20 dB;
-      ``A' = (A/alpha + beta I)/gamma`` is then stable for every ``|lambda| < alpha``);
+      an eigenvalue ``lambda`` maps to ``(lambda/alpha + beta)/gamma``, inside the unit
+      disc iff ``|lambda + alpha beta| < alpha gamma``: the stable predictor eigenvalues of
+      moderate size; an unstable plant eigenvalue maps outside, e.g. +3.08 -> 1.49 on
+      the quadrotor, which is fine: the truncation ``A'^p ~ 0`` concerns ``A - K C``);
     * ``p``: AIC over 2..6 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: AIC picks 6, p = 4 has about half the eigenvalue spread);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);

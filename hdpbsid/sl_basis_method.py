@@ -20,8 +20,11 @@ and applying ``(I + alpha beta J)^{-1}``:
 with the same ``A' = (A/alpha + beta I)/gamma``, ``B' = B/(alpha gamma)``,
 ``K' = K/(alpha gamma)`` as HD-PBSID and the same map back.  **Why it is stable**: the map
 ``lambda -> lambda' = (lambda/alpha + beta)/gamma`` sends the disc of radius
-``alpha gamma`` about ``-alpha beta`` (which contains every stable ``lambda`` with
-``|lambda| < alpha`` for ``beta = gamma = 1``) into the unit disc, and ``M`` is a causal
+``alpha gamma`` about ``-alpha beta`` onto the unit disc (for ``beta = gamma = 1`` the
+disc ``|lambda + alpha| < alpha``, tangent to the imaginary axis at 0: it holds the stable
+eigenvalues of moderate size, e.g. real ones in ``(-2 alpha, 0)``; unstable ones map
+outside, which is harmless because the core's truncation concerns the predictor
+``A - K C``, stable by construction), and ``M`` is a causal
 convolution with ``alpha gamma e^{-alpha beta t}``, whose L^1 norm is ``gamma / beta = 1``:
 ``M`` is a contraction, so the regressors ``Z M^j`` are repeated low-pass filterings
 ("integrations") of the data.
