@@ -9,13 +9,23 @@ method, not the data generator.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.interpolate import CubicSpline
 from scipy.signal import butter, chirp, filtfilt
 
-from hdpbsid.basis_domain import BlockShift, SolveLag, bandwidth, data_bandwidth
+from hdpbsid.basis_domain import (
+    BlockShift,
+    SolveLag,
+    _power_spectra,
+    bandwidth,
+    data_bandwidth,
+    noise_floor,
+)
+from hdpbsid.hermite import identify_hermite
 from hdpbsid.metrics import eigenvalue_errors
 from hdpbsid.model import StateSpaceModel
-from hdpbsid.systems import add_noise, second_order
+from hdpbsid.quadrotor import simulate_pitch_closed_loop
+from hdpbsid.systems import add_noise, random_steps, second_order
 
 A, B, C, D = second_order()
 TRUE_EIGS = np.linalg.eigvals(A)
@@ -103,3 +113,34 @@ def test_bandwidth_of_a_sine() -> None:
     y = x + 0.1 * np.random.default_rng(1).standard_normal(x.shape)  # SNR 17 dB
     # the output fraction (95 %) ignores the 2 % white noise power spread to Nyquist
     assert abs(data_bandwidth(t, x, y) - 3.0) < 0.2
+
+
+@pytest.mark.parametrize("snr", [20.0, 10.0, 6.0])
+def test_bandwidth_ignores_the_noise_floor_in_closed_loop(snr: float) -> None:
+    clean = simulate_pitch_closed_loop(np.random.default_rng(0), snr_db=None)
+    noisy = simulate_pitch_closed_loop(np.random.default_rng(0), snr_db=snr)
+    reference = data_bandwidth(clean.t, clean.u, clean.y)  # noise-free: 22 rad/s
+    # without the floor the outputs alone gave 509 rad/s at 10 dB (Nyquist is 785); with
+    # it 20-21 rad/s; 15 % allows the few-bin spread of the 95 % band edge between records
+    assert abs(data_bandwidth(noisy.t, noisy.u, noisy.y) / reference - 1) < 0.15
+    if snr <= 10:
+        assert bandwidth(noisy.t, noisy.y, 0.95, subtract_floor=False) > 2 * reference
+
+
+def test_noise_floor_share_tells_white_from_band_limited() -> None:
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 40.0, 0.01)
+    white = rng.standard_normal((t.size, 1))
+    smooth = random_steps(rng, t, hold=0.5)
+    share = [noise_floor(_power_spectra(t, x)[1][:, 0])[1] for x in (white, smooth)]
+    # white noise: the floor is the whole spectrum (share ~1, estimator spread ~5 %);
+    # steps held 0.5 s: sinc^2 tails far below the band (measured 0.008)
+    assert 0.8 < share[0] < 1.2 and share[1] < 0.05, share
+
+
+def test_explicit_N_accepted_on_noisy_closed_loop_data() -> None:
+    d = simulate_pitch_closed_loop(np.random.default_rng(1), snr_db=20.0)
+    # N = 250 covers 3.6 * 250 / 30 = 30 rad/s > the 21 rad/s band; before the noise
+    # floor was removed the band read 770 rad/s and any N < 6400 was refused
+    m = identify_hermite(d.t, d.u, d.y, 3, N=250)
+    assert m.options["N"] == 250
