@@ -61,8 +61,12 @@ BROADBAND_SHARE = 0.25  # measured: band-limited inputs <= 0.04, white 1.06, qua
 #: itself add up over thousands of bins (closed-loop quadrotor at 6 dB: enough to move a
 #: 95 % band to Nyquist); above 3 floors the expected excess is e^-3 = 5 % of the noise
 FLOOR_MARGIN = 3.0
-#: default past windows tried by the AIC rule
-P_DEFAULT_RANGE = (2, 6)
+#: default past windows tried by the AIC rule.  Up to 6 before: on the closed-loop
+#: quadrotor AIC then chose 5-6, where the Laguerre projection broke down at 50 dB (2 of
+#: 6 seeds above 1000 %; p = 3-4: <= 0.6 %) and HD-PBSID spread more at 20 dB (worst of
+#: 6 seeds 8.6 % vs 4.1 % at p = 4); the open-loop second-order benchmark is as accurate
+#: with 2..4 (HD-PBSID 20 seeds at 20 dB: bias 0.07 %, std 0.23 %)
+P_DEFAULT_RANGE = (2, 4)
 #: basis-domain "samples" per VARX regressor and output kept by the default p rule
 COLS_PER_REGRESSOR = 6
 #: lower bound of the GCV ridge parameter relative to the largest singular value of the
@@ -412,9 +416,10 @@ def run_core(
     inputs ``P`` (q x N) with the lag operator ``lag``.
 
     Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.varx.select_past_window`)
-    over ``p_range`` (default 2..6), capped so that ``p (m + q + l) <= ncols / 6`` (the
-    regression has ``p (m + q + l)`` unknowns per output but only ``ncols`` columns);
-    ``f = p``.  Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
+    over ``p_range`` (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that
+    ``p (m + q + l) <= ncols / 6`` (the regression has ``p (m + q + l)`` unknowns per
+    output but only ``ncols`` columns); ``f = p``.  Raises ``ValueError`` when an explicit
+    ``p`` does not fit the basis size.
     """
     m, l, q = U.shape[0], Y.shape[0], P.shape[0]
     ncols = Y.shape[1]

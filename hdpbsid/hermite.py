@@ -149,8 +149,8 @@ def identify_hermite(
       disc iff ``|lambda + alpha beta| < alpha gamma``: the stable predictor eigenvalues of
       moderate size; an unstable plant eigenvalue maps outside, e.g. +3.08 -> 1.49 on
       the quadrotor, which is fine: the truncation ``A'^p ~ 0`` concerns ``A - K C``);
-    * ``p``: AIC over 2..6 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
-      quadrotor at 20 dB: AIC picks 6, p = 4 has about half the eigenvalue spread);
+    * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
+      quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both

@@ -40,7 +40,15 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from .basis_domain import BlockShift, check_method_args, data_bandwidth, run_core
+from .basis_domain import (
+    BlockShift,
+    best_hold,
+    check_method_args,
+    data_bandwidth,
+    project_record,
+    resolve_holds,
+    run_core,
+)
 from .hermite import _real
 from .model import StateSpaceModel
 from .validation import check_data, check_positive_int
@@ -120,6 +128,7 @@ def identify_laguerre(
     max_order: int | None = None,
     n_times: int | None = None,
     burn_in: float | None = None,
+    input_hold: str = "auto",
 ) -> StateSpaceModel:
     """CT-PBSID (Laguerre): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
@@ -130,10 +139,15 @@ def identify_laguerre(
       energy), so the Laguerre pole sits inside the excited band;
     * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
       ``N = 2 a T / 3.6`` clipped to ``[100, 600]`` and ``<= Ns / 2``; (filter): 30;
-    * ``p``: AIC over 2..6 (projection: ``p (m + q + l) <= N / 6``); ``f = p``;
+    * ``p``: AIC over 2..4 (projection: ``p (m + q + l) <= N / 6``); ``f = p``;
     * ``order``: largest log-gap of the singular values;
     * filter variant: ``burn_in = min(T / 4, 10 / a)`` s skipped, ``n_times = 300``
       evenly spaced sample times after it;
+    * ``input_hold="auto"`` (projection): the sample interpolants are projected exactly
+      and the hold (``zoh``/``foh``) with the smaller innovation variance is kept, as in
+      HD-PBSID (:func:`~hdpbsid.basis_domain.project_record`); before, the product
+      quadrature of the samples shifted the closed-loop quadrotor's 250 Hz ZOH moment by
+      half a sample;
     * ``K`` is mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a
       non-identity feedthrough, so ``K`` is approximate); ``D`` is returned as identified.
     """
@@ -164,8 +178,8 @@ def identify_laguerre(
             if N > ns:
                 raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
         basis = slbasis.basis("laguerre", N, (float(t[0]), float(t[-1])), scale=2 * a)
-        Uc = basis.project(t, u).T if m else np.zeros((0, N))
-        Yc = basis.project(t, y).T
+        holds = resolve_holds(input_hold, m)
+        Us, Yc = project_record(basis, t, u, y, holds)
         P = basis.eval(np.array([t[0], t[-1]])).T if boundary else np.zeros((0, N))
         lag: Any = SampleShift()
         options.update({"N": N, "N_rule": n_rule, "boundary": boundary})
@@ -180,25 +194,38 @@ def identify_laguerre(
         fu = laguerre_filter(t, u, a, N)[idx] if m else np.zeros((idx.size, 0, N))
         fy = laguerre_filter(t, y, a, N)[idx]
         # columns: block per time, reversed Laguerre index inside the block
-        Uc = fu[:, :, ::-1].transpose(1, 0, 2).reshape(m, -1)
+        holds, Us = ("foh",), [fu[:, :, ::-1].transpose(1, 0, 2).reshape(m, -1)]
         Yc = fy[:, :, ::-1].transpose(1, 0, 2).reshape(y.shape[1], -1)
         P = np.zeros((0, Yc.shape[1]))
         lag = BlockShift(N)
         options.update({"N": N, "burn_in": burn, "n_times": int(idx.size)})
-    out = run_core(
-        Uc,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=True,
-        stable_k=stable_k,
-        normalize=normalize,
-    )
+
+    def fit(Uc: NDArray[np.float64]) -> Any:
+        return run_core(
+            Uc,
+            Yc,
+            P,
+            lag,
+            order=order,
+            p=p,
+            f=f,
+            max_order=mo,
+            regularize=regularize,
+            feedthrough=True,
+            stable_k=stable_k,
+            normalize=normalize,
+        )
+
+    out, hold, hold_crit = best_hold(holds, Us, fit)
+    if variant == "projection":
+        options.update(
+            {
+                "input_hold": hold,
+                "input_hold_rule": "given" if input_hold != "auto" else "auto: smaller log-det",
+                "input_hold_criterion": hold_crit,
+                "projection": "exact integral of the sample interpolants (Gauss nodes)",
+            }
+        )
     A, B, C, D = inverse_cayley(out.A, out.B, out.C, out.D, a)
     n = A.shape[0]
     K = -np.sqrt(2 * a) * np.linalg.solve(out.A - np.eye(n), out.K)
