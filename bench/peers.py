@@ -351,26 +351,41 @@ def run_one(method: Method, case: CaseData, horizon: int | None, score_fit: bool
             warnings.simplefilter("ignore")
             model = method.run(case.estimation, case.order, horizon)
     except SystemExit as exc:  # SIPPY calls sys.exit() on bad arguments
-        return Outcome("exit", seconds=time.perf_counter() - t0, message=str(exc)[:200])
+        return Outcome(
+            "exit",
+            seconds=time.perf_counter() - t0,
+            cpu_seconds=time.process_time() - c0,
+            message=str(exc)[:200],
+        )
     except Exception as exc:  # noqa: BLE001 - a peer may raise anything; count it
         return Outcome(
             "exception",
             seconds=time.perf_counter() - t0,
+            cpu_seconds=time.process_time() - c0,
             message=f"{type(exc).__name__}: {exc}"[:200],
         )
     seconds, cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
     mats = [np.asarray(M, dtype=float) for M in (model.A, model.B, model.C, model.D)]
     model = Identified(*mats, dt=model.dt)
     if model.A.shape != (case.order, case.order):
-        return Outcome("wrong-order", seconds=seconds, message=f"order {model.A.shape[0]}")
+        return Outcome(
+            "wrong-order",
+            seconds=seconds,
+            cpu_seconds=cpu_seconds,
+            message=f"order {model.A.shape[0]}",
+        )
     if not all(np.all(np.isfinite(M)) for M in mats):
-        return Outcome("nan", seconds=seconds, message="non-finite matrices")
+        return Outcome(
+            "nan", seconds=seconds, cpu_seconds=cpu_seconds, message="non-finite matrices"
+        )
     try:
         ev = model_eigenvalues(model, case)
     except (ValueError, np.linalg.LinAlgError) as exc:
-        return Outcome("no-d2c", seconds=seconds, message=str(exc)[:200])
+        return Outcome("no-d2c", seconds=seconds, cpu_seconds=cpu_seconds, message=str(exc)[:200])
     if not np.all(np.isfinite(ev)):
-        return Outcome("nan", seconds=seconds, message="non-finite eigenvalues")
+        return Outcome(
+            "nan", seconds=seconds, cpu_seconds=cpu_seconds, message="non-finite eigenvalues"
+        )
     err = float(eigenvalue_errors(ev, case.true_eigenvalues).max())
     out = Outcome("ok", error=err, seconds=seconds, cpu_seconds=cpu_seconds, model=model)
     if score_fit:
@@ -586,7 +601,7 @@ def _num(x: object) -> str:
 
 
 def _ms(x: object) -> str:
-    if x is None:
+    if x is None or not np.isfinite(x):
         return "–"
     return f"{1e3 * x:.0f} ms" if x >= 0.01 else f"{1e3 * x:.1f} ms"
 
@@ -613,9 +628,9 @@ def full_tables(cells: Sequence[dict[str, object]]) -> str:
         cc = [c for c in cells if c["case"] == case_name]
         snrs = list(dict.fromkeys(c["snr"] for c in cc))
         out.append(f"\n**{case_name}**: {DESCRIPTIONS[case_name]}\n")
-        head = "| method | " + " | ".join(f"{s}: error (IQR) · fit" for s in snrs) + " | time |"
-        out.append(head)
-        out.append("|" + "---|" * (len(snrs) + 2))
+        head = "| method | " + " | ".join(f"{s}: error (IQR) · fit" for s in snrs)
+        out.append(head + " | wall time | CPU time |")
+        out.append("|" + "---|" * (len(snrs) + 3))
         for m in dict.fromkeys(c["method"] for c in cc):
             row = [c for c in cc if c["method"] == m]
             by_snr = {c["snr"]: c for c in row}
@@ -677,8 +692,11 @@ def _peer_name(c: dict[str, object]) -> str:
     name = str(c["method"]).replace("-tuned", "").replace("sippy-", "SIPPY ")
     name = name.replace("n4sid", "N4SID").replace("moesp", "MOESP").replace("cva", "CVA")
     name = name.replace("parsim-k", "PARSIM-K").replace("era", "ERA")
-    if METHODS[str(c["method"])].tuned:
+    method = METHODS[str(c["method"])]
+    if method.tuned:
         name += f" h={c['horizon']}"
+        if method.grid and c["horizon"] == max(method.grid):
+            name += ", grid max"
     return f"({name})"
 
 
@@ -718,6 +736,28 @@ def _peer_versions() -> str:
     return ", ".join(parts)
 
 
+def findings(cells: Sequence[dict[str, object]], timing: Sequence[dict[str, object]]) -> str:
+    """Generated sentences: where a peer is most accurate, and the 10^4-sample time ratios."""
+    lost = []
+    for case_name, snr in dict.fromkeys((c["case"], c["snr"]) for c in cells):
+        cc = [c for c in cells if c["case"] == case_name and c["snr"] == snr]
+        winner = min(cc, key=lambda c: c["error_median_fail_inf"])
+        if winner["peer"]:
+            lost.append(f"{case_name} {snr}")
+    parts = ["A peer is the most accurate in: " + (", ".join(lost) if lost else "no case") + "."]
+    for case_name in dict.fromkeys(r["case"] for r in timing):
+        rr = {r["method"]: r for r in timing if r["case"] == case_name}
+        ours, sippy = rr.get("hermite (HD-PBSID)"), rr.get("SIPPY N4SID f=20")
+        if ours and sippy:
+            parts.append(
+                f"On 10⁴ samples of the {case_name} case HD-PBSID took "
+                f"{sippy['time_median'] / ours['time_median']:.1f}x less wall time "
+                f"({sippy['cpu_median'] / ours['cpu_median']:.1f}x less CPU time) than "
+                f"SIPPY N4SID at its default horizon."
+            )
+    return " ".join(parts)
+
+
 def readme_section(
     cells: Sequence[dict[str, object]], timing: Sequence[dict[str, object]], command: str
 ) -> str:
@@ -726,9 +766,10 @@ def readme_section(
         [
             README_BEGIN,
             f"Produced by `{command}` on {machine_line()}. "
-            f"Median over {runs} seeds of the largest relative eigenvalue error (in "
-            f"brackets: failures, i.e. exception, `sys.exit`, wrong order, NaN or no "
-            f"continuous counterpart); all methods get the true order and identical data. "
+            f"Median over {runs} seeds of the largest relative eigenvalue error over the "
+            f"runs that produced a model (in brackets: failed runs, i.e. exception, "
+            f"`sys.exit`, wrong order, NaN or no continuous counterpart; n/a: the method "
+            f"does not apply); all methods get the true order and identical data. "
             f"Ours run with defaults; peers with their defaults and *tuned*: the horizon "
             f"of a grid with the best median error over the same seeds, i.e. chosen with "
             f"the true eigenvalues (the best a user could get). Times are noisy: the two "
@@ -736,6 +777,8 @@ def readme_section(
             f"`bench/peers.py`.",
             "",
             summary_table(cells),
+            "",
+            findings(cells, timing),
             "",
             "Identification time on 10⁴ samples (median of 5, SNR 20 dB):",
             "",
