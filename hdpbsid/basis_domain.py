@@ -296,16 +296,22 @@ def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:
 
 
 def best_hold(
-    holds: tuple[str, ...], Us: list[Array], fit: Callable[[Array], CoreOut]
+    holds: tuple[str, ...],
+    Us: list[Array],
+    Y: Array,
+    P: Array,
+    lag: LagOperator,
+    **core_options: Any,
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """Fit every input projection and keep the one with the smallest innovation
+    """Run :func:`run_core` (``Y, P, lag, **core_options``) on every input projection in
+    ``Us`` (one per entry of ``holds``) and keep the one with the smallest innovation
     log-determinant (the output coefficients are the same for all, so the residuals are
     comparable).  The wrong hold leaves a deterministic misfit in the residual: on
     noise-free data the right one wins by orders of magnitude."""
     best: tuple[float, CoreOut, str] | None = None
     crit: dict[str, float] = {}
     for hold, U in zip(holds, Us, strict=True):
-        out = fit(U)
+        out = run_core(U, Y, P, lag, **core_options)
         sign, ld = np.linalg.slogdet(np.atleast_2d(out.noise_covariance))
         val = float(ld) if sign > 0 else -np.inf
         crit[hold] = val

@@ -44,7 +44,6 @@ from .basis_domain import (
     integrator_model,
     project_record,
     resolve_holds,
-    run_core,
 )
 from .model import StateSpaceModel
 from .validation import check_data, check_positive_int
@@ -193,23 +192,21 @@ def identify_hermite(
         rows += list(basis.eval(np.array([t[0], t[-1]])).T)
     P = np.array(rows)
 
-    def fit(Uc: NDArray[np.float64]) -> Any:
-        return run_core(
-            Uc,
-            Yc,
-            P,
-            lag,
-            order=order,
-            p=p,
-            f=f,
-            max_order=mo,
-            regularize=regularize,
-            feedthrough=feedthrough,
-            stable_k=stable_k,
-            normalize=normalize,
-        )
-
-    out, hold, hold_crit = best_hold(holds, Us, fit)
+    out, hold, hold_crit = best_hold(
+        holds,
+        Us,
+        Yc,
+        P,
+        lag,
+        order=order,
+        p=p,
+        f=f,
+        max_order=mo,
+        regularize=regularize,
+        feedthrough=feedthrough,
+        stable_k=stable_k,
+        normalize=normalize,
+    )
     options = {
         "method": "hermite",
         "N": N,

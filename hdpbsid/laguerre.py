@@ -47,7 +47,6 @@ from .basis_domain import (
     data_bandwidth,
     project_record,
     resolve_holds,
-    run_core,
 )
 from .hermite import _real
 from .model import StateSpaceModel
@@ -200,23 +199,21 @@ def identify_laguerre(
         lag = BlockShift(N)
         options.update({"N": N, "burn_in": burn, "n_times": int(idx.size)})
 
-    def fit(Uc: NDArray[np.float64]) -> Any:
-        return run_core(
-            Uc,
-            Yc,
-            P,
-            lag,
-            order=order,
-            p=p,
-            f=f,
-            max_order=mo,
-            regularize=regularize,
-            feedthrough=True,
-            stable_k=stable_k,
-            normalize=normalize,
-        )
-
-    out, hold, hold_crit = best_hold(holds, Us, fit)
+    out, hold, hold_crit = best_hold(
+        holds,
+        Us,
+        Yc,
+        P,
+        lag,
+        order=order,
+        p=p,
+        f=f,
+        max_order=mo,
+        regularize=regularize,
+        feedthrough=True,
+        stable_k=stable_k,
+        normalize=normalize,
+    )
     if variant == "projection":
         options.update(
             {

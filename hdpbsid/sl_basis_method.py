@@ -58,7 +58,6 @@ from .basis_domain import (
     integrator_model,
     project_record,
     resolve_holds,
-    run_core,
 )
 from .hermite import _real
 from .model import StateSpaceModel
@@ -234,24 +233,22 @@ def identify_sl(
     need = order if order is not None else 3
     p_def = max(2, -(-need // y.shape[1]))
 
-    def fit(Uc: Array) -> Any:
-        return run_core(
-            Uc,
-            Yc,
-            P,
-            lag,
-            order=order,
-            p=p,
-            f=f,
-            max_order=mo,
-            regularize=regularize,
-            feedthrough=feedthrough,
-            stable_k=stable_k,
-            normalize=normalize,
-            p_range=(p_def, p_def),
-        )
-
-    out, hold, hold_crit = best_hold(holds, Us, fit)
+    out, hold, hold_crit = best_hold(
+        holds,
+        Us,
+        Yc,
+        P,
+        lag,
+        order=order,
+        p=p,
+        f=f,
+        max_order=mo,
+        regularize=regularize,
+        feedthrough=feedthrough,
+        stable_k=stable_k,
+        normalize=normalize,
+        p_range=(p_def, p_def),
+    )
     options = {
         "method": "legendre" if family == "legendre" else "sl",
         "family": family if isinstance(family, str) else repr(family),
