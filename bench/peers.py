@@ -714,6 +714,40 @@ def timing_markdown(rows: Sequence[dict[str, object]]) -> str:
     return "\n".join(lines)
 
 
+def code_version() -> str:
+    """Commit of the working tree and whether hdpbsid/ or slbasis/ had uncommitted edits
+    (other people edit them; every hdpbsid module is imported at start, see main)."""
+    import subprocess
+
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(REPO), "status", "--porcelain", "hdpbsid", "slbasis"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown commit"
+    return f"commit {head}" + (" with uncommitted edits in hdpbsid/slbasis" if dirty else "")
+
+
+def import_all_methods() -> None:
+    """Import every hdpbsid module now, so that a long run uses one version of the code
+    even if the files change while it runs (imports are otherwise lazy)."""
+    import importlib
+    import pkgutil
+
+    for info in pkgutil.walk_packages(hdpbsid.__path__, "hdpbsid."):
+        if ".studies" not in info.name and not info.name.endswith(("__main__", ".cli")):
+            importlib.import_module(info.name)
+
+
 def machine_line() -> str:
     import scipy
 
@@ -759,13 +793,16 @@ def findings(cells: Sequence[dict[str, object]], timing: Sequence[dict[str, obje
 
 
 def readme_section(
-    cells: Sequence[dict[str, object]], timing: Sequence[dict[str, object]], command: str
+    cells: Sequence[dict[str, object]],
+    timing: Sequence[dict[str, object]],
+    command: str,
+    version: str = "",
 ) -> str:
     runs = max(int(c["runs"]) for c in cells)
     return "\n".join(
         [
             README_BEGIN,
-            f"Produced by `{command}` on {machine_line()}. "
+            f"Produced by `{command}` ({version}) on {machine_line()}. "
             f"Median over {runs} seeds of the largest relative eigenvalue error over the "
             f"runs that produced a model (in brackets: failed runs, i.e. exception, "
             f"`sys.exit`, wrong order, NaN or no continuous counterpart; n/a: the method "
@@ -830,13 +867,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     if args.from_json:
         saved = json.loads(args.from_json.read_text())
         cells, timing, command = saved["cells"], saved["timing"], saved["command"]
+        version = saved.get("version", "code version not recorded")
         print(summary_table(cells))
         if args.readme:
-            write_readme(readme_section(cells, timing, command.strip()))
+            write_readme(readme_section(cells, timing, command.strip(), version))
         return
 
     command = "python bench/peers.py " + " ".join(sys.argv[1:] if argv is None else list(argv))
-    print(f"# {machine_line()}", flush=True)
+    import_all_methods()
+    version = code_version()
+    print(f"# {machine_line()}; {version}", flush=True)
     rows, cells = run_bench(
         args.cases, args.snr, args.methods, args.runs, log=lambda s: print(s, flush=True)
     )
@@ -855,11 +895,14 @@ def main(argv: Sequence[str] | None = None) -> None:
             w.writeheader()
             w.writerows(rows)
         (args.out / "summary.json").write_text(
-            json.dumps({"cells": cells, "timing": timing, "command": command}, indent=1)
+            json.dumps(
+                {"cells": cells, "timing": timing, "command": command, "version": version},
+                indent=1,
+            )
         )
-        (args.out / "tables.md").write_text(readme_section(cells, timing, command.strip()))
+        (args.out / "tables.md").write_text(readme_section(cells, timing, command.strip(), version))
     if args.readme:
-        write_readme(readme_section(cells, timing, command.strip()))
+        write_readme(readme_section(cells, timing, command.strip(), version))
 
 
 if __name__ == "__main__":
