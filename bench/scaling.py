@@ -154,6 +154,12 @@ def main() -> None:
         print(json.dumps(res))
         return
 
+    head = subprocess.run(
+        ["git", "-C", str(HERE.parent.parent), "describe", "--always", "--dirty"],
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    print(f"# code {head or 'unknown'}; second-order benchmark, SNR 20 dB, one BLAS thread")
     sizes = [10**3, 10**4] if args.quick else [10**3, 10**4, 10**5, 10**6]
     bases = [100, 200, 400, 800] if args.quick else [100, 200, 400, 800, 1600, 3200]
     basis_ns = [10**4] if args.quick else [10**4, 10**5]
