@@ -60,6 +60,12 @@ UNSTABLE_PENALTY = 1e3
 #: Levenberg-Marquardt evaluations per run (each costs one Jacobian as well): measured
 #: 57-94 on the closed-loop quadrotor, one seed of 12 needed 761 for a 0.1 % change
 DEFAULT_MAX_NFEV = 150
+#: Levenberg-Marquardt tolerances: a relative cost change below 1e-10 is far below the
+#: statistical resolution (one parameter's standard deviation changes the cost by ~1 /
+#: (number of residuals), 1e-4 for 10^4 samples); scipy's defaults (1e-8) stopped on
+#: noisy finite-difference Jacobians before diff_step was set
+REFINE_FTOL = 1e-10
+REFINE_XTOL = 1e-8
 #: runs of Levenberg-Marquardt with the local coordinates re-centred between them
 DDLC_RESTARTS = 2
 #: process-noise intensity (relative to unit measurement noise, scaled data) of the
@@ -265,8 +271,8 @@ def refine_pem(
         "method": "lm",
         "x_scale": "jac",
         "diff_step": 1e-6,  # parameters are O(1) after scaling; 1e-6 >> rounding of the residual
-        "ftol": 1e-12,
-        "xtol": 1e-10,
+        "ftol": REFINE_FTOL,
+        "xtol": REFINE_XTOL,
         "max_nfev": DEFAULT_MAX_NFEV if max_nfev is None else int(max_nfev),
     }
     cost0 = min(float(np.mean(fun0(th) ** 2)) for th in starts.values())
