@@ -269,7 +269,8 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     u = np.column_stack([cols[c] for c in inputs]) if inputs else None
     y = np.column_stack([cols[c] for c in outputs])
     try:
-        model = identify(t, u, y, order=args.order, method=method, **options)
+        refine = None if args.refine == "none" else args.refine
+        model = identify(t, u, y, order=args.order, method=method, refine=refine, **options)
     except (ValueError, TypeError) as exc:
         print(f"hdpbsid identify: identification failed: {exc}", file=sys.stderr)
         return EXIT_FAILED
@@ -480,6 +481,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         default="auto",
         help="identification method (default: hermite if available, else dt)",
+    )
+    p.add_argument(
+        "--refine",
+        choices=("none", "pem", "auto"),
+        default="none",
+        help="prediction-error refinement of the subspace model (hdpbsid.refine.refine_pem; "
+        "needs uniform t; 'auto': only when t is uniform; default: none)",
     )
     p.add_argument(
         "--option",
