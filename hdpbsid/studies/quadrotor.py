@@ -17,12 +17,12 @@ one extra eigenvalue that the truth does not explain) and the fit (VAF) on the
 identification record and on a fresh validation record (same excitation, new noise)
 - the simulated-vs-measured comparison of the source's Figure 2.
 
-Measured (20 dB, seed 0, runs 0-5, HD-PBSID defaults, N = 400): with ``q, q_dot`` the
-validation VAF is 98.9-99.1 / 99.4 % but the order-3 real pole is 69-121 % off (the
-unstable ``+3.08`` comes out near ``-0.4``; the pair 3-16 %) and the singular values
-(~900, 20-33, 11-15, 3) have one dominant direction; with ``q, theta`` the worst order-3
-error is 0.6-6.4 % and the singular values (~1200, 650-760, 9-12, 4) two dominant ones.
-Neither set motivates order 4: a 4th-order model adds a spurious pair.
+Measured (20 dB, seed 0, runs 0-3, HD-PBSID defaults but N = 400): with ``q, q_dot``
+the validation VAF is 98.5-99.1 / 99.4 % but the order-3 real pole is 88-154 % off (the
+unstable ``+3.08`` is not found; the pair 15-34 %) and the singular values (~125, 3-4,
+1, 0.7) have one dominant direction; with ``q, theta`` the worst order-3 error is
+1.0-5.7 % and the singular values (~175, ~100, 2.2-2.5, 0.6) two dominant ones.
+Neither set motivates order 4: a 4th-order model adds a spurious eigenvalue.
 """
 
 from __future__ import annotations
@@ -65,9 +65,8 @@ COLUMNS = (
 
 def _default_options(method: str, outputs: tuple[str, ...]) -> dict[str, Any]:
     opts: dict[str, Any] = {}
-    # source §6 used a 400-term basis; the hermite default N is 400 on this record (its
-    # cap), while an explicit N=400 is refused (the 250 Hz steps' bandwidth ~770 rad/s
-    # exceeds the band 3.6 N / T), so the default is kept and recorded in the options
+    if method == "hermite":
+        opts["N"] = 400  # source §6: a 400-term Hermite basis (the default would be ~340)
     if "q_dot" in outputs or "a_x" in outputs:
         if method in ("hermite", "dt", "legendre", "chebyshev"):
             opts["feedthrough"] = True  # the accelerations have a moment feedthrough
