@@ -197,3 +197,16 @@ def test_registry_and_functions() -> None:
         fn = getattr(S, key)
         assert callable(fn) and study.title in (fn.__doc__ or "")
         assert study.defaults["runs"] >= 1
+
+
+@pytest.mark.slow
+def test_dask_worker_processes_equal_serial(serial: S.StudyResult) -> None:
+    # separate worker processes: the task functions travel by reference (module-level)
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        res = S.run_study(
+            "snr", runs=2, seed=7, scheduler=cluster.scheduler_address, progress=False, **SMALL
+        )
+    _assert_same_numbers(res.records, serial.records)
