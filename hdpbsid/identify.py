@@ -157,7 +157,7 @@ def identify(
     ``"auto"`` does so when ``t`` is uniform and skips it otherwise; ``None`` (default)
     returns the subspace model as the method produced it.  On the closed-loop quadrotor
     at SNR 20 dB the refinement brought the largest eigenvalue error of HD-PBSID from
-    2.1-11.1 % (median 4.8 %) to 0.2-5.9 % (median 1.7 %; 12 seeds).
+    1.6-10.1 % (median 2.4 %) to 0.2-5.9 % (median 1.7 %; 12 seeds).
 
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"`` and ``"requested_options"`` (the keyword arguments as
