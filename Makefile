@@ -21,7 +21,8 @@ test: $(STAMP)
 	$(BIN)/ruff format --check slbasis hdpbsid tests derivations bench notebooks
 	# one BLAS thread per pytest worker: the small-matrix loops (refine, Monte Carlo) were
 	# measured 8x slower with two workers each running threaded OpenBLAS on 2 cores
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -n 2 -q
+	HYPOTHESIS_PROFILE=ci OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
+		$(BIN)/python -m pytest -n 2 -q
 
 lint: $(STAMP)
 	$(BIN)/ruff check --fix slbasis hdpbsid tests derivations bench notebooks

@@ -85,6 +85,17 @@ def test_affine_change_of_variable(name: str, scale: Fraction, shift: Fraction) 
             assert sp.simplify((new[key] - old[key] / abs(s)).subs(N, n)) == 0, (key, n)
 
 
+def test_laguerre_reflected_onto_a_left_half_line_verifies() -> None:
+    # found by hypothesis: on (-oo, b) the numeric derivative check sampled points outside
+    # the interval (sqrt of a negative weight -> complex -> TypeError)
+    y = sp.Symbol("y")
+    s, t = sp.Rational(-1, 2), sp.Integer(-2)
+    p0, p1 = BASES["laguerre"]
+    moved = SturmLiouville(p0.subs(X, s * y + t) / s**2, p1.subs(X, s * y + t) / s, var="y")
+    assert moved.interval == (-sp.oo, -4)
+    assert moved.verify(nmax=5).ok
+
+
 def test_shifted_legendre_on_unit_interval() -> None:
     prob = SturmLiouville(p0="x - x**2", p1="1 - 2*x")
     assert prob.interval == (0, 1) and prob.weight == 1 and prob.kind == "jacobi"

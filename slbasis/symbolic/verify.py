@@ -323,8 +323,15 @@ def _function_check(p: SturmLiouville, nmax: int) -> tuple[bool, str]:
     sub = _sample(p)
     a, b = (sp.N(e.subs(sub)) for e in p.interval)
     rng = random.Random(20261121)
-    lo = float(a) if a.is_finite else -3.0
-    hi = float(b) if b.is_finite else (lo + 6.0 if a.is_finite else 3.0)
+    # sample inside the interval: a window of width 6 at the finite end(s)
+    if a.is_finite and b.is_finite:
+        lo, hi = float(a), float(b)
+    elif a.is_finite:
+        lo, hi = float(a), float(a) + 6.0
+    elif b.is_finite:  # (-oo, b): e.g. Laguerre under x -> -x (hypothesis found it)
+        lo, hi = float(b) - 6.0, float(b)
+    else:
+        lo, hi = -3.0, 3.0
     points = [sp.Float(lo + (hi - lo) * rng.uniform(0.05, 0.95), 50) for _ in range(3)]
     root_w = sp.sqrt(p.polynomial_weight.subs(sub))
     d = p.direct
