@@ -21,6 +21,7 @@ the rest and discarded.  They do not enter the output equation (``D = 0`` for th
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -39,6 +40,7 @@ __all__ = [
     "bandwidth",
     "data_bandwidth",
     "noise_floor",
+    "clip_basis_size",
     "CoreOut",
     "run_core",
     "check_method_args",
@@ -209,6 +211,34 @@ def bandwidth(
         i = int(np.searchsorted(c, fraction))
         best = max(best, float(w[min(i, w.size - 1)]))
     return best
+
+
+def clip_basis_size(
+    wanted: float, n_min: int, n_max: int, ns: int, method: str, rule: str
+) -> tuple[int, str]:
+    """Clip a default basis size ``wanted`` to ``[n_min, n_max]`` and to ``Ns / 2`` (the
+    samples must resolve the fastest function), warning when an upper limit binds.
+
+    The default rules size the basis from the record length and bandwidth; when the
+    record is so long or broadband that the rule exceeds a limit, the basis covers less
+    than the rule's band and accuracy suffers (second-order system, 10^5 samples: 9.4 %
+    error with N capped at 400, 0.02 % with N = 3200).  That is said with a
+    ``RuntimeWarning``, never silently.  Returns ``(N, rule text)``.
+    """
+    N = max(n_min, int(np.ceil(wanted)))
+    limit, why = (n_max, f"the default cap {n_max}") if n_max <= ns // 2 else (ns // 2, "Ns/2")
+    text = f"{rule}, clipped to [{n_min}, {n_max}] and <= Ns/2"
+    if N > limit:
+        warnings.warn(
+            f"{method}: the basis-size rule ({rule}) asks for N = {N}, more than {why} "
+            f"= {limit}; using N = {limit}, which covers a narrower band than the rule "
+            f"wants. Pass N explicitly (and check the fit) or identify on a shorter window.",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        N = limit
+        text += f" (capped by {why}: the rule asked for {int(np.ceil(wanted))})"
+    return N, text
 
 
 def data_bandwidth(t: Array, u: Array, y: Array) -> float:

@@ -40,6 +40,7 @@ from .basis_domain import (
     SolveLag,
     best_hold,
     check_method_args,
+    clip_basis_size,
     data_bandwidth,
     integrator_model,
     project_record,
@@ -57,24 +58,28 @@ Array = NDArray[np.float64]
 HERMITE_BAND = 3.6
 #: default N covers this multiple of the data bandwidth
 BAND_MARGIN = 2.0
-N_MIN, N_MAX = 100, 400
+#: limits of the default N; the upper one only bounds the cost (evaluation is exact to
+#: rounding at N = 5000, bench/basis.py): it binds on records longer than ~10^3 bandwidth
+#: periods, with a warning
+N_MIN, N_MAX = 100, 4000
 
 
 def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     """``N`` so that the basis covers ``BAND_MARGIN`` times the data bandwidth ``omega_b``.
 
-    ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[100, 400]`` (DESIGN.md: N = 200-300
-    worked; below ~30 the seed reports poor identification) and to ``Ns / 2`` (the samples
-    must resolve the fastest basis function).
+    ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[N_MIN, N_MAX]`` (DESIGN.md: N =
+    200-300 worked on 20-40 s records; below ~30 the seed reports poor identification)
+    and to ``Ns / 2`` (the samples must resolve the fastest basis function), with a
+    warning when an upper limit binds (:func:`~hdpbsid.basis_domain.clip_basis_size`).
     """
-    N = int(np.ceil(BAND_MARGIN * omega_b * T / HERMITE_BAND))
-    N = max(N_MIN, min(N, N_MAX))
-    N = min(N, ns // 2)
-    rule = (
-        f"N = {BAND_MARGIN} * bandwidth * T / {HERMITE_BAND} clipped to [{N_MIN}, {N_MAX}] "
-        f"and <= Ns/2"
+    return clip_basis_size(
+        BAND_MARGIN * omega_b * T / HERMITE_BAND,
+        N_MIN,
+        N_MAX,
+        ns,
+        "hermite",
+        f"N = {BAND_MARGIN} * bandwidth * T / {HERMITE_BAND}",
     )
-    return N, rule
 
 
 def hermite_lag(

@@ -44,6 +44,7 @@ from .basis_domain import (
     BlockShift,
     best_hold,
     check_method_args,
+    clip_basis_size,
     data_bandwidth,
     project_record,
     resolve_holds,
@@ -59,7 +60,7 @@ Array = NDArray[np.float64]
 
 #: Laguerre functions: largest node ``x_N ~ 4 N``; record fills 90 % of ``[0, x_N]``
 LAGUERRE_SUPPORT = 4.0 * 0.9
-N_MIN, N_MAX = 100, 600
+N_MIN, N_MAX = 100, 4000  # the upper limit bounds the cost (clip_basis_size warns)
 
 
 def cayley(A: Array, B: Array, C: Array, D: Array, a: float) -> tuple[Array, Array, Array, Array]:
@@ -168,9 +169,14 @@ def identify_laguerre(
     options: dict[str, Any] = {"method": "laguerre", "variant": variant, "a": a}
     if variant == "projection":
         if N is None:
-            N = int(np.ceil(2 * a * T / LAGUERRE_SUPPORT))
-            N = min(max(N_MIN, min(N, N_MAX)), ns // 2)
-            n_rule = f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT} in [100, 600]"
+            N, n_rule = clip_basis_size(
+                2 * a * T / LAGUERRE_SUPPORT,
+                N_MIN,
+                N_MAX,
+                ns,
+                "laguerre",
+                f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}",
+            )
         else:
             N = check_positive_int(N, "N", 2)
             n_rule = "given"

@@ -54,6 +54,7 @@ from .basis_domain import (
     bandwidth,
     best_hold,
     check_method_args,
+    clip_basis_size,
     data_bandwidth,
     integrator_model,
     project_record,
@@ -69,7 +70,7 @@ Array = NDArray[np.float64]
 
 #: band (rad/s) resolved by N functions on a window of length T: ``2 N / T`` (degree N
 #: polynomials resolve x-frequencies up to ~N; ``dx/dt = 2/T``)
-N_MIN, N_MAX = 50, 600
+N_MIN, N_MAX = 50, 2000  # dense N x N integration matrix: the upper limit bounds the cost
 BAND_MARGIN = 1.5
 #: default alpha = ALPHA_FACTOR * (bandwidth holding OUTPUT_FRACTION of the output energy)
 ALPHA_FACTOR = 0.5
@@ -165,9 +166,14 @@ def identify_sl(
     T = float(t[-1] - t[0])
     wb = data_bandwidth(t, u, y)
     if N is None:
-        N = int(np.ceil(BAND_MARGIN * wb * T / 2))
-        N = min(max(N_MIN, min(N, N_MAX)), ns // 2)
-        n_rule = f"N = {BAND_MARGIN} * bandwidth * T / 2 clipped to [{N_MIN}, {N_MAX}], <= Ns/2"
+        N, n_rule = clip_basis_size(
+            BAND_MARGIN * wb * T / 2,
+            N_MIN,
+            N_MAX,
+            ns,
+            f"{family}",
+            f"N = {BAND_MARGIN} * bandwidth * T / 2",
+        )
     else:
         N = check_positive_int(N, "N", 2)
         n_rule = "given"
