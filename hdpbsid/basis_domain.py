@@ -226,7 +226,7 @@ def clip_basis_size(
     ``RuntimeWarning``, never silently.  Returns ``(N, rule text)``.
     """
     N = max(n_min, int(np.ceil(wanted)))
-    limit, why = (n_max, f"the default cap {n_max}") if n_max <= ns // 2 else (ns // 2, "Ns/2")
+    limit, why = (n_max, "the default cap") if n_max <= ns // 2 else (ns // 2, "Ns/2")
     text = f"{rule}, clipped to [{n_min}, {n_max}] and <= Ns/2"
     if N > limit:
         warnings.warn(

@@ -70,3 +70,17 @@ def test_bad_inputs():
         B.eval(np.array([[0.5]]))
     with pytest.raises(ValueError, match="shape"):
         B.derivative_matrix("round")
+
+
+def test_record_end_mapped_past_the_interval_by_rounding() -> None:
+    # t = 3999 of arange(4000.) maps to x = 1 + 2.2e-16 on [-1, 1]: moved onto the end,
+    # not refused (it made every Legendre identification of 4000 samples fail)
+    t = np.arange(4000.0)
+    B = Basis(LEGENDRE, 50, (t[0], t[-1]))
+    P = B.eval(t)
+    assert np.all(np.isfinite(P))
+    # the last column is phi_n(1) = sqrt(scale) sqrt(n + 1/2) exactly (Legendre at x = 1)
+    expected = np.sqrt(B.scale) * np.sqrt(np.arange(50) + 0.5)
+    np.testing.assert_allclose(P[:, -1], expected, rtol=1e-12)  # rounding of the recurrence
+    with pytest.raises(ValueError, match="outside the basis interval"):
+        B.eval(np.array([4000.0]))
