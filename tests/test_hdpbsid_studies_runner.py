@@ -93,7 +93,8 @@ def test_joblib_equals_serial(serial: S.StudyResult) -> None:
 
 
 def test_dask_local_cluster_equals_serial(serial: S.StudyResult) -> None:
-    distributed = pytest.importorskip("dask.distributed")
+    import dask.distributed as distributed  # the cluster extra, installed by make test
+
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
     ) as cluster:
@@ -202,7 +203,8 @@ def test_registry_and_functions() -> None:
 @pytest.mark.slow
 def test_dask_worker_processes_equal_serial(serial: S.StudyResult) -> None:
     # separate worker processes: the task functions travel by reference (module-level)
-    distributed = pytest.importorskip("dask.distributed")
+    import dask.distributed as distributed  # the cluster extra, installed by make test
+
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
