@@ -8,6 +8,7 @@ derived basis, eigenvalue error bounds, ...), so a clean run is a meaningful tes
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import sys
@@ -76,6 +77,7 @@ def test_notebook_runs(path: Path, kernel_manager_factory, monkeypatch, tmp_path
         resources={"metadata": {"path": str(tmp_path)}},
     )
     client.execute()
+    gc.collect()  # finalise the client's zmq sockets here, not inside a later test
     errors = [
         out
         for cell in nb.cells

@@ -151,7 +151,16 @@ def execute_task(
             rec["ok"] = True
             rec["result"] = result
     rec["time"] = time.perf_counter() - t0
-    msgs = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    # ResourceWarnings come from the garbage collector finalising objects of earlier work
+    # in the process (e.g. a Jupyter client's sockets), not from the task: not recorded, so
+    # a task's record does not depend on what the process ran before it
+    msgs = sorted(
+        {
+            f"{w.category.__name__}: {w.message}"
+            for w in caught
+            if not issubclass(w.category, ResourceWarning)
+        }
+    )
     rec["warnings"] = msgs[:10]
     return _plain(rec)
 
