@@ -5,7 +5,7 @@ Every generator takes a seed and an SNR and returns a :class:`CaseData` holding 
 another seed; for some cases also another input, see the case descriptions), the true
 eigenvalues, the order to identify and how the input behaves between samples (which is
 how the validation simulation must treat it).  The systems themselves come from
-``hdpbsid.systems`` and ``hdpbsid.quadrotor`` (DESIGN.md, "Benchmark systems"); only
+``hdpbsid.systems`` and ``hdpbsid.systems.quadrotor`` (DESIGN.md, "Benchmark systems"); only
 the stiff third-order system is defined here.  Randomness only through
 ``numpy.random.default_rng(seed)``.
 
@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 from scipy.signal import butter, chirp, filtfilt
 
 from hdpbsid.model import StateSpaceModel
-from hdpbsid.quadrotor import simulate_pitch_closed_loop
 from hdpbsid.systems import (
     add_noise,
     pbsid_example,
@@ -33,6 +32,7 @@ from hdpbsid.systems import (
     simulate_pbsid_closed_loop,
     simulate_zoh,
 )
+from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
 Array = NDArray[np.float64]
 
@@ -187,7 +187,7 @@ def nonuniform(seed: int, snr: float | None, T: float = 40.0, n_samples: int = 4
 
 
 def quadrotor(seed: int, snr: float | None, duration: float = 30.0) -> CaseData:
-    """Closed-loop quadrotor pitch (``hdpbsid.quadrotor``), 250 Hz, outputs ``q, theta``,
+    """Closed-loop quadrotor pitch (``hdpbsid.systems.quadrotor``), 250 Hz, outputs ``q, theta``,
     order 3, 1-4 Hz sweep added to the moment command; validation: a 3211 multistep
     record (another seed), scored on 1 s windows because the open-loop plant is unstable
     (eigenvalue +3.08)."""

@@ -9,7 +9,8 @@ imported on first access so that ``import hdpbsid`` stays light.
 from typing import Any
 
 from .conversion import c2d, d2c
-from .dt import identify_discrete, identify_dt
+from .core.pbsid import pbsid_core
+from .core.varx import LagOperator, MatrixLag, SampleShift
 from .identify import (
     METHODS,
     available_methods,
@@ -18,18 +19,17 @@ from .identify import (
     is_available,
     register_method,
 )
+from .methods.dt import identify_discrete, identify_dt
 from .metrics import eigenvalue_errors, match_eigenvalues
 from .model import DiscreteModel, FitResult, StateSpaceModel
-from .pbsid import pbsid_core
-from .quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
-from .varx import LagOperator, MatrixLag, SampleShift
+from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 _LAZY_ATTRS = {
-    "identify_hermite": "hdpbsid.hermite",
-    "identify_laguerre": "hdpbsid.laguerre",
-    "identify_legendre": "hdpbsid.sl_basis_method",
-    "identify_chebyshev": "hdpbsid.sl_basis_method",
-    "identify_sl": "hdpbsid.sl_basis_method",
+    "identify_hermite": "hdpbsid.methods.hermite",
+    "identify_laguerre": "hdpbsid.methods.laguerre",
+    "identify_legendre": "hdpbsid.methods.sturm_liouville",
+    "identify_chebyshev": "hdpbsid.methods.sturm_liouville",
+    "identify_sl": "hdpbsid.methods.sturm_liouville",
 }
 
 

@@ -11,7 +11,7 @@ by name, identifies a continuous-time model, prints it with its eigenvalues and 
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
-(:func:`hdpbsid.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
+(:func:`hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
 available method (``hermite`` if it is available, else ``dt``), prints identified vs
 true eigenvalues and the fit, and writes the same files plus ``eigenvalues.png``.
 
@@ -486,8 +486,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--refine",
         choices=("none", "pem", "auto"),
         default="none",
-        help="prediction-error refinement of the subspace model (hdpbsid.refine.refine_pem; "
-        "needs uniform t; 'auto': only when t is uniform; default: none)",
+        help="prediction-error refinement of the subspace model "
+        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto': only when t is "
+        "uniform; default: none)",
     )
     p.add_argument(
         "--option",

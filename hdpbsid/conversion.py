@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, logm
 
-from .validation import check_state_space
+from .checks import check_state_space
 
 __all__ = ["c2d", "d2c", "check_log_exists"]
 

@@ -6,11 +6,12 @@ method="hermite")`` with ``method`` one of ``"hermite"``, ``"laguerre"``, ``"leg
 callable with the call shape ``func(t, u, y, order=None, **options) ->
 StateSpaceModel``).
 
-* ``"dt"`` (:func:`hdpbsid.dt.identify_dt`) is registered on import;
+* ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered on import;
 * the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
-  time ``"hermite"`` (:mod:`hdpbsid.hermite`), ``"laguerre"`` (:mod:`hdpbsid.laguerre`),
+  time ``"hermite"`` (:mod:`hdpbsid.methods.hermite`), ``"laguerre"``
+  (:mod:`hdpbsid.methods.laguerre`),
   ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
-  family, option ``family=``; :mod:`hdpbsid.sl_basis_method`) is asked for, the module
+  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
   is imported and its ``identify_<name>`` function registered.  A module may also call
   :func:`register_method` itself when imported;
 * anything else can be added with :func:`register_method` (a user's own method, a
@@ -23,10 +24,10 @@ import importlib
 from collections.abc import Callable
 from typing import Any
 
-from .dt import identify_dt
+from .checks import check_time
+from .methods.dt import identify_dt
+from .methods.refine import REFINE_CHOICES, is_uniform, refine_pem
 from .model import StateSpaceModel
-from .refine import REFINE_CHOICES, is_uniform, refine_pem
-from .validation import check_time
 
 __all__ = [
     "METHODS",
@@ -46,14 +47,11 @@ METHODS: dict[str, IdentifyFunc] = {}
 #: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
 #: tried in order (the first module that imports and has the function wins).
 LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
-    "hermite": (("hdpbsid.hermite", "identify_hermite"),),
-    "laguerre": (("hdpbsid.laguerre", "identify_laguerre"),),
-    "legendre": (
-        ("hdpbsid.legendre", "identify_legendre"),
-        ("hdpbsid.sl_basis_method", "identify_legendre"),
-    ),
-    "chebyshev": (("hdpbsid.sl_basis_method", "identify_chebyshev"),),
-    "sl": (("hdpbsid.sl_basis_method", "identify_sl"),),
+    "hermite": (("hdpbsid.methods.hermite", "identify_hermite"),),
+    "laguerre": (("hdpbsid.methods.laguerre", "identify_laguerre"),),
+    "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
+    "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
+    "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
 }
 
 
@@ -152,7 +150,7 @@ def identify(
     method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
-    model (:func:`hdpbsid.refine.refine_pem`: efficient, consistent in closed loop,
+    model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
     reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, costs seconds);
     ``"auto"`` does so when ``t`` is uniform and skips it otherwise; ``None`` (default)
     returns the subspace model as the method produced it.  On the closed-loop quadrotor

@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from .checks import as_float_array, check_signal, check_state_space, check_time
 from .conversion import c2d, d2c
-from .validation import as_float_array, check_signal, check_state_space, check_time
 
 __all__ = ["StateSpaceModel", "DiscreteModel", "FitResult", "fit_statistics"]
 

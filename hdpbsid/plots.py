@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import check_data
 from .model import StateSpaceModel, fit_statistics
-from .validation import check_data
 
 __all__ = [
     "new_figure",

@@ -17,7 +17,7 @@
 # The source (`/work/shared/seed/thesis-summary.txt`) identifies the pitch dynamics of a
 # quadrotor flying in closed loop (§6) with **HD-PBSID**, the predictor-based subspace
 # method run in the domain of Hermite-function coefficients (§3.2).  The flight data are
-# not public, so we use the simulated ANT-X pitch model of `hdpbsid.quadrotor`: states
+# not public, so we use the simulated ANT-X pitch model of `hdpbsid.systems.quadrotor`: states
 # forward speed $u$, pitch rate $q$, pitch angle $\theta$; input the pitching moment
 # $\delta$; open loop **unstable** (a real pole near $+3.1$ rad/s), so the data can only
 # come from a closed loop (attitude P over a rate PID at 250 Hz, sensor noise fed back).
@@ -39,7 +39,7 @@ import numpy as np
 import hdpbsid
 import slbasis
 from hdpbsid.plots import display_fit
-from hdpbsid.quadrotor import CONTROLLER_DEFAULTS, PITCH_PARAMETERS, pitch_excitation
+from hdpbsid.systems.quadrotor import CONTROLLER_DEFAULTS, PITCH_PARAMETERS, pitch_excitation
 
 SMALL = os.environ.get("HDPBSID_NOTEBOOK_SMALL", "0") == "1"
 FIGDIR = os.environ.get("HDPBSID_NOTEBOOK_FIGDIR")

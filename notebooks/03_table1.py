@@ -76,8 +76,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import hdpbsid.studies
-from hdpbsid.quadrotor import pitch_model
 from hdpbsid.studies.base import DIVERGENCE
+from hdpbsid.systems.quadrotor import pitch_model
 
 SMALL = os.environ.get("HDPBSID_NOTEBOOK_SMALL", "0") == "1"
 FIGDIR = os.environ.get("HDPBSID_NOTEBOOK_FIGDIR")
@@ -226,9 +226,11 @@ lag_hi, lag_lo = summary[(hi, "laguerre")], summary[(lo, "laguerre")]
 # 50 dB: HD-PBSID is accurate (measured: median worst error ~0.1-0.2 %); 2 % leaves room
 assert her_hi["failed"] == 0 and her_hi["divergent"] == 0
 assert her_hi["median err"] < 0.02, her_hi
-# 6 dB: HD-PBSID's spread of the oscillatory pair is far below CT-PBSID's (projection):
-# measured ~0.5 vs ~3e3 rad/s, so a factor 5 is a safe bound
-assert her_lo["std pair"] * 5 < lag_lo["std pair"], (her_lo, lag_lo)
+# 6 dB: HD-PBSID's median worst error is below CT-PBSID's (projection).  The median, not the
+# STD: with the 2 runs of the small settings a standard deviation is one difference of two
+# draws (measured STD ratios 0.4-1e-4 between environments), while the median errors were
+# 0.44 vs 3.7 (HD, CT) in the same runs
+assert her_lo["median err"] < lag_lo["median err"], (her_lo, lag_lo)
 
 print(f"divergent: worst relative error > {DIVERGENCE:g}")
 for snr in SNRS:

@@ -15,7 +15,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 from scipy.signal import butter, chirp, filtfilt
 
-from hdpbsid.basis_domain import (
+from hdpbsid.methods.basis_domain import (
     BlockShift,
     SolveLag,
     _power_spectra,
@@ -24,11 +24,11 @@ from hdpbsid.basis_domain import (
     data_bandwidth,
     noise_floor,
 )
-from hdpbsid.hermite import identify_hermite
+from hdpbsid.methods.hermite import identify_hermite
 from hdpbsid.metrics import eigenvalue_errors
 from hdpbsid.model import StateSpaceModel
-from hdpbsid.quadrotor import simulate_pitch_closed_loop
 from hdpbsid.systems import add_noise, random_steps, second_order
+from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
 A, B, C, D = second_order()
 TRUE_EIGS = np.linalg.eigvals(A)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from test_hdpbsid_basis_common import make_data
 
-from hdpbsid.hermite import identify_hermite
-from hdpbsid.laguerre import identify_laguerre
-from hdpbsid.sl_basis_method import identify_legendre
+from hdpbsid.methods.hermite import identify_hermite
+from hdpbsid.methods.laguerre import identify_laguerre
+from hdpbsid.methods.sturm_liouville import identify_legendre
 
 METHODS = [identify_hermite, identify_laguerre, identify_legendre]
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from test_hdpbsid_basis_common import TRUE_EIGS, eig_error, make_data
 
-from hdpbsid.hermite import identify_hermite
+from hdpbsid.methods.hermite import identify_hermite
 
 
 def test_noise_free_eigenvalues() -> None:

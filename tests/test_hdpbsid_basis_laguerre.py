@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from test_hdpbsid_basis_common import A, B, C, D, eig_error, make_data
 
-from hdpbsid.laguerre import cayley, identify_laguerre, inverse_cayley
+from hdpbsid.methods.laguerre import cayley, identify_laguerre, inverse_cayley
 
 
 def test_cayley_round_trip_and_stability() -> None:

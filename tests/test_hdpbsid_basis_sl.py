@@ -15,7 +15,7 @@ import pytest
 from test_hdpbsid_basis_common import eig_error, make_data
 
 import slbasis
-from hdpbsid.sl_basis_method import (
+from hdpbsid.methods.sturm_liouville import (
     identify_chebyshev,
     identify_legendre,
     identify_sl,

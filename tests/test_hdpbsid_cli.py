@@ -10,8 +10,8 @@ import pytest
 
 from hdpbsid.cli import best_method, main, model_from_dict, model_to_dict, read_model_json
 from hdpbsid.identify import is_available
-from hdpbsid.quadrotor import pitch_model
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
+from hdpbsid.systems.quadrotor import pitch_model
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 TRUE_EIGS = np.array([-0.4 - np.sqrt(3.84) * 1j, -0.4 + np.sqrt(3.84) * 1j])

@@ -7,7 +7,7 @@ import pytest
 
 from hdpbsid import identify_dt
 from hdpbsid.metrics import eigenvalue_errors
-from hdpbsid.quadrotor import (
+from hdpbsid.systems.quadrotor import (
     PitchData,
     pitch_excitation,
     pitch_model,
@@ -17,7 +17,7 @@ from hdpbsid.quadrotor import (
 
 
 def _design_matrix() -> np.ndarray:
-    # the literal numbers of DESIGN.md, typed independently of hdpbsid.quadrotor
+    # the literal numbers of DESIGN.md, typed independently of hdpbsid.systems.quadrotor
     Xu, Xq, Mu, Mq, g = -0.1068, 0.1192, -5.9755, -2.6478, 9.81
     return np.array([[Xu, Xq, -g], [Mu, Mq, 0.0], [0.0, 1.0, 0.0]])
 

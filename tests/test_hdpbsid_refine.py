@@ -1,4 +1,4 @@
-"""Prediction-error refinement (hdpbsid.refine, identify(..., refine=...)).
+"""Prediction-error refinement (hdpbsid.methods.refine, identify(..., refine=...)).
 
 Oracles: simulated systems with known truth (noise-free: exact recovery from a perturbed
 start; noisy: the spread over seeds against the reported asymptotic standard deviation;
@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from hdpbsid import identify
+from hdpbsid.methods.refine import refine_pem
 from hdpbsid.metrics import eigenvalue_errors
 from hdpbsid.model import StateSpaceModel
-from hdpbsid.quadrotor import simulate_pitch_closed_loop
-from hdpbsid.refine import refine_pem
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
+from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
 A2, B2, C2, D2 = second_order()
 TRUE2 = np.linalg.eigvals(A2)

@@ -5,8 +5,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hdpbsid.core.varx import (
+    MatrixLag,
+    SampleShift,
+    past_blocks,
+    ridge_gcv,
+    select_past_window,
+    varx,
+)
 from hdpbsid.systems import pbsid_example, simulate_pbsid_closed_loop
-from hdpbsid.varx import MatrixLag, SampleShift, past_blocks, ridge_gcv, select_past_window, varx
 
 
 def true_markov(p):

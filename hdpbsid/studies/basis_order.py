@@ -5,7 +5,7 @@ improvements").
 Second-order benchmark at SNR 20 dB, 40 s, 4001 samples, 0.05-1 Hz sweep on 100
 Hermite functions; HD-PBSID with ``N`` given and every other option at its default.
 An ``N`` whose band ``3.6 N / T`` is below the data bandwidth is refused by
-:func:`~hdpbsid.hermite.identify_hermite` (``ValueError``); such runs are recorded as
+:func:`~hdpbsid.methods.hermite.identify_hermite` (``ValueError``); such runs are recorded as
 failures, which is how "poor identification" shows up here.
 """
 

@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model import StateSpaceModel
-from ..quadrotor import PitchData, hermite_sweep_excitation, simulate_pitch_closed_loop
 from ..systems import add_noise, second_order
+from ..systems.quadrotor import PitchData, hermite_sweep_excitation, simulate_pitch_closed_loop
 
 __all__ = ["Record", "second_order_record", "quadrotor_record", "SECOND_ORDER_TRUE"]
 
@@ -116,9 +116,11 @@ def quadrotor_record(
     amplitude: float = 0.05,
     n_max_u: int | None = None,
 ) -> PitchData:
-    """The closed-loop ANT-X pitch record (:func:`~hdpbsid.quadrotor.simulate_pitch_closed_loop`).
+    """The closed-loop ANT-X pitch record.
 
-    ``excitation="hermite-sweep"`` uses :func:`~hdpbsid.quadrotor.hermite_sweep_excitation`
+    Simulated by :func:`~hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`.
+
+    ``excitation="hermite-sweep"`` uses :func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`
     with ``n_max_u`` terms (source §5-6); ``"sweep"``/``"3211"`` the plain ones.
     """
     outputs = tuple(outputs)

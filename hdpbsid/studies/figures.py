@@ -46,7 +46,7 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
     """Per SNR, the eigenvalue scatter of all runs per method (``table1_eig_<snr>dB.png``,
     Figure 1 style, zoomed on the truth) and the STD of the pair / real pole vs SNR per
     method (``table1_std.png``)."""
-    from ..quadrotor import pitch_model
+    from ..systems.quadrotor import pitch_model
 
     out = Path(out)
     true = np.linalg.eigvals(pitch_model()[0])

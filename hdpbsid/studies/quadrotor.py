@@ -1,9 +1,9 @@
 """Study ``quadrotor``: the source's §6 experiment, simulated (issue 5, item 2).
 
 The flight data of §6 are not public, so the ANT-X pitch model flies in its DESIGN.md
-closed loop (:mod:`hdpbsid.quadrotor`).  As in §5-6, the excitation added to the moment
+closed loop (:mod:`hdpbsid.systems.quadrotor`).  As in §5-6, the excitation added to the moment
 command is the Hermite projection of a 1-4 Hz sine sweep on ``n_max,u`` functions
-(:func:`~hdpbsid.quadrotor.hermite_sweep_excitation`); the identified input is the
+(:func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`); the identified input is the
 total moment and the outputs are the pitch rate ``q`` and the angular acceleration
 ``q_dot`` (§6: "measurements of angular velocity and acceleration"; ``outputs`` can
 pick the angle ``theta`` instead).  ``q_dot = Mu u + Mq q + Md delta`` has a direct
@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..quadrotor import pitch_output_matrices
+from ..systems.quadrotor import pitch_output_matrices
 from .base import Study, model_record
 from .data import quadrotor_record
 from .methods import check_methods, identify_with

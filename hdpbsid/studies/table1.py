@@ -1,7 +1,7 @@
 """Study ``table1``: closed-loop quadrotor Monte Carlo, HD-PBSID vs CT-PBSID vs DT
 (source §5, Table 1 and Figure 1).
 
-The ANT-X pitch model in its DESIGN.md cascade loop (:mod:`hdpbsid.quadrotor`), 30 s at
+The ANT-X pitch model in its DESIGN.md cascade loop (:mod:`hdpbsid.systems.quadrotor`), 30 s at
 250 Hz, excitation added to the moment command (default: the source's Hermite
 projection of a 1-4 Hz sweep, ``n_max,u = 300`` terms), sensor noise on ``q`` and
 ``theta`` at each SNR; identified input the total moment, outputs ``q`` and ``theta``,
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..quadrotor import pitch_output_matrices
+from ..systems.quadrotor import pitch_output_matrices
 from .base import Study, eigen_stats, model_record
 from .data import quadrotor_record
 from .methods import check_methods, identify_with
@@ -93,7 +93,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
 
 def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str, Any]]:
     """Table 1 rows (module docstring)."""
-    from ..quadrotor import pitch_model
+    from ..systems.quadrotor import pitch_model
 
     true = np.linalg.eigvals(pitch_model()[0])
     pair = true[np.argmax(true.imag)]

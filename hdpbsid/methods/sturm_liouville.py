@@ -49,6 +49,8 @@ from numpy.typing import NDArray
 
 import slbasis
 
+from ..checks import check_data, check_positive_int
+from ..model import StateSpaceModel
 from .basis_domain import (
     SolveLag,
     bandwidth,
@@ -61,8 +63,6 @@ from .basis_domain import (
     resolve_holds,
 )
 from .hermite import _real
-from .model import StateSpaceModel
-from .validation import check_data, check_positive_int
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 

@@ -5,12 +5,12 @@ orthonormal functions, signals become coefficient rows (rows = signals, columns 
 index) and "one sample back" becomes a linear operator ``M`` on those rows.  This module
 holds what the methods share:
 
-* :class:`SolveLag` -- a :class:`~hdpbsid.varx.LagOperator` ``W -> W M^j`` where ``M`` is
+* :class:`SolveLag` -- a :class:`~hdpbsid.core.varx.LagOperator` ``W -> W M^j`` where ``M`` is
   applied by a (banded) solve, never formed as a dense inverse;
 * :class:`BlockShift` -- the sample shift inside blocks of columns (Laguerre filters);
 * :func:`bandwidth` -- the data bandwidth used by the default rules;
 * :func:`run_core` -- normalisation, pseudo-input rows (boundary and truncation terms),
-  the default past window and the PBSID core (:func:`hdpbsid.pbsid.pbsid_core`).
+  the default past window and the PBSID core (:func:`hdpbsid.core.pbsid.pbsid_core`).
 
 Pseudo-inputs: terms of the coefficient equation with a *known* coefficient row and an
 *unknown* vector factor (the boundary terms ``x(t0) phi(t0)^T - x(tN) phi(tN)^T`` of a
@@ -29,10 +29,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .model import StateSpaceModel
-from .pbsid import CoreResult, pbsid_core
-from .validation import check_method_args, check_positive_int
-from .varx import LagOperator, select_past_window
+from ..checks import check_method_args, check_positive_int
+from ..core.pbsid import CoreResult, pbsid_core
+from ..core.varx import LagOperator, select_past_window
+from ..model import StateSpaceModel
 
 __all__ = [
     "SolveLag",
@@ -451,7 +451,7 @@ def run_core(
     """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) and pseudo
     inputs ``P`` (q x N) with the lag operator ``lag``.
 
-    Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.varx.select_past_window`)
+    Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.core.varx.select_past_window`)
     over ``p_range`` (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that
     ``p (m + q + l) <= ncols / 6`` (the regression has ``p (m + q + l)`` unknowns per
     output but only ``ncols`` columns); ``f = p``.  Raises ``ValueError`` when an explicit

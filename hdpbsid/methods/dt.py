@@ -1,6 +1,6 @@
 """Method ``"dt"``: PBSID on the raw samples, then exact ZOH ``d2c``.
 
-:func:`identify_discrete` runs the VARX-form PBSID core (:mod:`hdpbsid.pbsid`) on
+:func:`identify_discrete` runs the VARX-form PBSID core (:mod:`hdpbsid.core.pbsid`) on
 uniformly sampled data with the sample shift as the past operator and returns the
 sampled :class:`~hdpbsid.model.DiscreteModel`; :func:`identify_dt` adds the time axis
 checks and the exact conversion to continuous time (:func:`hdpbsid.conversion.d2c`).
@@ -11,12 +11,12 @@ Defaults (all reported in ``model.options``):
   identification and the model is scaled back (eigenvalues are unaffected; this only
   balances the least-squares and SVD weighting between channels);
 * ``p=None``: the past window minimising AIC of the VARX fit over ``p_min..p_max``
-  (:func:`hdpbsid.varx.select_past_window`), where ``p_max`` keeps
+  (:func:`hdpbsid.core.varx.select_past_window`), where ``p_max`` keeps
   ``p (m + l) <= Ns / 10`` and ``p <= 200``, and ``p_min`` makes ``f l`` exceed the order
   (or ``max_order`` when the order is to be selected);
 * ``f=None``: ``f = p`` (as in the toolbox examples);
 * ``order=None``: the largest log-gap of the singular values
-  (:func:`hdpbsid.pbsid.select_order`) among orders ``1..max_order`` (default 10);
+  (:func:`hdpbsid.core.pbsid.select_order`) among orders ``1..max_order`` (default 10);
 * ``feedthrough=False``: ``D = 0`` (MATLAB ``n4sid``'s default; estimating ``D`` from
   closed-loop data with a static controller is biased);
 * ``regularize="gcv"``: ridge (Tikhonov) VARX with the parameter chosen by generalised
@@ -35,15 +35,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .model import DiscreteModel, StateSpaceModel
-from .pbsid import pbsid_core
-from .validation import (
+from ..checks import (
     check_data,
     check_method_args,
     check_signal,
     check_uniform,
 )
-from .varx import select_past_window
+from ..core.pbsid import pbsid_core
+from ..core.varx import select_past_window
+from ..model import DiscreteModel, StateSpaceModel
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
 
@@ -131,7 +131,7 @@ def identify_discrete(
 
     ``u`` (Ns, m) or None, ``y`` (Ns, l).  Pipeline (toolbox ``dordvarx -> dmodx ->
     dx2abcdk``): VARX with past window ``p`` -> ``Gamma L`` with future window ``f`` ->
-    SVD and state -> ``C, D`` -> ``A, B, K`` (:func:`hdpbsid.pbsid.pbsid_core`).  See
+    SVD and state -> ``C, D`` -> ``A, B, K`` (:func:`hdpbsid.core.pbsid.pbsid_core`).  See
     the module docstring for the defaults; every value used is in ``model.options``.
     """
     y = check_signal(y, "y")

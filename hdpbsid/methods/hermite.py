@@ -36,6 +36,8 @@ from scipy.linalg import solve_banded
 
 import slbasis
 
+from ..checks import check_data, check_positive_int
+from ..model import StateSpaceModel
 from .basis_domain import (
     SolveLag,
     best_hold,
@@ -46,8 +48,6 @@ from .basis_domain import (
     project_record,
     resolve_holds,
 )
-from .model import StateSpaceModel
-from .validation import check_data, check_positive_int
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 
@@ -70,7 +70,7 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[N_MIN, N_MAX]`` (DESIGN.md: N =
     200-300 worked on 20-40 s records; below ~30 the seed reports poor identification)
     and to ``Ns / 2`` (the samples must resolve the fastest basis function), with a
-    warning when an upper limit binds (:func:`~hdpbsid.basis_domain.clip_basis_size`).
+    warning when an upper limit binds (:func:`~hdpbsid.methods.basis_domain.clip_basis_size`).
     """
     return clip_basis_size(
         BAND_MARGIN * omega_b * T / HERMITE_BAND,
@@ -88,7 +88,7 @@ def hermite_lag(
     """The integrator lag ``W -> W D'^{-1}`` for ``D' = (Dd/alpha + beta I)/gamma``.
 
     ``Dmat`` is the square ``N x N`` d/dt matrix (tridiagonal); ``Dd = -Dmat``.  Returns
-    the :class:`~hdpbsid.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
+    the :class:`~hdpbsid.methods.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
     banded storage used.
     """
     Dd = -np.asarray(Dmat.toarray() if hasattr(Dmat, "toarray") else Dmat, dtype=float)
@@ -159,10 +159,10 @@ def identify_hermite(
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
       ``zoh`` and ``foh`` and keeps the smaller innovation variance
-      (:func:`~hdpbsid.basis_domain.project_record`);
+      (:func:`~hdpbsid.methods.basis_domain.project_record`);
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
-      as in :func:`hdpbsid.dt.identify_dt`.
+      as in :func:`hdpbsid.methods.dt.identify_dt`.
     """
     t, u, y = check_data(t, u, y)
     ns, m = u.shape

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .conversion import c2d
-from .validation import check_signal, check_state_space, check_time
+from ..checks import check_signal, check_state_space, check_time
+from ..conversion import c2d
 
 __all__ = [
     "second_order",

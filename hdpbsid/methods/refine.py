@@ -47,8 +47,8 @@ from scipy.linalg import expm, solve_discrete_are
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
-from .model import StateSpaceModel
-from .validation import check_data
+from ..checks import check_data
+from ..model import StateSpaceModel
 
 __all__ = ["refine_pem", "is_uniform", "REFINE_CHOICES"]
 

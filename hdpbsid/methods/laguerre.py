@@ -40,6 +40,9 @@ from numpy.typing import NDArray
 
 import slbasis
 
+from ..checks import check_data, check_positive_int
+from ..core.varx import SampleShift
+from ..model import StateSpaceModel
 from .basis_domain import (
     BlockShift,
     best_hold,
@@ -50,9 +53,6 @@ from .basis_domain import (
     resolve_holds,
 )
 from .hermite import _real
-from .model import StateSpaceModel
-from .validation import check_data, check_positive_int
-from .varx import SampleShift
 
 __all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
 
@@ -145,7 +145,7 @@ def identify_laguerre(
       evenly spaced sample times after it;
     * ``input_hold="auto"`` (projection): the sample interpolants are projected exactly
       and the hold (``zoh``/``foh``) with the smaller innovation variance is kept, as in
-      HD-PBSID (:func:`~hdpbsid.basis_domain.project_record`); before, the product
+      HD-PBSID (:func:`~hdpbsid.methods.basis_domain.project_record`); before, the product
       quadrature of the samples shifted the closed-loop quadrotor's 250 Hz ZOH moment by
       half a sample;
     * ``K`` is mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a

@@ -3,7 +3,7 @@
 Steps 2 and 3 of DESIGN.md "The discrete core", after the toolbox pipeline
 ``dordvarx -> dmodx -> dx2abcdk`` (Houtzager's PBSID toolbox; Chiuso 2007, Automatica
 43(6), sec. 4; van Wingerden & Verhaegen 2009).  Everything is generic over the
-:class:`~hdpbsid.varx.LagOperator`, so the same code identifies a sampled model
+:class:`~hdpbsid.core.varx.LagOperator`, so the same code identifies a sampled model
 (``SampleShift``) or a "system in the basis index" (``MatrixLag``).
 
 Notation (rows = signals, columns = time/basis index): ``z = [u; y]``, predictor
@@ -212,7 +212,7 @@ def pbsid_core(
 
     ``U`` (m x N) and ``Y`` (l x N) are data matrices (rows = signals).  Steps:
 
-    1. VARX ``Y = sum_j Xi_j lag^j(Z) + D U + E`` (:func:`hdpbsid.varx.varx`);
+    1. VARX ``Y = sum_j Xi_j lag^j(Z) + D U + E`` (:func:`hdpbsid.core.varx.varx`);
     2. ``Gamma L`` (:func:`gamma_l`), SVD of ``Gamma L Zp``, order from the singular
        values when ``order`` is None (:func:`select_order`), ``X = S_n^{1/2} V_n^T``;
     3. ``C, D`` and the innovations ``E`` (:func:`estimate_cd`), then ``A, B, K``
