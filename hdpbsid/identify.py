@@ -52,6 +52,7 @@ LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
     "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
     "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
     "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
+    "auto": (("hdpbsid.selection", "identify_auto"),),
 }
 
 

@@ -1,0 +1,164 @@
+"""``method="auto"``: choose the method and the order by their out-of-sample error.
+
+Every candidate ``(method, order)`` is identified on the first part of the record
+(``1 - holdout`` of the samples) and scored on the rest by the windowed simulation error
+of :mod:`hdpbsid.criteria` (initial state fitted in each window, outputs weighted by
+their variance), computed identically for every method.  The rule of
+:func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all candidates ordered
+by order (and, for equal orders, by the error), the first one whose error is not
+significantly larger than the best candidate's; that ``(method, order)`` is then
+identified on the whole record.  Held-out data judge the models, so a method that is
+biased on this record, or an order the data do not support, loses by the measure a
+user would apply to the result (simulation on data not used for estimation).
+
+The comparison is reported in ``model.options["selection"]``: one row per candidate
+with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
+variance), ``fit`` (percent), ``z`` (paired statistic against the best), ``time``
+(seconds) and ``status`` (``"ok"`` or the error message).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .checks import check_data, check_positive_int
+from .criteria import (
+    MIN_WINDOWS,
+    SAMPLES_PER_STATE,
+    WindowedError,
+    choose_smallest_adequate,
+    default_windows,
+    windowed_simulation_error,
+)
+from .model import StateSpaceModel
+
+__all__ = ["identify_auto", "AUTO_METHODS", "HOLDOUT"]
+
+#: methods tried by ``method="auto"`` (in this order; ``dt`` only on uniform samples)
+AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
+#: share of the record held out for scoring (the last third, as users validate)
+HOLDOUT = 1.0 / 3.0
+#: largest order tried by default
+AUTO_MAX_ORDER = 8
+
+
+def _fit_one(
+    get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
+) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {"method": method, "order": order}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = get_method(method)(*est, order=order, **options.get(method, {}))
+            err = windowed_simulation_error(model, *val, windows)
+        row.update(status="ok" if err.finite else "simulation overflow", criterion=err)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None)
+    row["time"] = time.perf_counter() - t0
+    return row
+
+
+def identify_auto(
+    t: Any,
+    u: Any,
+    y: Any,
+    order: int | None = None,
+    *,
+    methods: Sequence[str] | None = None,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    n_jobs: int | None = None,
+    method_options: dict[str, dict[str, Any]] | None = None,
+) -> StateSpaceModel:
+    """Identify with every method of ``methods`` and orders ``1..max_order`` (or the given
+    ``order``) and keep the best by held-out simulation error (module docstring).
+
+    ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
+    non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
+    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the candidates in parallel
+    with joblib (results are identical to the serial run); ``method_options``: extra
+    options per method, e.g. ``{"hermite": {"N": 400}}``.
+
+    Raises ``ValueError`` when no candidate can be identified and scored (the message
+    lists each candidate's error) or when the record is too short to hold out
+    ``MIN_WINDOWS`` scoring windows.
+    """
+    from .identify import get_method, is_available  # front-end registry (lazy methods)
+    from .methods.refine import is_uniform
+
+    t, u, y = check_data(t, u, y)
+    ns = t.size
+    if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
+        raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
+    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
+    uniform = is_uniform(t)
+    if methods is None:
+        methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
+    else:
+        methods = list(methods)
+        for m in methods:
+            get_method(m)  # raises for unknown names
+    split = int(round(ns * (1.0 - float(holdout))))
+    windows = default_windows(ns - split, max(orders))
+    if windows < MIN_WINDOWS:
+        raise ValueError(
+            f"method='auto' scores candidates on the last {holdout:.0%} of the record "
+            f"({ns - split} samples) cut into at least {MIN_WINDOWS} windows of "
+            f"{SAMPLES_PER_STATE * max(orders)} samples ({SAMPLES_PER_STATE} per state of "
+            f"the largest order {max(orders)}); supply a longer record, a smaller "
+            f"max_order/order, or choose a method explicitly"
+        )
+    est = (t[:split], u[:split], y[:split])
+    val = (t[split:], u[split:], y[split:])
+    opts = method_options or {}
+    jobs = [(m, n) for m in methods for n in orders]
+    if n_jobs is not None and n_jobs != 1:
+        from joblib import Parallel, delayed
+
+        rows = Parallel(n_jobs=n_jobs)(
+            delayed(_fit_one)(get_method, m, n, est, val, windows, opts) for m, n in jobs
+        )
+    else:
+        rows = [_fit_one(get_method, m, n, est, val, windows, opts) for m, n in jobs]
+    ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
+    if not ok:
+        detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
+        raise ValueError(f"method='auto': no candidate could be identified and scored ({detail})")
+    ok.sort(key=lambda r: (r["order"], r["criterion"].total))
+    errors: list[WindowedError] = [r["criterion"] for r in ok]
+    k, stats = choose_smallest_adequate(errors)
+    for r, z in zip(ok, stats, strict=True):
+        r["z"] = z
+    chosen = ok[k]
+    model = get_method(chosen["method"])(
+        t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
+    )
+    table = []
+    for r in rows:
+        c = r["criterion"]
+        table.append(
+            {
+                "method": r["method"],
+                "order": r["order"],
+                "error": c.total if c is not None else None,
+                "fit": c.fit if c is not None else None,
+                "z": r.get("z"),
+                "time": r["time"],
+                "status": r["status"],
+            }
+        )
+    model.options["selection"] = table
+    model.options["selection_rule"] = (
+        f"held-out windowed simulation error on the last {holdout:.0%} ({windows} windows); "
+        f"smallest order not significantly worse than the best (paired z < 2 or within "
+        f"2 % of its residual energy)"
+    )
+    model.options["method"] = chosen["method"]
+    return model
