@@ -85,11 +85,13 @@ def derivative_operator(kernel: Kernel, N: int, shape: str = "rectangular") -> s
 def _p0_section(kernel: Kernel, M: int) -> np.ndarray:
     """Banded storage (2 sub, 2 super) of the exact M x M section of p0(J)."""
     c0, c1, c2 = (float(c) for c in kernel.p0)
-    J = multiplication_matrix(kernel, M + 1, "square").toarray()
-    P = c0 * np.eye(M) + c1 * J[:M, :M] + c2 * (J[:M, :] @ J[:, :M])
+    # J is tridiagonal, so J^2 is pentadiagonal: sparse products keep this O(M)
+    J = sp.csr_matrix(multiplication_matrix(kernel, M + 1, "square"))
+    P = c0 * sp.identity(M, format="csr") + c1 * J[:M, :M] + c2 * (J[:M, :] @ J[:, :M])
+    P = sp.dia_matrix(P)
     ab = np.zeros((5, M))
     for k in range(-2, 3):
-        d = np.diagonal(P, k)
+        d = P.diagonal(k)
         if k >= 0:
             ab[2 - k, k:] = d
         else:
