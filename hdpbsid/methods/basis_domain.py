@@ -33,6 +33,7 @@ from ..checks import check_method_args, check_positive_int
 from ..core.pbsid import CoreResult, pbsid_core
 from ..core.varx import LagOperator, select_past_window
 from ..model import StateSpaceModel
+from .memo import memoize
 
 __all__ = [
     "SolveLag",
@@ -259,6 +260,7 @@ def data_bandwidth(t: Array, u: Array, y: Array) -> float:
     return max(wu, bandwidth(t, y, 0.95))
 
 
+@memoize
 def project_record(
     basis: Any, t: Array, u: Array, y: Array, holds: tuple[str, ...] = ("foh",)
 ) -> tuple[list[Array], Array]:

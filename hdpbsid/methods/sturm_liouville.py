@@ -63,6 +63,7 @@ from .basis_domain import (
     resolve_holds,
 )
 from .hermite import _real
+from .memo import memoize
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 
@@ -125,6 +126,7 @@ def _integration_quadrature(basis: Any, N: int, K: int) -> Array:
     return G
 
 
+@memoize
 def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Array, str]:
     """The ``N x N`` causal integration matrix ``G`` (column ``j`` = ``int_{t0} phi_j``
     projected on ``phi_0..phi_{N-1}``) and how it was computed."""

@@ -1,0 +1,34 @@
+"""Content-keyed memoisation of the order-independent steps (hdpbsid.methods.memo)."""
+
+import numpy as np
+import pytest
+
+from hdpbsid.methods.memo import memoize
+
+
+def test_cache_is_keyed_on_contents_not_identity():
+    calls = []
+
+    @memoize
+    def f(a, k=1):
+        calls.append(1)
+        return a * k
+
+    a = np.arange(5.0)
+    r1 = f(a, k=2)
+    assert f(a.copy(), k=2) is r1 and len(calls) == 1  # same contents: cached
+    a[0] = 10.0  # a caller reusing its buffer must not get the old result
+    assert f(a, k=2)[0] == 20.0 and len(calls) == 2
+    assert f(a, k=3)[0] == 30.0 and len(calls) == 3  # other keyword: recomputed
+
+
+def test_cached_results_are_read_only():
+    @memoize
+    def g(a):
+        return (a + 1.0, [a * 2.0])
+
+    out = g(np.ones(3))
+    with pytest.raises(ValueError):
+        out[0][0] = 5.0
+    with pytest.raises(ValueError):
+        out[1][0][0] = 5.0
