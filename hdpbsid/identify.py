@@ -21,8 +21,11 @@ StateSpaceModel``).
 from __future__ import annotations
 
 import importlib
+import warnings
 from collections.abc import Callable
 from typing import Any
+
+import numpy as np
 
 from .checks import check_time
 from .methods.dt import identify_dt
@@ -144,11 +147,22 @@ def identify(
     """Identify a continuous-time model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
 
     ``t (Ns,)``, ``u (Ns, m)`` (or ``None`` for no input), ``y (Ns, l)`` follow
-    :func:`scipy.signal.lsim` (1-D for one channel).  ``order=None`` lets the method
-    choose from the singular values.  ``method`` names an entry of :data:`METHODS`
-    (``"hermite"`` HD-PBSID, the default per DESIGN.md; ``"laguerre"``,
-    ``"legendre"``, ``"dt"``; see :func:`available_methods`).  ``options`` go to the
-    method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
+    :func:`scipy.signal.lsim` (1-D for one channel).  ``method`` names an entry of
+    :data:`METHODS` (``"hermite"`` HD-PBSID, the default; ``"laguerre"``,
+    ``"legendre"``, ``"dt"``; ``"auto"`` tries them all and keeps the best by held-out
+    simulation error, :func:`hdpbsid.selection.identify_auto`; see
+    :func:`available_methods`).  ``options`` go to the method unchanged (e.g. ``p=``,
+    ``f=``, ``regularize=`` for ``"dt"``).
+
+    ``order=None`` chooses the order from the identified *models*
+    (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
+    identified on the first two thirds of the record and scored by their windowed
+    simulation error on the last third; the smallest order not significantly worse than
+    the best is identified on the whole record, and the scores are in
+    ``options["order_selection"]``.  A record too short to score falls back to the
+    method's singular-value rule (said in ``options["order_selection"]``), as does
+    ``order_rule="svd"``.  A constant input column raises a ``UserWarning`` (not
+    persistently exciting).
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
     model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
@@ -167,7 +181,15 @@ def identify(
     if refine not in REFINE_CHOICES:
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     func = get_method(method)
-    model = func(t, u, y, order=order, **options)
+    _warn_not_exciting(u)
+    if order is None and method != "auto" and options.get("order_rule", "held-out") != "svd":
+        from .selection import select_order
+
+        options.pop("order_rule", None)
+        model = select_order(method, t, u, y, **options)
+    else:
+        options.pop("order_rule", None)
+        model = func(t, u, y, order=order, **options)
     if not isinstance(model, StateSpaceModel):
         raise TypeError(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -184,6 +206,28 @@ def identify(
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
     return model
+
+
+def _warn_not_exciting(u: Any) -> None:
+    """Warn when an input column is constant: a constant input excites no dynamics
+    (it is not persistently exciting of any order), so ``B`` is not identifiable from
+    the record -- the model would describe the noise and initial conditions only."""
+    if u is None:
+        return
+    ua = np.asarray(u, dtype=float)
+    ua = ua[:, None] if ua.ndim == 1 else ua
+    if ua.ndim != 2 or ua.shape[0] < 2:
+        return  # the method's checks report malformed input
+    spread = np.ptp(ua, axis=0)
+    level = np.max(np.abs(ua), axis=0)
+    for k in np.flatnonzero(spread <= 1e-12 * np.maximum(level, np.finfo(float).tiny)):
+        warnings.warn(
+            f"u[:, {k}] is constant: the input is not persistently exciting, so its effect "
+            f"(B) cannot be identified from this record; excite the system (steps, a "
+            f"multisine, a random binary signal) or leave the input out",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 register_method("dt", identify_dt)

@@ -28,8 +28,10 @@ import numpy as np
 
 from .checks import check_data, check_positive_int
 from .criteria import (
+    MATERIAL,
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
+    SIGNIFICANCE_Z,
     WindowedError,
     choose_smallest_adequate,
     default_windows,
@@ -37,7 +39,7 @@ from .criteria import (
 )
 from .model import StateSpaceModel
 
-__all__ = ["identify_auto", "AUTO_METHODS", "HOLDOUT"]
+__all__ = ["identify_auto", "select_order", "select_model", "AUTO_METHODS", "HOLDOUT"]
 
 #: methods tried by ``method="auto"`` (in this order; ``dt`` only on uniform samples)
 AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
@@ -56,6 +58,11 @@ def _fit_one(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = get_method(method)(*est, order=order, **options.get(method, {}))
+            if not isinstance(model, StateSpaceModel):
+                raise TypeError(
+                    f"method {method!r} returned {type(model).__name__}, expected "
+                    f"StateSpaceModel"
+                )
             err = windowed_simulation_error(model, *val, windows)
         row.update(status="ok" if err.finite else "simulation overflow", criterion=err)
     except (ValueError, np.linalg.LinAlgError) as exc:
@@ -64,56 +71,57 @@ def _fit_one(
     return row
 
 
-def identify_auto(
+def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    table = []
+    for r in rows:
+        c = r["criterion"]
+        table.append(
+            {
+                "method": r["method"],
+                "order": r["order"],
+                "error": c.total if c is not None else None,
+                "fit": c.fit if c is not None else None,
+                "z": r.get("z"),
+                "time": r["time"],
+                "status": r["status"],
+            }
+        )
+    return table
+
+
+def select_model(
     t: Any,
     u: Any,
     y: Any,
-    order: int | None = None,
+    methods: Sequence[str],
+    orders: Sequence[int],
     *,
-    methods: Sequence[str] | None = None,
-    max_order: int | None = None,
     holdout: float = HOLDOUT,
     n_jobs: int | None = None,
     method_options: dict[str, dict[str, Any]] | None = None,
-) -> StateSpaceModel:
-    """Identify with every method of ``methods`` and orders ``1..max_order`` (or the given
-    ``order``) and keep the best by held-out simulation error (module docstring).
+) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
+    """Score every ``(method, order)`` on held-out data and identify the chosen one on
+    the whole record (module docstring).  Returns ``(model, table, rule)``.
 
-    ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
-    non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
-    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the candidates in parallel
-    with joblib (results are identical to the serial run); ``method_options``: extra
-    options per method, e.g. ``{"hermite": {"N": 400}}``.
-
-    Raises ``ValueError`` when no candidate can be identified and scored (the message
-    lists each candidate's error) or when the record is too short to hold out
-    ``MIN_WINDOWS`` scoring windows.
+    Raises ``ValueError`` when the record is too short to hold out enough scoring windows
+    (the message says what would work) or when no candidate can be identified.
     """
-    from .identify import get_method, is_available  # front-end registry (lazy methods)
-    from .methods.refine import is_uniform
+    from .identify import get_method  # the registry lives in the front end
 
     t, u, y = check_data(t, u, y)
     ns = t.size
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
-    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
-    uniform = is_uniform(t)
-    if methods is None:
-        methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
-    else:
-        methods = list(methods)
-        for m in methods:
-            get_method(m)  # raises for unknown names
     split = int(round(ns * (1.0 - float(holdout))))
     windows = default_windows(ns - split, max(orders))
     if windows < MIN_WINDOWS:
         raise ValueError(
-            f"method='auto' scores candidates on the last {holdout:.0%} of the record "
+            f"choosing the order scores candidates on the last {holdout:.0%} of the record "
             f"({ns - split} samples) cut into at least {MIN_WINDOWS} windows of "
             f"{SAMPLES_PER_STATE * max(orders)} samples ({SAMPLES_PER_STATE} per state of "
-            f"the largest order {max(orders)}); supply a longer record, a smaller "
-            f"max_order/order, or choose a method explicitly"
+            f"the largest order {max(orders)}), i.e. a record of at least "
+            f"{int(np.ceil(MIN_WINDOWS * SAMPLES_PER_STATE * max(orders) / holdout))} "
+            f"samples; supply a longer record, a smaller max_order, or give the order"
         )
     est = (t[:split], u[:split], y[:split])
     val = (t[split:], u[split:], y[split:])
@@ -130,7 +138,7 @@ def identify_auto(
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
-        raise ValueError(f"method='auto': no candidate could be identified and scored ({detail})")
+        raise ValueError(f"no candidate model could be identified and scored ({detail})")
     ok.sort(key=lambda r: (r["order"], r["criterion"].total))
     errors: list[WindowedError] = [r["criterion"] for r in ok]
     k, stats = choose_smallest_adequate(errors)
@@ -140,25 +148,95 @@ def identify_auto(
     model = get_method(chosen["method"])(
         t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
     )
-    table = []
-    for r in rows:
-        c = r["criterion"]
-        table.append(
-            {
-                "method": r["method"],
-                "order": r["order"],
-                "error": c.total if c is not None else None,
-                "fit": c.fit if c is not None else None,
-                "z": r.get("z"),
-                "time": r["time"],
-                "status": r["status"],
-            }
-        )
-    model.options["selection"] = table
-    model.options["selection_rule"] = (
+    rule = (
         f"held-out windowed simulation error on the last {holdout:.0%} ({windows} windows); "
-        f"smallest order not significantly worse than the best (paired z < 2 or within "
-        f"2 % of its residual energy)"
+        f"smallest order not significantly worse than the best (paired z < "
+        f"{SIGNIFICANCE_Z:g} on log errors, or within {MATERIAL:.0%} of its residual energy)"
     )
-    model.options["method"] = chosen["method"]
+    return model, _rows_table(rows), rule
+
+
+def identify_auto(
+    t: Any,
+    u: Any,
+    y: Any,
+    order: int | None = None,
+    *,
+    methods: Sequence[str] | None = None,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    n_jobs: int | None = None,
+    method_options: dict[str, dict[str, Any]] | None = None,
+) -> StateSpaceModel:
+    """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
+    given ``order``), the best by held-out simulation error (module docstring).
+
+    ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
+    non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
+    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the candidates in parallel
+    with joblib (results are identical to the serial run); ``method_options``: extra
+    options per method, e.g. ``{"hermite": {"N": 400}}``.  ``model.options["selection"]``
+    lists every candidate, ``options["order_selection"]`` the chosen method's.
+    """
+    from .identify import get_method, is_available
+    from .methods.refine import is_uniform
+
+    t, u, y = check_data(t, u, y)
+    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
+    if methods is None:
+        uniform = is_uniform(t)
+        methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
+    else:
+        methods = list(methods)
+        for m in methods:
+            get_method(m)  # raises for unknown names
+    model, table, rule = select_model(
+        t, u, y, methods, orders, holdout=holdout, n_jobs=n_jobs, method_options=method_options
+    )
+    chosen = model.options.get("method")
+    model.options["selection"] = table
+    model.options["order_selection"] = [r for r in table if r["method"] == chosen]
+    model.options["selection_rule"] = rule
+    return model
+
+
+def select_order(
+    method: str,
+    t: Any,
+    u: Any,
+    y: Any,
+    *,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    **options: Any,
+) -> StateSpaceModel:
+    """The order of ``method`` chosen by held-out simulation error (module docstring).
+
+    Orders ``1..max_order`` (default 8) are identified on the first ``1 - holdout`` of
+    the record and scored on the rest; the chosen order is identified on the whole
+    record.  When the record is too short to score, the method chooses the order itself
+    (from its singular values) and ``options["order_selection"]`` says so.
+    """
+    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    from .identify import get_method
+
+    try:
+        model, table, rule = select_model(
+            t,
+            u,
+            y,
+            [method],
+            list(range(1, mo + 1)),
+            holdout=holdout,
+            method_options={method: options},
+        )
+    except ValueError as exc:
+        if "longer record" not in str(exc):
+            raise
+        model = get_method(method)(t, u, y, order=None, max_order=mo, **options)
+        model.options["order_selection"] = f"singular values of the method ({exc})"
+        return model
+    model.options["order_selection"] = table
+    model.options["order_selection_rule"] = rule
     return model
