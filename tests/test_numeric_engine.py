@@ -84,9 +84,10 @@ def _project(kernel, N, t, Y, weights, eng, method="quadrature"):
 
 
 @pytest.mark.parametrize(("kernel", "N", "x"), CASES, ids=IDS)
-@pytest.mark.parametrize("k", [1, 3, 6, 10])
+@pytest.mark.parametrize("k", [1, 3, 5, 6, 8, 10])
 def test_project_agrees(kernel, N, x, k):
-    """Fused kernel (k <= 8) and compiled blocks + BLAS (k = 10) vs numpy, any spacing."""
+    """Fused kernel (k <= 8: every column grouping) and compiled blocks + BLAS (k = 10)
+    vs numpy, uniform and random sample points."""
     a, b = kernel.interval
     t = np.unique(np.clip(x, a, b))
     if kernel is CHEBYSHEV_T:
