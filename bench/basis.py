@@ -145,14 +145,15 @@ def engines_table(sizes, orders, numpy_max_work: float, k: int = 4) -> None:
     print(
         f"\nEngines side by side: Hermite functions, samples uniform on 90 % of the support;"
         f"\neval = all samples streamed through a reused (N x {default_chunk(2000)}-ish) block;"
-        f" project = Basis.project of {k} signals.\nWall seconds; '-' = numpy not run"
+        f" project = Basis.project of {k} signals.\nWall seconds ('nb cpu': CPU seconds of"
+        f" one numba projection, all threads); '-' = numpy not run"
         f" (> {numpy_max_work:.0e} values). numba threads: {engine._threads()};"
         f" compile/cache load before timing: {time.perf_counter() - t0:.2f} s;"
         f" load average {os.getloadavg()[0]:.1f}."
     )
     print(
         f"{'Ns':>8} {'N':>5} | {'eval np':>8} {'eval nb':>8} {'x':>5} |"
-        f" {'proj np':>8} {'proj nb':>8} {'x':>5} {'nb ns/val':>9}"
+        f" {'proj np':>8} {'proj nb':>8} {'x':>5} {'nb cpu':>8}"
     )
     rng = np.random.default_rng(1)
     for Ns in sizes:
@@ -162,19 +163,21 @@ def engines_table(sizes, orders, numpy_max_work: float, k: int = 4) -> None:
             x = B.tmap.to_x(t)
             Y = rng.standard_normal((Ns, k))
             reps = 3 if N * Ns <= 10**8 else 1
-            row = {}
+            row, cpu = {}, {}
             for eng in ("numpy", "numba"):
                 if eng == "numpy" and N * Ns > numpy_max_work:
                     row[eng] = (np.nan, np.nan)
                     continue
                 te = best_time(lambda e=eng, N=N, x=x: _stream_eval(N, x, e), reps)
+                c0 = time.process_time()
                 tp = best_time(lambda e=eng, B=B, t=t, Y=Y: B.project(t, Y, engine=e), reps)
+                cpu[eng] = (time.process_time() - c0) / reps
                 row[eng] = (te, tp)
             (e_np, p_np), (e_nb, p_nb) = row["numpy"], row["numba"]
 
             print(
                 f"{Ns:8d} {N:5d} | {_cell(e_np)} {_cell(e_nb)} {_ratio(e_np, e_nb)} |"
-                f" {_cell(p_np)} {_cell(p_nb)} {_ratio(p_np, p_nb)} {p_nb / (N * Ns) * 1e9:9.2f}",
+                f" {_cell(p_np)} {_cell(p_nb)} {_ratio(p_np, p_nb)} {cpu['numba']:8.3f}",
                 flush=True,
             )
     print(f"(load average at the end {os.getloadavg()[0]:.1f})")
