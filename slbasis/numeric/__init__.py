@@ -1,7 +1,9 @@
 """slbasis.numeric: generic numeric machinery for kernels of orthonormal function bases.
 
 Modules (one job each): :mod:`.kernel` (the interface a generated kernel implements),
-:mod:`.evaluate` (stable three-term recurrence), :mod:`.quadrature` (Gauss rules),
+:mod:`.evaluate` (stable three-term recurrence), :mod:`.compiled` (the same recurrence as
+numba kernels, fused with projection sums; optional), :mod:`.engine` (numpy or compiled,
+threads), :mod:`.quadrature` (Gauss rules),
 :mod:`.projection` (streaming projection / reconstruction), :mod:`.operators`
 (multiplication and derivative matrices), :mod:`.timemap` (affine time map),
 :mod:`.basis` (the :class:`Basis` object).

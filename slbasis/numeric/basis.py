@@ -155,10 +155,13 @@ class Basis:
         return ta
 
     # -- functions -------------------------------------------------------------------
-    def eval(self, t: np.ndarray) -> np.ndarray:
-        """The ``(N, len(t))`` matrix ``phi_n(t_j) = sqrt(scale) phi_n(x(t_j))``."""
+    def eval(self, t: np.ndarray, *, engine: str = "auto") -> np.ndarray:
+        """The ``(N, len(t))`` matrix ``phi_n(t_j) = sqrt(scale) phi_n(x(t_j))``.
+
+        ``engine``: ``"auto"``, ``"numpy"`` or ``"numba"`` (:mod:`slbasis.numeric.engine`).
+        """
         ta = self._times_in_interval(t, "t")
-        P = evaluate(self.kernel, self.N, self.tmap.to_x(ta))
+        P = evaluate(self.kernel, self.N, self.tmap.to_x(ta), engine=engine)
         P *= np.sqrt(self.scale)
         return P
 
@@ -170,22 +173,32 @@ class Basis:
         chunk: int | None = None,
         *,
         weights: str | np.ndarray = "trapezoid",
+        engine: str = "auto",
     ) -> np.ndarray:
         """Coefficients ``c_n = int y phi_n dt`` over the samples' span (streaming).
 
         ``method``: ``"quadrature"`` (sample weights from the spacing) or ``"lstsq"``
         (weighted least squares); see :mod:`slbasis.numeric.projection`.
-        ``y``: ``(Ns,)`` or ``(Ns, k)`` -> ``(N,)`` or ``(N, k)``.
+        ``y``: ``(Ns,)`` or ``(Ns, k)`` -> ``(N,)`` or ``(N, k)``. ``engine``: ``"auto"``,
+        ``"numpy"`` or ``"numba"`` (:mod:`slbasis.numeric.engine`).
         """
         ta = self._times_in_window(t, "t")
         return projection.project(
-            self.kernel, self.N, self.tmap, ta, y, method=method, weights=weights, chunk=chunk
+            self.kernel,
+            self.N,
+            self.tmap,
+            ta,
+            y,
+            method=method,
+            weights=weights,
+            chunk=chunk,
+            engine=engine,
         )
 
-    def reconstruct(self, c: np.ndarray, t: np.ndarray) -> np.ndarray:
+    def reconstruct(self, c: np.ndarray, t: np.ndarray, *, engine: str = "auto") -> np.ndarray:
         """``sum_n c_n phi_n(t)``: ``(len(t),)`` or ``(len(t), k)``."""
         ta = self._times_in_interval(t, "t")
-        return projection.reconstruct(self.kernel, self.N, self.tmap, c, ta)
+        return projection.reconstruct(self.kernel, self.N, self.tmap, c, ta, engine=engine)
 
     # -- operators (time units) --------------------------------------------------------
     def derivative_matrix(self, shape: str = "square") -> sp.csr_matrix | np.ndarray:

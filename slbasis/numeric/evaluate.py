@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import engine as _engine
 from .kernel import Kernel
 
 __all__ = ["evaluate", "evaluate_derivative", "polynomial_newton_ratio", "recurrence"]
@@ -90,6 +91,17 @@ class Recurrence:
                 last = n
         return points
 
+    def renorm_mask(self, x: np.ndarray, nrows: int) -> np.ndarray:
+        """``mask[n]``: renormalise the pair ``(n - 1, n)`` before row ``n`` (``n >= 1``),
+        from :meth:`schedule` over the finite range of ``x`` (valid for any subset of it)."""
+        fin = np.isfinite(x)
+        xmin = float(np.min(x[fin])) if fin.any() else 0.0
+        xmax = float(np.max(x[fin])) if fin.any() else 0.0
+        mask = np.zeros(nrows, dtype=np.bool_)
+        points = [n for n in self.schedule(xmin, xmax, nrows - 1) if n > 0]
+        mask[points] = True
+        return mask
+
 
 def recurrence(kernel: Kernel, N: int) -> Recurrence:
     """Precompute the recurrence coefficients of the first ``N + 1`` functions."""
@@ -108,22 +120,36 @@ def _split_log(logabs: np.ndarray, sign: np.ndarray) -> tuple[np.ndarray, np.nda
     return m, k.astype(np.int64)
 
 
+def _pow2_split(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exponents ``(e1, e2)``, ``e1 + e2 = e``, with ``(m 2^e1) 2^e2 = round(m 2^e)``.
+
+    In the normal range ``e2 = 0``. Below it ``e1 = e + 1022`` (exact scaling, or an
+    underflow of a value whose result is 0 anyway) and ``e2 = -1022`` (one rounding into
+    the subnormals); above it, symmetrically. ``e1`` is clipped to the normal range, where
+    the result under- or overflows anyway.
+    """
+    low, high = e < -1022, e > 1023
+    e1 = np.where(low, np.maximum(e + 1022, -1022), np.where(high, np.minimum(e - 1023, 1023), e))
+    e2 = np.where(low, -1022, np.where(high, 1023, 0))
+    return e1, e2
+
+
 def _scale_rows(block: np.ndarray, e: np.ndarray) -> None:
-    """``block *= 2^e`` (per column) in place.
+    """``block *= 2^e`` (per column) in place, correctly rounded.
 
     ``np.ldexp`` costs ~5 ns per element; multiplying by the float ``2^e`` costs ~0.2 ns and
-    is exact whenever ``2^e`` and the result are normal numbers. Columns with
-    ``e < -1022`` get a second multiplication by ``2^(e + 1022)``; the only rounding is
-    then in the subnormal range (absolute error < 2^-1073 ~ 1e-323).
+    is exact whenever ``2^e`` and the result are normal numbers. Columns outside the
+    normal exponent range get two multiplications (:func:`_pow2_split`); the result is
+    still ``m 2^e`` rounded once (only subnormal results are rounded at all).
     """
     if block.shape[0] == 0:
         return
     if e.min() >= -1022 and e.max() <= 1023:
         block *= np.ldexp(1.0, e)
         return
-    lo = np.clip(e, -1022, 1023)
-    block *= np.ldexp(1.0, lo)
-    block *= np.ldexp(1.0, np.maximum(e - lo, -1100))
+    e1, e2 = _pow2_split(e)
+    block *= np.ldexp(1.0, e1)
+    block *= np.ldexp(1.0, e2)
 
 
 def _fill(rec: Recurrence, nrows: int, x: np.ndarray, out: np.ndarray, m0, e0) -> None:
@@ -189,12 +215,17 @@ def evaluate(
     out: np.ndarray | None = None,
     chunk: int = _DEFAULT_CHUNK,
     rec: Recurrence | None = None,
+    engine: str = "auto",
 ) -> np.ndarray:
     """The ``(N, len(x))`` matrix ``[phi_n(x_j)]`` of the first ``N`` orthonormal functions.
 
     Mantissa/exponent three-term recurrence (module docstring); vectorised over samples in
     blocks of ``chunk`` samples. ``out`` (C-contiguous, shape ``(N, len(x))``) is filled
-    in place if given.
+    in place if given. ``engine``: ``"auto"``, ``"numpy"`` or ``"numba"``
+    (:mod:`slbasis.numeric.engine`); both give the same values bit for bit (the same
+    operations in the same order; renormalisation is exact and the final scaling by
+    ``2^e`` correctly rounded, so neither the block size nor the renormalisation points
+    change a value).
     """
     if int(N) != N or N < 1:
         raise ValueError(f"N: expected an integer >= 1, got {N!r}")
@@ -210,8 +241,17 @@ def evaluate(
         raise ValueError(f"out: expected shape {(N, xa.size)}, got {out.shape}")
     if xa.size == 0:
         return out
+    use = _engine.resolve(engine, N * xa.size)
     logabs, sign = kernel.log_phi0(xa)
     m0, e0 = _split_log(np.asarray(logabs, dtype=float), np.asarray(sign, dtype=float))
+    if use == "numba":
+        target = out if out.flags.c_contiguous else np.empty((N, xa.size))
+        xc = np.ascontiguousarray(xa)
+        with np.errstate(invalid="ignore"):
+            _engine.evaluate_compiled(rec, xc, m0, e0, rec.renorm_mask(xc, N), target)
+        if target is not out:
+            out[...] = target
+        return out
     chunk = max(1, int(chunk))
     # singular endpoints (phi_0 = inf, e.g. Chebyshev-T functions at x = +-1) give inf/nan
     # there by design; do not warn about it

@@ -29,7 +29,8 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-from .evaluate import Recurrence, evaluate
+from . import engine as _engine
+from .evaluate import Recurrence, _split_log, evaluate
 from .kernel import Kernel
 from .timemap import TimeMap
 from .validate import as_int_at_least, as_signal, as_times
@@ -37,6 +38,11 @@ from .validate import as_int_at_least, as_signal, as_times
 __all__ = ["sample_weights", "project", "reconstruct", "default_chunk"]
 
 _MEMORY = 64 * 2**20
+_FUSED_MAX_SIGNALS = 8  # more signals: blocks of function values times BLAS are faster
+_SINGULAR = (
+    "t: the basis functions are infinite at some sample times (a singular "
+    "interval end?); sample strictly inside the interval"
+)
 
 
 def default_chunk(N: int, memory: int = _MEMORY) -> int:
@@ -98,11 +104,17 @@ def project(
     method: str = "quadrature",
     weights: str | np.ndarray = "trapezoid",
     chunk: int | None = None,
+    engine: str = "auto",
 ) -> np.ndarray:
     """Coefficients ``c_n = int y phi_n dt`` (eq. 1), shape ``(N,)`` or ``(N, k)``.
 
     ``y`` has shape ``(Ns,)`` or ``(Ns, k)`` (scipy.signal.lsim convention). ``weights``:
     a rule for :func:`sample_weights` or an explicit array of per-sample weights.
+    ``engine`` (:mod:`slbasis.numeric.engine`): with ``"numba"``, ``method="quadrature"``
+    and ``k <= 8`` signals the sums run fused with the recurrence
+    (:func:`slbasis.numeric.compiled.project_range`, no block of function values is
+    stored; ``chunk`` is then unused); otherwise blocks of ``chunk`` samples are evaluated
+    (by the chosen engine) and multiplied by the signals (BLAS).
     """
     N = as_int_at_least(N, "N")
     ta = as_times(t, "t", min_len=2)
@@ -116,18 +128,19 @@ def project(
     y2 = ya.reshape(ta.size, -1)
     vy = (v * root)[:, None] * y2
     rec = Recurrence(kernel, N)
+    use = _engine.resolve(engine, N * ta.size)
+    if use == "numba" and method == "quadrature" and 1 <= y2.shape[1] <= _FUSED_MAX_SIGNALS:
+        c = _project_fused(kernel, rec, N, x, vy)
+        return c.reshape((N,) + ya.shape[1:])
     c = np.zeros((N, y2.shape[1]))
     G = np.zeros((N, N)) if method == "lstsq" else None
     buf = np.empty((N, chunk))
     for s in range(0, ta.size, chunk):
         sl = slice(s, min(s + chunk, ta.size))
         w = sl.stop - sl.start
-        P = evaluate(kernel, N, x[sl], out=buf[:, :w] if w == chunk else None, rec=rec)
+        P = evaluate(kernel, N, x[sl], out=buf[:, :w] if w == chunk else None, rec=rec, engine=use)
         if not np.all(np.isfinite(P[-1])) or not np.all(np.isfinite(P[0])):
-            raise ValueError(
-                "t: the basis functions are infinite at some sample times (a singular "
-                "interval end?); sample strictly inside the interval"
-            )
+            raise ValueError(_SINGULAR)
         c += P @ vy[sl]
         if G is not None:
             Pv = P * (v[sl] * tmap.scale)
@@ -135,6 +148,20 @@ def project(
     if G is not None:
         c = _solve_gram(G, c)
     return c.reshape((N,) + ya.shape[1:])
+
+
+def _project_fused(kernel: Kernel, rec: Recurrence, N: int, x: np.ndarray, vy: np.ndarray):
+    """``Phi(x) @ vy`` by the compiled fused kernel (same checks as the blocked loop)."""
+    x = np.ascontiguousarray(x)
+    logabs, sign = kernel.log_phi0(x)
+    m0, e0 = _split_log(np.asarray(logabs, dtype=float), np.asarray(sign, dtype=float))
+    with np.errstate(over="ignore"):
+        row0_finite = bool(np.all(np.isfinite(np.ldexp(m0, e0))))
+    with np.errstate(invalid="ignore", over="ignore"):
+        c, bad = _engine.project_compiled(rec, N, x, m0, e0, vy.T, rec.renorm_mask(x, N))
+    if bad or not row0_finite:
+        raise ValueError(_SINGULAR)
+    return c
 
 
 def _solve_gram(G: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -160,8 +187,13 @@ def reconstruct(
     t: np.ndarray,
     *,
     chunk: int | None = None,
+    engine: str = "auto",
 ) -> np.ndarray:
-    """``y(t) = sum_n c_n phi_n(t)``; ``c``: ``(N,)`` or ``(N, k)`` -> ``(Ns,)`` / ``(Ns, k)``."""
+    """``y(t) = sum_n c_n phi_n(t)``; ``c``: ``(N,)`` or ``(N, k)`` -> ``(Ns,)`` / ``(Ns, k)``.
+
+    Blocks of ``chunk`` samples are evaluated by ``engine`` (:mod:`slbasis.numeric.engine`)
+    and multiplied by ``c`` (BLAS).
+    """
     N = as_int_at_least(N, "N")
     ta = as_times(t, "t", increasing=False)
     ca = np.asarray(c, dtype=float)
@@ -174,7 +206,8 @@ def reconstruct(
     c2 = ca.reshape(N, -1) * np.sqrt(tmap.scale)
     out = np.empty((ta.size, c2.shape[1]))
     rec = Recurrence(kernel, N)
+    use = _engine.resolve(engine, N * ta.size)
     for s in range(0, ta.size, chunk):
         sl = slice(s, min(s + chunk, ta.size))
-        out[sl] = evaluate(kernel, N, x[sl], rec=rec).T @ c2
+        out[sl] = evaluate(kernel, N, x[sl], rec=rec, engine=use).T @ c2
     return out.reshape(ta.shape + ca.shape[1:])

@@ -1,0 +1,153 @@
+"""Which engine evaluates the recurrence (numpy or compiled), and the threaded drivers.
+
+Engines:
+
+``"numpy"``
+    :mod:`slbasis.numeric.evaluate`: vectorised numpy over blocks of samples. Always
+    there; the reference the compiled engine is tested against.
+``"numba"``
+    :mod:`slbasis.numeric.compiled`: the same recurrence compiled by numba (the optional
+    extra ``fast``), split over threads by contiguous ranges of samples, each thread with
+    its own partial sums (reduced at the end in a fixed order). Compiled on first use and
+    cached on disk.
+``"auto"`` (default)
+    ``"numba"`` if numba imports, the environment variable ``SLBASIS_NO_NUMBA`` is unset
+    (or ``0``) and the call is large enough to pay for a first compilation
+    (``N * len(x) >= 2^16`` function values); ``"numpy"`` otherwise.
+
+Threads: ``numba.get_num_threads()`` (the ``NUMBA_NUM_THREADS`` environment variable or
+``numba.set_num_threads``); calls below ``2^20`` function values per thread run on the
+calling thread only.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from concurrent.futures import ThreadPoolExecutor
+from types import ModuleType
+
+import numpy as np
+
+__all__ = ["ENGINES", "numba_available", "resolve", "evaluate_compiled", "project_compiled"]
+
+ENGINES = ("auto", "numpy", "numba")
+_AUTO_MIN_WORK = 1 << 16  # function values: below this "auto" stays with numpy
+_THREAD_MIN_WORK = 1 << 20  # function values per thread worth a thread
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled() -> ModuleType | None:
+    """The compiled-kernel module, or ``None`` when numba is not installed."""
+    try:
+        from . import compiled
+    except ImportError:
+        return None
+    return compiled
+
+
+def _disabled() -> bool:
+    return os.environ.get("SLBASIS_NO_NUMBA", "") not in ("", "0")
+
+
+def numba_available() -> bool:
+    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` unset)."""
+    return not _disabled() and _compiled() is not None
+
+
+def resolve(engine: str, work: int) -> str:
+    """The engine (``"numpy"`` or ``"numba"``) that runs a call of ``work`` function values."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
+    if engine == "numpy":
+        return "numpy"
+    if engine == "numba":
+        if _disabled():
+            raise RuntimeError("engine='numba': disabled by the environment (SLBASIS_NO_NUMBA)")
+        if _compiled() is None:
+            raise RuntimeError(
+                "engine='numba': numba is not installed (pip install 'slbasis-hdpbsid[fast]')"
+            )
+        return "numba"
+    return "numba" if work >= _AUTO_MIN_WORK and numba_available() else "numpy"
+
+
+def _threads() -> int:
+    import numba
+
+    return max(1, int(numba.get_num_threads()))
+
+
+def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:
+    """Contiguous sample ranges, one per thread, whole blocks each (the last takes the rest)."""
+    block = _compiled().BLOCK
+    by_work = (n_samples * work_per_sample) // _THREAD_MIN_WORK
+    parts = max(1, min(_threads(), by_work, -(-n_samples // block)))
+    per = -(-n_samples // (parts * block)) * block
+    return [(s, min(s + per, n_samples)) for s in range(0, n_samples, per)]
+
+
+def _run(tasks) -> list:
+    """Run the thunks ``tasks``: the first on this thread, the others on a thread pool."""
+    if len(tasks) == 1:
+        return [tasks[0]()]
+    with ThreadPoolExecutor(max_workers=len(tasks) - 1) as pool:
+        futures = [pool.submit(task) for task in tasks[1:]]
+        first = tasks[0]()
+        return [first] + [f.result() for f in futures]
+
+
+def _coefficients(rec) -> tuple:
+    return (
+        np.ascontiguousarray(rec.b),
+        np.ascontiguousarray(rec.A_prev),
+        np.ascontiguousarray(rec.A_next),
+    )
+
+
+def evaluate_compiled(
+    rec, x: np.ndarray, m0: np.ndarray, e0: np.ndarray, renorm: np.ndarray, out: np.ndarray
+) -> None:
+    """Fill the C-contiguous ``out`` (``(N, len(x))``) with ``phi_n(x_i)`` (compiled)."""
+    kernels = _compiled()
+    b, a_prev, a_next = _coefficients(rec)
+    N = out.shape[0]
+
+    def task(lo: int, hi: int):
+        return lambda: kernels.eval_range(
+            x[lo:hi], m0[lo:hi], e0[lo:hi], b, a_prev, a_next, renorm, out, lo
+        )
+
+    _run([task(lo, hi) for lo, hi in _ranges(x.size, N)])
+
+
+def project_compiled(
+    rec,
+    N: int,
+    x: np.ndarray,
+    m0: np.ndarray,
+    e0: np.ndarray,
+    wy: np.ndarray,
+    renorm: np.ndarray,
+) -> tuple[np.ndarray, int]:
+    """``(c, bad)``: ``c[n, j] = sum_i phi_n(x_i) wy[j, i]`` (``(N, k)``, compiled, fused)
+    and the number of samples where ``phi_{N-1}`` is not finite. ``wy``: ``(k, len(x))``."""
+    kernels = _compiled()
+    b, a_prev, a_next = _coefficients(rec)
+    wy = np.ascontiguousarray(wy)
+
+    def task(lo: int, hi: int):
+        def run():
+            c = np.zeros((N, wy.shape[0]))
+            bad = kernels.project_range(
+                x[lo:hi], m0[lo:hi], e0[lo:hi], wy[:, lo:hi], b, a_prev, a_next, renorm, c
+            )
+            return c, bad
+
+        return run
+
+    parts = _run([task(lo, hi) for lo, hi in _ranges(x.size, N)])
+    c = parts[0][0]
+    for part, _ in parts[1:]:
+        c += part
+    return c, sum(bad for _, bad in parts)
