@@ -14,16 +14,16 @@ error**, the quantity a user judges a model by (MATLAB ``compare``):
 * the residual sum of squares of window ``w``, with every output weighted by the inverse
   of its variance (each output counts equally, whatever its unit), is ``r_w``.
 
-The statistic ``r_w`` per window makes **paired comparisons** possible: two models
-evaluated on the same windows differ by ``d_w = r_w(a) - r_w(b)``, whose mean over windows
-has the standard error ``std(d) / sqrt(W)``.  :func:`choose_smallest_adequate` keeps the
-smallest model whose excess over the best is not significant (a one-sided paired test at
-about 2 standard errors) -- the "one standard error" rule of cross-validation (Hastie,
-Tibshirani & Friedman, *The Elements of Statistical Learning*, 2nd ed., sec. 7.10) with
-the standard error of the paired differences.  No threshold is a fixed number of fit
-points: an additional mode is kept when it improves the fit consistently across the
-record, however little output variance it carries, and dropped when the improvement is
-within the window-to-window noise.
+The window errors ``r_w`` also give the resolution of the held-out data: the standard
+error of the best model's total error is ``sqrt(W) std(r_w)``.
+:func:`choose_smallest_adequate` keeps the smallest model whose error is within one such
+standard error of the best -- the "one standard error" rule of cross-validation (Hastie,
+Tibshirani & Friedman, *The Elements of Statistical Learning*, 2nd ed., sec. 7.10).  No
+threshold is a fixed number of fit points: it scales with the noise of the held-out
+record, so a longer record resolves smaller improvements (a weak mode is kept once the
+data show it beyond their own spread).  Each window's residual energy is divided by its
+degrees of freedom (samples minus the fitted initial-state entries), so the per-window
+initial state does not favour models with more states.
 
 Simulation uses the exact sampled model for the hold of the input (``zoh``: held
 between samples, ``foh``: linear), as :meth:`hdpbsid.model.StateSpaceModel.simulate`.
@@ -51,17 +51,13 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: paired differences below this many standard errors are not significant: one-sided
-#: 2.3 % level for normal errors; with W >= 8 windows the t-quantile is within 10 % of it
-SIGNIFICANCE_Z = 2.0
+#: the "one standard error" rule: models within this many standard errors of the best
+#: held-out error are indistinguishable from it at the resolution of the held-out data
+SIGNIFICANCE_Z = 1.0
 #: windows per record: enough for a standard error of the paired differences (a t
 #: statistic on fewer than ~8 differences is too noisy to test anything)
 MAX_WINDOWS = 16
 MIN_WINDOWS = 4
-#: an excess of the residual energy below this fraction is immaterial: 2 % of the residual
-#: sum of squares is 1 % of its root (the NRMSE), below what a fit plot shows and below
-#: the spread between noise realisations of the same record length
-MATERIAL = 0.02
 #: samples per window per fitted initial-state entry: the least-squares initial state of
 #: a window must be determined by many more samples than it has entries
 SAMPLES_PER_STATE = 3
@@ -211,33 +207,26 @@ def _windowed_nonuniform(
 def choose_smallest_adequate(
     errors: Sequence[WindowedError], z: float = SIGNIFICANCE_Z
 ) -> tuple[int, list[float]]:
-    """Index of the first (smallest) model whose windowed error is not significantly
-    larger than the best model's, and the paired z-statistic of every model.
+    """Index of the first (smallest) model whose windowed error is within ``z`` standard
+    errors of the best model's, and every model's excess in those standard errors.
 
-    ``errors`` are ordered by complexity (e.g. orders 1, 2, ...).  With ``d_w`` the
-    per-window excess over the best model, the statistic is
-    ``mean(d) / (std(d) / sqrt(W))`` (``0`` for the best model itself; ``inf`` for a
-    model that could not be simulated), on the logarithms of the per-window errors so
-    that windows with large errors (an unstable plant, a burst of excitation) do not
-    dominate.  The first model with statistic ``< z``, or with a total error within
-    :data:`MATERIAL` of the best, is kept.
+    ``errors`` are ordered by complexity (e.g. orders 1, 2, ...).  The standard error of
+    the best model's total is estimated from its per-window errors,
+    ``SE = sqrt(W) std(r_w)`` (the sum of ``W`` window errors); a model's statistic is
+    ``(sum r_w - sum r_w(best)) / SE`` (``inf`` for a model that could not be simulated).
+    This is the "one standard error" rule of cross-validation (Breiman et al. 1984;
+    Hastie, Tibshirani & Friedman, sec. 7.10): among models whose held-out error cannot
+    be told apart from the best's at the resolution of the held-out data, the simplest.
     """
     finite = [i for i, e in enumerate(errors) if e.finite]
     if not finite:
         raise ValueError("no candidate model could be simulated on the record")
-    best = min(finite, key=lambda i: errors[i].total)
+    best = min(finite, key=lambda i: float(np.sum(errors[i].per_window)))
     ref = errors[best].per_window
-    stats: list[float] = []
-    for e in errors:
-        if not e.finite:
-            stats.append(np.inf)
-            continue
-        tiny = np.finfo(float).tiny
-        d = np.log(np.maximum(e.per_window, tiny)) - np.log(np.maximum(ref, tiny))
-        W = d.size
-        sd = float(np.std(d, ddof=1)) if W > 1 else 0.0
-        mean = float(np.mean(d))
-        stats.append(0.0 if mean == 0 else mean / max(sd / np.sqrt(W), tiny))
-    excess = [e.total / errors[best].total - 1.0 for e in errors]
-    chosen = next(i for i, s in enumerate(stats) if s < z or excess[i] < MATERIAL)
+    W = ref.size
+    se = float(np.std(ref, ddof=1)) * np.sqrt(W) if W > 1 else 0.0
+    se = max(se, np.finfo(float).tiny)
+    total = float(np.sum(ref))
+    stats = [(float(np.sum(e.per_window)) - total) / se if e.finite else np.inf for e in errors]
+    chosen = next(i for i, s in enumerate(stats) if s <= z)
     return chosen, stats

@@ -157,7 +157,7 @@ def identify(
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
-    simulation error on the last third; the smallest order not significantly worse than
+    simulation error on the last third; the smallest order within one standard error of
     the best is identified on the whole record, and the scores are in
     ``options["order_selection"]``.  A record too short to score falls back to the
     method's singular-value rule (said in ``options["order_selection"]``), as does

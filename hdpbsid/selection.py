@@ -6,7 +6,7 @@ of :mod:`hdpbsid.criteria` (initial state fitted in each window, outputs weighte
 their variance), computed identically for every method.  The rule of
 :func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all candidates ordered
 by order (and, for equal orders, by the error), the first one whose error is not
-significantly larger than the best candidate's; that ``(method, order)`` is then
+within one standard error of the best candidate's; that ``(method, order)`` is then
 identified on the whole record.  Held-out data judge the models, so a method that is
 biased on this record, or an order the data do not support, loses by the measure a
 user would apply to the result (simulation on data not used for estimation).
@@ -28,7 +28,6 @@ import numpy as np
 
 from .checks import check_data, check_positive_int
 from .criteria import (
-    MATERIAL,
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
     SIGNIFICANCE_Z,
@@ -60,8 +59,7 @@ def _fit_one(
             model = get_method(method)(*est, order=order, **options.get(method, {}))
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
-                    f"method {method!r} returned {type(model).__name__}, expected "
-                    f"StateSpaceModel"
+                    f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
             err = windowed_simulation_error(model, *val, windows)
         row.update(status="ok" if err.finite else "simulation overflow", criterion=err)
@@ -150,8 +148,8 @@ def select_model(
     )
     rule = (
         f"held-out windowed simulation error on the last {holdout:.0%} ({windows} windows); "
-        f"smallest order not significantly worse than the best (paired z < "
-        f"{SIGNIFICANCE_Z:g} on log errors, or within {MATERIAL:.0%} of its residual energy)"
+        f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
+        f"error (one-standard-error rule)"
     )
     return model, _rows_table(rows), rule
 
