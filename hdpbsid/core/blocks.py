@@ -193,6 +193,8 @@ class _Sub:
     cols: NDArray[np.intp]  # (K, Nv) global column indices used
     S: Array  # nuisance rows on the used columns (r_raw x Nv)
     Q: Array  # orthonormal basis of their span (Nv x k)
+    sv: Array  # singular values of S (k)
+    Vt: Array  # right singular vectors (k x r_raw)
     refl: Array  # Householder vectors (Nv x k, LAPACK raw layout)
     tau: Array
 
@@ -222,14 +224,16 @@ class Eliminator:
             for rows_i in patterns.values():
                 mk = masks[rows_i[0]]
                 S = S_full[:, mk]
-                U, s, _ = np.linalg.svd(S.T, full_matrices=False)
+                U, s, Vt = np.linalg.svd(S.T, full_matrices=False)
                 tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
                 k = int(np.sum(s > tol))
                 Q = U[:, :k]
                 (refl, tau), _ = qr(Q, mode="raw")
                 cols = idx[rows_i][:, mk]
                 has[idx[rows_i]] = True
-                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, Q, refl, tau))
+                self.subs.append(
+                    _Sub([bs[i] for i in rows_i], cols, S, Q, s[:k], Vt[:k], refl, tau)
+                )
                 self.rank += k * len(rows_i)
         self.plain = np.flatnonzero(mask & ~has)
 
@@ -240,8 +244,14 @@ class Eliminator:
             self.plain.size + sum(s.cols.size - s.Q.shape[1] * len(s.blocks) for s in self.subs)
         )
 
-    def compress(self, W: Array) -> Array:
-        """``W`` (rows x all columns) -> its coordinates in the complement (rows x ncols)."""
+    def compress(self, W: Array, lam: float = 0.0) -> Array:
+        """``W`` (rows x all columns) -> its coordinates in the complement (rows x ncols).
+
+        With ``lam > 0`` the nuisance coefficients are ridge-penalised like the main
+        ones (``+ lam^2 ||Gamma_b||^2``): minimising over them leaves the weight
+        ``I - S^T (S S^T + lam^2)^{-1} S = H H^T + Q diag(lam^2 / (s^2 + lam^2)) Q^T``,
+        so the coordinates ``diag(lam / sqrt(s^2 + lam^2)) Q^T W`` are appended.
+        """
         rows = W.shape[0]
         parts = [W[:, self.plain]]
         for s in self.subs:
@@ -253,12 +263,17 @@ class Eliminator:
                 v[0] = 1.0
                 C[i:] -= s.tau[i] * np.outer(v, v @ C[i:])
             parts.append(C[k:].T.reshape(rows, K * (nv - k)))
+            if lam > 0:
+                Wb = W[:, s.cols].reshape(rows * K, nv)
+                soft = (Wb @ s.Q) * (lam / np.sqrt(s.sv**2 + lam**2))[None, :]
+                parts.append(soft.reshape(rows, K * k))
         return np.hstack(parts)
 
-    def residual(self, R: Array) -> tuple[Array, list[tuple[list[int], Array]]]:
+    def residual(self, R: Array, lam: float = 0.0) -> tuple[Array, list[tuple[list[int], Array]]]:
         """Residual ``R`` (rows x all columns, zero off the mask) with each block's
         nuisance fit removed, and the nuisance coefficients per group of blocks
-        (``(K, rows, r_raw)``: minimum-norm ``Gamma_b = R_b S_b^+``)."""
+        (``(K, rows, r_raw)``: minimum-norm ``Gamma_b = R_b S_b^+``, or with ``lam > 0``
+        the ridge ``R_b S_b^T (S_b S_b^T + lam^2)^{-1}``)."""
         out = np.zeros_like(R)
         out[:, self.plain] = R[:, self.plain]
         coefs = []
@@ -266,10 +281,12 @@ class Eliminator:
         for s in self.subs:
             K, nv = s.cols.shape
             Rb = R[:, s.cols].reshape(rows * K, nv)  # (rows K, Nv)
-            fit = (Rb @ s.Q) @ s.Q.T
+            RQ = Rb @ s.Q  # (rows K, k)
+            filt = s.sv / (s.sv**2 + lam**2)
+            G = (RQ * filt[None, :]) @ s.Vt  # (rows K, r_raw): R S^T (S S^T + lam^2)^-1
+            fit = (RQ * (s.sv * filt)[None, :]) @ s.Q.T
             out[:, s.cols] = (Rb - fit).reshape(rows, K, nv)
-            G = np.linalg.lstsq(s.S.T, Rb.T, rcond=None)[0]  # (r_raw, rows K)
-            coefs.append((s.blocks, G.T.reshape(rows, K, -1).transpose(1, 0, 2)))
+            coefs.append((s.blocks, G.reshape(rows, K, -1).transpose(1, 0, 2)))
         return out, coefs
 
 
@@ -412,9 +429,14 @@ def pbsid_core_blocks(
         )
     Cz = elim.compress(np.vstack([Phi, Y]))
     theta, lam_used, gcv_val, kind = _solve(Cz[:nreg], Cz[nreg:], regularize, ridge_floor)
+    if lam_used > 0 and elim.rank:
+        # the ridge penalises the pseudo-inputs' coefficients as well (as if they were
+        # inputs): same lam, nuisance minimised out exactly (Eliminator.compress)
+        Cs = elim.compress(np.vstack([Phi, Y]), lam_used)
+        theta = ridge_gcv(Cs[:nreg], Cs[nreg:], lam_used)[0]
     res_full = np.zeros((l, ncols))
     res_full[:, cols] = Y[:, cols] - theta @ Phi[:, cols]
-    resid, nuis = elim.residual(res_full)
+    resid, nuis = elim.residual(res_full, lam_used)
     coef = theta[:, : p * (m + l)]
     Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
     vx = VarxResult(
