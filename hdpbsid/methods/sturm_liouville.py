@@ -341,7 +341,7 @@ def identify_sl(
 
 
 def identify_legendre(
-    t: Any, u: Any, y: Any, order: int | None = None, **options: Any
+    t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
     """PBSID with Legendre functions on the record window (:func:`identify_sl`)."""
     if "family" in options:
@@ -350,7 +350,7 @@ def identify_legendre(
 
 
 def identify_chebyshev(
-    t: Any, u: Any, y: Any, order: int | None = None, **options: Any
+    t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
     """PBSID with Chebyshev-T functions on the record window (:func:`identify_sl`)."""
     if "family" in options:
