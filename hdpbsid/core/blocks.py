@@ -29,11 +29,21 @@ sec. 2.4) gives ``Theta`` exactly from the compressed problem
 
 which has the size of the main problem (``sum_b (N_b - r_b)`` columns, the
 residual degrees of freedom of the full problem): the global regression does not grow
-with the number of blocks.  The same holds for ridge regression that penalises
-``Theta`` only (the nuisance coefficients are free: minimising over them first leaves
-exactly the compressed ridge problem).  The nuisance coefficients follow block by block,
+with the number of blocks.  The nuisance coefficients follow block by block,
 ``Gamma_b = (T_b - Theta R_b) S_b^+``, and the residual is ``(T_b - Theta R_b)(I - Q_b
-Q_b^T)``: both identical to the naive stacked solution.  They are needed for the state
+Q_b^T)``: both identical to the naive stacked solution.
+
+Ridge (the VARX's GCV Tikhonov step).  Penalising the nuisance coefficients as well,
+``+ lam^2 (||Theta||^2 + sum_b ||Gamma_b||^2)`` as when the pseudo-inputs were plain
+input rows, and minimising over ``Gamma_b`` first leaves the weight ``I - S_b^T (S_b
+S_b^T + lam^2 I)^{-1} S_b = H_b H_b^T + Q_b diag(lam^2 / (s^2 + lam^2)) Q_b^T`` (``s``
+the singular values of ``S_b``): the compressed problem gains the ``r_b`` columns
+``diag(lam / sqrt(s^2 + lam^2)) Q_b^T T_b`` per block and is again an ordinary ridge
+problem in ``Theta``, and ``Gamma_b = (T_b - Theta R_b) S_b^T (S_b S_b^T + lam^2)^{-1}``.
+``lam`` is chosen by GCV on the unpenalised-nuisance problem and then used for both.
+The penalty matters: with the nuisance left free, Laguerre projections of a chirp at
+20 dB broke down (eigenvalue error 1.8e4 %; 0.15 % with it, as with the pseudo-inputs
+appended to the inputs).  The nuisance coefficients are needed for the state
 (``Gamma_f L_p Z_p`` includes the pseudo-inputs' columns of ``Gamma_f L_p``) and for the
 Riccati residuals.  ``H_b`` is never formed: ``r_b`` Householder reflectors of ``Q_b``
 map a block to ``[Q_b, H_b]^T`` coordinates, and the last ``N_b - r_b`` are kept.
