@@ -171,7 +171,11 @@ def test_hermite_default_N_follows_a_long_record() -> None:
     y = StateSpaceModel(A, B, C, D, np.zeros((2, 1))).simulate(t, u, method="foh")
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no cap binds
-        m = identify_hermite(t, u, y, 2)
+        m = identify_hermite(t, u, y, 2, window=None)
     assert m.options["N"] > 1000
     # noise-free FOH data: exact to the projection precision (measured ~1e-5)
     assert eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(A)).max() < 1e-3
+    # the default cuts the record into windows of bounded N instead, as exact
+    w = identify_hermite(t, u, y, 2)
+    assert w.options["n_segments"] > 1 and w.options["N"] < m.options["N"]
+    assert eigenvalue_errors(w.eigenvalues, np.linalg.eigvals(A)).max() < 1e-3

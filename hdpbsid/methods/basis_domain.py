@@ -22,7 +22,7 @@ the rest and discarded.  They do not enter the output equation (``D = 0`` for th
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,8 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..checks import check_method_args, check_positive_int
-from ..core.pbsid import CoreResult, pbsid_core
-from ..core.varx import LagOperator, select_past_window
+from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks, select_past_window_blocks
+from ..core.pbsid import CoreResult
 from ..model import StateSpaceModel
 from .memo import memoize
 
@@ -331,8 +331,8 @@ def best_hold(
     holds: tuple[str, ...],
     Us: list[Array],
     Y: Array,
-    P: Array,
-    lag: LagOperator,
+    P: Sequence[Array] | None,
+    lag: BlockLag,
     **core_options: Any,
 ) -> tuple[CoreOut, str, dict[str, float]]:
     """Run :func:`run_core` (``Y, P, lag, **core_options``) on every input projection in
@@ -418,8 +418,9 @@ def _rms_rows(W: Array, name: str) -> Array:
 class CoreOut:
     """Core result in the basis domain, scaled back to the user's units.
 
-    ``A`` is the index-domain ``A'``; ``B`` has the real inputs only (pseudo-input
-    columns dropped, kept in ``B_pseudo``); ``C, D, K`` in user units.
+    ``A`` is the index-domain ``A'``; ``B`` has the real inputs only; ``C, D, K`` in user
+    units.  ``B_pseudo`` is empty: the pseudo-inputs' coefficients differ per block and
+    are eliminated, not reported.
     """
 
     A: Array
@@ -436,8 +437,8 @@ class CoreOut:
 def run_core(
     U: Array,
     Y: Array,
-    P: Array,
-    lag: LagOperator,
+    P: Sequence[Array] | None,
+    lag: BlockLag,
     *,
     order: int | None,
     p: int | None,
@@ -450,43 +451,45 @@ def run_core(
     p_range: tuple[int, int] | None = None,
     ridge_floor: float | None = None,
 ) -> CoreOut:
-    """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) and pseudo
-    inputs ``P`` (q x N) with the lag operator ``lag``.
+    """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) of all blocks
+    (records or windows, side by side) with the block-diagonal lag ``lag`` and the
+    pseudo-input rows ``P[b]`` (``q_b x N_b``) of every block.
 
-    Defaults: ``p`` minimises AIC of the VARX fit (:func:`hdpbsid.core.varx.select_past_window`)
-    over ``p_range`` (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that
-    ``p (m + q + l) <= ncols / 6`` (the regression has ``p (m + q + l)`` unknowns per
-    output but only ``ncols`` columns); ``f = p``.  Raises ``ValueError`` when an explicit
-    ``p`` does not fit the basis size.
+    The pseudo-inputs' factors are unknown and different in every block; they are
+    eliminated from every least-squares step block by block
+    (:func:`hdpbsid.core.blocks.pbsid_core_blocks`), so the regression keeps the size of
+    one record's whatever the number of blocks.  Defaults: ``p`` minimises AIC of the
+    VARX fit (:func:`hdpbsid.core.blocks.select_past_window_blocks`) over ``p_range``
+    (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that ``p (m + q_b + l) <= N_b / 6``
+    in every block (the regression has ``p (m + q_b + l)`` unknowns per output in a
+    block of ``N_b`` columns); ``f = p``.  Raises ``ValueError`` when an explicit ``p``
+    does not fit the basis size.
     """
-    m, l, q = U.shape[0], Y.shape[0], P.shape[0]
+    m, l = U.shape[0], Y.shape[0]
     ncols = Y.shape[1]
-    # order selection: at least 3 singular values (f l >= 3, so that orders 1 and 2 are
-    # both candidates); the candidates are the orders 1..min(max_order, f l - 1)
     need = order if order is not None else 3
     f_min = -(-need // l)
-    d = m + q + l
     su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
     sy = _rms_rows(Y, "y") if normalize else np.ones(l)
-    # pseudo-input rows that (nearly) vanish, e.g. the Laguerre boundary row at tN where
-    # the functions have decayed to ~e^{-a T}, carry no term: normalising them to unit RMS
-    # would only inject rounding noise, so rows below 1e-8 of the largest are dropped
-    if q:
-        rp = np.sqrt(np.mean(P**2, axis=1))
-        P = P[rp > 1e-8 * rp.max()] if rp.max() > 0 else P[:0]
-    q = P.shape[0]
-    d = m + q + l
-    sp_ = np.sqrt(np.mean(P**2, axis=1)) if q else np.ones(0)
-    Uz = np.vstack([U / su[:, None], P / sp_[:, None]]) if q else U / su[:, None]
+    Uz = U / su[:, None]
     Yz = Y / sy[:, None]
-    p_cap = ncols // (COLS_PER_REGRESSOR * d)
+    pseudo = BlockPseudo(lag, P) if P is not None else None
+    qs = [0] * len(lag.sizes)
+    if pseudo is not None:
+        for _, _, bs, _, Pn in pseudo.groups:
+            for b in bs:
+                qs[b] = Pn.shape[0]
+    # the tightest block: fewest columns per (m + q_b + l) regressor rows
+    worst = int(np.argmin([n / (m + q + l) for n, q in zip(lag.sizes, qs, strict=True)]))
+    nb, d = lag.sizes[worst], m + qs[worst] + l
+    p_cap = min(nb // (COLS_PER_REGRESSOR * d), ncols // (COLS_PER_REGRESSOR * (m + l)))
     crit = None
     if p is not None:
-        if p * d >= ncols - p:
+        if p * d >= nb - p:
             raise ValueError(
                 f"p={p} is too large for the basis: the VARX has p*(m+q+l) = {p}*{d} = "
-                f"{p * d} regressors per output (q = {q} boundary/truncation rows) but only "
-                f"{ncols} basis coefficients; reduce p or increase N"
+                f"{p * d} regressors per output (q = {qs[worst]} boundary/truncation rows) but "
+                f"only {nb} basis coefficients in block {worst}; reduce p or increase N"
             )
         if f is None and p * l < need:
             raise ValueError(
@@ -501,14 +504,16 @@ def run_core(
         if hi < lo:
             raise ValueError(
                 f"the basis is too small for the requested order: it needs a past window "
-                f"p >= {lo}, but N = {ncols} coefficients and m+q+l = {d} rows allow only "
+                f"p >= {lo}, but N = {nb} coefficients and m+q+l = {d} rows allow only "
                 f"p <= {hi} (p*(m+q+l) <= N/{COLS_PER_REGRESSOR}); increase N, pass p, or "
                 f"ask for a smaller order"
             )
         if hi == lo:
             p = lo
         else:
-            p, crit = select_past_window(Uz, Yz, hi, p_min=lo, lag=lag, feedthrough=feedthrough)
+            p, crit = select_past_window_blocks(
+                Uz, Yz, hi, p_min=lo, lag=lag, pseudo=pseudo, feedthrough=feedthrough
+            )
         p_rule = (
             f"min AIC of the VARX fit over p in [{lo}, {hi}] "
             f"(p*(m+q+l) <= N/{COLS_PER_REGRESSOR}, f*l >= required rows)"
@@ -521,13 +526,14 @@ def run_core(
     mo = min(max_order, f_used * l - 1) if order is None else None
     if mo is not None and mo < 1:
         raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
-    core = pbsid_core(
+    core = pbsid_core_blocks(
         Uz,
         Yz,
         p,
+        lag,
+        pseudo,
         f=f_used,
         order=order,
-        lag=lag,
         feedthrough=feedthrough,
         regularize=regularize,
         stable_k=stable_k,
@@ -535,7 +541,6 @@ def run_core(
         ridge_floor=RIDGE_FLOOR if ridge_floor is None else ridge_floor,
     )
     B = core.B[:, :m] / su[None, :] if m else core.B[:, :0]
-    Bp = core.B[:, m:] / sp_[None, :] if q else core.B[:, m:]
     C = core.C * sy[:, None]
     D = (sy[:, None] * core.D[:, :m] / su[None, :]) if m else core.D[:, :0]
     K = core.K / sy[None, :]
@@ -549,7 +554,8 @@ def run_core(
             "p_rule": p_rule,
             "p_criterion_values": crit,
             "f_rule": "given" if f is not None else "f = p",
-            "n_pseudo_inputs": q,
+            "n_pseudo_inputs": pseudo.count if pseudo is not None else 0,
+            "n_blocks": len(lag.sizes),
         }
     )
-    return CoreOut(core.A, B, C, D, K, Bp, ncov, core, opts)
+    return CoreOut(core.A, B, C, D, K, np.zeros((core.A.shape[0], 0)), ncov, core, opts)

@@ -36,14 +36,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..checks import (
-    check_data,
     check_method_args,
     check_signal,
     check_uniform,
 )
+from ..core.blocks import BlockLag
 from ..core.pbsid import pbsid_core
-from ..core.varx import select_past_window
+from ..core.varx import LagOperator, SampleShift, select_past_window
 from ..model import DiscreteModel, StateSpaceModel
+from ..records import as_records
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
 
@@ -126,6 +127,7 @@ def identify_discrete(
     max_order: int | None = None,
     p_criterion: str = "aic",
     dt: float = 1.0,
+    lag: LagOperator | None = None,
 ) -> DiscreteModel:
     """PBSID (VARX form) on uniformly sampled data; returns the sampled model.
 
@@ -133,6 +135,9 @@ def identify_discrete(
     dx2abcdk``): VARX with past window ``p`` -> ``Gamma L`` with future window ``f`` ->
     SVD and state -> ``C, D`` -> ``A, B, K`` (:func:`hdpbsid.core.pbsid.pbsid_core`).  See
     the module docstring for the defaults; every value used is in ``model.options``.
+    ``lag`` (default the sample shift) replaces "one sample back", e.g. a
+    :class:`~hdpbsid.core.blocks.BlockLag` of sample shifts for several records side by
+    side (no lag crosses a record edge).
     """
     y = check_signal(y, "y")
     ns, l = y.shape
@@ -167,7 +172,7 @@ def identify_discrete(
     p_rule = "given"
     if p is None:
         p, crit = select_past_window(
-            U, Y, p_max, p_min=p_min, feedthrough=feedthrough, criterion=p_criterion
+            U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
         )
         p_rule = (
             f"min {p_criterion.upper()} of the VARX fit over p in [{p_min}, {p_max}] "
@@ -181,6 +186,7 @@ def identify_discrete(
         p,
         f=f,
         order=order,
+        lag=lag,
         feedthrough=feedthrough,
         regularize=regularize,
         stable_k=stable_k,
@@ -225,8 +231,8 @@ def identify_discrete(
 
 def identify_dt(
     t: Any,
-    u: Any,
-    y: Any,
+    u: Any = None,
+    y: Any = None,
     order: int | None = None,
     p: int | None = None,
     f: int | None = None,
@@ -242,18 +248,34 @@ def identify_dt(
 
     Runs :func:`identify_discrete` on the samples (treating the input as ZOH-held) and
     converts exactly with the matrix logarithm (:func:`hdpbsid.conversion.d2c`).  ``t``
-    must be uniform within ``uniform_rtol`` relative (the error names the largest
-    deviation).  Returns a :class:`~hdpbsid.model.StateSpaceModel` whose ``discrete``
+    must be uniform within ``uniform_rtol`` relative plus the resolution of its stamps
+    (:func:`hdpbsid.checks.check_uniform`; Unix-time stamps pass).  ``t`` may be a list of
+    ``(t_i, u_i, y_i)`` records with the same sampling interval (``u = y = None``): they
+    are concatenated, with the first ``p`` columns of each record invalid (no lag
+    crosses a record edge).  Returns a :class:`~hdpbsid.model.StateSpaceModel` whose ``discrete``
     attribute holds the sampled model and whose ``options`` list every setting used.
 
     Raises ``ValueError`` when the discrete model has no continuous counterpart (an
     eigenvalue on the negative real axis): try another order or a basis-domain method.
     """
-    t, u, y = check_data(t, u, y)
-    dt = check_uniform(t, rtol=uniform_rtol)
+    records = as_records(t, u, y)
+    steps = []
+    for i, r in enumerate(records):
+        try:
+            steps.append(check_uniform(r.t + r.t0, rtol=uniform_rtol))
+        except ValueError as exc:
+            raise ValueError(f"record {i}: {exc}" if len(records) > 1 else str(exc)) from exc
+    dt = float(np.mean(steps))
+    if max(abs(h - dt) for h in steps) > uniform_rtol * dt + max(r.resolution for r in records):
+        raise ValueError(
+            f"all records must have the same sampling interval for method 'dt', got "
+            f"{sorted(set(round(h, 12) for h in steps))}"
+        )
+    # records side by side, the first p columns of each invalid (no lag across records)
+    lag = BlockLag([SampleShift()] * len(records), [r.ns for r in records])
     dmodel = identify_discrete(
-        u,
-        y,
+        np.vstack([r.u for r in records]),
+        np.vstack([r.y for r in records]),
         order=order,
         p=p,
         f=f,
@@ -264,6 +286,7 @@ def identify_dt(
         max_order=max_order,
         p_criterion=p_criterion,
         dt=dt,
+        lag=lag if len(records) > 1 else None,
     )
     try:
         model = dmodel.to_continuous()
@@ -272,5 +295,12 @@ def identify_dt(
             f"identify_dt: the identified discrete model (order {dmodel.n}) cannot be "
             f"converted to continuous time: {exc}"
         ) from exc
-    model.options.update({"t0": float(t[0]), "uniform_rtol": uniform_rtol, "d2c": "zoh logm"})
+    model.options.update(
+        {
+            "t0": records[0].t0,
+            "uniform_rtol": uniform_rtol,
+            "d2c": "zoh logm",
+            "n_records": len(records),
+        }
+    )
     return model

@@ -36,17 +36,25 @@ from scipy.linalg import solve_banded
 
 import slbasis
 
-from ..checks import check_data, check_positive_int
+from ..checks import check_positive_int
+from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
+from ..records import as_records
 from .basis_domain import (
+    P_DEFAULT_RANGE,
     SolveLag,
     best_hold,
     check_method_args,
     clip_basis_size,
-    data_bandwidth,
     integrator_model,
-    project_record,
     resolve_holds,
+)
+from .segments import (
+    default_window,
+    make_segments,
+    project_blocks,
+    records_bandwidth,
+    shared_keys,
 )
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
@@ -82,23 +90,28 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     )
 
 
+def _diagonal(Dmat: Any, k: int) -> Array:
+    return np.asarray(Dmat.diagonal(k), dtype=float)
+
+
 def hermite_lag(
     Dmat: Any, alpha: float, beta: float, gamma: float
 ) -> tuple[SolveLag, NDArray[np.float64]]:
     """The integrator lag ``W -> W D'^{-1}`` for ``D' = (Dd/alpha + beta I)/gamma``.
 
-    ``Dmat`` is the square ``N x N`` d/dt matrix (tridiagonal); ``Dd = -Dmat``.  Returns
-    the :class:`~hdpbsid.methods.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
-    banded storage used.
+    ``Dmat`` is the square ``N x N`` d/dt matrix (tridiagonal, sparse or dense);
+    ``Dd = -Dmat``.  The banded storage of ``D'^T`` (``scipy.linalg.solve_banded``
+    layout, rows: super-, main, sub-diagonal) is filled from the three diagonals of
+    ``Dmat`` directly, never forming an ``N x N`` array.  Returns the
+    :class:`~hdpbsid.methods.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
+    banded storage.
     """
-    Dd = -np.asarray(Dmat.toarray() if hasattr(Dmat, "toarray") else Dmat, dtype=float)
-    N = Dd.shape[0]
-    Dp = (Dd / alpha + beta * np.eye(N)) / gamma
-    DpT = Dp.T
+    N = Dmat.shape[0]
     ab = np.zeros((3, N))
-    ab[0, 1:] = np.diagonal(DpT, 1)
-    ab[1] = np.diagonal(DpT)
-    ab[2, :-1] = np.diagonal(DpT, -1)
+    # D'^T = (-Dmat^T / alpha + beta I) / gamma: its super-diagonal is Dmat's sub-diagonal
+    ab[0, 1:] = -_diagonal(Dmat, -1) / (alpha * gamma)
+    ab[1] = (-_diagonal(Dmat, 0) / alpha + beta) / gamma
+    ab[2, :-1] = -_diagonal(Dmat, 1) / (alpha * gamma)
 
     def solve(W: Array) -> Array:
         # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
@@ -118,8 +131,8 @@ def _real(x: Any, name: str, positive: bool = True) -> float:
 
 def identify_hermite(
     t: Any,
-    u: Any,
-    y: Any,
+    u: Any = None,
+    y: Any = None,
     order: int | None = None,
     *,
     N: int | None = None,
@@ -136,21 +149,33 @@ def identify_hermite(
     max_order: int | None = None,
     scale: float | None = None,
     input_hold: str = "auto",
+    window: float | str | None = "auto",
+    n_jobs: int | None = None,
 ) -> StateSpaceModel:
     """HD-PBSID (seed §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
     ``t`` (Ns,) increasing, need not be uniform (projection weights from the spacing);
-    ``u`` (Ns, m) or None, ``y`` (Ns, l).  See the module docstring for the equations.
+    ``u`` (Ns, m) or None, ``y`` (Ns, l).  Or ``t`` = a list of ``(t_i, u_i, y_i)``
+    records of the same system (``u = y = None``), each with its own time axis and
+    initial state (:func:`hdpbsid.records.as_records`).  See the module docstring for the
+    equations.  Each record, or window of a long record, is a block: projected on its own
+    basis with its own boundary and truncation pseudo-inputs, all blocks stacked in one
+    PBSID problem (:mod:`hdpbsid.methods.segments`).
 
     Defaults (all reported in ``model.options``):
 
-    * ``N``: the basis covers twice the data bandwidth (:func:`default_hermite_N`);
-      an explicit ``N`` whose band ``3.6 N / T`` is below the data bandwidth raises
-      ``ValueError``;
-    * ``scale``: the record fills 90 % of the effective support (``slbasis.basis``);
-    * ``alpha = 4 * scale``, ``beta = gamma = 1`` (DESIGN.md: 0.1-1 % errors at SNR 20 dB;
-      an eigenvalue ``lambda`` maps to ``(lambda/alpha + beta)/gamma``, inside the unit
-      disc iff ``|lambda + alpha beta| < alpha gamma``: the stable predictor eigenvalues of
+    * ``window="auto"``: records longer than twice the default window
+      (:func:`~hdpbsid.methods.segments.default_window`) are cut into windows of bounded
+      ``N``; None keeps every record whole; a number is the window length in seconds;
+      ``n_jobs`` projects windows that do not share a time axis in parallel (joblib);
+    * ``N``: per block, the basis covers twice the data bandwidth
+      (:func:`default_hermite_N`); an explicit ``N`` (used for every block) whose band
+      ``3.6 N / T`` is below the data bandwidth raises ``ValueError``;
+    * ``scale``: each block fills 90 % of the effective support (``slbasis.basis``);
+    * ``alpha = 4 * scale`` (the median over the blocks: ``A'`` is shared, so ``alpha``
+      must be), ``beta = gamma = 1`` (0.1-1 % errors at SNR 20 dB; an eigenvalue
+      ``lambda`` maps to ``(lambda/alpha + beta)/gamma``, inside the unit disc iff
+      ``|lambda + alpha beta| < alpha gamma``: the stable predictor eigenvalues of
       moderate size; an unstable plant eigenvalue maps outside, e.g. +3.08 -> 1.49 on
       the quadrotor, which is fine: the truncation ``A'^p ~ 0`` concerns ``A - K C``);
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
@@ -164,38 +189,59 @@ def identify_hermite(
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.methods.dt.identify_dt`.
     """
-    t, u, y = check_data(t, u, y)
-    ns, m = u.shape
+    records = as_records(t, u, y)
+    m = records[0].u.shape[1]
     order, p, f, mo = check_method_args(order, p, f, max_order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
-    T = float(t[-1] - t[0])
-    wb = data_bandwidth(t, u, y)
-    if N is None:
-        N, n_rule = default_hermite_N(T, wb, ns)
-    else:
+    if N is not None:
         N = check_positive_int(N, "N", 2)
-        n_rule = "given"
-        if HERMITE_BAND * N / T < wb:
-            raise ValueError(
-                f"N={N} Hermite functions over a record of {T:g} s cover only "
-                f"{HERMITE_BAND * N / T:.3g} rad/s, below the data bandwidth {wb:.3g} rad/s "
-                f"(99 % of the energy); use N >= {int(np.ceil(wb * T / HERMITE_BAND))}"
-            )
-        if N > ns:
-            raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
     if scale is not None:
         scale = _real(scale, "scale")
-    basis = slbasis.basis("hermite", N, (float(t[0]), float(t[-1])), scale=scale)
-    s = basis.scale
-    alpha = 4.0 * s if alpha is None else _real(alpha, "alpha")
+    wb = records_bandwidth(records)
+    q = 3 if boundary else 1
+    segs, w_info = make_segments(
+        records,
+        window,
+        lambda: default_window(records, BAND_MARGIN * wb / HERMITE_BAND, q, P_DEFAULT_RANGE[1]),
+    )
+    keys = shared_keys(segs)
+    bases: dict[int, Any] = {}
+    n_rules: list[str] = []
+    for i, seg in enumerate(segs):
+        if keys[i] in bases:
+            continue
+        T, ns = seg.duration, seg.ns
+        if N is None:
+            Nb, rule = default_hermite_N(T, wb, ns)
+        else:
+            Nb, rule = N, "given"
+            if HERMITE_BAND * N / T < wb:
+                raise ValueError(
+                    f"N={N} Hermite functions over a record of {T:g} s cover only "
+                    f"{HERMITE_BAND * N / T:.3g} rad/s, below the data bandwidth {wb:.3g} "
+                    f"rad/s (99 % of the energy); use N >= {int(np.ceil(wb * T / HERMITE_BAND))}"
+                )
+            if N > ns:
+                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
+        n_rules.append(rule)
+        bases[keys[i]] = slbasis.basis("hermite", Nb, (0.0, T), scale=scale)
+    scales = np.array([b.scale for b in bases.values()])
+    s_ref = float(np.median(scales))
+    alpha = 4.0 * s_ref if alpha is None else _real(alpha, "alpha")
+    lags: dict[int, SolveLag] = {}
+    rows: dict[int, Array] = {}
+    for k, b in bases.items():
+        lags[k] = hermite_lag(b.derivative_matrix("square"), alpha, beta, gamma)[0]
+        r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
+        if boundary:
+            r += list(b.eval(np.array([0.0, segs[k].duration])).T)
+        rows[k] = np.array(r)
+    seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(input_hold, m)
-    Us, Yc = project_record(basis, t, u, y, holds)
-    lag, _ = hermite_lag(basis.derivative_matrix("square"), alpha, beta, gamma)
-    rows = [np.eye(N)[N - 1]]  # truncation of the last column of the cut operator
-    if boundary:
-        rows += list(basis.eval(np.array([t[0], t[-1]])).T)
-    P = np.array(rows)
+    Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=n_jobs)
+    lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
+    P = [rows[k] for k in keys]
 
     out, hold, hold_crit = best_hold(
         holds,
@@ -212,18 +258,21 @@ def identify_hermite(
         stable_k=stable_k,
         normalize=normalize,
     )
+    Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "hermite",
-        "N": N,
-        "N_rule": n_rule,
+        "N": int(max(Ns_)),
+        "N_per_block": Ns_ if len(Ns_) > 1 else None,
+        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
         "bandwidth": wb,
-        "scale": s,
-        "centre": basis.centre,
-        "alpha_rule": "4 * scale" if alpha == 4.0 * s else "given",
+        "scale": s_ref,
+        "centre": records[0].t0 + seg_bases[0].centre,
+        "alpha_rule": "4 * scale (median over blocks)" if alpha == 4.0 * s_ref else "given",
         "boundary": boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
-        "n_samples": ns,
-        "t0": float(t[0]),
+        "n_samples": int(sum(r.ns for r in records)),
+        "t0": records[0].t0,
+        **w_info,
     }
     return integrator_model(
         out,

@@ -40,19 +40,27 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from ..checks import check_data, check_positive_int
+from ..checks import check_positive_int
+from ..core.blocks import BlockLag
 from ..core.varx import SampleShift
 from ..model import StateSpaceModel
+from ..records import as_records
 from .basis_domain import (
+    P_DEFAULT_RANGE,
     BlockShift,
     best_hold,
     check_method_args,
     clip_basis_size,
-    data_bandwidth,
-    project_record,
     resolve_holds,
 )
 from .hermite import _real
+from .segments import (
+    default_window,
+    make_segments,
+    project_blocks,
+    records_bandwidth,
+    shared_keys,
+)
 
 __all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
 
@@ -112,8 +120,8 @@ def laguerre_filter(t: Array, x: Array, a: float, N: int) -> Array:
 
 def identify_laguerre(
     t: Any,
-    u: Any,
-    y: Any,
+    u: Any = None,
+    y: Any = None,
     order: int | None = None,
     *,
     a: float | None = None,
@@ -129,11 +137,17 @@ def identify_laguerre(
     n_times: int | None = None,
     burn_in: float | None = None,
     input_hold: str = "auto",
+    window: float | str | None = "auto",
+    n_jobs: int | None = None,
 ) -> StateSpaceModel:
     """CT-PBSID (Laguerre): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
-    See the module docstring for the equations and variants.  Defaults (in
-    ``model.options``):
+    See the module docstring for the equations and variants.  ``t`` may be a list of
+    ``(t_i, u_i, y_i)`` records (``u = y = None``; projection variant): each record, or
+    window of a long record (``window``, ``n_jobs``: as in
+    :func:`hdpbsid.methods.hermite.identify_hermite`), is projected on its own Laguerre
+    basis (common pole ``a``) with its own boundary pseudo-inputs, all stacked in one
+    PBSID problem.  Defaults (in ``model.options``):
 
     * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
       energy), so the Laguerre pole sits inside the excited band;
@@ -151,13 +165,14 @@ def identify_laguerre(
     * ``K`` is mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a
       non-identity feedthrough, so ``K`` is approximate); ``D`` is returned as identified.
     """
-    t, u, y = check_data(t, u, y)
-    ns, m = u.shape
+    records = as_records(t, u, y)
+    m = records[0].u.shape[1]
     if variant not in ("projection", "filter"):
         raise ValueError(f"variant must be 'projection' or 'filter', got {variant!r}")
+    if variant == "filter" and len(records) > 1:
+        raise ValueError("variant='filter' takes one record; use variant='projection'")
     order, p, f, mo = check_method_args(order, p, f, max_order)
-    T = float(t[-1] - t[0])
-    wb = data_bandwidth(t, u, y)
+    wb = records_bandwidth(records)
     if a is None:
         if wb <= 0:
             raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
@@ -168,27 +183,60 @@ def identify_laguerre(
         a_rule = "given"
     options: dict[str, Any] = {"method": "laguerre", "variant": variant, "a": a}
     if variant == "projection":
-        if N is None:
-            N, n_rule = clip_basis_size(
-                2 * a * T / LAGUERRE_SUPPORT,
-                N_MIN,
-                N_MAX,
-                ns,
-                "laguerre",
-                f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}",
-            )
-        else:
+        if N is not None:
             N = check_positive_int(N, "N", 2)
-            n_rule = "given"
-            if N > ns:
-                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-        basis = slbasis.basis("laguerre", N, (float(t[0]), float(t[-1])), scale=2 * a)
+        segs, w_info = make_segments(
+            records,
+            window,
+            lambda: default_window(
+                records, 2 * a / LAGUERRE_SUPPORT, 2 if boundary else 1, P_DEFAULT_RANGE[1]
+            ),
+        )
+        keys = shared_keys(segs)
+        bases: dict[int, Any] = {}
+        rows: dict[int, Array] = {}
+        n_rules = []
+        for i, seg in enumerate(segs):
+            if keys[i] in bases:
+                continue
+            T, ns = seg.duration, seg.ns
+            if N is None:
+                Nb, n_rule = clip_basis_size(
+                    2 * a * T / LAGUERRE_SUPPORT,
+                    N_MIN,
+                    N_MAX,
+                    ns,
+                    "laguerre",
+                    f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}",
+                )
+            else:
+                Nb, n_rule = N, "given"
+                if N > ns:
+                    raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
+            n_rules.append(n_rule)
+            b = slbasis.basis("laguerre", Nb, (0.0, T), scale=2 * a)
+            bases[keys[i]] = b
+            rows[keys[i]] = b.eval(np.array([0.0, T])).T if boundary else np.zeros((0, Nb))
+        seg_bases = [bases[k] for k in keys]
         holds = resolve_holds(input_hold, m)
-        Us, Yc = project_record(basis, t, u, y, holds)
-        P = basis.eval(np.array([t[0], t[-1]])).T if boundary else np.zeros((0, N))
-        lag: Any = SampleShift()
-        options.update({"N": N, "N_rule": n_rule, "boundary": boundary})
+        Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=n_jobs)
+        shift = SampleShift()
+        lag = BlockLag([shift] * len(segs), [b.N for b in seg_bases])
+        P: Any = [rows[k] for k in keys]
+        Ns_ = [b.N for b in seg_bases]
+        options.update(
+            {
+                "N": int(max(Ns_)),
+                "N_per_block": Ns_ if len(Ns_) > 1 else None,
+                "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
+                "boundary": boundary,
+                **w_info,
+            }
+        )
     else:
+        rec = records[0]
+        t, u, y = rec.t, rec.u, rec.y
+        T = rec.duration
         N = 30 if N is None else check_positive_int(N, "N", 2)
         burn = min(T / 4, 10.0 / a) if burn_in is None else _real(burn_in, "burn_in", False)
         nt = 300 if n_times is None else check_positive_int(n_times, "n_times")
@@ -201,8 +249,8 @@ def identify_laguerre(
         # columns: block per time, reversed Laguerre index inside the block
         holds, Us = ("foh",), [fu[:, :, ::-1].transpose(1, 0, 2).reshape(m, -1)]
         Yc = fy[:, :, ::-1].transpose(1, 0, 2).reshape(y.shape[1], -1)
-        P = np.zeros((0, Yc.shape[1]))
-        lag = BlockShift(N)
+        P = None
+        lag = BlockLag([BlockShift(N)], [Yc.shape[1]])
         options.update({"N": N, "burn_in": burn, "n_times": int(idx.size)})
 
     out, hold, hold_crit = best_hold(
@@ -240,8 +288,8 @@ def identify_laguerre(
             "a_rule": a_rule,
             "bandwidth": wb,
             "feedthrough": "Laguerre-domain Dd estimated (required); D mapped back",
-            "n_samples": ns,
-            "t0": float(t[0]),
+            "n_samples": int(sum(r.ns for r in records)),
+            "t0": records[0].t0,
             "A_laguerre": out.A,
         }
     )

@@ -49,21 +49,28 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from ..checks import check_data, check_positive_int
+from ..checks import check_positive_int
+from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
+from ..records import as_records
 from .basis_domain import (
     SolveLag,
     bandwidth,
     best_hold,
     check_method_args,
     clip_basis_size,
-    data_bandwidth,
     integrator_model,
-    project_record,
     resolve_holds,
 )
 from .hermite import _real
 from .memo import memoize
+from .segments import (
+    default_window,
+    make_segments,
+    project_blocks,
+    records_bandwidth,
+    shared_keys,
+)
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 
@@ -138,10 +145,26 @@ def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Arr
     return _integration_quadrature(basis, N, K), f"quadrature in x = -cos(theta), {K} points"
 
 
+def _integrator_lag(
+    G: Array, alpha: float, beta: float, gamma: float, j_how: str
+) -> tuple[SolveLag, Any]:
+    """``W -> W M``, ``M = alpha gamma J (I + alpha beta J)^{-1}`` (module docstring), with
+    ``J = G^T``; also the LU factors of ``J^T`` (pseudo-input rows ``w J = v``)."""
+    J = G.T  # row form: (X J)_k = sum_j X_j G[k, j]
+    S = np.eye(J.shape[0]) + alpha * beta * J  # X M = alpha gamma (X J) S^{-1}
+    lu = sla.lu_factor(S.T)
+
+    def solve(W: Array) -> Array:
+        return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
+
+    lag = SolveLag(solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]")
+    return lag, sla.lu_factor(J.T)
+
+
 def identify_sl(
     t: Any,
-    u: Any,
-    y: Any,
+    u: Any = None,
+    y: Any = None,
     order: int | None = None,
     *,
     family: Any = "legendre",
@@ -159,8 +182,16 @@ def identify_sl(
     max_order: int | None = None,
     family_params: dict | None = None,
     input_hold: str = "auto",
+    window: float | str | None = "auto",
+    n_jobs: int | None = None,
 ) -> StateSpaceModel:
     """PBSID in a finite-interval Sturm-Liouville basis on the record window.
+
+    ``t`` may be a list of ``(t_i, u_i, y_i)`` records (``u = y = None``); each record,
+    or window of a long record (``window``, ``n_jobs``: as in
+    :func:`hdpbsid.methods.hermite.identify_hermite`), gets its own basis on its own
+    window with its own initial-state and truncation pseudo-inputs (common ``alpha``),
+    all stacked in one PBSID problem.
 
     ``family``: an ``slbasis`` catalogue name with a finite interval (``"legendre"``,
     ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``) or an
@@ -173,55 +204,31 @@ def identify_sl(
     considers orders ``1..f l - 1``; pass ``p`` for more); ``order`` from the singular
     values.
     """
-    t, u, y = check_data(t, u, y)
-    ns, m = u.shape
+    records = as_records(t, u, y)
+    m, l = records[0].u.shape[1], records[0].y.shape[1]
     order, p, f, mo = check_method_args(order, p, f, max_order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
-    T = float(t[-1] - t[0])
-    wb = data_bandwidth(t, u, y)
-    if N is None:
-        N, n_rule = clip_basis_size(
-            BAND_MARGIN * wb * T / 2,
-            N_MIN,
-            N_MAX,
-            ns,
-            f"{family}",
-            f"N = {BAND_MARGIN} * bandwidth * T / 2",
-        )
-    else:
+    if N is not None:
         N = check_positive_int(N, "N", 2)
-        n_rule = "given"
-        if 2 * N / T < wb:
-            raise ValueError(
-                f"N={N} functions on a record of {T:g} s resolve only {2 * N / T:.3g} rad/s, "
-                f"below the data bandwidth {wb:.3g} rad/s; use N >= {int(np.ceil(wb * T / 2))}"
-            )
-        if N > ns:
-            raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-    span = (float(t[0]), float(t[-1]))
-    try:
-        basis = slbasis.basis(family, N, span, **(family_params or {}))
-    except TypeError as exc:
-        raise TypeError(f"family/family_params: {exc}") from exc
-    pad = 0.0
-    if not np.all(np.isfinite(basis.eval(np.array(span)))):
-        # functions singular at the interval ends (Chebyshev-T, ...): the basis window is
-        # padded by PAD * T on both sides; the record is the windowed signal inside it
-        pad = PAD * T
-        basis = slbasis.basis(family, N, (span[0] - pad, span[1] + pad), **(family_params or {}))
-    a_, b_ = basis.interval
-    if not (np.isfinite(a_) and np.isfinite(b_)):
-        raise ValueError(
-            f"family {family!r} lives on an infinite interval {basis.interval}; use "
-            f"identify_hermite / identify_laguerre for it"
-        )
+    wb = records_bandwidth(records)
+    # default p: the smallest window that shows the order (order selection: 3 singular
+    # values); larger p was erratic at SNR 20 dB in this basis (second-order system,
+    # 8 seeds: median error 0.1 % for p = 2, 0.3 % with outliers to 14 % for p = 3,
+    # 11 % for AIC over 2..6)
+    need = order if order is not None else 3
+    p_def = max(2, -(-need // l))
+    segs, w_info = make_segments(
+        records,
+        window,
+        lambda: default_window(records, BAND_MARGIN * wb / 2, 2 if boundary else 1, p_def),
+    )
     if alpha is None:
         # the integrator's pole alpha belongs to the system's dynamics, not to the input:
         # a step or ZOH input is broadband (half the data bandwidth gave alpha ~ 50 rad/s
         # and 2-3e-2 error on the second-order system, whose poles are at |lambda| = 2);
         # the outputs are the input low-passed by the system, so their bandwidth is used
-        wy = bandwidth(t, y, OUTPUT_FRACTION)
+        wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
         if wy <= 0:
             raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
         alpha = ALPHA_FACTOR * wy
@@ -229,30 +236,75 @@ def identify_sl(
     else:
         alpha = _real(alpha, "alpha")
         alpha_rule = "given"
-    G, j_how = integration_matrix(basis, float(t[0]))
-    J = G.T  # row form: (X J)_k = sum_j X_j G[k, j]
-    c = alpha * beta
-    S = np.eye(N) + c * J  # X M = alpha gamma (X J) S^{-1}
-    lu = sla.lu_factor(S.T)
-
-    def solve(W: Array) -> Array:
-        return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
-
-    lag = SolveLag(solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]")
+    keys = shared_keys(segs)
+    bases: dict[int, Any] = {}
+    n_rules, pads = [], []
+    for i, seg in enumerate(segs):
+        if keys[i] in bases:
+            continue
+        T, ns = seg.duration, seg.ns
+        if N is None:
+            Nb, n_rule = clip_basis_size(
+                BAND_MARGIN * wb * T / 2,
+                N_MIN,
+                N_MAX,
+                ns,
+                f"{family}",
+                f"N = {BAND_MARGIN} * bandwidth * T / 2",
+            )
+        else:
+            Nb, n_rule = N, "given"
+            if 2 * N / T < wb:
+                raise ValueError(
+                    f"N={N} functions on a record of {T:g} s resolve only {2 * N / T:.3g} "
+                    f"rad/s, below the data bandwidth {wb:.3g} rad/s; use N >= "
+                    f"{int(np.ceil(wb * T / 2))}"
+                )
+            if N > ns:
+                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
+        n_rules.append(n_rule)
+        span = (0.0, T)
+        try:
+            basis = slbasis.basis(family, Nb, span, **(family_params or {}))
+        except TypeError as exc:
+            raise TypeError(f"family/family_params: {exc}") from exc
+        pad = 0.0
+        if not np.all(np.isfinite(basis.eval(np.array(span)))):
+            # functions singular at the interval ends (Chebyshev-T, ...): the basis window
+            # is padded by PAD * T on both sides; the record is the windowed signal in it
+            pad = PAD * T
+            basis = slbasis.basis(family, Nb, (-pad, T + pad), **(family_params or {}))
+        a_, b_ = basis.interval
+        if not (np.isfinite(a_) and np.isfinite(b_)):
+            raise ValueError(
+                f"family {family!r} lives on an infinite interval {basis.interval}; use "
+                f"identify_hermite / identify_laguerre for it"
+            )
+        pads.append(pad)
+        bases[keys[i]] = basis
+    lags: dict[int, SolveLag] = {}
+    jinv: dict[int, Any] = {}
+    j_hows = []
+    for k, basis in bases.items():
+        G, j_how = integration_matrix(basis, 0.0)
+        j_hows.append(j_how)
+        lags[k], jinv[k] = _integrator_lag(G, alpha, beta, gamma, j_how)
+    seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(input_hold, m)
-    Us, Yc1 = project_record(basis, t, u, np.hstack([y, np.ones((ns, 1))]), holds)
-    Yc, one = Yc1[:-1], Yc1[-1]
-    Jlu = sla.lu_factor(J.T)
-    rows = [sla.lu_solve(Jlu, np.eye(N)[N - 1])]  # truncation: w J = e_{N-1}
-    if boundary:
-        rows.append(sla.lu_solve(Jlu, one))  # initial state: w J = coefficients of 1
-    P = np.array(rows)
-    # default p: the smallest window that shows the order (order selection: 3 singular
-    # values); larger p was erratic at SNR 20 dB in this basis (second-order system,
-    # 8 seeds: median error 0.1 % for p = 2, 0.3 % with outliers to 14 % for p = 3,
-    # 11 % for AIC over 2..6)
-    need = order if order is not None else 3
-    p_def = max(2, -(-need // y.shape[1]))
+    Us, Yc, ones = project_blocks(
+        seg_bases, segs, holds, y_extra=lambda tau: np.ones(tau.size), n_jobs=n_jobs
+    )
+    rows: dict[int, Array] = {}
+    for i, k in enumerate(keys):
+        if k in rows:
+            continue
+        Nb = bases[k].N
+        r = [sla.lu_solve(jinv[k], np.eye(Nb)[Nb - 1])]  # truncation: w J = e_{N-1}
+        if boundary:
+            r.append(sla.lu_solve(jinv[k], ones[i]))  # initial state: w J = coefficients of 1
+        rows[k] = np.array(r)
+    lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
+    P = [rows[k] for k in keys]
 
     out, hold, hold_crit = best_hold(
         holds,
@@ -270,21 +322,24 @@ def identify_sl(
         normalize=normalize,
         p_range=(p_def, p_def),
     )
+    Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "legendre" if family == "legendre" else "sl",
         "family": family if isinstance(family, str) else repr(family),
         "family_params": dict(family_params or {}),
-        "N": N,
-        "N_rule": n_rule,
+        "N": int(max(Ns_)),
+        "N_per_block": Ns_ if len(Ns_) > 1 else None,
+        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
         "bandwidth": wb,
-        "scale": basis.scale,
-        "centre": basis.centre,
+        "scale": seg_bases[0].scale,
+        "centre": records[0].t0 + seg_bases[0].centre,
         "alpha_rule": alpha_rule,
         "boundary": boundary,
-        "integration": j_how,
-        "window_padding": pad,
-        "n_samples": ns,
-        "t0": float(t[0]),
+        "integration": j_hows[0] if len(set(j_hows)) == 1 else j_hows,
+        "window_padding": pads[0] if len(set(pads)) == 1 else pads,
+        "n_samples": int(sum(r.ns for r in records)),
+        "t0": records[0].t0,
+        **w_info,
     }
     return integrator_model(
         out,
@@ -301,7 +356,7 @@ def identify_sl(
 
 
 def identify_legendre(
-    t: Any, u: Any, y: Any, order: int | None = None, **options: Any
+    t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
     """PBSID with Legendre functions on the record window (:func:`identify_sl`)."""
     if "family" in options:
@@ -310,7 +365,7 @@ def identify_legendre(
 
 
 def identify_chebyshev(
-    t: Any, u: Any, y: Any, order: int | None = None, **options: Any
+    t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
     """PBSID with Chebyshev-T functions on the record window (:func:`identify_sl`)."""
     if "family" in options:
