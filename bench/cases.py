@@ -66,6 +66,9 @@ class CaseData:
     initial state) -- needed for an unstable plant, whose free simulation diverges.
     ``uniform``: whether the samples are uniform (discrete-time tools need it).
     ``closed_loop``: whether ``u`` is correlated with the noise through feedback.
+    ``options``: keyword arguments a user would pass to the identification for this
+    record (e.g. ``feedthrough=True`` when an output has a direct term); ``bench/identify.py``
+    passes those a method accepts.
     """
 
     name: str
@@ -457,13 +460,15 @@ def _table2_case(name: str, outputs: str) -> Callable[..., CaseData]:
             hold="zoh",
             fit_window=1.0,
             closed_loop=True,
+            options={"feedthrough": True} if outputs == "rate+acc" else {},
         )
 
     generate.__doc__ = (
         f"Closed-loop 4th-order plant with the thesis's Table 2 eigenvalues, outputs "
         f"{outputs!r} (:func:`simulate_table2_closed_loop`), 250 Hz, 30 s, 1-4 Hz sweep "
         f"added to the command; validation: a 3211 record (another seed), scored on 1 s "
-        f"windows because the plant is unstable."
+        f"windows because the plant is unstable.  ``options``: ``feedthrough=True`` when "
+        f"the acceleration is measured (it has a direct term from the moment)."
     )
     return generate
 

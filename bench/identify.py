@@ -26,6 +26,7 @@ nothing is asserted.
 from __future__ import annotations
 
 import argparse
+import inspect
 import sys
 import time
 import warnings
@@ -38,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import DESCRIPTIONS, make_case  # noqa: E402
 
-from hdpbsid import identify, identify_discrete  # noqa: E402
+from hdpbsid import get_method, identify, identify_discrete  # noqa: E402
 from hdpbsid.metrics import match_eigenvalues  # noqa: E402
 
 #: method label -> (registry name, extra keyword arguments of identify)
@@ -65,7 +66,14 @@ def identify_case(label: str, case: Any, free_order: bool = False) -> np.ndarray
     if case.discrete:
         return np.linalg.eigvals(identify_discrete(rec.u, rec.y, order, p=10).A)
     name, kw = METHODS[label]
-    return identify(rec.t, rec.u, rec.y, order, method=name, **kw).eigenvalues
+    opts = case_options(name, case)
+    return identify(rec.t, rec.u, rec.y, order, method=name, **kw, **opts).eigenvalues
+
+
+def case_options(name: str, case: Any) -> dict[str, Any]:
+    """The entries of ``case.options`` that method ``name``'s function accepts."""
+    params = inspect.signature(get_method(name)).parameters
+    return {k: v for k, v in case.options.items() if k in params}
 
 
 def monte_carlo(
@@ -165,6 +173,9 @@ def main() -> None:
         print("order=None: errors over the runs that chose the true order")
     for case_name in args.cases:
         print(f"\n{case_name}: {DESCRIPTIONS[case_name]}")
+        opts = make_case(case_name, 0, 20.0).options
+        if opts:
+            print(f"case options (passed to the methods that accept them): {opts}")
         print(hdr)
         discrete = make_case(case_name, 0, 20.0).discrete
         methods = ["dt"] if discrete else args.methods

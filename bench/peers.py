@@ -546,7 +546,7 @@ def run_bench(
 
 def _cell_line(s: dict[str, object]) -> str:
     return (
-        f"{s['case']:13s} {s['snr']:>10s} {s['method']:20s} h={s['horizon']!s:>4s} "
+        f"{s['case']:23s} {s['snr']:>10s} {s['method']:20s} h={s['horizon']!s:>4s} "
         f"err {_pct(s['error_median'])} [{_pct(s['error_q25'])}, {_pct(s['error_q75'])}] "
         f"fit {_num(s['fit_median'])} ok {s['ok']}/{s['runs']} "
         f"{_fails(s['failures'])} t {_ms(s['time_median'])} cpu {_ms(s['cpu_median'])}"

@@ -31,7 +31,8 @@ nfoursid, each (a) at its default horizon (SIPPY ``f = p = 20``, nfoursid 2 bloc
 with the order tuned on validation over ``1..8``, and (b) with horizon and order both
 tuned on validation (horizons of the ``bench/peers.py`` grids; a horizon needs more block
 rows than the order).  Time: wall time of the identification call alone.  BLAS runs on
-one thread.  Not a test: nothing is asserted.
+one thread; every method is called once before the timed runs (imports, caches).  Not a
+test: nothing is asserted.
 """
 
 from __future__ import annotations
@@ -281,6 +282,12 @@ def run_record(
     u, y, dt = load_record(name)
     split = split_record(u, y, dt)
     runs: list[Run] = []
+    l_out = split.estimation.y.shape[1]
+    # warm-up, not timed or kept: imports, lazy registration, basis caches
+    for m in methods:
+        _ours(m, split, None)
+    for key in peer_keys:
+        _peer(key, split, peers.METHODS[key].default, 1)
     for m in methods:
         for order in (None, *ORDERS):
             r = _ours(m, split, order)
@@ -288,7 +295,6 @@ def run_record(
         best = _best([r for r in runs if r.method == m and r.order_requested is not None])
         default = next(r for r in runs if r.method == m and r.order_requested is None)
         log(f"{name:13s} {m:16s} defaults: {_run_txt(default)};  tuned: {_run_txt(best)}")
-    l_out = split.estimation.y.shape[1]
     for key in peer_keys:
         for order in ORDERS:
             for h in peer_horizons(key, l_out, order):
