@@ -2,7 +2,8 @@
 
 Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
 [--cases second-order chirp quadrotor pbsid-mimo nonuniform] [--methods ...]``
-(``--quick``: 5 runs, SNR 20 only).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
+(``--quick``: 5 runs, SNR 20 only; ``--order none``: ``order=None``, the method's own
+choice).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
 busy machine (the refinement's small-matrix loops).
 
 Prints, per case (the generators of ``bench/cases.py``, DESIGN.md "Benchmark systems"),
@@ -25,6 +26,7 @@ nothing is asserted.
 from __future__ import annotations
 
 import argparse
+import inspect
 import sys
 import time
 import warnings
@@ -37,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import DESCRIPTIONS, make_case  # noqa: E402
 
-from hdpbsid import identify, identify_discrete  # noqa: E402
+from hdpbsid import get_method, identify, identify_discrete  # noqa: E402
 from hdpbsid.metrics import match_eigenvalues  # noqa: E402
 
 #: method label -> (registry name, extra keyword arguments of identify)
@@ -55,18 +57,33 @@ DEFAULT_CASES = ("second-order", "chirp", "quadrotor", "pbsid-mimo", "nonuniform
 WITHIN = 0.05
 
 
-def identify_case(label: str, case: Any) -> np.ndarray:
-    """Eigenvalues identified by method ``label`` on the estimation record of ``case``."""
+def identify_case(label: str, case: Any, free_order: bool = False) -> np.ndarray:
+    """Eigenvalues identified by method ``label`` on the estimation record of ``case``,
+    with the true order, or with ``order=None`` (the method's own choice) if
+    ``free_order``."""
     rec = case.estimation
+    order = None if free_order else case.order
     if case.discrete:
-        return np.linalg.eigvals(identify_discrete(rec.u, rec.y, case.order, p=10).A)
+        return np.linalg.eigvals(identify_discrete(rec.u, rec.y, order, p=10).A)
     name, kw = METHODS[label]
-    return identify(rec.t, rec.u, rec.y, case.order, method=name, **kw).eigenvalues
+    opts = case_options(name, case)
+    return identify(rec.t, rec.u, rec.y, order, method=name, **kw, **opts).eigenvalues
 
 
-def monte_carlo(label: str, case_name: str, snr: float | None, runs: int) -> dict[str, float]:
-    """Statistics of ``runs`` seeded identifications (module docstring)."""
+def case_options(name: str, case: Any) -> dict[str, Any]:
+    """The entries of ``case.options`` that method ``name``'s function accepts."""
+    params = inspect.signature(get_method(name)).parameters
+    return {k: v for k, v in case.options.items() if k in params}
+
+
+def monte_carlo(
+    label: str, case_name: str, snr: float | None, runs: int, free_order: bool = False
+) -> dict[str, Any]:
+    """Statistics of ``runs`` seeded identifications (module docstring); with
+    ``free_order`` the errors are over the runs that chose the true order, and
+    ``orders`` counts the chosen orders."""
     est, worst, times, failed = [], [], [], 0
+    orders: dict[int, int] = {}
     true = None
     for seed in range(runs):
         case = make_case(case_name, seed, snr)
@@ -75,17 +92,21 @@ def monte_carlo(label: str, case_name: str, snr: float | None, runs: int) -> dic
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                ev = identify_case(label, case)
+                ev = identify_case(label, case, free_order)
         except (ValueError, np.linalg.LinAlgError):
             failed += 1
             continue
         times.append(time.perf_counter() - t0)
+        orders[ev.size] = orders.get(ev.size, 0) + 1
+        if ev.size != true.size:
+            continue
         paired, tr = match_eigenvalues(ev, true)
         est.append(paired)
         worst.append(float(np.max(np.abs(paired - tr) / np.abs(tr))))
     if not est:
-        stats = dict.fromkeys(("bias", "std", "median", "within", "time"), float("nan"))
-        return {**stats, "failed": failed}
+        stats = dict.fromkeys(("bias", "std", "median", "within"), float("nan"))
+        t_med = float(np.median(times)) if times else float("nan")
+        return {**stats, "time": t_med, "failed": failed, "orders": orders}
     tr = match_eigenvalues(true, true)[1]
     E = np.array(est)
     mean = E.mean(axis=0)
@@ -96,6 +117,7 @@ def monte_carlo(label: str, case_name: str, snr: float | None, runs: int) -> dic
         "within": float(np.mean(np.array(worst) <= WITHIN)),
         "failed": failed,
         "time": float(np.median(times)),
+        "orders": orders,
     }
 
 
@@ -130,28 +152,44 @@ def main() -> None:
     ap.add_argument("--methods", nargs="+", default=list(METHODS), choices=list(METHODS))
     ap.add_argument("--quick", action="store_true", help="5 runs at SNR 20 dB")
     ap.add_argument("--no-fit-time", action="store_true")
+    ap.add_argument(
+        "--order",
+        choices=("true", "none"),
+        default="true",
+        help="give the true order, or order=None (the method chooses; errors over the "
+        "runs that chose the true order, the chosen orders listed)",
+    )
     args = ap.parse_args()
+    free = args.order == "none"
     if args.quick:
         args.runs, args.snr = 5, [20.0]
     hdr = (
-        f"{'case':13s} {'method':16s} {'SNR':>5s} {'bias %':>8s} {'std %':>8s} "
+        f"{'case':23s} {'method':16s} {'SNR':>5s} {'bias %':>8s} {'std %':>8s} "
         f"{'median %':>9s} {'<=5 %':>6s} {'failed':>6s} {'time ms':>9s}"
+        + ("  chosen orders" if free else "")
     )
     print(f"{args.runs} seeds per row; eigenvalue errors relative to |lambda|")
+    if free:
+        print("order=None: errors over the runs that chose the true order")
     for case_name in args.cases:
         print(f"\n{case_name}: {DESCRIPTIONS[case_name]}")
+        opts = make_case(case_name, 0, 20.0).options
+        if opts:
+            print(f"case options (passed to the methods that accept them): {opts}")
         print(hdr)
         discrete = make_case(case_name, 0, 20.0).discrete
         methods = ["dt"] if discrete else args.methods
         snrs = [None] if case_name == "pbsid-mimo" else args.snr
         for snr in snrs:
             for label in methods:
-                r = monte_carlo(label, case_name, snr, args.runs)
+                r = monte_carlo(label, case_name, snr, args.runs, free)
                 snr_txt = "own" if snr is None else f"{snr:5.0f}"
+                chosen = ", ".join(f"{n}: {c}x" for n, c in sorted(r["orders"].items()))
                 print(
-                    f"{case_name:13s} {label:16s} {snr_txt:>5s} {100 * r['bias']:8.3f} "
+                    f"{case_name:23s} {label:16s} {snr_txt:>5s} {100 * r['bias']:8.3f} "
                     f"{100 * r['std']:8.3f} {100 * r['median']:9.3f} "
-                    f"{100 * r['within']:5.0f}% {r['failed']:6d} {1e3 * r['time']:9.1f}",
+                    f"{100 * r['within']:5.0f}% {r['failed']:6d} {1e3 * r['time']:9.1f}"
+                    + (f"  {chosen}" if free else ""),
                     flush=True,
                 )
     if not args.no_fit_time:

@@ -262,28 +262,36 @@ def continuous_A(model: Identified) -> Array:
         return d2c(model.A, model.B, model.C, model.D, None, model.dt)[0]
 
 
-def _discrete_fit(A: Array, B: Array, C: Array, D: Array, rec: Record) -> float:
-    """Fit (percent, mean over outputs) of a discrete model on ``rec``, LS initial state."""
-    n, ns = A.shape[0], rec.t.size
+def discrete_ls_simulation(A: Array, B: Array, C: Array, D: Array, u: Array, y: Array) -> Array:
+    """Simulated output ``(Ns, l)`` of ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k``
+    driven by ``u (Ns, m)``, from the initial state that fits ``y (Ns, l)`` best in least
+    squares (the output is affine in ``x_0``: ``y_k = C A^k x_0 + (zero-state response)``)."""
+    n, ns = A.shape[0], u.shape[0]
     X = np.empty((ns, n))
     x = np.zeros(n)
-    Bu = rec.u @ B.T
+    Bu = u @ B.T
     for k in range(ns):
         X[k] = x
         x = A @ x + Bu[k]
-    y0 = X @ C.T + rec.u @ D.T
+    y0 = X @ C.T + u @ D.T
     O = np.empty((ns, C.shape[0], n))
     P = np.eye(n)
     for k in range(ns):
         O[k] = C @ P
         P = A @ P
     O2 = O.reshape(-1, n)
-    x0 = np.linalg.lstsq(O2, (rec.y - y0).ravel(), rcond=None)[0]
-    ysim = y0 + (O2 @ x0).reshape(rec.y.shape)
-    return _fit_percent(rec.y, ysim)
+    x0 = np.linalg.lstsq(O2, (y - y0).ravel(), rcond=None)[0]
+    return y0 + (O2 @ x0).reshape(y.shape)
 
 
-def _fit_percent(y: Array, ysim: Array) -> float:
+def _discrete_fit(A: Array, B: Array, C: Array, D: Array, rec: Record) -> float:
+    """Fit (percent, mean over outputs) of a discrete model on ``rec``, LS initial state."""
+    return fit_percent(rec.y, discrete_ls_simulation(A, B, C, D, rec.u, rec.y))
+
+
+def fit_percent(y: Array, ysim: Array) -> float:
+    """``100 (1 - ||y - ysim|| / ||y - mean y||)`` per output column, averaged (MATLAB's
+    ``fit``; 100 is perfect, 0 is no better than the mean, negative is worse)."""
     err = np.linalg.norm(y - ysim, axis=0)
     ref = np.linalg.norm(y - y.mean(axis=0), axis=0)
     return float(np.mean(100.0 * (1.0 - err / ref)))
@@ -538,7 +546,7 @@ def run_bench(
 
 def _cell_line(s: dict[str, object]) -> str:
     return (
-        f"{s['case']:13s} {s['snr']:>10s} {s['method']:20s} h={s['horizon']!s:>4s} "
+        f"{s['case']:23s} {s['snr']:>10s} {s['method']:20s} h={s['horizon']!s:>4s} "
         f"err {_pct(s['error_median'])} [{_pct(s['error_q25'])}, {_pct(s['error_q75'])}] "
         f"fit {_num(s['fit_median'])} ok {s['ok']}/{s['runs']} "
         f"{_fails(s['failures'])} t {_ms(s['time_median'])} cpu {_ms(s['cpu_median'])}"
@@ -832,14 +840,19 @@ def readme_section(
     )
 
 
-def write_readme(section: str, path: Path = REPO / "README.md") -> None:
-    """Replace the text from the begin marker to the end marker (inclusive) by
+def write_readme(
+    section: str,
+    path: Path = REPO / "README.md",
+    begin: str = README_BEGIN,
+    end: str = README_END,
+) -> None:
+    """Replace the text from the ``begin`` marker to the ``end`` marker (inclusive) by
     ``section``; the markers must already exist (nothing else is touched)."""
     text = path.read_text()
-    i, j = text.find(README_BEGIN), text.find(README_END)
+    i, j = text.find(begin), text.find(end)
     if i < 0 or j < i:
-        raise SystemExit(f"{path}: markers {README_BEGIN} / {README_END} not found")
-    path.write_text(text[:i] + section + text[j + len(README_END) :])
+        raise SystemExit(f"{path}: markers {begin} / {end} not found")
+    path.write_text(text[:i] + section + text[j + len(end) :])
 
 
 def _parse_snr(x: str) -> float | None:

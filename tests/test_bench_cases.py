@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.signal import cont2discrete, dlsim, tf2ss
 
 BENCH = Path(__file__).resolve().parent.parent / "bench"
 sys.path.insert(0, str(BENCH))
@@ -27,7 +28,23 @@ SECOND_ORDER = np.array([-0.4 + np.sqrt(3.84) * 1j, -0.4 - np.sqrt(3.84) * 1j])
 PBSID = 0.67 * np.array([1 + 1j, 1 - 1j, -1 + 1j, -1 - 1j])
 
 # shorter records for the two slow generators (the properties checked do not depend on length)
-SHORT = {"nonuniform": {"T": 4.0, "n_samples": 401}, "quadrotor": {"duration": 4.0}}
+SHORT = {
+    "nonuniform": {"T": 4.0, "n_samples": 401},
+    "quadrotor": {"duration": 4.0},
+    "table2-closed-loop": {"duration": 4.0},
+    "table2-closed-loop-rate": {"duration": 4.0},
+}
+# (s^2 + s + 4)(s^2 + 4 s + 400): the Rao-Garnier denominator factored by hand
+RAO_GARNIER = np.array(
+    [
+        -0.5 + 1j * np.sqrt(15) / 2,
+        -0.5 - 1j * np.sqrt(15) / 2,
+        -2 + 1j * np.sqrt(396),
+        -2 - 1j * np.sqrt(396),
+    ]
+)
+MIMO = np.array([-0.2 + 2j, -0.2 - 2j, -2 + 20j, -2 - 20j])
+TABLE2 = np.array([-28.0, -10.0, 1.2 + 5.8j, 1.2 - 5.8j])
 
 
 def _sorted(ev: np.ndarray) -> np.ndarray:
@@ -68,6 +85,11 @@ def test_stiff_system_has_the_stated_eigenvalues() -> None:
         ("nonuniform", SECOND_ORDER, 1e-12),
         ("stiff", cases.STIFF_EIGENVALUES, 1e-12),
         ("pbsid-mimo", PBSID, 1e-12),
+        # computed eigenvalues of 4x4 block-diagonal matrices with entries up to 400
+        ("rao-garnier", RAO_GARNIER, 1e-10),
+        ("mimo-2x2", MIMO, 1e-12),
+        ("table2-closed-loop", TABLE2, 1e-12),
+        ("table2-closed-loop-rate", TABLE2, 1e-12),
         # DESIGN.md states the quadrotor eigenvalues to two decimals: half a unit of 0.01
         ("quadrotor", np.array([-2.92 + 3.24j, -2.92 - 3.24j, 3.08]), 0.005 + 1e-9),
     ],
@@ -194,3 +216,155 @@ def test_readme_section_replaces_only_between_markers(tmp_path: Path) -> None:
     readme.write_text(f"before\n{peers.README_BEGIN}\nold\n{peers.README_END}\nafter\n")
     peers.write_readme(f"{peers.README_BEGIN}\nnew\n{peers.README_END}", readme)
     assert readme.read_text() == f"before\n{peers.README_BEGIN}\nnew\n{peers.README_END}\nafter\n"
+
+
+def _transfer(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, s: complex) -> np.ndarray:
+    return C @ np.linalg.solve(s * np.eye(A.shape[0]) - A, B) + D
+
+
+FREQS = 1j * np.array([0.1, 1.0, 2.0, 5.0, 19.9, 20.0, 100.0])
+
+
+def test_rao_garnier_realisation_has_the_stated_transfer_function() -> None:
+    A, B, C, D = cases.rao_garnier_system()
+    num = np.array([-6400.0, 1600.0])
+    den = np.array([1.0, 5.0, 408.0, 416.0, 1600.0])
+    At, Bt, Ct, Dt = tf2ss(num, den)  # scipy's controllable canonical form
+    for s in [*FREQS, 0.0, 3.0 - 1.0j]:
+        g = _transfer(A, B, C, D, s)[0, 0]
+        # the polynomial ratio itself and scipy's realisation: a 4x4 solve with entries
+        # up to 400 loses ~1e-13 relative
+        assert g == pytest.approx(np.polyval(num, s) / np.polyval(den, s), rel=1e-10, abs=1e-12)
+        assert g == pytest.approx(_transfer(At, Bt, Ct, Dt, s)[0, 0], rel=1e-10, abs=1e-12)
+    # DC gain 1 and the non-minimum-phase zero at s = 1/4 (exact values, rounding only)
+    assert _transfer(A, B, C, D, 0.0)[0, 0] == pytest.approx(1.0, rel=1e-12)
+    assert abs(_transfer(A, B, C, D, 0.25)[0, 0]) < 1e-12
+    # poles: the hand factorisation, and the roots of the denominator polynomial
+    np.testing.assert_allclose(_sorted(np.linalg.eigvals(A)), _sorted(RAO_GARNIER), atol=1e-10)
+    np.testing.assert_allclose(_sorted(np.roots(den)), _sorted(RAO_GARNIER), atol=1e-10)
+
+
+def test_rao_garnier_input_is_binary_held_five_samples() -> None:
+    data = cases.make_case("rao-garnier", seed=2, snr=10.0)
+    u = data.estimation.u[:, 0]
+    assert set(np.unique(u)) == {-1.0, 1.0}
+    # levels change only at multiples of 0.05 s = 5 samples of 0.01 s
+    changes = np.flatnonzero(np.diff(u)) + 1
+    assert changes.size > 100 and np.all(changes % 5 == 0)
+
+
+def _pbh_rank_ok(A: np.ndarray, M: np.ndarray, columns: bool) -> bool:
+    n = A.shape[0]
+    for lam in np.linalg.eigvals(A):
+        test = (
+            np.hstack([lam * np.eye(n) - A, M]) if columns else np.vstack([lam * np.eye(n) - A, M])
+        )
+        if np.linalg.matrix_rank(test) < n:
+            return False
+    return True
+
+
+def test_mimo_modes_reach_every_channel() -> None:
+    A, B, C, D = cases.mimo_2x2_system()
+    assert B.shape == (4, 2) and C.shape == (2, 4)
+    # PBH test: every mode controllable from each input alone, observable from each output
+    for j in range(2):
+        assert _pbh_rank_ok(A, B[:, j : j + 1], columns=True)
+        assert _pbh_rank_ok(A, C[j : j + 1, :], columns=False)
+    # modes a decade apart, both lightly damped (zeta = 0.0995)
+    ev = _sorted(np.linalg.eigvals(A))
+    zeta = -ev.real / np.abs(ev)
+    np.testing.assert_allclose(zeta, 0.2 / np.sqrt(4.04), rtol=1e-12)
+    assert np.abs(ev).max() / np.abs(ev).min() == pytest.approx(10.0, rel=1e-12)
+
+
+def test_table2_acceleration_is_the_derivative_of_the_rate() -> None:
+    A, B, C, D = cases.table2_plant()
+    for s in [*FREQS, 0.0, 2.0 - 3.0j]:
+        g = _transfer(A, B, C, D, s)[:, 0]
+        # d/dt <-> multiplication by s; rounding of a 4x4 solve with entries up to 28
+        assert g[1] == pytest.approx(s * g[0], rel=1e-10, abs=1e-12)
+
+
+def test_table2_controller_stabilises_the_plant() -> None:
+    ctrl = cases.table2_controller()
+    A, _, _, _ = cases.table2_plant()
+    Phi = ctrl["Phi"]
+    assert np.max(np.abs(np.linalg.eigvals(Phi))) > 1  # the plant alone is unstable
+    eig_cl = np.linalg.eigvals(ctrl["Acl"])
+    assert np.max(np.abs(eig_cl)) < 1  # the loop is stable
+    # separation principle: the loop's eigenvalues are those of the regulator and observer
+    sep = np.r_[
+        np.linalg.eigvals(Phi - ctrl["Gamma"] @ ctrl["K"]),
+        np.linalg.eigvals(Phi - ctrl["L"] @ ctrl["cq"]),
+    ]
+    # eigenvalues of an 8x8 non-normal matrix vs two 4x4 ones: ~1e-10 of rounding
+    np.testing.assert_allclose(_sorted(eig_cl), _sorted(sep), atol=1e-8)
+    # Phi is the exact ZOH transition: its eigenvalues are exp(lambda ts)
+    ts = cases.TABLE2_TS
+    np.testing.assert_allclose(
+        _sorted(np.linalg.eigvals(Phi)), _sorted(np.exp(TABLE2 * ts)), atol=1e-12
+    )
+
+
+def test_table2_closed_loop_data_are_the_plant_response_to_the_applied_input() -> None:
+    """Noise-free: the loop only shapes the input, so the outputs are the open-loop plant's
+    exact ZOH response to the recorded moment (short record: the plant is unstable)."""
+    rec = cases.simulate_table2_closed_loop(
+        np.random.default_rng(0), duration=2.0, snr=None, outputs="rate+acc"
+    )
+    A, B, C, D = cases.table2_plant()
+    Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, C, D), cases.TABLE2_TS, method="zoh")
+    _, y, _ = dlsim((Ad, Bd, Cd, Dd, cases.TABLE2_TS), rec.u)
+    # same ZOH recursion from two implementations over 500 steps, growth e^(1.2 * 2) ~ 11
+    np.testing.assert_allclose(rec.y, y, atol=1e-10 * np.abs(y).max())
+    rate = cases.simulate_table2_closed_loop(
+        np.random.default_rng(0), duration=2.0, snr=None, outputs="rate"
+    )
+    np.testing.assert_array_equal(rate.y[:, 0], rec.y[:, 0])
+    np.testing.assert_array_equal(rate.u, rec.u)
+
+
+def test_table2_record_stays_bounded() -> None:
+    clean = cases.simulate_table2_closed_loop(np.random.default_rng(4), 30.0, None, "sweep")
+    # a stable loop under a bounded sweep: the last third no larger than ~the first
+    n = clean.y.shape[0] // 3
+    assert np.all(np.isfinite(clean.y))
+    assert np.abs(clean.y[-n:]).max() < 3 * np.abs(clean.y[:n]).max()
+
+
+def test_table2_sensor_noise_has_the_snr() -> None:
+    """Sensor noise = measured output - the plant's exact response to the recorded input
+    (the loop only shapes the input); its power relative to the noise-free run's."""
+    clean = cases.simulate_table2_closed_loop(np.random.default_rng(4), 2.0, None, "sweep")
+    noisy = cases.simulate_table2_closed_loop(np.random.default_rng(4), 2.0, 20.0, "sweep")
+    A, B, C, D = cases.table2_plant()
+    Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, C, D), cases.TABLE2_TS, method="zoh")
+    _, y_plant, _ = dlsim((Ad, Bd, Cd, Dd, cases.TABLE2_TS), noisy.u)
+    ratio = np.mean((noisy.y - y_plant) ** 2, axis=0) / np.mean(clean.y**2, axis=0)
+    # 501 samples: the variance estimate has a relative standard error sqrt(2/501) = 6.3 %;
+    # 25 % is four of them
+    np.testing.assert_allclose(ratio, 10 ** (-20 / 10), rtol=0.25)
+
+
+def test_table2_rejects_unknown_outputs() -> None:
+    with pytest.raises(ValueError, match="outputs"):
+        cases.simulate_table2_closed_loop(np.random.default_rng(0), 1.0, None, "sweep", "angle")
+
+
+@pytest.mark.parametrize("name", ["table2-closed-loop", "table2-closed-loop-rate"])
+def test_table2_noise_free_data_identify_the_plant(name: str) -> None:
+    """Method ``dt`` with the case's options (feedthrough for the acceleration output) on
+    noise-free closed-loop data recovers the plant's eigenvalues: the excitation makes the
+    closed-loop record informative enough."""
+    import hdpbsid
+
+    data = cases.CASES[name](1, None, duration=4.0)
+    assert data.options == ({"feedthrough": True} if name == "table2-closed-loop" else {})
+    rec = data.estimation
+    model = hdpbsid.identify(rec.t, rec.u, rec.y, 4, method="dt", **data.options)
+    # PBSID is exact on noise-free ZOH data of the right order; 1e-6 relative leaves room
+    # for the conditioning of a plant whose modes span 5.9 to 28 rad/s over 4 s (7e-10 and
+    # 4e-9 seen for the two output choices)
+    errs = hdpbsid.eigenvalue_errors(model.eigenvalues, TABLE2)
+    assert errs.max() < 1e-6
