@@ -147,9 +147,9 @@ def test_quadrotor_example(tmp_path: Path) -> None:
     # the simulated-vs-measured check (Figure 2): measured VAF 99 % on both records
     assert min(m3["vaf_validation"]) > 90.0
     sv = np.array(r["singular_values"])
-    # two dominant singular values (173, 102), then 2.4: the 3rd state is weak; the
-    # log-gap picks 2 - nothing in them "motivates" order 4 for this 3-state plant
-    assert sv[1] / sv[2] > 10 and r["auto_order"] in (1, 2)
+    # two dominant singular values (173, 102), then 2.4: the 3rd state is weak (a log-gap
+    # rule picks 2), but the held-out simulation error of the models resolves it: order 3
+    assert sv[1] / sv[2] > 10 and r["auto_order"] == 3
     for name in ("singular_values", "eigenvalues", "outputs", "bode"):
         assert (tmp_path / f"{name}.png").read_bytes()[:8] == PNG
     assert "VAF valid" in res.table()
