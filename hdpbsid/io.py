@@ -111,7 +111,7 @@ def _vector(path: Path, name: str, values: Any) -> Array:
         k = int(np.argmax(bad))
         raise ValueError(
             f"{path}: column {name!r} has {int(bad.sum())} missing/NaN/inf value(s) "
-            f"(first at sample {k}: {arr[k]!r}); fill or cut them before identifying"
+            f"(first at sample {k}: {float(arr[k])!r}); fill or cut them before identifying"
         )
     return arr
 
@@ -291,8 +291,8 @@ def _check_times(path: Path, name: str, t: Array) -> None:
         what = "repeated" if d[k] == 0 else "decreasing (unsorted)"
         raise ValueError(
             f"{path}: time column {name!r} must be strictly increasing, but samples {k} and "
-            f"{k + 1} have {what} times {t[k]!r}, {t[k + 1]!r}; sort the record or drop "
-            f"the duplicate"
+            f"{k + 1} have {what} times {float(t[k])!r}, {float(t[k + 1])!r}; sort the "
+            f"record or drop the duplicate"
         )
 
 
@@ -340,7 +340,8 @@ def read_record(
     try:
         cols = read_columns(path, used, delimiter)
     except ValueError as exc:
-        if time is not None and "unknown column" in str(exc) and f"'{time}'" in str(exc):
+        head = str(exc).split(";")[0]  # "<path>: unknown column(s) [...]"
+        if time is not None and "unknown column" in head and f"'{time}'" in head:
             raise ValueError(
                 f"{exc}; if the file has no time column, give the sampling interval "
                 f"(dt=..., command line --dt or --fs)"

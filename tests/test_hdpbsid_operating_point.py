@@ -33,7 +33,7 @@ def test_shifted_record_gives_the_same_eigenvalues(ball_and_beam, method: str) -
         # the detrended data differ from the unshifted ones only by the rounding of
         # (x + s) - mean(x + s): ~ s * eps = 2e-14 against std(u) = 9e-3, a relative
         # perturbation ~1e-12 that the order-2 estimate amplifies by its conditioning
-        # (measured 1e-13 .. 1e-11); 1e-8 is rounding-level, far below the 0.5-2 rad/s
+        # (measured 8e-14 .. 7e-13 absolute); 1e-8 is rounding-level, far below the 0.4-1 rad/s
         # changes the shift caused before detrending
         np.testing.assert_allclose(ev, ref, rtol=1e-8, atol=1e-10)
     # without detrending the shift changes the model (the defect this guards against)
