@@ -1,14 +1,23 @@
-"""Command line: ``hdpbsid identify FILE.csv ...``, ``hdpbsid demo`` and ``hdpbsid study NAME``.
+"""Command line: ``hdpbsid identify FILE ...``, ``validate``, ``demo`` and ``study NAME``.
 
 DESIGN.md, "The public surface" (command line) and issue 4, item 7.  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
 2 usage / input error); it never calls ``sys.exit`` (DESIGN.md, "What users would pick
 instead": no ``sys.exit()`` inside a library).  Only this module prints.
 
-``identify`` reads a CSV with a header row, picks the time, input and output columns
-by name, identifies a continuous-time model, prints it with its eigenvalues and writes
-``model.json`` (:func:`model_to_dict`) and ``identification.png`` (singular values,
+``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
+picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
+the operating point (``--detrend``, stored in the model), identifies a continuous-time
+model, prints it with its eigenvalues and writes ``model.json`` (:func:`model_to_dict`:
+everything needed to rebuild the model) and ``identification.png`` (singular values,
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
+``--data FILE`` (repeatable) adds experiments: the list form of :func:`hdpbsid.identify`.
+Every bad file (missing column, text or missing values, unsorted times, empty) exits
+with code 2 and a message naming the file and the column; no model is written.
+
+``validate MODEL.json FILE ...`` prints the simulation fit per output (and the
+``--k``-step prediction fit), the residual whiteness and input-independence verdicts
+(:mod:`hdpbsid.assessment`) and writes ``validation.png``.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
 (:func:`hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
@@ -26,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import csv
 import json
 import sys
 from pathlib import Path
@@ -35,8 +43,9 @@ from typing import Any, TextIO
 import numpy as np
 
 from .identify import available_methods, identify, is_available
+from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
-from .model import StateSpaceModel
+from .model import LinearTrend, StateSpaceModel
 
 __all__ = [
     "main",
@@ -104,8 +113,12 @@ def _jsonable(x: Any) -> Any:
 def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
     """JSON-ready description of a model: ``A, B, C, D, K`` (nested lists),
     ``eigenvalues`` (list of ``{"real", "imag"}``), ``singular_values``, ``options``,
-    ``n, m, l`` and ``"time": "continuous"``."""
+    ``n, m, l``, ``"time": "continuous"``, the operating point ``u0``, ``y0`` and
+    ``trend`` (``None`` or ``{"t_ref", "u_slope", "y_slope"}``) and
+    ``noise_covariance``: everything :func:`model_from_dict` needs to rebuild it."""
     sv = model.singular_values
+    tr = model.trend
+    nc = model.noise_covariance
     return {
         "time": "continuous",
         "n": model.n,
@@ -116,6 +129,12 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
         "C": model.C.tolist(),
         "D": model.D.tolist(),
         "K": model.K.tolist(),
+        "u0": model.u0.tolist(),
+        "y0": model.y0.tolist(),
+        "trend": None
+        if tr is None
+        else {"t_ref": tr.t_ref, "u_slope": tr.u_slope.tolist(), "y_slope": tr.y_slope.tolist()},
+        "noise_covariance": None if nc is None else np.asarray(nc, dtype=float).tolist(),
         "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
         "singular_values": None if sv is None else np.asarray(sv, dtype=float).tolist(),
         "options": _jsonable(model.options),
@@ -123,19 +142,36 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
 
 
 def model_from_dict(d: dict[str, Any]) -> StateSpaceModel:
-    """Inverse of :func:`model_to_dict` (options come back as plain JSON values)."""
+    """Inverse of :func:`model_to_dict` (options come back as plain JSON values).
+
+    Files written before the operating point was stored (no ``u0``/``y0``) load with
+    zero levels.  Raises ``ValueError`` naming a missing or misshapen entry.
+    """
+    if not isinstance(d, dict):
+        raise ValueError(f"a model description must be a JSON object, got {type(d).__name__}")
+    if d.get("time", "continuous") != "continuous":
+        raise ValueError(f"expected a continuous-time model, got time={d.get('time')!r}")
     try:
+        n, m, l = int(d["n"]), int(d["m"]), int(d["l"])
         mats = [np.array(d[k], dtype=float) for k in ("A", "B", "C", "D", "K")]
     except KeyError as exc:
-        raise ValueError(f"model dict lacks the matrix {exc.args[0]!r}") from exc
-    n, m, l = int(d["n"]), int(d["m"]), int(d["l"])
+        raise ValueError(f"model description lacks the entry {exc.args[0]!r}") from exc
     shapes = [(n, n), (n, m), (l, n), (l, m), (n, l)]
+    for name, M, shape in zip("ABCDK", mats, shapes, strict=True):
+        if M.size != shape[0] * shape[1]:
+            raise ValueError(f"model entry {name!r} has {M.size} values, expected shape {shape}")
     mats = [M.reshape(s) for M, s in zip(mats, shapes, strict=True)]
     sv = d.get("singular_values")
+    tr = d.get("trend")
+    nc = d.get("noise_covariance")
     return StateSpaceModel(
         *mats,
         singular_values=None if sv is None else np.asarray(sv, dtype=float),
         options=dict(d.get("options") or {}),
+        noise_covariance=None if nc is None else np.asarray(nc, dtype=float).reshape(l, l),
+        u0=d.get("u0"),
+        y0=d.get("y0"),
+        trend=None if tr is None else LinearTrend(tr["t_ref"], tr["u_slope"], tr["y_slope"]),
     )
 
 
@@ -148,11 +184,22 @@ def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
-    """Read a model written by :func:`write_model_json`."""
-    return model_from_dict(json.loads(Path(path).read_text()))
+    """Read a model written by :func:`write_model_json` (``ValueError`` naming the file
+    when it is missing or not a model)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"model file not found: {path}")
+    try:
+        d = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not a JSON model file: {exc}") from exc
+    try:
+        return model_from_dict(d)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
 
 
-# -- CSV ----------------------------------------------------------------------------------
+# -- data files -----------------------------------------------------------------------------
 def _split_columns(values: list[str] | None) -> list[str]:
     out: list[str] = []
     for v in values or []:
@@ -163,41 +210,30 @@ def _split_columns(values: list[str] | None) -> list[str]:
 def read_csv_columns(
     path: str | Path, columns: list[str], delimiter: str | None = None
 ) -> dict[str, np.ndarray]:
-    """Read the named columns of a CSV file with a header row as float arrays.
+    """The named columns of a data file (:func:`hdpbsid.io.read_columns`; kept here for
+    callers of the earlier CSV-only reader)."""
+    return read_columns(path, columns, delimiter)
 
-    The delimiter is sniffed (``,``, ``;``, tab or space) unless given.  Raises
-    :class:`CLIError` for a missing file, a missing header, unknown column names (the
-    message lists the available ones) or non-numeric values.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise CLIError(f"data file not found: {path}")
-    text = path.read_text()
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if len(lines) < 2:
-        raise CLIError(f"{path}: needs a header row and at least one data row")
-    if delimiter is None:
-        try:
-            delimiter = csv.Sniffer().sniff(lines[0], delimiters=",;\t ").delimiter
-        except csv.Error:
-            delimiter = ","
-    rows = list(csv.reader(lines, delimiter=delimiter, skipinitialspace=True))
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise CLIError(f"{path}: unknown column(s) {missing}; the header has {header}")
-    idx = {c: header.index(c) for c in columns}
-    out: dict[str, np.ndarray] = {}
-    for c, j in idx.items():
-        vals = []
-        for r, row in enumerate(rows[1:], start=2):
-            try:
-                vals.append(float(row[j]))
-            except (IndexError, ValueError) as exc:
-                cell = row[j] if j < len(row) else "<missing>"
-                raise CLIError(f"{path}: line {r}, column {c!r}: not a number: {cell!r}") from exc
-        out[c] = np.asarray(vals)
-    return out
+
+def _read_records(
+    args: argparse.Namespace, files: list[str], columns: dict[str, Any]
+) -> list[Record]:
+    """Every file of ``files`` as a :class:`~hdpbsid.io.Record` with the chosen columns."""
+    time = columns["time"]
+    if args.dt is None and args.fs is None and time is None:
+        time = "t"
+    return [
+        read_record(
+            f,
+            columns["inputs"],
+            columns["outputs"],
+            time=time,
+            dt=args.dt,
+            fs=args.fs,
+            delimiter=args.delimiter,
+        )
+        for f in files
+    ]
 
 
 # -- commands -----------------------------------------------------------------------------
@@ -258,36 +294,122 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     outputs = _split_columns(args.outputs)
     if not outputs:
         raise CLIError("--outputs needs at least one column name")
-    overlap = set(inputs) & set(outputs) | ({args.time} & (set(inputs) | set(outputs)))
-    if overlap:
-        raise CLIError(f"columns used twice (time/inputs/outputs): {sorted(overlap)}")
+    files = ([args.file] if args.file else []) + list(args.data or [])
+    if not files:
+        raise CLIError("identify: give a data file (FILE or --data FILE, repeatable)")
     method = best_method() if args.method == "auto" else args.method
     _check_method(method)
     options = _parse_options(args.option)
-    cols = read_csv_columns(args.file, [args.time, *inputs, *outputs], args.delimiter)
-    t = cols[args.time]
-    u = np.column_stack([cols[c] for c in inputs]) if inputs else None
-    y = np.column_stack([cols[c] for c in outputs])
+    columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
+    records = _read_records(args, files, columns)
+    detrend = None if args.detrend == "none" else args.detrend
+    refine = None if args.refine == "none" else args.refine
     try:
-        refine = None if args.refine == "none" else args.refine
-        model = identify(t, u, y, order=args.order, method=method, refine=refine, **options)
+        if len(records) == 1:
+            t, u, y = records[0].as_tuple()
+            model = identify(
+                t, u, y, order=args.order, method=method, refine=refine, detrend=detrend, **options
+            )
+        else:
+            model = identify(
+                [r.as_tuple() for r in records],
+                order=args.order,
+                method=method,
+                refine=refine,
+                detrend=detrend,
+                **options,
+            )
     except (ValueError, TypeError) as exc:
         print(f"hdpbsid identify: identification failed: {exc}", file=sys.stderr)
         return EXIT_FAILED
-    model.options["columns"] = {"time": args.time, "inputs": inputs, "outputs": outputs}
-    model.options["source"] = str(args.file)
-    print(f"method: {method}  inputs: {inputs}  outputs: {outputs}  samples: {t.size}", file=out)
+    first = records[0]
+    model.options["columns"] = {"time": first.time, "inputs": inputs, "outputs": outputs}
+    model.options["sampling_interval"] = first.dt
+    model.options["source"] = files[0] if len(files) == 1 else files
+    for rec in records:
+        print(
+            f"data: {rec.source}  samples: {rec.t.size}  "
+            + (f"time column: {rec.time}" if rec.time else f"dt: {rec.dt:g}"),
+            file=out,
+        )
+    print(f"method: {method}  inputs: {inputs}  outputs: {outputs}  detrend: {detrend}", file=out)
     _print_model(model, out)
-    uu = np.zeros((t.size, 0)) if u is None else u
-    _print_fit(model, t, uu, y, outputs, out)
+    for rec in records:
+        uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
+        if len(records) > 1:
+            print(f"{rec.source}:", file=out)
+        _print_fit(model, rec.t, uu, rec.y, outputs, out)
     outdir = Path(args.out)
     path = write_model_json(model, outdir / "model.json")
     print(f"wrote {path}", file=out)
     if not args.no_plot:
         from .plots import plot_identification, save_figure
 
-        fig = plot_identification(model, t, uu, y, output_names=outputs, input_names=inputs)
+        uu = np.zeros((first.t.size, 0)) if first.u is None else first.u
+        fig = plot_identification(
+            model, first.t, uu, first.y, output_names=outputs, input_names=inputs
+        )
         print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
+    return EXIT_OK
+
+
+def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
+    """Fit and residual tests of a saved model on other records (:mod:`hdpbsid.assessment`)."""
+    model = read_model_json(args.model)
+    saved = model.options.get("columns") or {}
+    inputs = _split_columns(args.inputs) if args.inputs else list(saved.get("inputs") or [])
+    outputs = _split_columns(args.outputs) if args.outputs else list(saved.get("outputs") or [])
+    if not outputs:
+        raise CLIError("validate: the model file names no output columns; give --outputs")
+    if len(inputs) != model.m or len(outputs) != model.l:
+        raise CLIError(
+            f"validate: the model has {model.m} input(s) and {model.l} output(s), the "
+            f"columns are inputs {inputs} and outputs {outputs}"
+        )
+    time = args.time
+    if time is None and args.dt is None and args.fs is None:
+        if saved.get("time") is None and model.options.get("sampling_interval"):
+            args.dt = float(model.options["sampling_interval"])  # identified with --dt
+        else:
+            time = saved.get("time") or "t"
+    if args.k is not None and args.k < 1:
+        raise CLIError(f"--k must be a positive number of steps, got {args.k}")
+    records = _read_records(args, args.files, {"time": time, "inputs": inputs, "outputs": outputs})
+    outdir = Path(args.out)
+    for rec in records:
+        uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
+        sim = model.compare(rec.t, uu, rec.y)
+        print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
+        for name, f in zip(outputs, sim.fit, strict=True):
+            print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
+        if args.k is not None:
+            pred = model.compare(rec.t, uu, rec.y, k=args.k)
+            for name, f in zip(outputs, pred.fit, strict=True):
+                print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
+        try:
+            report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
+        except ValueError as exc:
+            print(f"  residual tests not possible: {exc}", file=out)
+            continue
+        print(report.summary(outputs, inputs), file=out)
+        if not args.no_plot:
+            from .plots import plot_validation, save_figure
+
+            fig = plot_validation(
+                model,
+                rec.t,
+                uu,
+                rec.y,
+                k=args.k,
+                report=report,
+                output_names=outputs,
+                input_names=inputs,
+                title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
+            )
+            name = (
+                "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
+            )
+            print(f"wrote {save_figure(fig, outdir / name)}", file=out)
     return EXIT_OK
 
 
@@ -441,6 +563,17 @@ def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
     return EXIT_OK
 
 
+def _add_time_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--time", default=None, help="time column name (default: t)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--dt", type=float, default=None, help="sampling interval, when there is no time column"
+    )
+    g.add_argument(
+        "--fs", type=float, default=None, help="sampling rate, when there is no time column"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``hdpbsid`` argument parser (errors raise :class:`CLIError`)."""
     parser = _Parser(
@@ -452,10 +585,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "identify",
-        help="identify a continuous-time model from a CSV file",
-        description="Identify from FILE.csv (header row; columns chosen by name).",
+        help="identify a continuous-time model from a data file",
+        description="Identify from a data file (CSV with a header row, MATLAB .mat, NumPy "
+        ".npz, Parquet, HDF5; signals chosen by name).",
     )
-    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument("file", metavar="FILE", nargs="?", default=None)
+    p.add_argument(
+        "--data",
+        action="append",
+        metavar="FILE",
+        help="a further experiment of the same system (repeatable; each record is "
+        "detrended on its own)",
+    )
     p.add_argument(
         "--inputs",
         nargs="+",
@@ -470,7 +611,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="COLS",
         help="output column names (space or comma separated)",
     )
-    p.add_argument("--time", default="t", help="time column name (default: t)")
+    _add_time_arguments(p)
+    p.add_argument(
+        "--detrend",
+        choices=("mean", "linear", "none"),
+        default="mean",
+        help="operating point removed before identification and stored in the model "
+        "(default: mean)",
+    )
     p.add_argument(
         "--order",
         type=int,
@@ -499,6 +647,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
     p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
     p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+    v = sub.add_parser(
+        "validate",
+        help="fit and residual tests of a saved model on other records",
+        description="Validate MODEL.json (written by identify) on one or more data files: "
+        "simulation fit per output, optional k-step prediction fit, residual whiteness and "
+        "input-independence tests (Ljung, System Identification, sec. 16.6) and a figure.",
+    )
+    v.add_argument("model", metavar="MODEL.json")
+    v.add_argument("files", metavar="FILE", nargs="+")
+    v.add_argument("--k", type=int, default=None, help="also the k-step-ahead prediction fit")
+    v.add_argument(
+        "--max-lag", type=int, default=25, help="largest lag M of the residual tests (25)"
+    )
+    v.add_argument(
+        "--inputs", nargs="+", default=None, metavar="COLS", help="default: as identified"
+    )
+    v.add_argument(
+        "--outputs", nargs="+", default=None, metavar="COLS", help="default: as identified"
+    )
+    _add_time_arguments(v)
+    v.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
+    v.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
+    v.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
     d = sub.add_parser(
         "demo",
@@ -574,6 +746,8 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.command == "identify":
             return _cmd_identify(args, out)
+        if args.command == "validate":
+            return _cmd_validate(args, out)
         if args.command == "study":
             return _cmd_study(args, out)
         return _cmd_demo(args, out)
@@ -582,7 +756,7 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    except ValueError as exc:  # e.g. bad demo outputs or a bad --option value
+    except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
 

@@ -27,10 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_time
+from .checks import check_data, check_time
+from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .methods.dt import identify_dt
 from .methods.refine import REFINE_CHOICES, is_uniform, refine_pem
-from .model import StateSpaceModel
+from .model import LinearTrend, StateSpaceModel
 
 __all__ = [
     "METHODS",
@@ -135,77 +136,171 @@ def available_methods() -> list[str]:
     return sorted(METHODS)
 
 
+def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
+    """The list form ``[(t1, u1, y1), ...]``: every record checked, channel counts equal."""
+    if len(records) == 0:
+        raise ValueError("t: the list of records is empty; pass at least one (t, u, y)")
+    out = []
+    for i, rec in enumerate(records):
+        if not isinstance(rec, tuple | list) or len(rec) != 3:
+            raise TypeError(f"t[{i}] must be a (t, u, y) tuple, got {type(rec).__name__}")
+        try:
+            tt, uu, yy = check_data(*rec)
+        except (ValueError, TypeError) as exc:
+            raise type(exc)(f"record {i}: {exc}") from exc
+        out.append((tt, None if rec[1] is None else uu, yy))
+        m0, l0 = check_data(*out[0])[1].shape[1], out[0][2].shape[1]
+        if uu.shape[1] != m0 or yy.shape[1] != l0:
+            raise ValueError(
+                f"record {i} has {uu.shape[1]} input(s) and {yy.shape[1]} output(s); "
+                f"record 0 has {m0} and {l0}: every record needs the same channels"
+            )
+    return out
+
+
+def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
+    """Sample-weighted mean operating point ``sum N_i x0_i / sum N_i``."""
+    w = np.array([lv.samples for lv in levels], dtype=float)
+    u0 = np.sum([wi * lv.u0 for wi, lv in zip(w, levels, strict=True)], axis=0) / w.sum()
+    y0 = np.sum([wi * lv.y0 for wi, lv in zip(w, levels, strict=True)], axis=0) / w.sum()
+    return u0, y0
+
+
 def identify(
     t: Any,
-    u: Any,
-    y: Any,
+    u: Any = None,
+    y: Any = None,
     order: int | None = None,
     method: str = "hermite",
     refine: str | None = None,
+    detrend: str | None = "mean",
     **options: Any,
 ) -> StateSpaceModel:
     """Identify a continuous-time model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
 
     ``t (Ns,)``, ``u (Ns, m)`` (or ``None`` for no input), ``y (Ns, l)`` follow
-    :func:`scipy.signal.lsim` (1-D for one channel).  ``method`` names an entry of
-    :data:`METHODS` (``"hermite"`` HD-PBSID, the default; ``"laguerre"``,
-    ``"legendre"``, ``"dt"``; ``"auto"`` tries them all and keeps the best by held-out
-    simulation error, :func:`hdpbsid.selection.identify_auto`; see
-    :func:`available_methods`).  ``options`` go to the method unchanged (e.g. ``p=``,
-    ``f=``, ``regularize=`` for ``"dt"``).
+    :func:`scipy.signal.lsim` (1-D for one channel).  Several experiments of the same
+    system: ``identify([(t1, u1, y1), (t2, u2, y2), ...], order=...)`` (``u``, ``y``
+    left out); every record is detrended on its own and the list is passed to the
+    method.  ``method`` names an entry of :data:`METHODS` (``"hermite"`` HD-PBSID, the
+    default; ``"laguerre"``, ``"legendre"``, ``"dt"``; ``"auto"`` tries them all and
+    keeps the best by held-out simulation error, :func:`hdpbsid.selection.identify_auto`;
+    see :func:`available_methods`).  ``options`` go to the method unchanged (e.g.
+    ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
 
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
     simulation error on the last third; the smallest order within one standard error of
     the best is identified on the whole record, and the scores are in
-    ``options["order_selection"]``.  A record too short to score falls back to the
-    method's singular-value rule (said in ``options["order_selection"]``), as does
-    ``order_rule="svd"``.  A constant input column raises a ``UserWarning`` (not
-    persistently exciting).
+    ``options["order_selection"]``.  A record too short to score, a list of records and
+    ``order_rule="svd"`` use the method's singular-value rule instead (said in
+    ``options["order_selection"]``).  A constant input column raises a ``UserWarning``
+    (not persistently exciting).
+
+    ``detrend`` sets the operating point (:mod:`hdpbsid.detrend`): ``"mean"`` (default)
+    removes each channel's mean before the method runs, ``"linear"`` its least-squares
+    line in ``t``, ``None`` nothing (with a ``UserWarning`` when a channel's level
+    outweighs its variation, ``|mean| > std``).  The removed levels are stored in the
+    model (``model.u0``, ``model.y0``; ``model.trend`` for ``"linear"``), so
+    :meth:`~hdpbsid.StateSpaceModel.simulate`, ``fit``, ``predict`` and ``compare`` map
+    absolute signals to absolute signals; the matrices (and ``to_scipy``,
+    ``to_control``) describe deviations.  With several records the model holds the
+    sample-weighted mean level ``sum N_i x0_i / sum N_i`` (and no trend); each record's
+    own levels are in ``model.options["operating_points"]``.  Removing the means makes
+    the estimate invariant to constant shifts of the data; the price is an O(1/T) level
+    error on records that start at rest (see :mod:`hdpbsid.detrend`).
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
     model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
-    reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, costs seconds);
-    ``"auto"`` does so when ``t`` is uniform and skips it otherwise; ``None`` (default)
-    returns the subspace model as the method produced it.  On the closed-loop quadrotor
-    at SNR 20 dB the refinement brought the largest eigenvalue error of HD-PBSID from
-    1.6-10.1 % (median 2.4 %) to 0.2-5.9 % (median 1.7 %; 12 seeds).
+    reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, costs seconds;
+    one record only); ``"auto"`` does so when ``t`` is uniform and skips it otherwise;
+    ``None`` (default) returns the subspace model as the method produced it.  On the
+    closed-loop quadrotor at SNR 20 dB the refinement brought the largest eigenvalue
+    error of HD-PBSID from 1.6-10.1 % (median 2.4 %) to 0.2-5.9 % (median 1.7 %; 12
+    seeds).
 
     The returned model's ``options`` hold every setting the method used plus
-    ``"method"``, ``"refine"`` and ``"requested_options"`` (the keyword arguments as
-    passed here).
-    Raises ``ValueError`` for an unknown method (listing the known ones) and whatever
-    the method raises for bad data.
+    ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
+    arguments as passed here).
+    Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
+    ``detrend`` and bad data, and whatever the method raises.
     """
     if refine not in REFINE_CHOICES:
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
+    if detrend not in DETREND_CHOICES:
+        raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
     func = get_method(method)
-    _warn_not_exciting(u)
-    if order is None and method != "auto" and options.get("order_rule", "held-out") != "svd":
-        from .selection import select_order
-
+    _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
+    several = isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple))
+    if several:
+        if u is not None or y is not None:
+            raise ValueError(
+                "with a list of (t, u, y) records in t, leave u and y out (u=None, y=None)"
+            )
+        if refine is not None:
+            raise ValueError("refine needs a single record; pass refine=None with a list")
+        records, levels = [], []
+        for i, (tt, uu, yy) in enumerate(_check_records(t)):
+            ua = np.zeros((tt.size, 0)) if uu is None else uu
+            ud, yd, lv = detrend_record(tt, ua, yy, detrend)
+            if detrend is None:
+                warn_if_levels_dominate(ua, yy, f"record {i}: ")
+            records.append((tt, None if uu is None else ud, yd))
+            levels.append(lv)
         options.pop("order_rule", None)
-        model = select_order(method, t, u, y, **options)
+        model = func(records, None, None, order=order, **options)
+        if order is None:
+            model.options["order_selection"] = "singular values of the method (several records)"
+        u0, y0 = _weighted_levels(levels)
+        trend = None
+        op_info: Any = [lv.as_dict() for lv in levels]
     else:
-        options.pop("order_rule", None)
-        model = func(t, u, y, order=order, **options)
+        if y is None:
+            raise ValueError("y is required: identify(t, u, y, ...) or a list of (t, u, y)")
+        tt, ua, yy = check_data(t, u, y)
+        ud, yd, lv = detrend_record(tt, ua, yy, detrend)
+        if detrend is None:
+            warn_if_levels_dominate(ua, yy)
+            tm, um, ym = t, u, y  # unchanged: exactly what the method got before
+        else:
+            tm, um, ym = tt, None if u is None else ud, yd
+        model = _run(method, func, tm, um, ym, order, options)
+        u0, y0 = lv.u0, lv.y0
+        trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
+        op_info = lv.as_dict()
     if not isinstance(model, StateSpaceModel):
         raise TypeError(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
         )
     if refine is not None:
-        tt = check_time(t, "t", min_samples=2)
-        if refine == "pem" or is_uniform(tt):
-            model = refine_pem(model, t, u, y)
+        if refine == "pem" or is_uniform(check_time(tm, "t", min_samples=2)):
+            model = refine_pem(model, tm, um, ym)
         else:
             model.options["refine_rule"] = "auto: t is not uniformly sampled, no refinement"
+    _set_levels(model, u0, y0, trend)
     model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
+    model.options["detrend"] = detrend
+    model.options["operating_points"] = op_info
     model.options["requested_method"] = method
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
     return model
+
+
+def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:
+    """Store the operating point in ``model`` (and its sampled model, if it has one)."""
+    u0 = np.asarray(u0, dtype=float).reshape(-1)
+    y0 = np.asarray(y0, dtype=float).reshape(-1)
+    if u0.size != model.m or y0.size != model.l:
+        raise TypeError(
+            f"the method returned a model with {model.m} input(s) and {model.l} output(s) "
+            f"for data with {u0.size} and {y0.size}"
+        )
+    for mod in (model, model.discrete):
+        if mod is not None:
+            mod.u0, mod.y0, mod.trend = u0.copy(), y0.copy(), trend
 
 
 def _warn_not_exciting(u: Any) -> None:
@@ -228,6 +323,21 @@ def _warn_not_exciting(u: Any) -> None:
             UserWarning,
             stacklevel=3,
         )
+
+
+def _run(
+    method: str, func: IdentifyFunc, t: Any, u: Any, y: Any, order: Any, options: dict
+) -> StateSpaceModel:
+    """Run ``method`` on one record; ``order=None`` goes through the held-out order choice
+    (:func:`hdpbsid.selection.select_order`) unless ``order_rule="svd"``."""
+    rule = options.pop("order_rule", "held-out")
+    if rule not in ("held-out", "svd"):
+        raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
+    if order is None and method != "auto" and rule == "held-out":
+        from .selection import select_order
+
+        return select_order(method, t, u, y, **options)
+    return func(t, u, y, order=order, **options)
 
 
 register_method("dt", identify_dt)

@@ -2,8 +2,22 @@
 
 Both hold the innovation form ``x' = A x + B u + K e``, ``y = C x + D u + e`` (``x'`` is
 ``dx/dt`` or ``x_{k+1}``), the singular values the order was chosen from and the
-``options`` actually used.  Simulation, fit statistics, frequency responses and
-conversions to scipy / python-control live here; identification lives elsewhere.
+``options`` actually used.  Simulation, prediction, fit statistics, frequency responses
+and conversions to scipy / python-control live here; identification lives elsewhere.
+
+**Operating point.**  The matrices describe *deviations* from an operating point
+``(u0, y0)``: with absolute signals ``u``, ``y`` the model is
+
+    x' = A x + B (u - u0) + K e,    y = y0 + C x + D (u - u0) + e,
+
+(Ljung, *System Identification*, 2nd ed., sec. 14.1: identify on signals with their
+levels removed, put the levels back when the model is used).  ``u0`` and ``y0`` default
+to zero (a model built by hand is exactly the matrices); :func:`hdpbsid.identify` stores
+the levels it removed.  With a linear trend (``detrend="linear"``) the operating point
+is ``u0 + u_slope (t - t_ref)`` and ``y0 + y_slope (t - t_ref)`` (:class:`LinearTrend`).
+:meth:`StateSpaceModel.simulate`, :meth:`~StateSpaceModel.fit`,
+:meth:`~StateSpaceModel.predict` and :meth:`~StateSpaceModel.compare` take and return
+absolute signals; states ``x`` (and ``x0``) are always deviation states.
 """
 
 from __future__ import annotations
@@ -15,10 +29,17 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from .checks import as_float_array, check_signal, check_state_space, check_time
+from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
+from .checks import as_float_array, check_positive_int, check_signal, check_state_space, check_time
 from .conversion import c2d, d2c
 
-__all__ = ["StateSpaceModel", "DiscreteModel", "FitResult", "fit_statistics"]
+__all__ = [
+    "StateSpaceModel",
+    "DiscreteModel",
+    "FitResult",
+    "LinearTrend",
+    "fit_statistics",
+]
 
 Array = NDArray[np.float64]
 
@@ -54,6 +75,31 @@ def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
     return vaf, nrmse
 
 
+@dataclass
+class LinearTrend:
+    """Linear drift of the operating point: at time ``t`` the input level is
+    ``u0 + u_slope (t - t_ref)`` and the output level ``y0 + y_slope (t - t_ref)``.
+
+    Stored by ``identify(..., detrend="linear")`` from the least-squares line through each
+    channel of the identification record (``t_ref`` its mean time, so ``u0``, ``y0`` are
+    the record's means).  The line is a function of absolute time: on a record outside the
+    identification interval it extrapolates the drift, which is right for a drifting
+    sensor and wrong for a drift that belonged to that one experiment (then identify with
+    ``detrend="mean"``, or set ``model.trend = None``).
+    """
+
+    t_ref: float
+    u_slope: Array
+    y_slope: Array
+
+    def __post_init__(self) -> None:
+        self.t_ref = float(self.t_ref)
+        if not np.isfinite(self.t_ref):
+            raise ValueError(f"t_ref must be finite, got {self.t_ref}")
+        self.u_slope = as_float_array(self.u_slope, "u_slope").reshape(-1)
+        self.y_slope = as_float_array(self.y_slope, "y_slope").reshape(-1)
+
+
 def _fmt_eigs(ev: NDArray[np.complex128], limit: int = 8) -> str:
     parts = []
     for lam in ev[:limit]:
@@ -79,11 +125,43 @@ class _ModelBase:
     singular_values: Array | None = None
     options: dict[str, Any] = field(default_factory=dict)
     noise_covariance: Array | None = None
+    u0: Array | None = None
+    y0: Array | None = None
+    trend: LinearTrend | None = None
 
     def __post_init__(self) -> None:
         self.A, self.B, self.C, self.D, self.K = check_state_space(
             self.A, self.B, self.C, self.D, self.K
         )
+        m, l = self.B.shape[1], self.C.shape[0]
+        self.u0 = _level(self.u0, "u0", m)
+        self.y0 = _level(self.y0, "y0", l)
+        if self.trend is not None:
+            if not isinstance(self.trend, LinearTrend):
+                raise TypeError(f"trend must be a LinearTrend or None, got {self.trend!r}")
+            if self.trend.u_slope.size != m or self.trend.y_slope.size != l:
+                raise ValueError(
+                    f"trend slopes must have {m} (inputs) and {l} (outputs) entries, got "
+                    f"{self.trend.u_slope.size} and {self.trend.y_slope.size}"
+                )
+
+    def operating_point(self, t: Any) -> tuple[Array, Array]:
+        """Input and output levels at the times ``t``: ``(U0 (Ns, m), Y0 (Ns, l))``.
+
+        Constant ``u0``, ``y0`` without a trend; ``u0 + u_slope (t - t_ref)`` (and likewise
+        for ``y``) with one (module docstring).
+        """
+        t = np.asarray(t, dtype=float).reshape(-1)
+        U0 = np.broadcast_to(self.u0, (t.size, self.m)).copy()
+        Y0 = np.broadcast_to(self.y0, (t.size, self.l)).copy()
+        if self.trend is not None:
+            dt = (t - self.trend.t_ref)[:, None]
+            U0 += dt * self.trend.u_slope[None, :]
+            Y0 += dt * self.trend.y_slope[None, :]
+        return U0, Y0
+
+    def _offsets_kwargs(self) -> dict[str, Any]:
+        return {"u0": self.u0.copy(), "y0": self.y0.copy(), "trend": self.trend}
 
     @property
     def n(self) -> int:
@@ -106,7 +184,30 @@ class _ModelBase:
         return _sort_eigs(np.linalg.eigvals(self.A))
 
     def _repr_body(self) -> str:
-        return f"n={self.n}, m={self.m}, l={self.l}, eigenvalues={_fmt_eigs(self.eigenvalues)}"
+        body = f"n={self.n}, m={self.m}, l={self.l}, eigenvalues={_fmt_eigs(self.eigenvalues)}"
+        if np.any(self.u0) or np.any(self.y0) or self.trend is not None:
+            body += ", with operating point" + (" and trend" if self.trend is not None else "")
+        return body
+
+
+def _level(x: Any, name: str, size: int) -> Array:
+    """An operating-point vector: zeros when ``None``, else ``size`` finite numbers."""
+    if x is None:
+        return np.zeros(size)
+    arr = as_float_array(x, name).reshape(-1)
+    if arr.size != size:
+        raise ValueError(f"{name} must have {size} entries (one per channel), got {arr.size}")
+    return arr
+
+
+def _step_groups(t: Array) -> tuple[Array, Array, Array]:
+    """``(h, h_groups, inv)``: the steps ``h = diff(t)``, one representative per group of
+    steps equal to 1e-12 relative, and each step's group index (``h ~ h_groups[inv]``)."""
+    h = np.diff(t)
+    key = np.round(h / np.max(h), 12)
+    uniq, inv = np.unique(key, return_inverse=True)
+    first = np.array([np.flatnonzero(inv == i)[0] for i in range(uniq.size)])
+    return h, h[first], inv
 
 
 @dataclass(repr=False)
@@ -129,21 +230,31 @@ class StateSpaceModel(_ModelBase):
         return f"StateSpaceModel(continuous, {self._repr_body()}{extra})"
 
     # -- simulation ------------------------------------------------------------------
-    def _step_matrices(self, h: Array, method: str) -> tuple[Array, Array, Array | None]:
-        """Exact one-step matrices for steps ``h``: ZOH ``(Phi, G, None)`` or FOH
-        ``(Phi, G1, G2)`` from the augmented exponentials (Franklin-Powell-Workman 6.3):
-        ``expm([[A h, B h], [0, 0]])`` resp. ``expm([[A h, B h, 0], [0, 0, I], [0, 0, 0]])``.
+    def _step_matrices(
+        self, h: Array, method: str, with_k: bool = False
+    ) -> tuple[Array, Array, Array | None, Array | None]:
+        """Exact one-step matrices for steps ``h``: ``(Phi, G1, G2, Gk)`` from the augmented
+        exponentials (Franklin, Powell & Workman, *Digital Control*, sec. 6.3):
+        ``expm([[A h, B h, 0, K h], [0, 0, I, 0], [0, 0, 0, 0], [0, 0, 0, 0]])``.  ``G1``
+        multiplies ``u_k``; ``G2`` (FOH only, else ``None``) multiplies ``u_{k+1} - u_k``;
+        ``Gk`` (``with_k`` only) multiplies the innovation held over the step, the hold
+        convention of :mod:`hdpbsid.conversion`.
         """
-        n, m = self.n, self.m
-        size = n + m if method == "zoh" else n + 2 * m
+        n, m, l = self.n, self.m, self.l
+        mu = m if method == "zoh" else 2 * m
+        lk = l if with_k else 0
+        size = n + mu + lk
         M = np.zeros((h.size, size, size))
         M[:, :n, :n] = self.A[None] * h[:, None, None]
         M[:, :n, n : n + m] = self.B[None] * h[:, None, None]
         if method == "foh":
-            M[:, n : n + m, n + m :] = np.eye(m)[None]
+            M[:, n : n + m, n + m : n + 2 * m] = np.eye(m)[None]
+        if with_k:
+            M[:, :n, n + mu :] = self.K[None] * h[:, None, None]
         E = expm(M)
-        G2 = E[:, :n, n + m :] if method == "foh" else None
-        return E[:, :n, :n], E[:, :n, n : n + m], G2
+        G2 = E[:, :n, n + m : n + 2 * m] if method == "foh" else None
+        Gk = E[:, :n, n + mu :] if with_k else None
+        return E[:, :n, :n], E[:, :n, n : n + m], G2, Gk
 
     def simulate(
         self,
@@ -155,37 +266,53 @@ class StateSpaceModel(_ModelBase):
     ) -> Array | tuple[Array, Array]:
         """Deterministic response (``e = 0``) at the times ``t`` (need not be uniform).
 
-        ``method="zoh"``: ``u[k]`` held on ``[t_k, t_{k+1})`` (the assumption under which
-        :func:`~hdpbsid.identify_dt` data are sampled); ``method="foh"``: ``u`` linear
-        between samples, as :func:`scipy.signal.lsim` does by default.  Each step uses
-        the exact exponential of the augmented matrix for its own ``h = t_{k+1} - t_k``
-        (steps equal to 1e-12 relative share one exponential).  Returns ``y (Ns, l)``
-        (and ``x (Ns, n)`` with ``return_states``).
+        ``u`` and the returned ``y`` are absolute signals: the model runs on
+        ``u - u0`` and adds ``y0`` (module docstring; both zero for a model built by
+        hand).  ``x0`` is the initial *deviation* state (default 0: the system at its
+        operating point).  ``method="zoh"``: ``u[k]`` held on ``[t_k, t_{k+1})`` (the
+        assumption under which :func:`~hdpbsid.identify_dt` data are sampled);
+        ``method="foh"``: ``u`` linear between samples, as :func:`scipy.signal.lsim` does
+        by default.  Each step uses the exact exponential of the augmented matrix for its
+        own ``h = t_{k+1} - t_k`` (steps equal to 1e-12 relative share one exponential).
+        Returns ``y (Ns, l)`` (and ``x (Ns, n)`` with ``return_states``).
         """
+        t, u = self._check_input(t, u, method)
+        U0, Y0 = self.operating_point(t)
+        y, X = self._simulate_deviation(t, u - U0, self._check_x0(x0), method)
+        y = y + Y0
+        return (y, X) if return_states else y
+
+    def _check_input(self, t: Any, u: Any, method: str) -> tuple[Array, Array]:
         if method not in ("zoh", "foh"):
             raise ValueError(f"method must be 'zoh' or 'foh', got {method!r}")
         t = check_time(t, "t", min_samples=1)
-        ns, n = t.shape[0], self.n
         if self.m == 0 and u is None:
-            u = np.zeros((ns, 0))
-        u = check_signal(u, "u", ns)
+            u = np.zeros((t.shape[0], 0))
+        u = check_signal(u, "u", t.shape[0])
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
-        x = np.zeros(n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
-        if x.shape[0] != n:
-            raise ValueError(f"x0 must have {n} entries (the state dimension), got {x.shape[0]}")
+        return t, u
+
+    def _check_x0(self, x0: Any | None) -> Array:
+        x = np.zeros(self.n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
+        if x.shape[0] != self.n:
+            raise ValueError(
+                f"x0 must have {self.n} entries (the state dimension), got {x.shape[0]}"
+            )
+        return x
+
+    def _simulate_deviation(self, t: Array, u: Array, x: Array, method: str) -> tuple[Array, Array]:
+        """Response ``(y, X)`` of the matrices alone to the deviation input ``u``."""
+        ns, n = t.shape[0], self.n
         X = np.empty((ns, n))
         X[0] = x
         if ns > 1:
-            h = np.diff(t)
-            key = np.round(h / np.max(h), 12)
-            uniq, inv = np.unique(key, return_inverse=True)
-            first = np.array([np.flatnonzero(inv == i)[0] for i in range(uniq.size)])
-            Phi, G1, G2 = self._step_matrices(h[first], method)
+            _, hg, inv = _step_groups(t)
+            Phi, G1, G2, _ = self._step_matrices(hg, method)
             Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
             if G2 is not None:
                 Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
-            if uniq.size == 1:
+            if hg.size == 1:
                 P = Phi[0]
                 for k in range(ns - 1):
                     x = P @ x + Bu[k]
@@ -194,40 +321,166 @@ class StateSpaceModel(_ModelBase):
                 for k in range(ns - 1):
                     x = Phi[inv[k]] @ x + Bu[k]
                     X[k + 1] = x
-        y = X @ self.C.T + u @ self.D.T
-        return (y, X) if return_states else y
+        return X @ self.C.T + u @ self.D.T, X
+
+    def _check_output(self, t: Array, y: Any) -> Array:
+        y = check_signal(y, "y", t.shape[0])
+        if y.shape[1] != self.l:
+            raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
+        return y
 
     def fit(self, t: Any, u: Any, y: Any, x0: Any = "estimate", method: str = "zoh") -> FitResult:
         """Simulate on ``(t, u)`` and compare with ``y``: VAF and NRMSE per output.
 
-        ``x0="estimate"`` (default) fits the initial state by least squares (the output
-        is affine in ``x0``); ``"zero"`` or an array use that state.
+        ``u``, ``y`` and ``FitResult.y_sim`` are absolute signals (operating point in the
+        module docstring).  ``x0="estimate"`` (default) fits the initial deviation state
+        by least squares (the output is affine in ``x0``); ``"zero"`` or an array use that
+        state.
         """
         t = check_time(t, "t")
-        y = check_signal(y, "y", t.shape[0])
-        if y.shape[1] != self.l:
-            raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
+        y = self._check_output(t, y)
+        t, u = self._check_input(t, u, method)
+        U0, Y0 = self.operating_point(t)
+        ud = u - U0
         if isinstance(x0, str):
             if x0 not in ("estimate", "zero"):
                 raise ValueError(f"x0 must be 'estimate', 'zero' or an array, got {x0!r}")
             x0v = np.zeros(self.n)
-            y0 = self.simulate(t, u, x0v, method=method)
+            y_sim = self._simulate_deviation(t, ud, x0v, method)[0] + Y0
             if x0 == "estimate" and self.n > 0:
                 ufree = np.zeros((t.shape[0], self.m))
                 O = np.stack(
                     [
-                        self.simulate(t, ufree, np.eye(self.n)[i], method=method).ravel()
-                        for i in range(self.n)
+                        self._simulate_deviation(t, ufree, e, method)[0].ravel()
+                        for e in np.eye(self.n)
                     ],
                     axis=1,
                 )
-                x0v = np.linalg.lstsq(O, (y - y0).ravel(), rcond=None)[0]
-                y0 = y0 + (O @ x0v).reshape(y.shape)
+                x0v = np.linalg.lstsq(O, (y - y_sim).ravel(), rcond=None)[0]
+                y_sim = y_sim + (O @ x0v).reshape(y.shape)
         else:
-            x0v = as_float_array(x0, "x0").reshape(-1)
-            y0 = self.simulate(t, u, x0v, method=method)
-        vaf, nrmse = fit_statistics(y, y0)
-        return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y0, x0=x0v)
+            x0v = self._check_x0(x0)
+            y_sim = self._simulate_deviation(t, ud, x0v, method)[0] + Y0
+        vaf, nrmse = fit_statistics(y, y_sim)
+        return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
+
+    # -- prediction and validation -----------------------------------------------------
+    def _predict_deviation(
+        self, t: Array, u: Array, y: Array, x: Array, k: int, method: str
+    ) -> Array:
+        """k-step-ahead predictions of the deviation output (module docstring of
+        :meth:`predict`), for deviation signals ``u``, ``y`` and initial state ``x``."""
+        ns, n = t.shape[0], self.n
+        Z = np.empty((ns, n))
+        Z[0] = x
+        if ns > 1:
+            _, hg, inv = _step_groups(t)
+            Phi, G1, G2, Gk = self._step_matrices(hg, method, with_k=True)
+            Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
+            if G2 is not None:
+                Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
+            Ku = np.einsum("kij,kj->ki", Gk[inv], y[:-1] - u[:-1] @ self.D.T)
+            # predictor: x_{j+1} = (Phi - Gk C) x_j + Bu_j + Gk (y_j - D u_j)
+            F = Phi - np.einsum("kij,jl->kil", Gk, self.C)
+            for j in range(ns - 1):
+                x = F[inv[j]] @ x + Bu[j] + Ku[j]
+                Z[j + 1] = x
+            # Z[j] = x_{j|j-1}; k - 1 open-loop steps give x_{j|j-k} (x_{j|.} = x0 for the
+            # first samples, where no measurement precedes)
+            for _ in range(k - 1):
+                Znew = np.empty_like(Z)
+                Znew[0] = Z[0]
+                Znew[1:] = np.einsum("kij,kj->ki", Phi[inv], Z[:-1]) + Bu
+                Z = Znew
+        return Z @ self.C.T + u @ self.D.T
+
+    def _predict(
+        self, t: Any, u: Any, y: Any, k: int, x0: Any, method: str
+    ) -> tuple[Array, Array, Array]:
+        k = check_positive_int(k, "k")
+        t = check_time(t, "t")
+        y = self._check_output(t, y)
+        t, u = self._check_input(t, u, method)
+        U0, Y0 = self.operating_point(t)
+        ud, yd = u - U0, y - Y0
+        if isinstance(x0, str):
+            if x0 not in ("estimate", "zero"):
+                raise ValueError(f"x0 must be 'estimate', 'zero' or an array, got {x0!r}")
+            x0v = np.zeros(self.n)
+            yp = self._predict_deviation(t, ud, yd, x0v, k, method)
+            if x0 == "estimate" and self.n > 0:
+                zu, zy = np.zeros_like(ud), np.zeros_like(yd)
+                O = np.stack(
+                    [
+                        self._predict_deviation(t, zu, zy, e, k, method).ravel()
+                        for e in np.eye(self.n)
+                    ],
+                    axis=1,
+                )
+                x0v = np.linalg.lstsq(O, (yd - yp).ravel(), rcond=None)[0]
+                yp = yp + (O @ x0v).reshape(yd.shape)
+        else:
+            x0v = self._check_x0(x0)
+            yp = self._predict_deviation(t, ud, yd, x0v, k, method)
+        return yp + Y0, x0v, y
+
+    def predict(
+        self, t: Any, u: Any, y: Any, k: int = 1, x0: Any = "estimate", method: str = "zoh"
+    ) -> Array:
+        """``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
+
+        The sampled innovation model (hold convention of :mod:`hdpbsid.conversion`: ``u``
+        and ``e`` held over each step, exact exponentials per step, so ``t`` need not be
+        uniform) gives the one-step predictor (Ljung, *System Identification*, 2nd ed.,
+        eq. 4.87)
+
+            x_{j+1|j} = Phi_j x_{j|j-1} + G_j u_j + Gk_j (y_j - C x_{j|j-1} - D u_j),
+
+        and ``x_{j|j-k}`` follows from ``x_{j-k+1|j-k}`` by ``k - 1`` steps of the model
+        without the correction term; ``y_hat = C x_{j|j-k} + D u_j``.  ``k = 1`` is the
+        one-step predictor whose errors are the model's innovations; large ``k``
+        approaches :meth:`simulate`.  Signals are absolute (operating point in the module
+        docstring).  ``x0``: ``"estimate"`` (least squares on the prediction errors; the
+        predictions are affine in it), ``"zero"`` or the initial deviation state.
+        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.
+        Returns ``y_hat (Ns, l)``.
+        """
+        return self._predict(t, u, y, k, x0, method)[0]
+
+    def compare(
+        self, t: Any, u: Any, y: Any, k: int | None = None, method: str = "zoh"
+    ) -> Comparison:
+        """Fit of the model on a record, as MATLAB's ``compare``: per output
+        ``fit = 100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent.
+
+        ``k=None``: ``y_hat`` is the simulation (:meth:`fit`, initial state by least
+        squares), which diverges for an unstable model; ``k`` given: the ``k``-step-ahead
+        prediction (:meth:`predict`, initial state by least squares).  Returns a
+        :class:`~hdpbsid.assessment.Comparison`.
+        """
+        if k is None:
+            res = self.fit(t, u, y, method=method)
+            y_meas = check_signal(y, "y")
+            return Comparison(
+                fit=fit_percent(y_meas, res.y_sim), y_hat=res.y_sim, x0=res.x0, k=None
+            )
+        y_hat, x0v, y_meas = self._predict(t, u, y, k, "estimate", method)
+        return Comparison(fit=fit_percent(y_meas, y_hat), y_hat=y_hat, x0=x0v, k=int(k))
+
+    def residuals(
+        self, t: Any, u: Any, y: Any, max_lag: int = 25, method: str = "zoh"
+    ) -> ResidualReport:
+        """Residual analysis as MATLAB's ``resid`` (Ljung, *System Identification*, 2nd
+        ed., sec. 16.6) of the one-step prediction errors ``e = y - y_hat(t | t - 1)``
+        (:meth:`predict` with ``k=1``, initial state by least squares) against the input
+        ``u``: whiteness (autocorrelation, Ljung-Box) and independence from the input
+        (cross-correlation) over lags up to ``max_lag``; see
+        :func:`hdpbsid.assessment.residual_tests`.
+        """
+        y_hat, _, y_meas = self._predict(t, u, y, 1, "estimate", method)
+        t_arr = check_time(t, "t")
+        _, u_arr = self._check_input(t_arr, u, method)
+        return residual_tests(y_meas - y_hat, u_arr, max_lag=max_lag)
 
     # -- frequency domain and conversions -----------------------------------------------
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
@@ -242,17 +495,34 @@ class StateSpaceModel(_ModelBase):
     def to_discrete(self, dt: float) -> DiscreteModel:
         """ZOH sampling (:func:`hdpbsid.conversion.c2d`, ``K`` by the hold convention)."""
         Ad, Bd, C, D, Kd = c2d(self.A, self.B, self.C, self.D, self.K, dt)
-        return DiscreteModel(Ad, Bd, C, D, Kd, dt=float(dt), options={"from": "c2d (zoh)"})
+        return DiscreteModel(
+            Ad,
+            Bd,
+            C,
+            D,
+            Kd,
+            dt=float(dt),
+            options={"from": "c2d (zoh)"},
+            **self._offsets_kwargs(),
+        )
 
     def to_scipy(self) -> Any:
-        """``scipy.signal.StateSpace(A, B, C, D)`` (continuous; the ``u -> y`` part)."""
+        """``scipy.signal.StateSpace(A, B, C, D)`` (continuous; the ``u -> y`` part).
+
+        It describes *deviations* from the operating point: feed it ``u - model.u0`` and
+        add ``model.y0`` to its output (module docstring); scipy has no place for levels.
+        """
         from scipy.signal import StateSpace
 
         return StateSpace(self.A, self.B, self.C, self.D)
 
     def to_control(self, noise_inputs: bool = False) -> Any:
         """``control.StateSpace`` with ``dt=0``; with ``noise_inputs`` the inputs are
-        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``)."""
+        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``).
+
+        Like :meth:`to_scipy` it describes deviations: inputs ``u - model.u0``, outputs
+        ``y - model.y0`` (python-control has no operating point either).
+        """
         control = _import_control()
         B, D = self.B, self.D
         if noise_inputs:
@@ -271,11 +541,21 @@ class DiscreteModel(_ModelBase):
     def __repr__(self) -> str:
         return f"DiscreteModel(dt={self.dt:g}, {self._repr_body()})"
 
-    def simulate(self, u: Any, x0: Any | None = None) -> Array:
-        """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from ``x0`` (default 0)."""
+    def simulate(self, u: Any, x0: Any | None = None, t: Any | None = None) -> Array:
+        """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from the deviation state
+        ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``
+        added (module docstring).  ``t`` (the sample times) is needed only when the model
+        has a :class:`LinearTrend`."""
         u = check_signal(u, "u")
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
+        if t is None:
+            if self.trend is not None:
+                raise ValueError("this model has a linear trend: pass the sample times t")
+            t = np.zeros(u.shape[0])
+        t = check_signal(t, "t", u.shape[0])[:, 0]
+        U0, Y0 = self.operating_point(t)
+        u = u - U0
         x = np.zeros(self.n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
         if x.shape[0] != self.n:
             raise ValueError(f"x0 must have {self.n} entries, got {x.shape[0]}")
@@ -284,7 +564,7 @@ class DiscreteModel(_ModelBase):
         for k in range(u.shape[0]):
             X[k] = x
             x = self.A @ x + Bu[k]
-        return X @ self.C.T + u @ self.D.T
+        return X @ self.C.T + u @ self.D.T + Y0
 
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
         """``G(e^{jw dt})`` for angular frequencies ``w`` (rad per time unit); (l, m, nw)."""
@@ -304,16 +584,18 @@ class DiscreteModel(_ModelBase):
             options=dict(self.options),
             noise_covariance=self.noise_covariance,
             discrete=self,
+            **self._offsets_kwargs(),
         )
 
     def to_scipy(self) -> Any:
-        """``scipy.signal.StateSpace(A, B, C, D, dt=dt)``."""
+        """``scipy.signal.StateSpace(A, B, C, D, dt=dt)``, in deviations from the operating
+        point (see :meth:`StateSpaceModel.to_scipy`)."""
         from scipy.signal import StateSpace
 
         return StateSpace(self.A, self.B, self.C, self.D, dt=self.dt)
 
     def to_control(self) -> Any:
-        """``control.StateSpace(A, B, C, D, dt)``."""
+        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point."""
         return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt)
 
 

@@ -1,7 +1,8 @@
 """Figures for identified models (matplotlib, Agg; no windows are ever opened).
 
 Issue 4, item 7: the CLI writes a figure with the singular values (order selection),
-measured vs simulated output and the Bode magnitude.  Figures are built on
+measured vs simulated output and the Bode magnitude; ``hdpbsid validate`` one with the
+residual tests (:func:`plot_validation`).  Figures are built on
 :class:`matplotlib.figure.Figure` with an Agg canvas, never through ``pyplot``, so the
 library neither changes the global backend nor keeps figures alive.
 """
@@ -29,6 +30,7 @@ __all__ = [
     "plot_bode",
     "plot_eigenvalue_scatter",
     "plot_outputs",
+    "plot_validation",
 ]
 
 
@@ -350,4 +352,80 @@ def plot_outputs(
         ax.grid(True, alpha=0.3)
     ax.set_xlabel("time [s]")
     fig.suptitle(title)
+    return fig
+
+
+# -- validation (Ljung, System Identification, sec. 16.6; MATLAB compare + resid) ---------
+def plot_validation(
+    model: StateSpaceModel,
+    t: Any,
+    u: Any,
+    y: Any,
+    k: int | None = None,
+    report: Any | None = None,
+    max_lag: int = 25,
+    output_names: list[str] | None = None,
+    input_names: list[str] | None = None,
+    title: str | None = None,
+) -> Any:
+    """Validation figure of ``model`` on the record ``(t, u, y)``.
+
+    * per output: measured vs simulated (:meth:`StateSpaceModel.compare`, initial state by
+      least squares) and, with ``k``, the ``k``-step-ahead prediction, fits in the legend;
+    * per output: autocorrelation of the one-step prediction errors over lags ``1..M``
+      with the 99 % band ``+-2.58 / sqrt(N)`` and the Ljung-Box verdict;
+    * per output and input: residual-input cross-correlation over lags ``-M..M`` with its
+      99 % band (:mod:`hdpbsid.assessment`).
+
+    ``report``: a :class:`~hdpbsid.assessment.ResidualReport` already computed (else
+    :meth:`StateSpaceModel.residuals` with ``max_lag``).  Returns the figure.
+    """
+    t, u, y = check_data(t, u, y)
+    l, m = y.shape[1], u.shape[1]
+    onames = output_names or [f"y{i + 1}" for i in range(l)]
+    inames = input_names or [f"u{j + 1}" for j in range(m)]
+    if report is None:
+        report = model.residuals(t, u, y, max_lag=max_lag)
+    sim = model.compare(t, u, y)
+    pred = model.compare(t, u, y, k=k) if k is not None else None
+    fig = new_figure((3.6 * (3 + m), 2.8 * l + 0.8))
+    gs = fig.add_gridspec(l, 3 + m)
+    for i in range(l):
+        ax = fig.add_subplot(gs[i, :2])
+        ax.plot(t, y[:, i], color="0.6", lw=0.8, label="measured")
+        ax.plot(t, sim.y_hat[:, i], color="C0", lw=1.0, label=f"simulated, fit {sim.fit[i]:.1f} %")
+        if pred is not None:
+            label = f"{pred.kind}, fit {pred.fit[i]:.1f} %"
+            ax.plot(t, pred.y_hat[:, i], color="C1", lw=0.9, label=label)
+        ax.set_ylabel(onames[i])
+        ax.set_xlabel("time")
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+        ax = fig.add_subplot(gs[i, 2])
+        ax.bar(report.lags[1:], report.autocorrelation[1:, i], width=0.6, color="C0")
+        ax.axhspan(-report.band, report.band, color="C2", alpha=0.2, label="99 % band")
+        verdict = "white" if report.white_per_output[i] else "NOT white"
+        ax.set_title(
+            f"e({onames[i]}) autocorrelation\nQ = {report.ljung_box[i]:.1f} "
+            f"(99 %: {report.ljung_box_threshold:.1f}): {verdict}",
+            fontsize="small",
+        )
+        ax.set_xlabel("lag")
+        ax.legend(loc="upper right", fontsize="small")
+        for j in range(m):
+            ax = fig.add_subplot(gs[i, 3 + j])
+            ax.bar(report.cross_lags, report.cross_correlation[:, i, j], width=0.6, color="C1")
+            b = report.cross_band[i, j]
+            ax.axhspan(-b, b, color="C2", alpha=0.2)
+            ok = "independent" if report.independent_per_pair[i, j] else "NOT independent"
+            ax.set_title(
+                f"e({onames[i]}) vs {inames[j]} cross-correlation\n"
+                f"zeta = {report.cross_statistic[i, j]:.1f} "
+                f"(99 %: {report.cross_threshold[i, j]:.1f}): {ok}",
+                fontsize="small",
+            )
+            ax.set_xlabel("lag")
+    fig.suptitle(
+        title or f"Validation: method {model.options.get('method', '?')!r}, order {model.n}"
+    )
     return fig

@@ -55,6 +55,8 @@ def test_identify_round_trip(csv_file: Path, tmp_path: Path, capsys) -> None:
         "2",
         "--method",
         "dt",
+        "--detrend",
+        "none",  # simulated from rest around zero: no operating point to remove
         "--out",
         str(out),
     ]
@@ -79,6 +81,7 @@ def test_identify_refine_flag(csv_file: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     argv = ["identify", str(csv_file), "--time", "time", "--inputs", "force"]
     argv += ["--outputs", "pos", "--order", "2", "--method", "hermite", "--refine", "pem"]
+    argv += ["--detrend", "none"]  # simulated from rest around zero: no operating point
     assert main([*argv, "--out", str(out), "--no-plot"]) == 0
     d = json.loads((out / "model.json").read_text())
     assert d["options"]["refine"] == "pem"

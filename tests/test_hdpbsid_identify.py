@@ -39,11 +39,19 @@ def test_default_method_is_hermite_per_design() -> None:
 
 def test_dt_dispatch_matches_identify_dt_and_records_options(second_order_data) -> None:
     t, u, y = second_order_data
-    m = identify(t, u, y, order=2, method="dt", p=10)
+    # simulated from rest around a zero operating point: detrend=None keeps the data exact
+    m = identify(t, u, y, order=2, method="dt", p=10, detrend=None)
     ref = identify_dt(t, u, y, order=2, p=10)
     # same function with the same arguments: bit-identical results
     np.testing.assert_array_equal(m.A, ref.A)
     np.testing.assert_array_equal(m.C, ref.C)
+    # the default removes the means first: the same as the method on mean-free data
+    md = identify(t, u, y, order=2, method="dt", p=10)
+    refd = identify_dt(t, u - np.mean(u, axis=0), y - np.mean(y, axis=0), order=2, p=10)
+    np.testing.assert_array_equal(md.A, refd.A)
+    np.testing.assert_array_equal(md.u0, np.mean(u, axis=0))
+    np.testing.assert_array_equal(md.y0, np.mean(y, axis=0))
+    assert md.options["detrend"] == "mean" and m.options["detrend"] is None
     # noise-free ZOH data and exact d2c: measured ~1e-10, 1e-6 is far below issue 4's 1e-3
     assert np.max(eigenvalue_errors(m.eigenvalues, TRUE_EIGS)) < 1e-6
     assert m.options["method"] == "dt"
@@ -151,7 +159,7 @@ def test_package_exports() -> None:
 
 def test_to_control_accepted_by_python_control(second_order_data) -> None:
     t, u, y = second_order_data
-    m = identify(t, u, y, order=2, method="dt")
+    m = identify(t, u, y, order=2, method="dt", detrend=None)  # from rest: no levels
     sys_c = m.to_control()
     assert sys_c.dt == 0 and isinstance(sys_c, control.StateSpace)
     w = np.logspace(-1, 1, 20)
@@ -177,7 +185,9 @@ def test_to_control_accepted_by_python_control(second_order_data) -> None:
 
 def test_default_method_end_to_end(second_order_data) -> None:
     t, u, y = second_order_data
-    m = identify(t, u, y, order=2)
+    # simulated from rest with no operating point: detrend=None (the default mean removal
+    # leaves a level error of O(1/T) that the model cannot explain: measured 1.8e-3)
+    m = identify(t, u, y, order=2, detrend=None)
     assert m.options["requested_method"] == "hermite"
     # issue 4 "Done when": noise-free benchmark eigenvalues to <= 1e-3 relative error
     # (measured 3.9e-4 with the Hermite defaults on this record)

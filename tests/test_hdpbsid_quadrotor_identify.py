@@ -88,7 +88,9 @@ def test_legendre_noise_free_zoh_steps(seed: int, hold: float) -> None:
     t = np.arange(0.0, 40.0 + 0.005, 0.01)
     u = random_steps(rng, t, hold=hold)
     y = simulate_zoh(A, B, C, D, t, u)
-    m = identify(t, u, y, 2, method="legendre")
+    # simulated from rest around zero: detrend=None (mean removal adds an O(1/T) level
+    # error the model cannot explain; measured 1.1e-3..8.7e-3 with it)
+    m = identify(t, u, y, 2, method="legendre", detrend=None)
     err = eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(A)).max()
     # issue: noise-free <= 1e-3; measured 2e-5..5e-5 for hold 0.5 (before: up to 3.4e-2)
     assert err < 1e-3, (err, m.options["alpha"])

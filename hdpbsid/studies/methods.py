@@ -57,4 +57,7 @@ def identify_with(
 ) -> StateSpaceModel:
     """``identify(t, u, y, order, method=..., **fixed, **options)`` for study method ``name``."""
     method, fixed = METHODS[name]
-    return identify(t, u, y, order, method=method, **{**fixed, **(options or {})})
+    # the studies' records are simulated from rest around a zero operating point, as in
+    # the source: no levels to remove (mean removal would add an O(1/T) level error)
+    opts = {"detrend": None, **fixed, **(options or {})}
+    return identify(t, u, y, order, method=method, **opts)

@@ -53,7 +53,7 @@ def _hermite_scale(t: np.ndarray, N: int | None, rec: Any) -> float:
     if N is None:
         from ..identify import identify
 
-        m = identify(rec.t, rec.u, rec.y, 2, method="hermite")
+        m = identify(rec.t, rec.u, rec.y, 2, method="hermite", detrend=None)
         return float(m.options["scale"])
     return float(slbasis.basis("hermite", int(N), (float(t[0]), float(t[-1]))).scale)
 
