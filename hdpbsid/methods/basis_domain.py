@@ -447,6 +447,7 @@ def run_core(
     normalize: bool,
     p_range: tuple[int, int] | None = None,
     ridge_floor: float | None = None,
+    instruments: Array | None = None,
 ) -> CoreOut:
     """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) and pseudo
     inputs ``P`` (q x N) with the lag operator ``lag``.
@@ -455,7 +456,9 @@ def run_core(
     over ``p_range`` (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that
     ``p (m + q + l) <= ncols / 6`` (the regression has ``p (m + q + l)`` unknowns per
     output but only ``ncols`` columns); ``f = p``.  Raises ``ValueError`` when an explicit
-    ``p`` does not fit the basis size.
+    ``p`` does not fit the basis size.  ``instruments`` (rows on the ``N`` columns)
+    selects the instrumental-variable core (:func:`hdpbsid.core.pbsid.pbsid_core`); the
+    pseudo-input rows are deterministic and serve as their own instruments.
     """
     m, l, q = U.shape[0], Y.shape[0], P.shape[0]
     ncols = Y.shape[1]
@@ -531,6 +534,8 @@ def run_core(
         stable_k=stable_k,
         max_order=mo,
         ridge_floor=RIDGE_FLOOR if ridge_floor is None else ridge_floor,
+        instruments=instruments,
+        exogenous=tuple(range(m, m + q)),
     )
     B = core.B[:, :m] / su[None, :] if m else core.B[:, :0]
     Bp = core.B[:, m:] / sp_[None, :] if q else core.B[:, m:]

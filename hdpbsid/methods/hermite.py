@@ -39,6 +39,7 @@ import slbasis
 from ..checks import check_data, check_positive_int
 from ..model import StateSpaceModel
 from .basis_domain import (
+    P_DEFAULT_RANGE,
     SolveLag,
     best_hold,
     check_method_args,
@@ -48,6 +49,7 @@ from .basis_domain import (
     project_record,
     resolve_holds,
 )
+from .hermite_iv import ESTIMATORS, check_reference, reference_instruments
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 
@@ -116,6 +118,31 @@ def _real(x: Any, name: str, positive: bool = True) -> float:
     return x
 
 
+def _estimator(
+    estimator: Any,
+    reference: Any,
+    basis: Any,
+    t: Array,
+    lag: SolveLag,
+    p: int | None,
+    m: int,
+    l: int,
+) -> tuple[str, Array | None]:
+    """Resolve ``estimator``/``reference`` to ``(name, instrument rows or None)``."""
+    if not isinstance(estimator, str) or estimator not in ESTIMATORS:
+        raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    est = ("iv" if reference is not None else "ls") if estimator == "auto" else estimator
+    if est == "ls":
+        return est, None
+    if reference is None:
+        raise ValueError(
+            "estimator='iv' needs reference= (an external signal independent of the noise)"
+        )
+    r = check_reference(reference, t.size)
+    p_max = p if p is not None else P_DEFAULT_RANGE[1]
+    return est, reference_instruments(basis, t, r, lag, p_max * (m + l))
+
+
 def identify_hermite(
     t: Any,
     u: Any,
@@ -136,6 +163,8 @@ def identify_hermite(
     max_order: int | None = None,
     scale: float | None = None,
     input_hold: str = "auto",
+    estimator: str = "auto",
+    reference: Any = None,
 ) -> StateSpaceModel:
     """HD-PBSID (seed §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
@@ -162,7 +191,14 @@ def identify_hermite(
       (:func:`~hdpbsid.methods.basis_domain.project_record`);
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
-      as in :func:`hdpbsid.methods.dt.identify_dt`.
+      as in :func:`hdpbsid.methods.dt.identify_dt`;
+    * ``estimator="auto"``: ``"iv"`` (instrumental variables from ``reference``,
+      :mod:`hdpbsid.methods.hermite_iv`, consistent in closed loop) when a ``reference``
+      is given, else ``"ls"`` (least squares, HD-PBSID as published; biased when the
+      noise is correlated with the regressors, :mod:`hdpbsid.methods.hermite_iv`).
+      ``reference`` (Ns,) or (Ns, m_r): an external signal independent of the noise,
+      e.g. the excitation added to the command in closed loop, or the input itself in
+      open loop.
     """
     t, u, y = check_data(t, u, y)
     ns, m = u.shape
@@ -192,6 +228,7 @@ def identify_hermite(
     holds = resolve_holds(input_hold, m)
     Us, Yc = project_record(basis, t, u, y, holds)
     lag, _ = hermite_lag(basis.derivative_matrix("square"), alpha, beta, gamma)
+    est, Psi = _estimator(estimator, reference, basis, t, lag, p, m, y.shape[1])
     rows = [np.eye(N)[N - 1]]  # truncation of the last column of the cut operator
     if boundary:
         rows += list(basis.eval(np.array([t[0], t[-1]])).T)
@@ -211,6 +248,7 @@ def identify_hermite(
         feedthrough=feedthrough,
         stable_k=stable_k,
         normalize=normalize,
+        instruments=Psi,
     )
     options = {
         "method": "hermite",
@@ -224,6 +262,12 @@ def identify_hermite(
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": ns,
         "t0": float(t[0]),
+        "estimator": est,
+        "estimator_rule": (
+            "given"
+            if estimator != "auto"
+            else "auto: instrumental variables when a reference is given, else least squares"
+        ),
     }
     return integrator_model(
         out,

@@ -1,0 +1,108 @@
+"""Instrumental variables for HD-PBSID: a consistent estimator in closed loop.
+
+Why least squares is biased in the basis domain.  The VARX of HD-PBSID regresses the
+output coefficients ``Y`` on ``Z M^j`` (``Z = [U; Y]``, ``M = D'^{-1}`` the integrator lag
+of :mod:`hdpbsid.methods.hermite`).  For sampled data the lag is the shift ``S``, strictly
+causal: ``(Z S^j)_k`` holds only ``z_{k-j}``, so with white innovations
+``E[e_k (e S^j)_k] = 0``.  ``M`` is instead a full matrix with ``diag M != 0``: projected
+white noise has (nearly) white coefficients ``E`` with covariance ``sigma^2 I``, and
+
+    E[E (E M^j)^T] = sigma^2 tr(M^j) != 0,
+
+so every regressor ``Y M^j`` (and ``U M^j`` in closed loop, where ``U`` carries the
+fed-back noise) is correlated with the equation error and least squares converges to the
+wrong predictor.  The diagonal of ``M^j`` is largest for the low (slow) indices, where
+``D'`` is close to ``beta I / gamma``, and grows with ``alpha`` (``D' -> beta I / gamma``
+as ``alpha -> inf``).  The bias does not shrink with more data.
+
+The remedy here: instruments that are functions of an external signal ``r`` (the
+reference or excitation added in the loop), which is independent of the noise.  Its
+coefficient row ``R`` (projected like the input) lagged by the same operator,
+
+    Psi = [R; R M; R M^2; ...; R M^L],
+
+is uncorrelated with ``E`` for every ``L`` and correlated with the regressors (their
+noise-free parts are filtered ``r``).  The pseudo-input rows (boundary and truncation
+terms) are deterministic and are their own instruments.  Two-stage least squares on
+``Psi`` (:func:`hdpbsid.core.varx.two_stage_ls`) gives a consistent VARX, and ``C`` is read
+from ``Gamma`` (:func:`hdpbsid.core.pbsid.pbsid_core`).
+
+Number of lags: two-stage least squares needs at least as many instruments as regressors
+that are not their own instruments, ``p (m + l)`` per output; more instruments lower the
+variance but move the finite-sample estimate towards least squares (the bias of 2SLS
+grows with the number of instruments over the concentration of the instruments; Bound,
+Jaeger & Baker 1995).  :data:`INSTRUMENT_FACTOR` sets ``(L + 1) m_r = factor * p_max (m + l)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.varx import LagOperator
+from .basis_domain import project_record
+
+__all__ = ["ESTIMATORS", "INSTRUMENT_FACTOR", "check_reference", "reference_instruments"]
+
+Array = NDArray[np.float64]
+
+#: accepted values of ``estimator`` of :func:`hdpbsid.methods.hermite.identify_hermite`
+ESTIMATORS = ("auto", "ls", "iv")
+#: instruments per non-exogenous regressor (module docstring).  Measured on the
+#: closed-loop quadrotor at SNR 10 dB (8 runs, p = 4, median worst eigenvalue error):
+#: factor 1 -> 62 %, 2 -> 26 %, 4 -> 15 %, 6 -> 17 %, 8 -> 16 % (least squares: 24 %):
+#: with too few instruments 2SLS is weak (large spread), beyond ~4 nothing is gained
+INSTRUMENT_FACTOR = 4.0
+
+
+def check_reference(reference: Any, ns: int) -> Array:
+    """``reference`` as an ``(Ns, m_r)`` finite float array with ``Ns`` rows."""
+    try:
+        r = np.asarray(reference, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"reference must be a numeric array of Ns = {ns} samples, got "
+            f"{type(reference).__name__}"
+        ) from exc
+    if r.ndim == 1:
+        r = r[:, None]
+    if r.ndim != 2 or r.shape[0] != ns:
+        raise ValueError(
+            f"reference must have Ns = {ns} samples (shape (Ns,) or (Ns, m_r)), got shape {r.shape}"
+        )
+    if not np.all(np.isfinite(r)):
+        raise ValueError("reference must be finite (no NaN/inf)")
+    if not np.any(r):
+        raise ValueError("reference is identically zero: it cannot serve as an instrument")
+    return r
+
+
+def reference_instruments(
+    basis: Any,
+    t: Array,
+    reference: Array,
+    lag: LagOperator,
+    n_regressors: int,
+    hold: str = "zoh",
+) -> Array:
+    """The instrument rows ``[R; R M; ...; R M^L]`` (module docstring).
+
+    ``reference`` (Ns, m_r) is projected like an input with ``hold`` (any deterministic
+    function of ``r`` is a valid instrument; the hold only changes how strong it is).
+    ``n_regressors`` is the number of regressors to instrument, ``p_max (m + l)``; ``L``
+    gives ``ceil(INSTRUMENT_FACTOR * n_regressors)`` rows at least.  Rows are scaled to
+    unit RMS.
+    """
+    m_r = reference.shape[1]
+    R = project_record(basis, t, reference, reference[:, :1], (hold,))[0][0]
+    n_lags = int(np.ceil(INSTRUMENT_FACTOR * n_regressors / m_r))
+    rows = [R]
+    W = R
+    for _ in range(1, n_lags):
+        W = lag.apply(W, 1)
+        rows.append(W)
+    Psi = np.vstack(rows)
+    rms = np.sqrt(np.mean(Psi**2, axis=1))
+    return Psi[rms > 0] / rms[rms > 0, None]
