@@ -131,16 +131,15 @@ def _estimator(
     """Resolve ``estimator``/``reference`` to ``(name, instrument rows or None)``."""
     if not isinstance(estimator, str) or estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
-    est = ("iv" if reference is not None else "ls") if estimator == "auto" else estimator
-    if est == "ls":
-        return est, None
-    if reference is None:
+    r = None if reference is None else check_reference(reference, t.size)
+    if estimator == "ls":
+        return estimator, None
+    if r is None:
         raise ValueError(
             "estimator='iv' needs reference= (an external signal independent of the noise)"
         )
-    r = check_reference(reference, t.size)
     p_max = p if p is not None else P_DEFAULT_RANGE[1]
-    return est, reference_instruments(basis, t, r, lag, p_max * (m + l))
+    return estimator, reference_instruments(basis, t, r, lag, p_max * (m + l))
 
 
 def identify_hermite(
@@ -163,7 +162,7 @@ def identify_hermite(
     max_order: int | None = None,
     scale: float | None = None,
     input_hold: str = "auto",
-    estimator: str = "auto",
+    estimator: str = "ls",
     reference: Any = None,
 ) -> StateSpaceModel:
     """HD-PBSID (seed §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
@@ -192,13 +191,16 @@ def identify_hermite(
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.methods.dt.identify_dt`;
-    * ``estimator="auto"``: ``"iv"`` (instrumental variables from ``reference``,
-      :mod:`hdpbsid.methods.hermite_iv`, consistent in closed loop) when a ``reference``
-      is given, else ``"ls"`` (least squares, HD-PBSID as published; biased when the
-      noise is correlated with the regressors, :mod:`hdpbsid.methods.hermite_iv`).
-      ``reference`` (Ns,) or (Ns, m_r): an external signal independent of the noise,
-      e.g. the excitation added to the command in closed loop, or the input itself in
-      open loop.
+    * ``estimator="ls"``: least squares, HD-PBSID as published; biased when the noise is
+      correlated with the regressors, i.e. always in the basis domain and more so in
+      closed loop (:mod:`hdpbsid.methods.hermite_iv`).  ``"iv"``: instrumental variables
+      built from ``reference`` ((Ns,) or (Ns, m_r): an external signal independent of
+      the noise, e.g. the excitation added to the command in closed loop, or the input
+      in open loop), with ``C`` from the observability matrix.  Chosen by measurement
+      (closed-loop quadrotor, 12-30 runs, median worst eigenvalue error LS -> IV): 6 dB
+      46 -> 25 %, 10 dB 23 -> 19 %, 20 dB 3.0 -> 5.2 %, 50 dB 0.14 -> 0.4 %: IV removes
+      most of the bias but its variance is larger, so it wins only at low SNR and least
+      squares stays the default.
     """
     t, u, y = check_data(t, u, y)
     ns, m = u.shape
@@ -263,11 +265,7 @@ def identify_hermite(
         "n_samples": ns,
         "t0": float(t[0]),
         "estimator": est,
-        "estimator_rule": (
-            "given"
-            if estimator != "auto"
-            else "auto: instrumental variables when a reference is given, else least squares"
-        ),
+        "estimator_rule": "given" if estimator != "ls" else "default: least squares",
     }
     return integrator_model(
         out,

@@ -78,7 +78,7 @@ DEFAULT_MAX_NFEV = 150
 #: Levenberg-Marquardt tolerances: a relative cost change below 1e-10 is far below the
 #: statistical resolution (one parameter's standard deviation changes the cost by ~1 /
 #: (number of residuals), 1e-4 for 10^4 samples); scipy's defaults (1e-8) stopped on
-#: noisy finite-difference Jacobians before diff_step was set
+#: noisy finite-difference Jacobians (used before the analytic Jacobian)
 REFINE_FTOL = 1e-10
 REFINE_XTOL = 1e-8
 #: Levenberg-Marquardt evaluations per run before the local coordinates are re-centred:
