@@ -39,7 +39,6 @@ import slbasis
 from ..checks import check_data, check_positive_int
 from ..model import StateSpaceModel
 from .basis_domain import (
-    P_DEFAULT_RANGE,
     SolveLag,
     best_hold,
     check_method_args,
@@ -49,7 +48,7 @@ from .basis_domain import (
     project_record,
     resolve_holds,
 )
-from .hermite_iv import ESTIMATORS, check_reference, reference_instruments
+from .hermite_iv import resolve_estimator
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 
@@ -118,30 +117,6 @@ def _real(x: Any, name: str, positive: bool = True) -> float:
     return x
 
 
-def _estimator(
-    estimator: Any,
-    reference: Any,
-    basis: Any,
-    t: Array,
-    lag: SolveLag,
-    p: int | None,
-    m: int,
-    l: int,
-) -> tuple[str, Array | None]:
-    """Resolve ``estimator``/``reference`` to ``(name, instrument rows or None)``."""
-    if not isinstance(estimator, str) or estimator not in ESTIMATORS:
-        raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
-    r = None if reference is None else check_reference(reference, t.size)
-    if estimator == "ls":
-        return estimator, None
-    if r is None:
-        raise ValueError(
-            "estimator='iv' needs reference= (an external signal independent of the noise)"
-        )
-    p_max = p if p is not None else P_DEFAULT_RANGE[1]
-    return estimator, reference_instruments(basis, t, r, lag, p_max * (m + l))
-
-
 def identify_hermite(
     t: Any,
     u: Any,
@@ -198,7 +173,7 @@ def identify_hermite(
       the noise, e.g. the excitation added to the command in closed loop, or the input
       in open loop), with ``C`` from the observability matrix.  Chosen by measurement
       (closed-loop quadrotor, 12-30 runs, median worst eigenvalue error LS -> IV): 6 dB
-      46 -> 25 %, 10 dB 23 -> 19 %, 20 dB 3.0 -> 5.2 %, 50 dB 0.14 -> 0.4 %: IV removes
+      46 -> 25 %, 10 dB 23 -> 19 %, 20 dB 3.0 -> 5.2 %, 50 dB 0.14 -> 0.33 %: IV removes
       most of the bias but its variance is larger, so it wins only at low SNR and least
       squares stays the default.
     """
@@ -230,7 +205,7 @@ def identify_hermite(
     holds = resolve_holds(input_hold, m)
     Us, Yc = project_record(basis, t, u, y, holds)
     lag, _ = hermite_lag(basis.derivative_matrix("square"), alpha, beta, gamma)
-    est, Psi = _estimator(estimator, reference, basis, t, lag, p, m, y.shape[1])
+    est, Psi = resolve_estimator(estimator, reference, basis, t, lag, p, m, y.shape[1])
     rows = [np.eye(N)[N - 1]]  # truncation of the last column of the cut operator
     if boundary:
         rows += list(basis.eval(np.array([t[0], t[-1]])).T)

@@ -67,9 +67,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.varx import LagOperator
-from .basis_domain import project_record
+from .basis_domain import P_DEFAULT_RANGE, project_record
 
-__all__ = ["ESTIMATORS", "INSTRUMENT_FACTOR", "check_reference", "reference_instruments"]
+__all__ = [
+    "ESTIMATORS",
+    "INSTRUMENT_FACTOR",
+    "check_reference",
+    "reference_instruments",
+    "resolve_estimator",
+]
 
 Array = NDArray[np.float64]
 
@@ -131,3 +137,32 @@ def reference_instruments(
     Psi = np.vstack(rows)
     rms = np.sqrt(np.mean(Psi**2, axis=1))
     return Psi[rms > 0] / rms[rms > 0, None]
+
+
+def resolve_estimator(
+    estimator: Any,
+    reference: Any,
+    basis: Any,
+    t: Array,
+    lag: LagOperator,
+    p: int | None,
+    m: int,
+    l: int,
+) -> tuple[str, Array | None]:
+    """``(estimator, instrument rows or None)`` for the ``estimator``/``reference``
+    options of :func:`hdpbsid.methods.hermite.identify_hermite`.
+
+    ``reference`` is checked whenever given; ``"iv"`` needs it.  The instruments cover
+    the largest past window the core may use (``p``, else the top of the default range).
+    """
+    if not isinstance(estimator, str) or estimator not in ESTIMATORS:
+        raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
+    r = None if reference is None else check_reference(reference, t.size)
+    if estimator == "ls":
+        return estimator, None
+    if r is None:
+        raise ValueError(
+            "estimator='iv' needs reference= (an external signal independent of the noise)"
+        )
+    p_max = p if p is not None else P_DEFAULT_RANGE[1]
+    return estimator, reference_instruments(basis, t, r, lag, p_max * (m + l))
