@@ -296,8 +296,8 @@ def refine_pem(
     ``t`` must be uniformly sampled (relative spread ``<= 1e-6``; otherwise
     ``ValueError``).  ``hold``: how ``u`` behaves between samples, ``"zoh"`` or ``"foh"``;
     default: the model's ``options["input_hold"]`` when it is one of these, else
-    ``"zoh"``.  ``max_nfev`` bounds the Levenberg-Marquardt iterations (default
-    ``100 * (number of parameters + 1)``, scipy's).
+    ``"zoh"``.  ``max_nfev`` bounds the cost evaluations of Levenberg-Marquardt over all
+    starts together (default :data:`DEFAULT_MAX_NFEV`).
 
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``refine_cost`` (initial and final
