@@ -52,6 +52,12 @@ SNR       least squares                          IV (``estimator="iv"``)
 squares keeps its bias (pair 0.40, real 0.47, STD 0.06/0.11) while IV's shrinks (0.12,
 0.25): least squares is inconsistent, IV is not, up to the truncation term.
 
+The least-squares bias grows with ``alpha`` (``diag M`` grows): with ``alpha`` about half
+the default (3.04 rad/s against ``4 * scale`` = 6.1) least squares on the same records
+(12 runs) gave median errors 22 % at 6 dB, 13 % at 10 dB, 3.1 % at 20 dB and 0.20 % at
+50 dB (default: 46, 23, 3.0, 0.14 %); IV at that ``alpha``, 10 dB: 15 %, bias / STD 0.37
+(pair) and 0.36 (real pole).
+
 Number of lags: two-stage least squares needs at least as many instruments as regressors
 that are not their own instruments, ``p (m + l)`` per output; more instruments lower the
 variance but move the finite-sample estimate towards least squares (the bias of 2SLS
