@@ -9,12 +9,13 @@ uses nothing of ``hdpbsid`` but the input checks.
 """
 
 from .pbsid import CoreResult, pbsid_core
-from .varx import LagOperator, MatrixLag, SampleShift, VarxResult, varx
+from .varx import LagOperator, MatrixLag, SampleShift, VarxResult, two_stage_ls, varx
 
 __all__ = [
     "pbsid_core",
     "CoreResult",
     "varx",
+    "two_stage_ls",
     "VarxResult",
     "LagOperator",
     "MatrixLag",

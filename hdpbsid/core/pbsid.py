@@ -207,6 +207,8 @@ def pbsid_core(
     ridge_floor: float = 0.0,
     stable_k: bool = False,
     max_order: int | None = None,
+    instruments: Array | None = None,
+    exogenous: tuple[int, ...] = (),
 ) -> CoreResult:
     """Identify ``(A, B, C, D, K)`` of the innovation model in the lag-operator domain.
 
@@ -221,6 +223,24 @@ def pbsid_core(
 
     ``f`` defaults to ``p`` (``f <= p`` is required).  The returned ``noise_covariance``
     is the sample covariance of ``E``.
+
+    ``instruments`` (rows on the columns of ``U, Y``; ``exogenous``: rows of ``[U; Y]``
+    that are their own instruments) makes the estimator consistent when the regressors
+    are correlated with the innovations (:func:`hdpbsid.core.varx.varx`):
+
+    1. the VARX by instrumental variables;
+    2. unchanged;
+    3. ``C`` is read from the extended observability matrix instead of regressed:
+       ``Gamma L Zp = U S V^T`` with ``X = S_n^{1/2} V_n^T`` means ``Gamma = U_n S_n^{1/2}``,
+       whose first block row is ``C`` (Verhaegen & Verdult, *Filtering and System
+       Identification*, 2007, sec. 9.2.4).  The regression ``Y = C X + E`` would be
+       biased again, since ``X`` is built from the same noisy past as the VARX; ``C``
+       from ``Gamma`` inherits the consistency of the IV VARX.  ``A, B, K`` then solve
+       ``X = A lag(X) + B lag(U) + K lag(E)`` with ``E = Y - C X``: substituting
+       ``lag(Y) = C lag(X) + lag(E)`` this is the predictor recursion
+       ``X = At lag(X) + Bt lag(Z)``, which the state ``X = L Zp`` satisfies up to the
+       truncation ``At^p`` without any noise term, so least squares is consistent there.
+       ``D`` (with ``feedthrough``) is the VARX's.
     """
     lag = SampleShift() if lag is None else lag
     m, l = U.shape[0], Y.shape[0]
@@ -233,10 +253,18 @@ def pbsid_core(
             f"increase f (and p) or reduce the order"
         )
     vx = varx(
-        U, Y, p, lag=lag, feedthrough=feedthrough, regularize=regularize, ridge_floor=ridge_floor
+        U,
+        Y,
+        p,
+        lag=lag,
+        feedthrough=feedthrough,
+        regularize=regularize,
+        ridge_floor=ridge_floor,
+        instruments=instruments,
+        exogenous=exogenous,
     )
     LK = gamma_l(vx.coef, p, f, m, l)
-    Xall, s, _ = state_sequence(LK, vx.Zp, None)
+    Xall, s, Ug = state_sequence(LK, vx.Zp, None)
     info: dict = {}
     if order is None:
         n, info = select_order(s, max_order)
@@ -249,7 +277,12 @@ def pbsid_core(
         )
     X = Xall[:n]
     cols = vx.columns
-    C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
+    if instruments is None:
+        C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
+    else:
+        C = Ug[:l, :n] * np.sqrt(s[:n])[None, :]
+        D = vx.D
+        E = Y[:, cols] - C @ X - D @ U[:, cols]
     A, B, K, W, V = estimate_abk(X, U, E, cols, Y.shape[1], lag)
     k_method = "least squares"
     if stable_k:
@@ -276,7 +309,11 @@ def pbsid_core(
         "stable_k": stable_k,
         "k_method": k_method,
         "lag": repr(lag),
+        "estimator": "iv" if instruments is not None else "ls",
     }
+    if instruments is not None:
+        options["instruments"] = vx.extra.get("instruments")
+        options["c_method"] = "first block row of Gamma"
     if info:
         options["order_criterion"] = info["criterion"]
         options["max_order"] = max_order

@@ -22,6 +22,7 @@ sec. 7.4).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -37,6 +38,7 @@ __all__ = [
     "VarxResult",
     "ridge_gcv",
     "varx",
+    "two_stage_ls",
     "select_past_window",
 ]
 
@@ -251,6 +253,44 @@ def ridge_gcv(
     return _ridge_from_svd(Ur, s, Vt, QtY, lam_opt).T, lam_opt, g_best
 
 
+def two_stage_ls(
+    Phi: Array,
+    Y: Array,
+    Psi: Array,
+    lam: float | None = None,
+    floor: float = 0.0,
+) -> tuple[Array, float, float | None, dict]:
+    """Instrumental-variable estimate of ``Y = Theta Phi + E`` (two-stage least squares).
+
+    ``Phi`` (d x N) regressors, ``Y`` (l x N) targets, ``Psi`` (k x N, ``k >= d``)
+    instruments: rows uncorrelated with ``E`` and correlated with ``Phi``.  With ``Q``
+    (N x r) an orthonormal basis of the row space of ``Psi`` (``r`` its numerical rank),
+    the regressors are replaced by their projection ``Phi Q Q^T`` on the instruments, so
+
+        Theta = (Y Q)(Phi Q)^T [(Phi Q)(Phi Q)^T]^{-1},
+
+    the generalised IV estimator with weighting ``(Psi Psi^T)^{-1}`` (Soderstrom & Stoica
+    1983, eq. (3.9)): ``Y Q = Theta Phi Q + E Q`` and ``E Q -> 0`` relative to ``Phi Q``
+    when ``Psi`` is uncorrelated with ``E`` (consistency).  The projected regression
+    (``r`` columns) goes through :func:`ridge_gcv` (``lam``/``floor`` as there; ``lam=0``
+    plain IV).  Returns ``(Theta, lam, G, info)``.
+    """
+    d = Phi.shape[0]
+    scale = np.sqrt(np.mean(Psi**2, axis=1))
+    Psi = Psi[scale > 0] / scale[scale > 0, None]
+    Uq, sq, _ = np.linalg.svd(Psi.T, full_matrices=False)
+    r = int(np.sum(sq > sq[0] * max(Psi.shape) * np.finfo(float).eps)) if sq.size else 0
+    if r < d:
+        raise ValueError(
+            f"instrumental variables need at least as many independent instruments as "
+            f"regressors: {r} instruments (numerical rank) for {d} regressors; supply more "
+            f"instrument rows (e.g. more lags of the reference)"
+        )
+    Q = Uq[:, :r]
+    theta, lam_used, g = ridge_gcv(Phi @ Q, Y @ Q, lam, floor=floor)
+    return theta, lam_used, g, {"estimator": "iv", "instruments": r}
+
+
 def _parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
     """Map the user option to ``(kind, lam)``: kind in {"none", "gcv", "fixed"}."""
     if regularize is None or regularize is False:
@@ -282,6 +322,8 @@ def varx(
     feedthrough: bool = False,
     regularize: bool | str | float | None = False,
     ridge_floor: float = 0.0,
+    instruments: Array | None = None,
+    exogenous: Sequence[int] = (),
 ) -> VarxResult:
     """Estimate the VARX predictor ``y_k = sum_j Xi_j z_{k-j} + D u_k + e_k``.
 
@@ -291,6 +333,17 @@ def varx(
     feedthrough, since then ``u_k`` is correlated with ``e_k``).  ``regularize`` selects
     plain least squares (``False``), ridge with GCV (``True``/``"gcv"``) or ridge with a
     given parameter (a float); see :func:`ridge_gcv`.
+
+    ``instruments`` (k x N, rows = instrument signals on the same columns as ``U, Y``)
+    switches to instrumental variables (two-stage least squares,
+    :func:`hdpbsid.core.instruments.two_stage_ls`): the instrument set is these rows plus
+    the lagged blocks of the rows of ``Z = [U; Y]`` listed in ``exogenous`` (signals
+    known to be uncorrelated with ``e``, e.g. pseudo-inputs, which are their own
+    instruments).  Least squares is consistent only when every regressor is uncorrelated
+    with ``e_k``; with a lag that is not strictly causal in the index (a basis-domain
+    operator) or with fed-back noise that fails, and IV with instruments independent of
+    the noise restores consistency (Soderstrom & Stoica, *Instrumental variable methods
+    for system identification*, 1983, ch. 3).
     """
     lag = SampleShift() if lag is None else lag
     m, l = U.shape[0], Y.shape[0]
@@ -309,7 +362,27 @@ def varx(
         )
     kind, lam = _parse_regularize(regularize)
     gcv_val = None
-    if kind == "none":
+    extra: dict = {}
+    if instruments is not None:
+        Psi = np.asarray(instruments, dtype=float)
+        if Psi.ndim != 2 or Psi.shape[1] != Z.shape[1]:
+            raise ValueError(
+                f"instruments must be a 2-D array with {Z.shape[1]} columns (one per data "
+                f"column), got shape {Psi.shape}"
+            )
+        exo = [int(i) for i in exogenous]
+        if any(i < 0 or i >= m + l for i in exo):
+            raise ValueError(f"exogenous must index rows of [U; Y] (0..{m + l - 1}), got {exo}")
+        exo_rows = [b * (m + l) + i for b in range(p) for i in exo]
+        Psi = np.vstack([Psi[:, cols], Zp[exo_rows]])
+        theta, lam_used, gcv_val, extra = two_stage_ls(
+            Phi,
+            Yc,
+            Psi,
+            lam if kind == "fixed" else (None if kind == "gcv" else 0.0),
+            floor=ridge_floor if kind == "gcv" else 0.0,
+        )
+    elif kind == "none":
         # minimum-norm least squares from the R factor (same rcond as numpy.linalg.lstsq)
         R = r_factor(Phi, Yc)
         rcond = np.finfo(float).eps * max(Phi.shape)
@@ -334,6 +407,7 @@ def varx(
         ridge=lam_used,
         regularize=kind,
         gcv=gcv_val,
+        extra=extra,
     )
 
 
