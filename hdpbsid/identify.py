@@ -145,7 +145,7 @@ def identify(
     ``t (Ns,)``, ``u (Ns, m)`` (or ``None`` for no input), ``y (Ns, l)`` follow
     :func:`scipy.signal.lsim` (1-D for one channel).  ``order=None`` lets the method
     choose from the singular values.  ``method`` names an entry of :data:`METHODS`
-    (``"hermite"`` HD-PBSID, the default per DESIGN.md; ``"laguerre"``,
+    (``"hermite"`` HD-PBSID, the default; ``"laguerre"``,
     ``"legendre"``, ``"dt"``; see :func:`available_methods`).  ``options`` go to the
     method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
 

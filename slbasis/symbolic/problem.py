@@ -221,7 +221,7 @@ class SturmLiouville:
     @property
     def interval(self) -> tuple[sp.Expr, sp.Expr]:
         """``(a, b)``: positive weight, vanishing boundary terms ``p0 w f g``."""
-        return self.weight_form.interval
+        return self._out(self.weight_form.interval)
 
     @property
     def boundary(self) -> tuple[str, str]:
