@@ -46,6 +46,15 @@ def test_doc_examples_run(page: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert result.failed == 0, f"{page.name}: {result.failed} of {result.attempted} failed"
 
 
+@pytest.mark.parametrize("module", ["slbasis.symbolic.problem", "slbasis.families"])
+def test_docstring_examples_of_the_api_pages_run(module: str) -> None:
+    """The ``Examples`` of the docstrings the API reference shows (doctest)."""
+    result = doctest.testmod(
+        importlib.import_module(module), optionflags=doctest.NORMALIZE_WHITESPACE, verbose=False
+    )
+    assert result.attempted > 0 and result.failed == 0, result
+
+
 # ----- the architecture page ---------------------------------------------------------------
 _TREE_LINE = re.compile(r"^(?P<indent>(?:[│ ] {3})*)(?:├── |└── )?(?P<name>[\w*.]+/?)")
 
