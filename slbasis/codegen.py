@@ -99,7 +99,7 @@ def _rational(expr: sp.Expr) -> sp.Expr:
 
 def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
     """Source code of the kernel module for ``problem`` (functions frame)."""
-    p = problem
+    p = problem.canonical
     cf = p.closed
     params = tuple(p.params)
     pnames = {s: f"{s.name}" for s in params}

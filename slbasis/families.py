@@ -99,7 +99,7 @@ def _hermite() -> tuple[SturmLiouville, Oracle]:
 
 def _hermite_functions() -> tuple[SturmLiouville, Oracle]:
     prob = SturmLiouville(1, 0, X**2, standardization=(-1) ** N, name="Hermite functions h_n")
-    # seed eq. (3): d/dx h_n = sqrt(n/2) h_{n-1} - sqrt((n+1)/2) h_{n+1}; times 2:
+    # eq. (3) of the thesis: d/dx h_n = sqrt(n/2) h_{n-1} - sqrt((n+1)/2) h_{n+1}; times 2:
     bands = {"sub": sp.sqrt(2 * N), "diag": sp.Integer(0), "sup": -sp.sqrt(2 * (N + 1))}
     oracle = Oracle(
         polynomial=lambda n: sp.hermite(n, X),
@@ -124,7 +124,7 @@ def _laguerre(alpha: sp.Expr) -> tuple[SturmLiouville, Oracle]:
         norm2=sp.gamma(N + alpha + 1) / sp.factorial(N),
         # DLMF 18.9.13: (n+1) L_{n+1} = (2n+alpha+1-x) L_n - (n+alpha) L_{n-1}
         recurrence=(-(N + 1), 2 * N + alpha + 1, -(N + alpha)),
-        # DESIGN.md (alpha = 0): t d/dt l_n = ((n+1) l_{n+1} - l_n - n l_{n-1})/2
+        # textbook sign (alpha = 0): t d/dt l_n = ((n+1) l_{n+1} - l_n - n l_{n-1})/2
         derivative=(
             ("functions", {"sub": -N, "diag": sp.Integer(-1), "sup": N + 1}, 0)
             if alpha == 0
@@ -176,7 +176,7 @@ def _jacobi(alpha: sp.Expr, beta: sp.Expr) -> tuple[SturmLiouville, Oracle]:
 
 def _legendre() -> tuple[SturmLiouville, Oracle]:
     prob = _jacobi_like(0, 0, (-1) ** N / (2**N * sp.factorial(N)), "Legendre P_n", ())
-    # DESIGN.md: (1-x^2) p_n' = n(n+1)/sqrt((2n-1)(2n+1)) p_{n-1}
+    # Legendre structure relation: (1-x^2) p_n' = n(n+1)/sqrt((2n-1)(2n+1)) p_{n-1}
     #                          - n(n+1)/sqrt((2n+1)(2n+3)) p_{n+1}   (w = 1: functions = p_n)
     bands = {
         "sub": 2 * N * (N + 1) / sp.sqrt((2 * N - 1) * (2 * N + 1)),

@@ -11,7 +11,7 @@ and lives here, once:
   parameters (Chebyshev T at ``n = 0``, Jacobi ``alpha + beta = 0`` in ``B_0``, Gegenbauer
   ``lambda < 0``) never reach the numbers;
 * ``derivative_bands(N)``: ``2 p0 d/dx = (J Lambda - Lambda J) - p0'(J)`` on
-  ``phi_n = sqrt(w) p_n`` (seed eq. 11 in commutator form, proved equal to the ladder form):
+  ``phi_n = sqrt(w) p_n`` (eq. 11 in commutator form, proved equal to the ladder form):
   ``sup_n = A_{n+1}(lambda_n - lambda_{n+1} - 2 c2)``, ``diag_n = -(2 c2 B_n + c1)``,
   ``sub_n = A_n(lambda_n - lambda_{n-1} - 2 c2)`` for ``p0 = c0 + c1 x + c2 x^2``;
 * ``log_phi0(x) = log(w)/2 - log(∫ w)/2`` with the sign of ``c_0`` (``-inf`` outside the

@@ -4,7 +4,7 @@ Convention: a function ``f = sum_n c_n phi_n`` is its coefficient column ``c``; 
 operator ``L`` is the matrix with ``(L phi_n) = sum_m M[m, n] phi_m``, so ``L f`` has
 coefficients ``M @ c``. Column ``n`` is the image of ``phi_n``.
 
-Truncation is explicit (DESIGN.md, "slbasis: the numeric layer"): the image of
+Truncation is explicit: the image of
 ``phi_0..phi_{N-1}`` under a tridiagonal operator lives in ``phi_0..phi_N``, so the exact
 matrix is rectangular ``(N+1) x N``. The square ``N x N`` cut has exact entries but drops
 row ``N``; used as an operator on a series that is *not* band-limited to ``N`` terms it is
@@ -14,7 +14,7 @@ also wrong in its last row, by the coupling to the discarded ``c_N`` (Hermite fu
 * :func:`multiplication_matrix` -- the Jacobi matrix ``x phi_n = A_n phi_{n-1} + b_n phi_n
   + A_{n+1} phi_{n+1}`` (exact, tridiagonal, sparse).
 * :func:`derivative_operator` -- ``2 p0(x) d/dx`` from ``kernel.derivative_bands`` (exact,
-  tridiagonal, sparse; DESIGN.md / seed eq. 11).
+  tridiagonal, sparse; eq. 11).
 * :func:`derivative_matrix` -- ``d/dx`` itself. For constant ``p0 = c0`` it is
   ``derivative_operator / (2 c0)``: exact, sparse, ``q = 1`` extra row. Otherwise it is in
   general dense (Laguerre functions: ``l_n' = -l_n/2 - sum_{k<n} l_k``; Legendre:

@@ -1,6 +1,6 @@
 """Closed forms in the symbolic index ``n`` for ``p0 P'' + p1 P' + lambda P = 0``.
 
-Notation: ``p0 = a x^2 + b x + c``, ``p1 = d x + e``; the Rodrigues polynomials (seed eq. 10)
+Notation: ``p0 = a x^2 + b x + c``, ``p1 = d x + e``; the Rodrigues polynomials (eq. 10)
 ``P_n = c_n / w * (d/dx)^n (w p0^n)`` with standardisation constants ``c_n``; leading
 coefficients ``P_n = k_n x^n + k'_n x^(n-1) + k''_n x^(n-2) + ...``.
 
@@ -96,7 +96,7 @@ class ClosedForms:
 
     # ----- building blocks -------------------------------------------------------------
     def c(self, n: sp.Expr) -> sp.Expr:
-        """Rodrigues standardisation constant ``c_n`` of seed eq. (10)."""
+        """Rodrigues standardisation constant ``c_n`` of eq. (10)."""
         return self.c_n.subs(N, n)
 
     @cached_property
@@ -168,7 +168,7 @@ class ClosedForms:
         return _simplify(gamma.subs(N, N + 1) * self.kappa_free)
 
     def norm_squared(self, start: int = 0, start_value: sp.Expr | None = None) -> sp.Expr:
-        """``d_n^2 = (c_n/c_s)^2 d_s^2 prod_{s<=j<n} gamma_{j+1} kappa_j`` (seed eq. 7).
+        """``d_n^2 = (c_n/c_s)^2 d_s^2 prod_{s<=j<n} gamma_{j+1} kappa_j`` (eq. 7).
 
         ``s = start`` anchors the product above degenerate small indices (Chebyshev T:
         ``s = 1``); ``start_value`` is ``d_s^2`` (default ``d_0^2``).

@@ -1,7 +1,7 @@
 """Exact computations for concrete ``n`` from first principles (the in-house oracle).
 
 Nothing here uses the closed forms in ``n``: polynomials come from Rodrigues' formula
-(seed eq. 10), norms from exact integrals of the weight (Euler integrals of its normal form),
+(eq. 10), norms from exact integrals of the weight (Euler integrals of its normal form),
 and expansions from triangular solves on the monomial coefficients.  The verification
 compares the closed forms against these values, and the closed forms fall back to them at
 the few small ``n`` where a cancelled factor makes a closed form degenerate (Chebyshev T at
@@ -85,7 +85,7 @@ class DirectComputation:
 
     @cache  # noqa: B019 - one instance per problem
     def norm2(self, n: int) -> sp.Expr:
-        """``d_n^2 = ∫ P_n^2 w`` (seed eq. 7), exactly."""
+        """``d_n^2 = ∫ P_n^2 w`` (eq. 7), exactly."""
         return gamma_simplify(self.c(n) ** 2 * self.form.total_mass * self.norm2_ratio(n))
 
     def integrate(self, poly: sp.Poly) -> sp.Expr:

@@ -1,4 +1,4 @@
-"""Ladder operators and the banded derivative operator ``2 p0 d/dx`` (seed eq. 11).
+"""Ladder operators and the banded derivative operator ``2 p0 d/dx`` (eq. 11).
 
 Conventions (the summary's eq. 11 mixes several; these are ours, used everywhere):
 

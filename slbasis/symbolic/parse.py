@@ -1,4 +1,4 @@
-"""Parsing and validating the coefficients ``p0, p1, q0`` of the eigenproblem (seed eq. 8).
+"""Parsing and validating the coefficients ``p0, p1, q0`` of the eigenproblem (eq. 8).
 
 ``p0(x) f'' + p1(x) f' - q0(x) f = -lambda f``.  ``p0`` and ``p1`` must be polynomials in the
 independent variable; ``q0`` a polynomial or a rational function (rational ``q0`` arise from
@@ -108,7 +108,7 @@ def parse_coefficients(
         if not exprs[name].is_polynomial(X):
             raise ValueError(
                 f"{name}={exprs[name]} is not a polynomial in {var_name}; "
-                "the classical theory (seed eq. 8-10) needs polynomial p0 and p1"
+                "the classical theory (eq. 8-10) needs polynomial p0 and p1"
             )
     if not exprs["q0"].is_rational_function(X):
         raise ValueError(f"q0={exprs['q0']} is not a polynomial or rational function of {var_name}")

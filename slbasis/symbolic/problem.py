@@ -1,9 +1,12 @@
-"""``SturmLiouville``: everything derivable from ``p0, p1, q0`` (seed §4, eqs. 6-11)."""
+"""``SturmLiouville``: everything derivable from ``p0, p1, q0`` (eqs. 6-11 of the thesis
+"Continuous-time system identification with functional basis expansions", §4)."""
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable
 from functools import cache, cached_property
+from typing import TypeVar
 
 import sympy as sp
 
@@ -22,32 +25,70 @@ from .parse import Coefficient, N, X, parse_coefficients
 from .weight import WeightForm, classify
 
 FRAMES = ("functions", "polynomials", "eigenfunctions")
+_T = TypeVar("_T")
 #: Indices below this are checked against direct computation (see :meth:`exceptional`).
 _SMALL_N = 4
 
 
 class SturmLiouville:
-    """The eigenproblem ``p0 f'' + p1 f' - q0 f = -lambda f`` (seed eq. 8), derived exactly.
+    """The eigenproblem ``p0 f'' + p1 f' - q0 f = -lambda f`` (eq. 8), derived exactly.
 
     Parameters
     ----------
-    p0, p1 : polynomials in ``x`` (strings, numbers or sympy expressions); ``deg p0 <= 2``
-        and, for polynomial eigenfunctions, ``deg p1 <= 1``.
-    q0 : polynomial or rational function; ``q0 != 0`` must be a gauge (Liouville) transform
+    p0, p1 : str, number or sympy expression
+        Polynomials in the independent variable; ``deg p0 <= 2`` and, for polynomial
+        eigenfunctions, ``deg p1 <= 1``.
+    q0 : str, number or sympy expression, default 0
+        Polynomial or rational function; ``q0 != 0`` must be a gauge (Liouville) transform
         of a polynomial problem (e.g. ``p0=1, p1=0, q0=x**2``: Hermite functions).
-    var : name of the independent variable used in the inputs (default ``"x"``).
-    params : names of parameter symbols (e.g. ``("alpha", "beta")``).
-    standardization : Rodrigues constant ``c_n`` of eq. (10) as an expression in ``n``;
-        default ``(-1)^n`` if ``p0 > 0`` on the interval (else ``1``), which makes every
-        leading coefficient positive.
-    name : label used in reports.
-    gauge : for ``q0 != 0`` with several admissible gauges (limit-circle endpoints), the
-        ``p1~`` of the polynomial problem to use; default: the most regular one.
+    x : str or sympy.Symbol, optional
+        The independent variable: the name used in the inputs *and* the symbol every
+        returned expression is written in.  A symbol is used as given (its own
+        assumptions), so ``expr.subs(my_x, 0.3)`` works; a string ``"t"`` means
+        ``Symbol("t", real=True)``.  Default: ``Symbol("x", real=True)``.
+    n : str or sympy.Symbol, optional
+        The index symbol of closed forms in ``n`` (``eigenvalue()``, ``norm2()``, bands of
+        ``derivative_operator()``).  A string means a non-negative integer symbol.
+        Default: ``Symbol("n", integer=True, nonnegative=True)``.
+    var : str or sympy.Symbol, default "x"
+        Older spelling: names the variable in the inputs only; the outputs stay in the
+        default ``x``.  Give ``x`` instead to get the outputs in your symbol.
+    params : iterable of str or sympy.Symbol
+        Parameter symbols (e.g. ``("alpha", "beta")``); symbols are kept as given.
+    standardization : str or sympy expression, optional
+        Rodrigues constant ``c_n`` of eq. (10) as an expression in ``n``; default
+        ``(-1)^n`` if ``p0 > 0`` on the interval (else ``1``), which makes every leading
+        coefficient positive.
+    name : str, optional
+        Label used in reports.
+    gauge : str or sympy expression, optional
+        For ``q0 != 0`` with several admissible gauges (limit-circle endpoints), the ``p1~``
+        of the polynomial problem to use; default: the most regular one.
 
-    Everything is a sympy expression in the canonical symbols ``x`` (:data:`X`) and ``n``
-    (:data:`N`).  Closed forms in ``n`` hold for all ``n >= 0`` except the indices in
+    Notes
+    -----
+    Every public expression is written in :attr:`x` and :attr:`n`.  sympy treats two
+    symbols with the same name but different assumptions as *different*, so substituting
+    ``sp.Symbol("x")`` into an expression in the default real ``x`` silently changes nothing:
+    substitute :attr:`x` (``prob.weight.subs(prob.x, 0.5)``) or pass your symbol as ``x=``.
+    The derivation itself runs in the canonical symbols (:attr:`canonical`); the internal
+    objects (:attr:`closed`, :attr:`direct`, :attr:`ladder`, :attr:`gauge`) stay in them.
+
+    Closed forms in ``n`` hold for all ``n >= 0`` except the indices in
     :attr:`exceptional`, where a cancelled factor makes them degenerate; the per-``n``
     accessors (``norm2(3)``, ``jacobi_matrix(N)``, ...) handle those exactly.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> t = sp.Symbol("t")
+    >>> prob = SturmLiouville("1 - t**2", "-2*t", x=t)   # Legendre in your own symbol
+    >>> prob.eigenfunction(2)
+    12*t**2 - 4
+    >>> prob.eigenfunction(2).subs(t, sp.Rational(1, 2))
+    -1
+    >>> prob.eigenvalue()
+    n**2 + n
     """
 
     def __init__(
@@ -56,37 +97,53 @@ class SturmLiouville:
         p1: Coefficient,
         q0: Coefficient = 0,
         *,
-        var: str | sp.Symbol = "x",
+        x: str | sp.Symbol | None = None,
+        n: str | sp.Symbol | None = None,
+        var: str | sp.Symbol | None = None,
         params: Iterable[str | sp.Symbol] = (),
         standardization: Coefficient | None = None,
         name: str | None = None,
         gauge: Coefficient | None = None,
     ) -> None:
+        #: The symbol of the independent variable in every returned expression.
+        self.x: sp.Symbol = _user_symbol(x, "x", X, real=True)
+        #: The index symbol of every closed form in ``n``.
+        self.n: sp.Symbol = _user_symbol(n, "n", N, integer=True, nonnegative=True)
+        if self.x.name == self.n.name:
+            raise ValueError(f"x and n must have different names, both are {self.x.name!r}")
+        if var is not None and x is not None and _name(var) != self.x.name:
+            raise ValueError(f"var={_name(var)!r} and x={self.x.name!r} name different variables")
+        if var is None:
+            var = self.x if x is not None else "x"
+        params = tuple(params)
+        if n is not None and any(_name(p) == self.n.name for p in params):
+            raise ValueError(f"params: {self.n.name!r} is the index symbol n, not a parameter")
+        self._user = {} if (self.x == X and self.n == N) else {X: self.x, N: self.n}
         self.coefficients = parse_coefficients(p0, p1, q0, var=var, params=params)
         c = self.coefficients
-        self.p0, self.p1, self.q0 = c.p0, c.p1, c.q0
         self.params = c.params
-        self.name = name or f"p0={self.p0}, p1={self.p1}" + (f", q0={self.q0}" if self.q0 else "")
+        self.name = name or f"p0={self._out(c.p0)}, p1={self._out(c.p1)}" + (
+            f", q0={self._out(c.q0)}" if c.q0 else ""
+        )
         self.gauge: Gauge | None
-        if self.q0 == 0:
+        if c.q0 == 0:
             self.gauge = None
-            self.weight_form: WeightForm = classify(self.p0, self.p1)
+            self.weight_form: WeightForm = classify(c.p0, c.p1)
         else:
             prefer = None
             if gauge is not None:
-                prefer = parse_coefficients(self.p0, gauge, var=var, params=self.params).p1
-            self.gauge = find_gauge(self.p0, self.p1, self.q0, prefer)
+                prefer = parse_coefficients(c.p0, gauge, var=var, params=self.params).p1
+            self.gauge = find_gauge(c.p0, c.p1, c.q0, prefer)
             self.weight_form = self.gauge.weight_form
-        #: ``p1`` of the underlying polynomial problem (``p1~``; equal to ``p1`` if ``q0 = 0``).
-        self.p1_poly = self.p1 if self.gauge is None else self.gauge.p1_poly
+        self._p1_poly = c.p1 if self.gauge is None else self.gauge.p1_poly
         if standardization is None:
-            self.standardization = (-sp.Integer(self.weight_form.p0_sign)) ** N
+            self._standardization = (-sp.Integer(self.weight_form.p0_sign)) ** N
         else:
-            self.standardization = sp.sympify(standardization, locals={"n": N})
-            self.standardization = self.standardization.subs(sp.Symbol("n"), N)
+            std = sp.sympify(standardization, locals={"n": N, self.n.name: N})
+            self._standardization = std.subs({sp.Symbol("n"): N, self.n: N})
         self.closed = ClosedForms(
-            PolynomialData.from_exprs(self.p0, self.p1_poly),
-            self.standardization,
+            PolynomialData.from_exprs(c.p0, self._p1_poly),
+            self._standardization,
             self.weight_form.total_mass,
             self.weight_form.p0_sign,
         )
@@ -94,8 +151,60 @@ class SturmLiouville:
         #: Textbook closed forms (set by the catalogue; used only by :meth:`verify`).
         self.oracle = None
         self.direct = DirectComputation(
-            self.p0, self.p1_poly, self.standardization, self.weight_form
+            c.p0, self._p1_poly, self._standardization, self.weight_form
         )
+
+    # ----- symbols -------------------------------------------------------------------------
+    def _out(self, value: _T) -> _T:
+        """``value`` (expression, matrix, tuple or dict of them) in the user's symbols."""
+        if not self._user:
+            return value
+        if isinstance(value, dict):
+            return {k: self._out(v) for k, v in value.items()}  # type: ignore[return-value]
+        if isinstance(value, tuple):
+            return tuple(self._out(v) for v in value)  # type: ignore[return-value]
+        if isinstance(value, sp.Basic | sp.MatrixBase):
+            return value.xreplace(self._user)  # type: ignore[return-value]
+        return value
+
+    @cached_property
+    def canonical(self) -> SturmLiouville:
+        """This problem with the canonical symbols (:data:`~slbasis.symbolic.parse.X`,
+        :data:`~slbasis.symbolic.parse.N`): what verification, reports and code
+        generation read.  ``self`` when the defaults are in use."""
+        if not self._user:
+            return self
+        twin = copy.copy(self)
+        twin.__dict__ = {
+            k: v for k, v in self.__dict__.items() if k not in ("canonical", "_verified")
+        }
+        twin.x, twin.n, twin._user, twin._verified = X, N, {}, {}
+        return twin
+
+    @property
+    def p0(self) -> sp.Expr:
+        """``p0`` as parsed (a polynomial in :attr:`x`)."""
+        return self._out(self.coefficients.p0)
+
+    @property
+    def p1(self) -> sp.Expr:
+        """``p1`` as parsed (a polynomial in :attr:`x`)."""
+        return self._out(self.coefficients.p1)
+
+    @property
+    def q0(self) -> sp.Expr:
+        """``q0`` as parsed (a rational function of :attr:`x`)."""
+        return self._out(self.coefficients.q0)
+
+    @property
+    def p1_poly(self) -> sp.Expr:
+        """``p1`` of the underlying polynomial problem (``p1~``; equal to ``p1`` if ``q0 = 0``)."""
+        return self._out(self._p1_poly)
+
+    @property
+    def standardization(self) -> sp.Expr:
+        """The Rodrigues constant ``c_n`` of eq. (10), in :attr:`n`."""
+        return self._out(self._standardization)
 
     def __repr__(self) -> str:
         return (
@@ -112,7 +221,7 @@ class SturmLiouville:
     @property
     def interval(self) -> tuple[sp.Expr, sp.Expr]:
         """``(a, b)``: positive weight, vanishing boundary terms ``p0 w f g``."""
-        return self.weight_form.interval
+        return self._out(self.weight_form.interval)
 
     @property
     def boundary(self) -> tuple[str, str]:
@@ -144,15 +253,20 @@ class SturmLiouville:
 
     @property
     def polynomial_weight(self) -> sp.Expr:
-        """Weight ``w~`` of the polynomial problem in normal form (eq. 9)."""
-        return self.weight_form.weight
+        """Weight ``w~`` of the polynomial problem in normal form (eq. 9), in :attr:`x`."""
+        return self._out(self.weight_form.weight)
 
     @cached_property
-    def weight(self) -> sp.Expr:
-        """Weight of *this* problem (eq. 9); ``w = w~ / g^2`` for a gauge problem."""
+    def _weight(self) -> sp.Expr:
         if self.gauge is None:
-            return self.polynomial_weight
-        return sp.simplify(sp.powsimp(self.polynomial_weight / self.gauge.factor**2, force=True))
+            return self.weight_form.weight
+        return sp.simplify(sp.powsimp(self.weight_form.weight / self.gauge.factor**2, force=True))
+
+    @property
+    def weight(self) -> sp.Expr:
+        """Weight of *this* problem (eq. 9), in :attr:`x`; ``w = w~ / g^2`` for a gauge
+        problem."""
+        return self._out(self._weight)
 
     @property
     def is_gauge_transform(self) -> bool:
@@ -160,54 +274,76 @@ class SturmLiouville:
         return self.gauge is not None
 
     # ----- eigenvalues, eigenfunctions ---------------------------------------------------
-    def eigenvalue(self, n: int | sp.Expr = N) -> sp.Expr:
-        """``lambda_n = -n (p1~' + (n-1) p0''/2) - K`` (``K`` the gauge shift)."""
+    def _index_in(self, n: int | sp.Expr | None) -> int | sp.Expr:
+        """An index argument with the user's ``n`` read as the canonical one."""
+        if n is None:
+            return N
+        n = sp.sympify(n)
+        return n.xreplace({self.n: N}) if self._user else n
+
+    def eigenvalue(self, n: int | sp.Expr | None = None) -> sp.Expr:
+        """``lambda_n = -n (p1~' + (n-1) p0''/2) - K`` (``K`` the gauge shift); default: in
+        :attr:`n`."""
         shift = 0 if self.gauge is None else self.gauge.shift
-        return sp.expand(self.closed.eigenvalue(sp.sympify(n)) - shift)
+        return self._out(sp.expand(self.closed.eigenvalue(self._index_in(n)) - shift))
+
+    def _polynomial(self, n: int) -> sp.Expr:
+        return self.direct.polynomial(_index(n)).as_expr()
 
     def polynomial(self, n: int) -> sp.Expr:
         """Rodrigues polynomial ``P_n`` of the polynomial problem (eq. 10), expanded."""
-        return self.direct.polynomial(_index(n)).as_expr()
+        return self._out(self._polynomial(n))
 
     def eigenfunction(self, n: int) -> sp.Expr:
         """Eigenfunction ``f_n``: ``P_n`` (``q0 = 0``) or ``g P~_n`` for a gauge problem."""
-        poly = self.polynomial(n)
-        return poly if self.gauge is None else self.gauge.factor * poly
+        poly = self._polynomial(n)
+        return self._out(poly if self.gauge is None else self.gauge.factor * poly)
 
-    def leading_coefficient(self, n: int | sp.Expr = N) -> sp.Expr:
+    def leading_coefficient(self, n: int | sp.Expr | None = None) -> sp.Expr:
         """``k_n = c_n prod_{j<n} (p1~' + (n+j-1) p0''/2)``."""
-        return self.closed.leading.subs(N, n)
+        return self._out(self.closed.leading.subs(N, self._index_in(n)))
+
+    def norm2(self, n: int | sp.Expr | None = None) -> sp.Expr:
+        """``d_n^2 = ∫ f_n^2 w`` (eq. 7), closed form in ``n`` or its exact value."""
+        return self._out(self._norm2(self._index_in(n)))
 
     @cache  # noqa: B019 - one instance per problem
-    def norm2(self, n: int | sp.Expr = N) -> sp.Expr:
-        """``d_n^2 = ∫ f_n^2 w`` (eq. 7), closed form in ``n`` or its exact value."""
+    def _norm2(self, n: int | sp.Expr) -> sp.Expr:
         if isinstance(n, sp.Basic) and not n.is_Integer:
-            return self.norm_squared.subs(N, n)
+            return self._norm_squared.subs(N, n)
         n = _index(n)
         if n < self.norm_start:
             return self.direct.norm2(n)
-        return sp.simplify(gamma_simplify(self.norm_squared.subs(N, n)))
+        return sp.simplify(gamma_simplify(self._norm_squared.subs(N, n)))
+
+    def _orthonormal_polynomial(self, n: int) -> sp.Expr:
+        return self._polynomial(n) / sp.sqrt(self._norm2(n))
 
     def orthonormal_polynomial(self, n: int) -> sp.Expr:
         """``p_n = P_n / d_n`` (orthonormal in ``L^2(w~)``)."""
-        return self.polynomial(n) / sp.sqrt(self.norm2(n))
+        return self._out(self._orthonormal_polynomial(n))
 
     def orthonormal_function(self, n: int, frame: str = "functions") -> sp.Expr:
         """``psi_n = g p_n`` of a frame (see :mod:`slbasis.symbolic.ladder`)."""
-        return self.frame_factor(frame) * self.orthonormal_polynomial(n)
+        return self._out(self._frame_factor(frame) * self._orthonormal_polynomial(n))
 
     # ----- recurrences -------------------------------------------------------------------
     def recurrence(self) -> dict[str, sp.Expr]:
-        """Closed forms: ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}`` and the
-        orthonormal ``x p_n = A_{n+1} p_{n+1} + B_n p_n + A_n p_{n-1}``."""
+        """Closed forms of the three-term recurrences.
+
+        ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}`` and the orthonormal
+        ``x p_n = A_{n+1} p_{n+1} + B_n p_n + A_n p_{n-1}``.
+        """
         alpha, beta, gamma = self.closed.recurrence
-        return {
-            "alpha": alpha,
-            "beta": beta,
-            "gamma": gamma,
-            "A_next": self.closed.jacobi_offdiag,
-            "B": self.closed.jacobi_diag,
-        }
+        return self._out(
+            {
+                "alpha": alpha,
+                "beta": beta,
+                "gamma": gamma,
+                "A_next": self.closed.jacobi_offdiag,
+                "B": self.closed.jacobi_diag,
+            }
+        )
 
     def jacobi_matrix(self, size: int) -> sp.Matrix:
         """Exact ``size x size`` symmetric Jacobi matrix of multiplication by ``x``."""
@@ -217,32 +353,39 @@ class SturmLiouville:
             mat[n, n] = self._value("B", n)
             if n + 1 < size:
                 mat[n + 1, n] = mat[n, n + 1] = self._value("A_next", n)
-        return mat
+        return self._out(mat)
 
     # ----- frames, ladder operators, derivative operator ---------------------------------
-    def frame_p1(self, frame: str = "functions") -> sp.Expr:
-        """Effective ``p1f`` of a frame: ``p0'`` (functions), ``p1~`` (polynomials), ``p1``."""
+    def _frame_p1(self, frame: str) -> sp.Expr:
         if frame == "functions":
-            return sp.diff(self.p0, X)
+            return sp.diff(self.coefficients.p0, X)
         if frame == "polynomials":
-            return self.p1_poly
+            return self._p1_poly
         if frame == "eigenfunctions":
-            return self.p1
+            return self.coefficients.p1
         raise ValueError(f"frame must be one of {FRAMES}, got {frame!r}")
 
-    def frame_factor(self, frame: str = "functions") -> sp.Expr:
-        """``g`` with ``psi_n = g p_n``: ``sqrt(w~)``, ``1`` or the gauge factor."""
+    def frame_p1(self, frame: str = "functions") -> sp.Expr:
+        """Effective ``p1f`` of a frame: ``p0'`` (functions), ``p1~`` (polynomials), ``p1``."""
+        return self._out(self._frame_p1(frame))
+
+    def _frame_factor(self, frame: str) -> sp.Expr:
         if frame == "functions":
-            return sp.sqrt(self.polynomial_weight)
+            return sp.sqrt(self.weight_form.weight)
         if frame == "polynomials":
             return sp.Integer(1)
         if frame == "eigenfunctions":
             return sp.Integer(1) if self.gauge is None else self.gauge.factor
         raise ValueError(f"frame must be one of {FRAMES}, got {frame!r}")
 
+    def frame_factor(self, frame: str = "functions") -> sp.Expr:
+        """``g`` with ``psi_n = g p_n``: ``sqrt(w~)``, ``1`` or the gauge factor."""
+        return self._out(self._frame_factor(frame))
+
     @cached_property
     def ladder(self) -> LadderRelations:
-        """Raising/lowering relations of the orthonormal polynomials (closed forms in n)."""
+        """Raising/lowering relations of the orthonormal polynomials (closed forms in the
+        canonical ``n``)."""
         return ladder_relations(self.closed)
 
     def ladder_operators(self, frame: str = "functions") -> dict[str, sp.Expr]:
@@ -252,14 +395,16 @@ class SturmLiouville:
         ``a psi_n = lower_scale * (p0 psi_n' - lower_mult * psi_n) = psi_{n-1}``.
         """
         rel = self.ladder
-        shift = (self.p1_poly - self.frame_p1(frame)) / 2
+        shift = (self._p1_poly - self._frame_p1(frame)) / 2
         a_next = self.closed.jacobi_offdiag
-        return {
-            "raise_scale": sp.simplify(1 / (rel.raise_coef * a_next)),
-            "raise_mult": sp.expand(rel.raise_mult + shift),
-            "lower_scale": sp.simplify(a_next.subs(N, N - 1) / rel.lower_coef),
-            "lower_mult": sp.expand(rel.lower_mult + shift),
-        }
+        return self._out(
+            {
+                "raise_scale": sp.simplify(1 / (rel.raise_coef * a_next)),
+                "raise_mult": sp.expand(rel.raise_mult + shift),
+                "lower_scale": sp.simplify(a_next.subs(N, N - 1) / rel.lower_coef),
+                "lower_mult": sp.expand(rel.lower_mult + shift),
+            }
+        )
 
     def derivative_operator(
         self, frame: str = "functions", method: str = "commutator"
@@ -270,38 +415,45 @@ class SturmLiouville:
         ``"commutator"`` (``(J Lambda - Lambda J) - p1f(J)``) or ``"ladder"`` (eq. 11 from the
         ladder relations); the two agree exactly (:meth:`verify` proves it).
         """
-        return self.derivative_operator_form(frame, method).bands()
+        return self._out(self.derivative_operator_form(frame, method).bands())
 
     def derivative_operator_form(
         self, frame: str = "functions", method: str = "commutator"
     ) -> BandedOperator:
-        """The banded operator object behind :meth:`derivative_operator`."""
-        p1f = self.frame_p1(frame)
+        """The banded operator object behind :meth:`derivative_operator` (canonical
+        symbols)."""
+        p1f = self._frame_p1(frame)
         if method == "commutator":
             return commutator_form(self.closed, p1f)
         if method == "ladder":
-            return ladder_form(self.closed, self.ladder, self.p1_poly, p1f)
+            return ladder_form(self.closed, self.ladder, self._p1_poly, p1f)
         if method == "printed":
             if frame != "functions":
                 raise ValueError("the printed eq. (11) is read on the orthonormal functions")
-            return printed_eq11(self.closed, self.p1_poly, self.p0)
+            return printed_eq11(self.closed, self._p1_poly, self.coefficients.p0)
         raise ValueError(f"method must be 'commutator', 'ladder' or 'printed', got {method!r}")
 
     def derivative_matrix(self, size: int, frame: str = "functions") -> sp.Matrix:
-        """Exact ``(size+1) x size`` matrix of ``2 p0 d/dx``: column ``n`` holds the
-        coefficients of ``2 p0 psi_n'``.  The extra last row is what a square cut loses."""
+        """Exact ``(size+1) x size`` matrix of ``2 p0 d/dx``.
+
+        Column ``n`` holds the coefficients of ``2 p0 psi_n'``.  The extra last row is what
+        a square cut loses.
+        """
         size = _index(size, "size")
         mat = sp.zeros(size + 1, size)
         for n in range(size):
-            sub, diag, sup = self.derivative_band_values(n, frame)
+            sub, diag, sup = self._band_values(n, frame)
             if n > 0:
                 mat[n - 1, n] = sub
             mat[n, n] = diag
             mat[n + 1, n] = sup
-        return mat
+        return self._out(mat)
 
     def derivative_band_values(self, n: int, frame: str = "functions") -> tuple[sp.Expr, ...]:
         """Exact ``(sub_n, diag_n, sup_n)`` at integer ``n`` (direct at exceptional n)."""
+        return self._out(self._band_values(n, frame))
+
+    def _band_values(self, n: int, frame: str) -> tuple[sp.Expr, ...]:
         n = _index(n)
         if n in self.exceptional:
             return self._direct_bands(n, frame)
@@ -331,7 +483,7 @@ class SturmLiouville:
 
     @property
     def _symbolic(self) -> bool:
-        syms = self.p0.free_symbols | self.p1_poly.free_symbols
+        syms = self.coefficients.p0.free_symbols | self._p1_poly.free_symbols
         return any(s in self.params for s in syms)
 
     @cached_property
@@ -341,11 +493,15 @@ class SturmLiouville:
         return max(bad) + 1 if bad else 0
 
     @cached_property
-    def norm_squared(self) -> sp.Expr:
-        """Closed form of ``d_n^2`` in ``n`` (valid for ``n >= norm_start``)."""
+    def _norm_squared(self) -> sp.Expr:
         start = self.norm_start
         value = None if start == 0 else self.direct.norm2(start)
         return self.closed.norm_squared(start, value)
+
+    @property
+    def norm_squared(self) -> sp.Expr:
+        """Closed form of ``d_n^2`` in ``n`` (valid for ``n >= norm_start``)."""
+        return self._out(self._norm_squared)
 
     def _local_mismatch(self, n: int) -> set[str]:
         """Names of the local closed forms that differ from direct computation at ``n``."""
@@ -397,7 +553,7 @@ class SturmLiouville:
         """Bands of ``2 p0 d/dx`` at ``n`` by expanding ``2 p0 p_n' + (p1~ - p1f) p_n``."""
         d = self.direct
         q = d.free(n)
-        image = 2 * d.p0 * q.diff(X) + d.poly(self.p1_poly - self.frame_p1(frame)) * q
+        image = 2 * d.p0 * q.diff(X) + d.poly(self._p1_poly - self._frame_p1(frame)) * q
         coeffs = d.orthonormal_coefficients(image, n, n + 1)
         return (sp.Integer(0) if n == 0 else coeffs[n - 1], coeffs[n], coeffs[n + 1])
 
@@ -407,14 +563,14 @@ class SturmLiouville:
         from .verify import verify
 
         if nmax not in self._verified:
-            self._verified[nmax] = verify(self, nmax=nmax)
+            self._verified[nmax] = verify(self.canonical, nmax=nmax)
         return self._verified[nmax]
 
     def report(self, fmt: str = "markdown", nmax: int = 6) -> str:
         """The derivation report (Markdown or LaTeX)."""
         from .report import render_report
 
-        return render_report(self, fmt=fmt, nmax=nmax)
+        return render_report(self.canonical, fmt=fmt, nmax=nmax)
 
 
 def _index(n: object, name: str = "n") -> int:
@@ -424,3 +580,20 @@ def _index(n: object, name: str = "n") -> int:
     if n < 0:
         raise ValueError(f"{name} must be a non-negative integer, got {n}")
     return n
+
+
+def _name(sym: str | sp.Symbol) -> str:
+    return sym.name if isinstance(sym, sp.Symbol) else str(sym)
+
+
+def _user_symbol(
+    value: str | sp.Symbol | None, arg: str, default: sp.Symbol, **assumptions: bool
+) -> sp.Symbol:
+    """The user's symbol for ``arg``: a Symbol as given, a string with ``assumptions``."""
+    if value is None:
+        return default
+    if isinstance(value, sp.Symbol):
+        return value
+    if isinstance(value, str) and value.isidentifier():
+        return sp.Symbol(value, **assumptions)
+    raise TypeError(f"{arg} must be a sympy Symbol or an identifier string, got {value!r}")

@@ -1,6 +1,6 @@
 """Weight, interval and class of a polynomial eigenproblem ``p0 P'' + p1 P' = -lambda P``.
 
-The weight of seed eq. (9), ``w = exp(∫ p1/p0 dx) / p0``, is fixed only up to a constant
+The weight of eq. (9), ``w = exp(∫ p1/p0 dx) / p0``, is fixed only up to a constant
 factor and a sign.  We take the positive multiple in *normal form*:
 
 =========  ==========================  ============================================
@@ -89,7 +89,7 @@ class WeightForm:
 
 
 def classify(p0: sp.Expr, p1: sp.Expr) -> WeightForm:
-    """Weight, interval and class of ``p0 P'' + p1 P' = -lambda P`` (seed eq. 9).
+    """Weight, interval and class of ``p0 P'' + p1 P' = -lambda P`` (eq. 9).
 
     Raises :class:`NotClassicalError` (a ``ValueError``) with the failing condition when the
     problem has no polynomial eigenfunctions orthogonal on an interval.
@@ -99,12 +99,12 @@ def classify(p0: sp.Expr, p1: sp.Expr) -> WeightForm:
     if deg0 > 2:
         raise NotClassicalError(
             f"deg p0 = {deg0} > 2: p0 {p0} must have degree at most 2 for polynomial "
-            "eigenfunctions (seed eq. 10)"
+            "eigenfunctions (eq. 10)"
         )
     if deg1 > 1:
         raise NotClassicalError(
             f"deg p1 = {deg1} > 1: p1 = {p1} must have degree at most 1 for polynomial "
-            "eigenfunctions (seed eq. 10)"
+            "eigenfunctions (eq. 10)"
         )
     d = P1.coeff_monomial(X)
     e = P1.coeff_monomial(1)
