@@ -297,7 +297,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     files = ([args.file] if args.file else []) + list(args.data or [])
     if not files:
         raise CLIError("identify: give a data file (FILE or --data FILE, repeatable)")
-    method = best_method() if args.method == "auto" else args.method
+    method = args.method
     _check_method(method)
     options = _parse_options(args.option)
     columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
@@ -623,12 +623,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--order",
         type=int,
         default=None,
-        help="model order (default: chosen from the singular values)",
+        help="model order (default: chosen by held-out simulation error)",
     )
     p.add_argument(
         "--method",
         default="auto",
-        help="identification method (default: hermite if available, else dt)",
+        help="identification method (default: auto, every method compared on held-out data)",
     )
     p.add_argument(
         "--refine",

@@ -171,7 +171,7 @@ def identify(
     u: Any = None,
     y: Any = None,
     order: int | None = None,
-    method: str = "hermite",
+    method: str = "auto",
     refine: str | None = None,
     detrend: str | None = "mean",
     **options: Any,
@@ -182,11 +182,13 @@ def identify(
     :func:`scipy.signal.lsim` (1-D for one channel).  Several experiments of the same
     system: ``identify([(t1, u1, y1), (t2, u2, y2), ...], order=...)`` (``u``, ``y``
     left out); every record is detrended on its own and the list is passed to the
-    method.  ``method`` names an entry of :data:`METHODS` (``"hermite"`` HD-PBSID, the
-    default; ``"laguerre"``, ``"legendre"``, ``"dt"``; ``"auto"`` tries them all and
-    keeps the best by held-out simulation error, :func:`hdpbsid.selection.identify_auto`;
-    see :func:`available_methods`).  ``options`` go to the method unchanged (e.g.
-    ``p=``, ``f=``, ``regularize=`` for ``"dt"``).
+    method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
+    ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
+    simulation error (:func:`hdpbsid.selection.identify_auto`; with several records the
+    last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
+    ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (see :func:`available_methods`).
+    ``options`` go to the method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for
+    ``"dt"``).
 
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are

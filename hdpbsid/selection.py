@@ -105,24 +105,34 @@ def select_model(
     (the message says what would work) or when no candidate can be identified.
     """
     from .identify import get_method  # the registry lives in the front end
+    from .records import as_records, is_record_list
 
-    t, u, y = check_data(t, u, y)
-    ns = t.size
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
-    split = int(round(ns * (1.0 - float(holdout))))
-    windows = default_windows(ns - split, max(orders))
+    several = is_record_list(t) and len(t) > 1
+    if several:
+        # several records: the last one is held out, the others identify the candidates
+        recs = as_records(t, u, y)
+        last = recs[-1]
+        val = (last.t, last.u, last.y)
+        est_list = [(r.t, r.u, r.y) for r in recs[:-1]]
+        est: tuple = (est_list, None, None) if len(est_list) > 1 else est_list[0]
+        n_val, where = last.t.size, "the last record"
+    else:
+        t, u, y = check_data(t, u, y)
+        split = int(round(t.size * (1.0 - float(holdout))))
+        est = (t[:split], u[:split], y[:split])
+        val = (t[split:], u[split:], y[split:])
+        n_val, where = t.size - split, f"the last {holdout:.0%} of the record"
+    windows = default_windows(n_val, max(orders))
     if windows < MIN_WINDOWS:
         raise ValueError(
-            f"choosing the order scores candidates on the last {holdout:.0%} of the record "
-            f"({ns - split} samples) cut into at least {MIN_WINDOWS} windows of "
-            f"{SAMPLES_PER_STATE * max(orders)} samples ({SAMPLES_PER_STATE} per state of "
-            f"the largest order {max(orders)}), i.e. a record of at least "
-            f"{int(np.ceil(MIN_WINDOWS * SAMPLES_PER_STATE * max(orders) / holdout))} "
-            f"samples; supply a longer record, a smaller max_order, or give the order"
+            f"choosing the order scores candidates on {where} ({n_val} samples) cut into "
+            f"at least {MIN_WINDOWS} windows of {SAMPLES_PER_STATE * max(orders)} samples "
+            f"({SAMPLES_PER_STATE} per state of the largest order {max(orders)}), i.e. "
+            f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
+            f"longer record, a smaller max_order, or give the order"
         )
-    est = (t[:split], u[:split], y[:split])
-    val = (t[split:], u[split:], y[split:])
     opts = method_options or {}
     jobs = [(m, n) for m in methods for n in orders]
     if n_jobs is not None and n_jobs != 1:
@@ -147,7 +157,7 @@ def select_model(
         t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
     )
     rule = (
-        f"held-out windowed simulation error on the last {holdout:.0%} ({windows} windows); "
+        f"held-out windowed simulation error on {where} ({windows} windows); "
         f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule)"
     )
@@ -178,12 +188,15 @@ def identify_auto(
     """
     from .identify import get_method, is_available
     from .methods.refine import is_uniform
+    from .records import as_records
 
-    t, u, y = check_data(t, u, y)
+    recs = as_records(t, u, y)
+    if len(recs) == 1:
+        t, u, y = recs[0].t, recs[0].u, recs[0].y
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
     if methods is None:
-        uniform = is_uniform(t)
+        uniform = all(is_uniform(r.t) for r in recs)
         methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
     else:
         methods = list(methods)

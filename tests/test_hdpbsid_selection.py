@@ -74,3 +74,20 @@ def test_auto_refuses_a_record_too_short_to_score():
     t, u, y, _ = _record(3, T=0.5)
     with pytest.raises(ValueError, match="longer record"):
         hdpbsid.identify(t, u, y, method="auto")
+
+
+def test_constant_input_warns_not_persistently_exciting():
+    t, u, y, _ = _record(4)
+    # the warning says why; after the mean is removed nothing of u is left, so no model
+    # comes back either (the method refuses an identically zero input)
+    with pytest.warns(UserWarning, match="not persistently exciting"):
+        with pytest.raises(ValueError, match="identically zero"):
+            hdpbsid.identify(t, np.full(t.size, 2.5), y, order=2, method="dt")
+
+
+def test_auto_with_several_records_holds_out_the_last():
+    recs = [_record(s)[:3] for s in (5, 6, 7)]
+    m = hdpbsid.identify(recs, None, None, method="auto", methods=("dt",), max_order=3)
+    assert "the last record" in m.options["selection_rule"]
+    # three 30 dB records of the second-order system: the true order is kept
+    assert m.n == 2
