@@ -1,9 +1,9 @@
 """Command line: ``hdpbsid identify FILE ...``, ``validate``, ``demo`` and ``study NAME``.
 
-DESIGN.md, "The public surface" (command line) and issue 4, item 7.  :func:`main` takes
+The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
-2 usage / input error); it never calls ``sys.exit`` (DESIGN.md, "What users would pick
-instead": no ``sys.exit()`` inside a library).  Only this module prints.
+2 usage / input error); it never calls ``sys.exit`` (a library that exits takes the caller's process
+with it).  Only this module prints.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
@@ -447,7 +447,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     data = quadrotor_record(task_rng(args.seed, case, 0), **case["data"])
     exc = args.excitation + (f" (n_max,u = {args.n_max_u})" if "hermite" in args.excitation else "")
     print(
-        f"quadrotor pitch closed loop (source §6, simulated; DESIGN.md): {data.t.size} samples "
+        "quadrotor pitch closed loop (the thesis's §6 experiment, simulated): "
+        f"{data.t.size} samples "
         f"at 250 Hz, {args.duration:g} s, excitation {exc}, SNR "
         f"{'none' if snr is None else f'{snr:g} dB'}, seed {args.seed}, "
         f"saturated {100 * data.saturation_fraction:.1f} % of samples",
@@ -675,7 +676,8 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser(
         "demo",
         help="closed-loop quadrotor pitch example end to end",
-        description="Simulate the DESIGN.md quadrotor pitch closed loop and identify it.",
+        description="Simulate the quadrotor pitch closed loop (hdpbsid.systems.quadrotor) "
+        "and identify it.",
     )
     d.add_argument(
         "--method",

@@ -1,6 +1,6 @@
 """Figures for identified models (matplotlib, Agg; no windows are ever opened).
 
-Issue 4, item 7: the CLI writes a figure with the singular values (order selection),
+The CLI writes a figure with the singular values (order selection),
 measured vs simulated output and the Bode magnitude; ``hdpbsid validate`` one with the
 residual tests (:func:`plot_validation`).  Figures are built on
 :class:`matplotlib.figure.Figure` with an Agg canvas, never through ``pyplot``, so the
@@ -209,7 +209,7 @@ def plot_eigenvalues(identified: Any, true: Any | None = None, title: str = "Eig
     return fig
 
 
-# -- study figures (issue 5, item 3) ------------------------------------------------------
+# -- study figures (hdpbsid.studies) ------------------------------------------------------
 def plot_singular_values(
     singular_values: Any, order: int | None = None, ax: Any | None = None, title: str = ""
 ) -> Any:

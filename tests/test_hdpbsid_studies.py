@@ -1,8 +1,8 @@
-"""The studies of the source (§5-6) on small settings, each asserting its qualitative
-finding as measured here (issue 5).  ``SLOW=1`` runs the full-size versions.
+"""The studies of the thesis (§5-6) on small settings, each asserting its qualitative
+finding as measured here.  ``SLOW=1`` runs the full-size versions.
 
 Measured when written (seed 0, method defaults of commit 369b60c; second-order system =
-DESIGN.md benchmark, 40 s, sweep 0.05-1 Hz projected on 100 Hermite functions; numbers
+``hdpbsid.systems.second_order``, 40 s, sweep 0.05-1 Hz projected on 100 Hermite functions; numbers
 are the median worst relative eigenvalue error over the runs, full-size runs of
 ``hdpbsid study NAME`` unless stated):
 
@@ -141,7 +141,7 @@ def test_quadrotor_example(tmp_path: Path) -> None:
     r = rec["result"]
     m3, m4 = r["models"]["3"], r["models"]["4"]
     # measured 3.9 % worst at 20 dB (runs 0-3: 1.0-5.7 %); 15 % catches a regression
-    # while leaving room for the method work in progress (issue 4)
+    # while leaving room for the method work in progress
     assert m3["max_error"] < 0.15
     assert len(m4["eigenvalues"]) == 4 and len(m4["extra"]) == 1
     # the simulated-vs-measured check (Figure 2): measured VAF 99 % on both records

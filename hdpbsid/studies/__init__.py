@@ -1,4 +1,4 @@
-"""Simulation studies of the source (§5-6), one command each (issue 5).
+"""Simulation studies of the thesis (§5-6), one command each.
 
 ``run_study(name, *, runs, seed, jobs, scheduler, out, progress, resume, **settings)``
 runs a study through the Monte Carlo engine (:mod:`hdpbsid.studies.runner`): serial,

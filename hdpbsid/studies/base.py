@@ -1,4 +1,4 @@
-"""Study objects, their results, and the shared per-run / summary helpers (issue 5).
+"""Study objects, their results, and the shared per-run / summary helpers.
 
 A :class:`Study` bundles: how settings become cases (``make_cases``), the task run per
 ``(case, rng)`` (a module-level function, so it pickles by reference for joblib and

@@ -88,7 +88,7 @@ def second_order_record(
     f1: float = 1.0,
     n_max_u: int | None = 100,
 ) -> Record:
-    """The second-order benchmark (DESIGN.md; source §5) excited by a linear sine sweep
+    """The second-order benchmark (the thesis, §5) excited by a linear sine sweep
     ``f0 -> f1`` Hz projected on ``n_max_u`` Hermite functions (``None``: the plain
     sweep), ``samples`` uniform samples over ``duration`` s, exact FOH response plus
     white noise at ``snr_db`` (:func:`hdpbsid.systems.add_noise`, power SNR)."""

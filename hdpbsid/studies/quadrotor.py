@@ -1,6 +1,6 @@
-"""Study ``quadrotor``: the source's §6 experiment, simulated (issue 5, item 2).
+"""Study ``quadrotor``: the thesis's §6 experiment, simulated.
 
-The flight data of §6 are not public, so the ANT-X pitch model flies in its DESIGN.md
+The flight data of §6 are not public, so the ANT-X pitch model flies in its cascade
 closed loop (:mod:`hdpbsid.systems.quadrotor`).  As in §5-6, the excitation added to the moment
 command is the Hermite projection of a 1-4 Hz sine sweep on ``n_max,u`` functions
 (:func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`); the identified input is the

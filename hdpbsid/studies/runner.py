@@ -1,4 +1,4 @@
-"""The Monte Carlo engine shared by every study (issue 5, item 1; source §5).
+"""The Monte Carlo engine shared by every study (the Monte Carlo runs of the thesis, §5).
 
 A study is a list of **cases** (plain dicts of settings, JSON-serialisable) crossed with
 run indices ``0 .. runs - 1``.  Each *task* ``(case, run)`` calls the study's task

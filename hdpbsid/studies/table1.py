@@ -1,8 +1,8 @@
 """Study ``table1``: closed-loop quadrotor Monte Carlo, HD-PBSID vs CT-PBSID vs DT
-(source §5, Table 1 and Figure 1).
+(the thesis, §5, Table 1 and Figure 1).
 
-The ANT-X pitch model in its DESIGN.md cascade loop (:mod:`hdpbsid.systems.quadrotor`), 30 s at
-250 Hz, excitation added to the moment command (default: the source's Hermite
+The ANT-X pitch model in its cascade loop (:mod:`hdpbsid.systems.quadrotor`), 30 s at
+250 Hz, excitation added to the moment command (default: the thesis's Hermite
 projection of a 1-4 Hz sweep, ``n_max,u = 300`` terms), sensor noise on ``q`` and
 ``theta`` at each SNR; identified input the total moment, outputs ``q`` and ``theta``,
 order 3 (the true plant's).  Each run identifies the *same* record with every method
