@@ -286,7 +286,7 @@ def plot_eigenvalue_scatter(
     title: str = "Identified eigenvalues",
 ) -> Any:
     """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
-    true ones (circles), as in the source's Figure 1.
+    true ones (circles), as in the thesis's Figure 1.
 
     ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
     axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
@@ -331,7 +331,7 @@ def plot_outputs(
     title: str = "Measured and simulated outputs",
     window: tuple[float, float] | None = None,
 ) -> Any:
-    """Measured outputs (grey) with one or more simulated ones (source Figure 2 style);
+    """Measured outputs (grey) with one or more simulated ones (the thesis's Figure 2 style);
     ``window`` restricts the time axis (a few seconds are readable, 30 s are not)."""
     t = np.asarray(t, dtype=float).ravel()
     y = np.asarray(measured, dtype=float).reshape(t.size, -1)

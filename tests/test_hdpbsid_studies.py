@@ -13,7 +13,7 @@ are the median worst relative eigenvalue error over the runs, full-size runs of
   record's band), 300: 7.2e-3, 1000: 3.1e-3, 3000: 1.9e-3, 10 000: 6.8e-4;
 * basis order (20 runs, 20 dB): N <= 50 refused (band ``3.6 N / T`` below the data
   bandwidth 5.3 rad/s, i.e. N < 59), 60-100: 1.1e-3, 200: 1.9e-3, 500: 7.5e-3,
-  1000: 2.4e-2 - past N ~ 150 the error grows (the source saw saturation above 50);
+  1000: 2.4e-2 - past N ~ 150 the error grows (the thesis saw saturation above 50);
 * operator (10 runs): alpha/s = 0.05: 0.85, 0.25: 5.1e-2, 0.5..64: <= 6e-3 (default 4:
   9.7e-4), 256: 5.9e-2; beta 0.1..10: <= 6.9e-3; gamma 0.1..10: 9.7e-4..1.1e-3 (gamma
   cancels in ``A' M = (A/alpha + beta)(D/alpha + beta)^-1``: no effect but the ridge);
@@ -104,7 +104,7 @@ def test_operator_ranges() -> None:
     assert default < 5e-3
     # alpha = 0.05 s: A' = A/alpha + I is far outside the unit disc; measured 0.80
     assert _row(res, parameter="alpha/s", value=0.05)["median err"] > 0.2
-    # beta 0.1..10 measured <= 7.9e-3: minimal impact (source §5); 3e-2 bounds it
+    # beta 0.1..10 measured <= 7.9e-3: minimal impact (the thesis, §5); 3e-2 bounds it
     for b in (0.1, 10.0):
         assert _row(res, parameter="beta", value=b)["median err"] < 3e-2
     # gamma cancels from A'^j M^j; only the ridge sees it: measured 5.9e-4 / 7.3e-4 vs

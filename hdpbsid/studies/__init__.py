@@ -5,12 +5,12 @@ runs a study through the Monte Carlo engine (:mod:`hdpbsid.studies.runner`): ser
 joblib (``jobs > 1``) or Dask (``scheduler``), reproducible from ``seed``, resumable
 from ``out/results.jsonl``.  Studies (:data:`STUDIES`; CLI names in brackets):
 
-* ``snr``: second-order system, eigenvalue error vs SNR (source §5);
-* ``samples``: error vs number of samples, 100 ... 10 000 (source §5);
-* ``basis_order`` [``basis-order``]: Hermite basis size N, 10 ... 1000 (source §5);
-* ``operator``: the differentiation-operator parameters alpha, beta, gamma (source §3.2, §5);
+* ``snr``: second-order system, eigenvalue error vs SNR (the thesis, §5);
+* ``samples``: error vs number of samples, 100 ... 10 000 (the thesis, §5);
+* ``basis_order`` [``basis-order``]: Hermite basis size N, 10 ... 1000 (the thesis, §5);
+* ``operator``: the differentiation-operator parameters alpha, beta, gamma (the thesis, §3.2, §5);
 * ``table1``: closed-loop quadrotor, HD-PBSID vs CT-PBSID (projection, filters) vs DT,
-  SNR 50/20/10/6 dB (source §5, Table 1, Figure 1);
+  SNR 50/20/10/6 dB (the thesis, §5, Table 1, Figure 1);
 * ``quadrotor``: the §6 example, simulated: Hermite-projected sweep, moment in, rate and
   angular acceleration out, singular values, order choice, validation (Figure 2).
 

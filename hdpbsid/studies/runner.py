@@ -16,7 +16,7 @@ the simulated record; the whole case if it has no ``"data"`` entry).  So
   the third digit of a bias; the joblib workers and a serial run with one BLAS thread
   gave bit-identical records for all 1437 table1 tasks compared);
 * cases that differ only in the method (``case["method"]``) see the *same* record for
-  the same run (paired comparison, as in the source's Table 1).
+  the same run (paired comparison, as in the thesis's Table 1).
 
 Backends: serial (``jobs=1``), joblib/loky processes (``jobs > 1``), or Dask
 (``scheduler="tcp://host:port"`` or a ``dask.distributed.Client``).  All three yield

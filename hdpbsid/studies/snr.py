@@ -50,7 +50,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="snr",
     title="Second-order system: eigenvalue error vs SNR",
-    source="source §5",
+    source="thesis §5",
     task=second_order.task,
     make_cases=make_cases,
     summarize=summarize,

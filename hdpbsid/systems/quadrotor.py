@@ -81,7 +81,7 @@ CONTROLLER_DEFAULTS: dict[str, float] = {
 }
 
 #: Output names accepted by :func:`pitch_output_matrices` (``u`` is the forward velocity,
-#: ``q_dot`` the angular acceleration ``Mu u + Mq q + Md delta``, source §6).
+#: ``q_dot`` the angular acceleration ``Mu u + Mq q + Md delta``, the thesis, §6).
 OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x", "q_dot")
 
 
@@ -456,7 +456,7 @@ def hermite_sweep_excitation(
     f0: float = 1.0,
     f1: float = 4.0,
 ) -> Array:
-    """The source's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
+    """The thesis's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
     the first ``n_terms`` Hermite functions (``n_max,u``) of the record ``[t0, tN]``.
 
     The sweep of :func:`pitch_excitation` is projected (:meth:`slbasis.Basis.project`,
