@@ -5,7 +5,7 @@ Every generator takes a seed and an SNR and returns a :class:`CaseData` holding 
 another seed; for some cases also another input, see the case descriptions), the true
 eigenvalues, the order to identify and how the input behaves between samples (which is
 how the validation simulation must treat it).  The systems themselves come from
-``hdpbsid.systems`` and ``hdpbsid.systems.quadrotor`` (DESIGN.md, "Benchmark systems"); only
+``hdpbsid.systems`` and ``hdpbsid.systems.quadrotor``; only
 the stiff third-order system is defined here.  Randomness only through
 ``numpy.random.default_rng(seed)``.
 
@@ -40,7 +40,8 @@ Array = NDArray[np.float64]
 #: Offset between the seed of an estimation record and that of its validation record.
 VALIDATION_SEED_OFFSET = 1_000_003
 
-#: Eigenvalues of the stiff third-order system (DESIGN issue 6).
+#: Eigenvalues of the stiff third-order system: a fast real pole two decades above a
+#: lightly damped slow pair.
 STIFF_EIGENVALUES = np.array([-50.0, -0.5 + 2.0j, -0.5 - 2.0j])
 
 
@@ -145,7 +146,8 @@ def second_order_smooth(
 
 def second_order_chirp(seed: int, snr: float | None, T: float = 40.0, dt: float = 0.01) -> CaseData:
     """Second-order system, 0.05-2 Hz linear chirp over 40 s at ``dt = 0.01`` (the case
-    where DESIGN.md says the discrete-time tools fail); exact FOH response plus noise.
+    where discrete-time subspace tools miss the eigenvalues: docs/benchmarks.md); exact FOH
+    response plus noise.
     Validation: the random smooth input of :func:`second_order_smooth` (another seed),
     because a second chirp record would differ only in its noise."""
     A, B, C, D = second_order()

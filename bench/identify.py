@@ -1,4 +1,4 @@
-"""Accuracy and run time of every hdpbsid method on the benchmark systems (issue 4).
+"""Accuracy and run time of every hdpbsid method on the benchmark systems.
 
 Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
 [--cases second-order chirp quadrotor pbsid-mimo nonuniform] [--methods ...]``
@@ -6,7 +6,7 @@ Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
 choice).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
 busy machine (the refinement's small-matrix loops).
 
-Prints, per case (the generators of ``bench/cases.py``, DESIGN.md "Benchmark systems"),
+Prints, per case (the generators of ``bench/cases.py``),
 SNR and method, over seeded Monte Carlo runs with the true order given:
 
 * ``bias %``: ``max_i |mean(lambda_i) - lambda_i| / |lambda_i|`` (eigenvalues paired
@@ -53,7 +53,7 @@ METHODS: dict[str, tuple[str, dict[str, Any]]] = {
     "chebyshev": ("chebyshev", {}),
 }
 DEFAULT_CASES = ("second-order", "chirp", "quadrotor", "pbsid-mimo", "nonuniform")
-#: the acceptance threshold of issue 4's closed-loop item
+#: acceptance threshold: every closed-loop eigenvalue within 5 % (relative error)
 WITHIN = 0.05
 
 

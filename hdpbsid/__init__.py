@@ -1,6 +1,6 @@
 """hdpbsid: continuous-time predictor-based subspace identification in a basis domain.
 
-Entry point: :func:`identify` (DESIGN.md, "The public surface").  The basis-domain
+Entry point: :func:`identify` (docs/user-guide.md).  The basis-domain
 methods (``identify_hermite``, ``identify_laguerre``, ``identify_legendre``,
 ``identify_chebyshev``, ``identify_sl``) are
 imported on first access so that ``import hdpbsid`` stays light.
@@ -39,7 +39,7 @@ def __getattr__(name: str) -> Any:
         import importlib
 
         return getattr(importlib.import_module(_LAZY_ATTRS[name]), name)
-    if name == "studies":  # the simulation studies (issue 5), loaded on first use
+    if name == "studies":  # the simulation studies, loaded on first use
         import importlib
 
         return importlib.import_module("hdpbsid.studies")

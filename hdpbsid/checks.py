@@ -1,7 +1,7 @@
 """Input checking shared by every identification routine.
 
-Signal arrays follow the :func:`scipy.signal.lsim` convention (DESIGN.md, "Conventions"):
-``t`` has shape ``(Ns,)``, ``u`` shape ``(Ns, m)`` and ``y`` shape ``(Ns, l)``; a 1-D
+Signal arrays follow the :func:`scipy.signal.lsim` convention (docs/user-guide.md, "Data
+conventions"): ``t`` has shape ``(Ns,)``, ``u`` shape ``(Ns, m)`` and ``y`` shape ``(Ns, l)``; a 1-D
 ``u`` or ``y`` is accepted for a single channel.  Every problem raises a ``ValueError``
 (or ``TypeError`` for non-numeric data) that names the argument and says what was
 expected.  Nothing is silently clipped, reshaped beyond the 1-D -> one-column rule, or

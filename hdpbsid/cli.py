@@ -1,9 +1,9 @@
 """Command line: ``hdpbsid identify FILE ...``, ``validate``, ``demo`` and ``study NAME``.
 
-DESIGN.md, "The public surface" (command line) and issue 4, item 7.  :func:`main` takes
+The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
-2 usage / input error); it never calls ``sys.exit`` (DESIGN.md, "What users would pick
-instead": no ``sys.exit()`` inside a library).  Only this module prints.
+2 usage / input error); it never calls ``sys.exit`` (a library that exits takes the caller's process
+with it).  Only this module prints.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
@@ -25,7 +25,7 @@ available method (``hermite`` if it is available, else ``dt``), prints identifie
 true eigenvalues and the fit, and writes the same files plus ``eigenvalues.png``.
 
 ``study NAME`` runs one of the simulation studies of :mod:`hdpbsid.studies` (``snr``,
-``samples``, ``basis-order``, ``operator``, ``table1``, ``quadrotor``; source §5-6) with
+``samples``, ``basis-order``, ``operator``, ``table1``, ``quadrotor``; the thesis, §5-6) with
 a progress bar, serially, on local processes (``--jobs``) or on a Dask cluster
 (``--scheduler``), prints its table and writes ``results.jsonl`` (per task, resumable),
 ``summary.csv``, ``summary.json``, ``records.csv`` and PNG figures to ``--out``.
@@ -414,7 +414,7 @@ def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
-    """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, source §6) for one run."""
+    """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
     from . import studies
     from .studies.data import quadrotor_record
     from .studies.runner import task_rng
@@ -447,7 +447,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     data = quadrotor_record(task_rng(args.seed, case, 0), **case["data"])
     exc = args.excitation + (f" (n_max,u = {args.n_max_u})" if "hermite" in args.excitation else "")
     print(
-        f"quadrotor pitch closed loop (source §6, simulated; DESIGN.md): {data.t.size} samples "
+        "quadrotor pitch closed loop (the thesis's §6 experiment, simulated): "
+        f"{data.t.size} samples "
         f"at 250 Hz, {args.duration:g} s, excitation {exc}, SNR "
         f"{'none' if snr is None else f'{snr:g} dB'}, seed {args.seed}, "
         f"saturated {100 * data.saturation_fraction:.1f} % of samples",
@@ -675,7 +676,8 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser(
         "demo",
         help="closed-loop quadrotor pitch example end to end",
-        description="Simulate the DESIGN.md quadrotor pitch closed loop and identify it.",
+        description="Simulate the quadrotor pitch closed loop (hdpbsid.systems.quadrotor) "
+        "and identify it.",
     )
     d.add_argument(
         "--method",
@@ -689,28 +691,28 @@ def build_parser() -> argparse.ArgumentParser:
         "--excitation",
         choices=("hermite-sweep", "sweep", "3211"),
         default="hermite-sweep",
-        help="1-4 Hz sweep projected on --n-max-u Hermite functions (source §5-6, default), "
+        help="1-4 Hz sweep projected on --n-max-u Hermite functions (thesis §5-6, default), "
         "the plain sweep or a 3211",
     )
     d.add_argument(
         "--n-max-u", type=int, default=300, help="Hermite terms of the excitation (default 300)"
     )
     d.add_argument(
-        "--orders", default="3,4", help="model orders to identify (default 3,4; source §6: 4)"
+        "--orders", default="3,4", help="model orders to identify (default 3,4; thesis §6: 4)"
     )
     d.add_argument(
         "--outputs",
         nargs="+",
         default=["q,theta"],
         metavar="NAMES",
-        help="outputs among u, q, theta, a_x, q_dot (default: q theta; source §6: q q_dot)",
+        help="outputs among u, q, theta, a_x, q_dot (default: q theta; thesis §6: q q_dot)",
     )
     d.add_argument("--out", default="hdpbsid-demo", help="output directory")
     d.add_argument("--no-plot", action="store_true", help="do not write figures")
 
     st = sub.add_parser(
         "study",
-        help="run a simulation study of the source (§5-6)",
+        help="run a simulation study of the thesis (§5-6)",
         description="Run a Monte Carlo study; prints its table, writes CSV/JSON/PNG to --out.",
     )
     st.add_argument("name", choices=STUDY_NAMES, metavar="NAME", help=", ".join(STUDY_NAMES))

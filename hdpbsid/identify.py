@@ -1,10 +1,9 @@
 """``hdpbsid.identify``: one entry point for every identification method.
 
-DESIGN.md, "The public surface": ``m = hdpbsid.identify(t, u, y, order=4,
-method="hermite")`` with ``method`` one of ``"hermite"``, ``"laguerre"``, ``"legendre"``,
-``"dt"``, ...; issue 4, item 6.  Methods live in a registry :data:`METHODS` (name ->
-callable with the call shape ``func(t, u, y, order=None, **options) ->
-StateSpaceModel``).
+``m = hdpbsid.identify(t, u, y, order=4, method="hermite")`` with ``method`` one of
+``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md). Methods
+live in a registry :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
+order=None, **options) -> StateSpaceModel``).
 
 * ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered on import;
 * the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first

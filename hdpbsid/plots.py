@@ -1,6 +1,6 @@
 """Figures for identified models (matplotlib, Agg; no windows are ever opened).
 
-Issue 4, item 7: the CLI writes a figure with the singular values (order selection),
+The CLI writes a figure with the singular values (order selection),
 measured vs simulated output and the Bode magnitude; ``hdpbsid validate`` one with the
 residual tests (:func:`plot_validation`).  Figures are built on
 :class:`matplotlib.figure.Figure` with an Agg canvas, never through ``pyplot``, so the
@@ -209,7 +209,7 @@ def plot_eigenvalues(identified: Any, true: Any | None = None, title: str = "Eig
     return fig
 
 
-# -- study figures (issue 5, item 3) ------------------------------------------------------
+# -- study figures (hdpbsid.studies) ------------------------------------------------------
 def plot_singular_values(
     singular_values: Any, order: int | None = None, ax: Any | None = None, title: str = ""
 ) -> Any:
@@ -286,7 +286,7 @@ def plot_eigenvalue_scatter(
     title: str = "Identified eigenvalues",
 ) -> Any:
     """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
-    true ones (circles), as in the source's Figure 1.
+    true ones (circles), as in the thesis's Figure 1.
 
     ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
     axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
@@ -331,7 +331,7 @@ def plot_outputs(
     title: str = "Measured and simulated outputs",
     window: tuple[float, float] | None = None,
 ) -> Any:
-    """Measured outputs (grey) with one or more simulated ones (source Figure 2 style);
+    """Measured outputs (grey) with one or more simulated ones (the thesis's Figure 2 style);
     ``window`` restricts the time axis (a few seconds are readable, 30 s are not)."""
     t = np.asarray(t, dtype=float).ravel()
     y = np.asarray(measured, dtype=float).reshape(t.size, -1)

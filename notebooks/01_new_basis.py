@@ -14,7 +14,8 @@
 # %% [markdown]
 # # Deriving and checking a new basis with `slbasis`
 #
-# The source (`/work/shared/seed/thesis-summary.txt`, §4) states that any eigenproblem
+# The thesis *Continuous-time system identification with functional basis expansions*
+# (§4) states that any eigenproblem
 #
 # $$p_0(x) f'' + p_1(x) f' - q_0(x) f = -\lambda f \qquad \text{(eq. 8)}$$
 #

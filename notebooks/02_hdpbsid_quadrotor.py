@@ -14,7 +14,8 @@
 # %% [markdown]
 # # HD-PBSID on the closed-loop quadrotor, step by step
 #
-# The source (`/work/shared/seed/thesis-summary.txt`) identifies the pitch dynamics of a
+# The thesis *Continuous-time system identification with functional basis expansions*
+# identifies the pitch dynamics of a
 # quadrotor flying in closed loop (§6) with **HD-PBSID**, the predictor-based subspace
 # method run in the domain of Hermite-function coefficients (§3.2).  The flight data are
 # not public, so we use the simulated ANT-X pitch model of `hdpbsid.systems.quadrotor`: states
@@ -282,7 +283,7 @@ print(f"{'identified':>24s} {'true':>24s}  rel. error")
 for e, tv, err in zip(est, tru, errs, strict=True):
     print(f"{e:24.4f} {tv:24.4f}  {100 * err:6.2f} %")
 # Bound: over 12 seeds at 20 dB the worst eigenvalue error of the defaults is 1.6-10.1 %
-# (README, "Status"); this seed measures ~3 %.  10 % leaves room for BLAS rounding
+# (docs/benchmarks.md); this seed measures ~3 %.  10 % leaves room for BLAS rounding
 # differences while still failing if the method regressed.
 assert np.max(errs) < 0.10, errs
 

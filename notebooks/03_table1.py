@@ -12,9 +12,10 @@
 # ---
 
 # %% [markdown]
-# # A small reproduction of the source's Table 1: HD-PBSID vs CT-PBSID vs DT in closed loop
+# # A small reproduction of the thesis's Table 1: HD-PBSID vs CT-PBSID vs DT in closed loop
 #
-# The source (`/work/shared/seed/thesis-summary.txt`, §5) compares HD-PBSID (Hermite
+# The thesis *Continuous-time system identification with functional basis expansions*
+# (§5; "the source" below) compares HD-PBSID (Hermite
 # domain) with CT-PBSID (Laguerre domain, refs. [2-4]) on a closed-loop quadrotor model
 # with Monte Carlo runs at SNR 50, 20, 10 and 6 dB, and reports the bias and standard
 # deviation of the identified eigenvalues (its Table 1) and the eigenvalue clouds at 6 dB

@@ -2,8 +2,8 @@
 ``bench/peers.py``, checked without the peers installed (they are an optional extra:
 ``bench/peers.py`` imports them only inside the functions that run them).
 
-Oracles: the analytic eigenvalues of each benchmark system (DESIGN.md, "Benchmark
-systems"), exact ZOH sampling of a known model, and method ``dt`` on noise-free data.
+Oracles: the analytic eigenvalues of each benchmark system, exact ZOH sampling of a known
+model, and method ``dt`` on noise-free data.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def test_stiff_system_has_the_stated_eigenvalues() -> None:
         ("mimo-2x2", MIMO, 1e-12),
         ("table2-closed-loop", TABLE2, 1e-12),
         ("table2-closed-loop-rate", TABLE2, 1e-12),
-        # DESIGN.md states the quadrotor eigenvalues to two decimals: half a unit of 0.01
+        # the quadrotor eigenvalues are quoted to two decimals: half a unit of 0.01
         ("quadrotor", np.array([-2.92 + 3.24j, -2.92 - 3.24j, 3.08]), 0.005 + 1e-9),
     ],
 )

@@ -24,12 +24,15 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
-PAGES = sorted(p for p in DOCS.glob("*.md") if ">>>" in p.read_text(encoding="utf-8"))
+#: the docs pages with examples, and the README (its first-screen example)
+PAGES = sorted(p for p in DOCS.glob("*.md") if ">>>" in p.read_text(encoding="utf-8")) + [
+    ROOT / "README.md"
+]
 
 
 def test_pages_with_examples_exist() -> None:
     names = {p.name for p in PAGES}
-    assert {"getting-started.md", "user-guide.md", "theory.md"} <= names
+    assert {"getting-started.md", "user-guide.md", "theory.md", "README.md"} <= names
 
 
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)

@@ -1,6 +1,6 @@
 """Shared data for the basis-domain method tests, and tests of the shared machinery.
 
-Data: the second-order benchmark system of DESIGN.md (``A = [[0, 1], [-4, -0.8]]``,
+Data: the second-order benchmark system (``A = [[0, 1], [-4, -0.8]]``,
 eigenvalues ``-0.4 +- 1.9596i``), simulated exactly for an input linear between samples
 (FOH, which is what trapezoid projection assumes), so noise-free errors measure the
 method, not the data generator.

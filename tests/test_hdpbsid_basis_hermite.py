@@ -1,4 +1,4 @@
-"""HD-PBSID (``identify_hermite``) on the second-order benchmark (seed §3.2, §5).
+"""HD-PBSID (``identify_hermite``) on the second-order benchmark (the thesis, §3.2 and §5).
 
 Measured when written (seeds as below): noise-free 1e-5..3e-5; SNR 20 dB random smooth
 input 0.07-0.3 % (5 seeds); chirp 0.05-2 Hz, SNR 20 dB 0.17-0.43 %; jittered times

@@ -44,8 +44,8 @@ def test_snr20(variant: str) -> None:
         eig_error(identify_laguerre(*make_data(10 + s, snr=20), order=2, variant=variant))
         for s in range(12)
     ]
-    # at SNR 20 dB the seed reports the Laguerre method less robust than Hermite; here
-    # measured <= 0.23 %: 2 % is the HD-PBSID target, kept for comparison
+    # at SNR 20 dB the thesis (§5, Table 1) reports the Laguerre method less robust than
+    # Hermite; here measured <= 0.23 %: 2 % is the HD-PBSID target, kept for comparison
     assert max(errs) < 0.02
     errs = [
         eig_error(identify_laguerre(*make_data(20 + s, snr=20, kind="chirp"), order=2))

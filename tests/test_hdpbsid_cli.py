@@ -1,4 +1,4 @@
-"""hdpbsid CLI (issue 4, item 7): identify from CSV, demo, JSON, figures, errors."""
+"""hdpbsid CLI: identify from CSV, demo, JSON, figures, errors."""
 
 from __future__ import annotations
 

@@ -154,7 +154,7 @@ def test_no_continuous_model_gives_clear_error():
 
 
 def test_fast_sampled_chirp_benchmark():
-    """DESIGN.md benchmark: dt = 0.01, 40 s, 0.05-2 Hz chirp (where N4SID/MOESP fail)."""
+    """Chirp benchmark: dt = 0.01, 40 s, 0.05-2 Hz chirp (where N4SID/MOESP fail)."""
     from scipy.signal import chirp
 
     A, B, C, D = second_order()

@@ -1,4 +1,4 @@
-"""Quadrotor pitch benchmark (DESIGN.md, "Benchmark systems"): model, closed loop, data."""
+"""Quadrotor pitch benchmark (ANT-X drone at hover): model, closed loop, data."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from hdpbsid.systems.quadrotor import (
 
 
 def _design_matrix() -> np.ndarray:
-    # the literal numbers of DESIGN.md, typed independently of hdpbsid.systems.quadrotor
+    # the model's published numbers, typed independently of hdpbsid.systems.quadrotor
     Xu, Xq, Mu, Mq, g = -0.1068, 0.1192, -5.9755, -2.6478, 9.81
     return np.array([[Xu, Xq, -g], [Mu, Mq, 0.0], [0.0, 1.0, 0.0]])
 
@@ -30,7 +30,7 @@ def test_open_loop_eigenvalues_match_design() -> None:
     ref = np.linalg.eigvals(_design_matrix())
     # same matrix, so pairing must be exact up to eigvals rounding (~1e-15 relative)
     assert np.max(eigenvalue_errors(ev, ref)) < 1e-12
-    # DESIGN.md quotes the eigenvalues to 3 significant digits: -2.92 +- 3.24i, +3.08
+    # the eigenvalues as quoted to 3 significant digits: -2.92 +- 3.24i, +3.08
     quoted = np.array([-2.92 + 3.24j, -2.92 - 3.24j, 3.08])
     assert np.max(np.abs(np.sort_complex(ev) - np.sort_complex(quoted))) < 5e-3
     # the unstable real pole, to 1e-3 against the literal matrix
@@ -86,7 +86,7 @@ def test_saturation_is_reported() -> None:
         np.random.default_rng(2), duration=5.0, snr_db=None, excitation=exc
     )
     assert d.saturation_fraction > 0.0
-    assert np.max(np.abs(d.u)) <= 1.0  # applied moment clipped to +-1 (DESIGN.md)
+    assert np.max(np.abs(d.u)) <= 1.0  # applied moment clipped to +-1 (the saturation)
 
 
 def test_noise_at_requested_snr_and_reproducible() -> None:
@@ -149,6 +149,6 @@ def test_identify_dt_recovers_open_loop_from_noise_free_closed_loop(excitation: 
     m = identify_dt(d.t, d.u, d.y, order=3)
     err = eigenvalue_errors(m.eigenvalues, d.true_eigenvalues)
     # measured ~1e-11 (noise-free ZOH data, exact d2c); 1e-6 leaves room for LAPACK
-    # differences while being far below the 1e-3 that issue 4 asks for
+    # differences while being far below the 1e-3 accuracy target
     assert np.max(err) < 1e-6
     assert np.any(np.abs(m.eigenvalues - 3.0844) < 1e-3)  # the unstable pole is found

@@ -1,5 +1,5 @@
 """Identification of the closed-loop quadrotor pitch benchmark, and the input-hold
-projection / alpha / ridge-floor defaults it needed (issue 4).
+projection / alpha / ridge-floor defaults it needed.
 
 Measured when written (order 3, 30 s, 250 Hz, moment in, q and theta out, 1-4 Hz sweep):
 
@@ -72,7 +72,7 @@ def test_quadrotor_20db_hermite_defaults(seed: int) -> None:
     d = simulate_pitch_closed_loop(np.random.default_rng(seed), snr_db=20.0)
     m = identify(d.t, d.u, d.y, 3, method="hermite")
     err = eigenvalue_errors(m.eigenvalues, d.true_eigenvalues)
-    # issue 4: all three within 5 %.  Measured (seeds 0..3) 1.6, 2.4, 2.7, 2.4 %; over 12
+    # target: all three within 5 %.  Measured (seeds 0..3) 1.6, 2.4, 2.7, 2.4 %; over 12
     # seeds 11 within 5 % (the 12th 10.1 %; refine="pem" brings it to 1.7 %, see
     # test_hdpbsid_refine.py).  Before the noise-floor bandwidth and p <= 4: 4.1, 2.1, 3.2,
     # 8.5 %; before the exact interpolant projection: the real pole 66-79 % off

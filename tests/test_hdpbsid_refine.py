@@ -2,7 +2,7 @@
 
 Oracles: simulated systems with known truth (noise-free: exact recovery from a perturbed
 start; noisy: the spread over seeds against the reported asymptotic standard deviation;
-the closed-loop quadrotor of DESIGN.md against its open-loop eigenvalues).
+the closed-loop quadrotor of hdpbsid.systems.quadrotor against its open-loop eigenvalues).
 
 Measured when written (closed-loop quadrotor, 30 s, SNR 20 dB, order 3, hermite then
 refine="pem"; largest relative eigenvalue error): seeds 0..11 HD-PBSID alone 1.6 2.4 2.7
@@ -98,7 +98,7 @@ def test_quadrotor_20db_hermite_refined_within_5_percent(seed: int) -> None:
     d = simulate_pitch_closed_loop(np.random.default_rng(seed), snr_db=20.0)
     m = identify(d.t, d.u, d.y, 3, method="hermite", refine="pem")
     err = eigenvalue_errors(m.eigenvalues, d.true_eigenvalues)
-    # issue 4: all three open-loop eigenvalues (including +3.08) within 5 %; measured
+    # target: all three open-loop eigenvalues (including +3.08) within 5 %; measured
     # 4.48, 1.30, 3.53, 1.34 % for seeds 0..3 (HD-PBSID alone: 1.6, 2.4, 2.7, 2.4 %)
     assert err.max() < 0.05, err
     assert np.all(np.isfinite(m.options["eigenvalue_std"]))

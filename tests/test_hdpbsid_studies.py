@@ -1,8 +1,8 @@
-"""The studies of the source (§5-6) on small settings, each asserting its qualitative
-finding as measured here (issue 5).  ``SLOW=1`` runs the full-size versions.
+"""The studies of the thesis (§5-6) on small settings, each asserting its qualitative
+finding as measured here.  ``SLOW=1`` runs the full-size versions.
 
 Measured when written (seed 0, method defaults of commit 369b60c; second-order system =
-DESIGN.md benchmark, 40 s, sweep 0.05-1 Hz projected on 100 Hermite functions; numbers
+``hdpbsid.systems.second_order``, 40 s, sweep 0.05-1 Hz projected on 100 Hermite functions; numbers
 are the median worst relative eigenvalue error over the runs, full-size runs of
 ``hdpbsid study NAME`` unless stated):
 
@@ -13,7 +13,7 @@ are the median worst relative eigenvalue error over the runs, full-size runs of
   record's band), 300: 7.2e-3, 1000: 3.1e-3, 3000: 1.9e-3, 10 000: 6.8e-4;
 * basis order (20 runs, 20 dB): N <= 50 refused (band ``3.6 N / T`` below the data
   bandwidth 5.3 rad/s, i.e. N < 59), 60-100: 1.1e-3, 200: 1.9e-3, 500: 7.5e-3,
-  1000: 2.4e-2 - past N ~ 150 the error grows (the source saw saturation above 50);
+  1000: 2.4e-2 - past N ~ 150 the error grows (the thesis saw saturation above 50);
 * operator (10 runs): alpha/s = 0.05: 0.85, 0.25: 5.1e-2, 0.5..64: <= 6e-3 (default 4:
   9.7e-4), 256: 5.9e-2; beta 0.1..10: <= 6.9e-3; gamma 0.1..10: 9.7e-4..1.1e-3 (gamma
   cancels in ``A' M = (A/alpha + beta)(D/alpha + beta)^-1``: no effect but the ridge);
@@ -104,7 +104,7 @@ def test_operator_ranges() -> None:
     assert default < 5e-3
     # alpha = 0.05 s: A' = A/alpha + I is far outside the unit disc; measured 0.80
     assert _row(res, parameter="alpha/s", value=0.05)["median err"] > 0.2
-    # beta 0.1..10 measured <= 7.9e-3: minimal impact (source §5); 3e-2 bounds it
+    # beta 0.1..10 measured <= 7.9e-3: minimal impact (the thesis, §5); 3e-2 bounds it
     for b in (0.1, 10.0):
         assert _row(res, parameter="beta", value=b)["median err"] < 3e-2
     # gamma cancels from A'^j M^j; only the ridge sees it: measured 5.9e-4 / 7.3e-4 vs
@@ -141,7 +141,7 @@ def test_quadrotor_example(tmp_path: Path) -> None:
     r = rec["result"]
     m3, m4 = r["models"]["3"], r["models"]["4"]
     # measured 3.9 % worst at 20 dB (runs 0-3: 1.0-5.7 %); 15 % catches a regression
-    # while leaving room for the method work in progress (issue 4)
+    # while leaving room for the method work in progress
     assert m3["max_error"] < 0.15
     assert len(m4["eigenvalues"]) == 4 and len(m4["extra"]) == 1
     # the simulated-vs-measured check (Figure 2): measured VAF 99 % on both records

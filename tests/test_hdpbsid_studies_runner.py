@@ -1,4 +1,4 @@
-"""Monte Carlo engine of the studies (issue 5, item 1): per-task seeds, backends (serial,
+"""Monte Carlo engine of the studies: per-task seeds, backends (serial,
 joblib, Dask LocalCluster) giving the same numbers, resume, failures as data, and the
 argument checks of the public API."""
 

@@ -16,7 +16,7 @@ from hdpbsid.systems import (
 
 def test_system_eigenvalues():
     A = second_order()[0]
-    # DESIGN.md: -0.4 +- 1.9596i (to the 4 printed decimals)
+    # quoted: -0.4 +- 1.9596i (to the 4 printed decimals)
     np.testing.assert_allclose(
         np.sort_complex(np.linalg.eigvals(A)), [-0.4 - 1.9596j, -0.4 + 1.9596j], atol=5e-5
     )

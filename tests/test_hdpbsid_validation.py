@@ -1,4 +1,4 @@
-"""Bad inputs get clear errors naming the argument (DESIGN.md "Conventions")."""
+"""Bad inputs get clear errors naming the argument (docs/user-guide.md, "Data conventions")."""
 
 import numpy as np
 import pytest

@@ -40,7 +40,7 @@ def test_hermite_5000_against_mpmath():
     half = 1.2 * np.sqrt(2 * N)  # 1.2x the effective support +-sqrt(2N)
     x = np.concatenate((rng.uniform(-half, half, 150), [-half, half, 0.0, 38.5, 99.9]))
     err = _max_error(HERMITE, hermite_function_mp, N, x, [0, 1, 2, 1000, 2500, 4999])
-    # issue 3 target; measured ~6e-14 (the phi_0 split carries |x^2/2| * eps relative error)
+    # accuracy target 1e-12; measured ~6e-14 (the phi_0 split carries |x^2/2| * eps relative error)
     assert err <= 1e-12
 
 
@@ -51,7 +51,7 @@ def test_hermite_5000_against_mpmath_full():
     half = 1.2 * np.sqrt(2 * N)
     x = rng.uniform(-half, half, 500)  # bench/basis.py does the full 2000 points
     rows = [3, 700, 3000, 4998]
-    # issue 3 target (1e-12) at more points and other rows
+    # accuracy target (1e-12) at more points and other rows
     assert _max_error(HERMITE, hermite_function_mp, N, x, rows) <= 1e-12
 
 
@@ -61,7 +61,7 @@ def test_laguerre_2000_against_mpmath():
     top = 1.2 * gauss(LAGUERRE, N, newton_steps=0)[0][-1]  # 1.2x the largest node (~4N)
     x = np.concatenate((rng.uniform(0, top, 120), [0.0, 1480.5, top]))
     err = _max_error(LAGUERRE, laguerre_function_mp, N, x, [0, 1, 2, 500, 1000, 1999])
-    # issue 3 target; |l_n| <= 1 and the recurrence is forward stable (measured ~1e-13)
+    # accuracy target 1e-12; |l_n| <= 1 and the recurrence is forward stable (measured ~1e-13)
     assert err <= 1e-12
 
 

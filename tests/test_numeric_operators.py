@@ -43,9 +43,9 @@ def test_hermite_derivative_of_chirp():
     cd = _coefficients(B, _chirp_dt)
     D = B.derivative_matrix("rectangular")
     assert D.shape == (N + 1, N)
-    # issue 3 target 1e-8; coefficients are exact to ~1e-14 and D has norm ~ scale sqrt(2N)
+    # accuracy target 1e-8; coefficients are exact to ~1e-14 and D has norm ~ scale sqrt(2N)
     assert np.max(np.abs(D @ c[:N] - cd)) <= 1e-8
-    # the square cut is wrong in its last row by exactly scale sqrt(N/2) c_N (DESIGN.md)
+    # the square cut is wrong in its last row by exactly scale sqrt(N/2) c_N
     Dsq = B.derivative_matrix("square")
     miss = (Dsq @ c[:N])[-1] - cd[N - 1]
     assert abs(miss + B.scale * np.sqrt(N / 2) * c[N]) <= 1e-12  # rounding

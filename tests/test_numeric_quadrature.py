@@ -38,7 +38,7 @@ def test_hermite_1000_against_mpmath():
         xr, wr = _hermite_node_and_weight_mp(N, x[i])
         # Newton-refined nodes: a few ulp of |x| <= 44 (measured 2e-15)
         assert abs(x[i] - xr) <= 2e-14
-        # issue 3 target 1e-10 relative; measured ~2e-13 (Christoffel sum of positive terms)
+        # accuracy target 1e-10 relative; measured ~2e-13 (Christoffel sum of positive terms)
         assert abs(W[i] - wr) <= 1e-10 * wr
 
 
@@ -48,7 +48,7 @@ def test_hermite_1000_beats_numpy_and_scipy():
     xs, ws = sps.roots_hermite(N)
     # same nodes (scipy's are accurate to ~1e-14 absolute)
     assert np.max(np.abs(xs - x)) <= 1e-12
-    assert np.count_nonzero(ws == 0) > 0  # the trap DESIGN.md measured: underflowed weights
+    assert np.count_nonzero(ws == 0) > 0  # the known trap: underflowed weights
     assert np.count_nonzero(W == 0) == 0
 
 

@@ -1,8 +1,8 @@
 """The PBSID core (VARX form): VARX -> Gamma L -> SVD/state -> (C, D) -> (A, B, K).
 
-Steps 2 and 3 of DESIGN.md "The discrete core", after the toolbox pipeline
-``dordvarx -> dmodx -> dx2abcdk`` (Houtzager's PBSID toolbox; Chiuso 2007, Automatica
-43(6), sec. 4; van Wingerden & Verhaegen 2009).  Everything is generic over the
+Steps 2 and 3 of the discrete core (docs/theory.md, "PBSID: the discrete core"), after the
+toolbox pipeline ``dordvarx -> dmodx -> dx2abcdk`` (Houtzager's PBSID toolbox; Chiuso 2007,
+Automatica 43(6), sec. 4; van Wingerden & Verhaegen 2009). Everything is generic over the
 :class:`~hdpbsid.core.varx.LagOperator`, so the same code identifies a sampled model
 (``SampleShift``) or a "system in the basis index" (``MatrixLag``).
 

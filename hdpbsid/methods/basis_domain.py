@@ -1,6 +1,6 @@
 """Shared machinery of the basis-domain methods (HD-PBSID, CT-PBSID, Legendre PBSID).
 
-DESIGN.md "The same core in a basis domain": the record is projected onto ``N``
+The same PBSID core in a basis domain (docs/theory.md): the record is projected onto ``N``
 orthonormal functions, signals become coefficient rows (rows = signals, columns = basis
 index) and "one sample back" becomes a linear operator ``M`` on those rows.  This module
 holds what the methods share:
@@ -369,7 +369,7 @@ def integrator_model(
     """Continuous-time model from the basis-domain system of the integrator form.
 
     The core identified ``X D' = A' X + B' U + K' E`` with ``D' = (D/alpha + beta I)/gamma``
-    (seed §3.2); mapping back: ``A = alpha (gamma A' - beta I)``, ``B = alpha gamma B'``,
+    (the thesis, §3.2); mapping back: ``A = alpha (gamma A' - beta I)``, ``B = alpha gamma B'``,
     ``K = alpha gamma K'``, ``C, D`` unchanged.  ``options`` (method-specific) are merged
     with the core's and with the shared ones (operator parameters, input hold, ``A'``).
     """

@@ -1,15 +1,15 @@
-"""Method ``"hermite"``: HD-PBSID, PBSID in the Hermite-function domain (seed §3.2).
+"""Method ``"hermite"``: HD-PBSID, PBSID in the Hermite-function domain (the thesis, §3.2).
 
 The record ``t, u, y`` is projected onto ``N`` Hermite functions ``phi_n`` (the record
 fills 90 % of their effective support, :func:`slbasis.basis`'s default time scale).  With
 coefficient rows ``X, U, Y, E`` (columns = Hermite index) the state equation becomes
-(seed eqs. (3)-(4); the windowed state picks up the boundary terms)
+(eqs. (3)-(4) of the thesis; the windowed state picks up the boundary terms)
 
     X Dd = A X + B U + K E + x(t0) phi(t0)^T - x(tN) phi(tN)^T,      Y = C X + D U + E,
 
 where ``Dd = -Dmat`` (= ``Dmat^T``, ``Dmat`` the tridiagonal d/dt matrix of
 :meth:`slbasis.Basis.derivative_matrix`, column ``n`` = image of ``phi_n``) is the
-projected derivative in row form.  The seed's modified operator
+projected derivative in row form.  The thesis's modified operator
 ``D' = (Dd/alpha + beta I)/gamma`` gives ``X D' = A' X + B' U + K' E + ...`` with
 ``A' = (A/alpha + beta I)/gamma``, ``B' = B/(alpha gamma)``, ``K' = K/(alpha gamma)``, and
 the **integrator form** with ``M = D'^{-1}``:
@@ -23,7 +23,7 @@ a tridiagonal (banded) solve.  Map back: ``A = alpha (gamma A' - beta I)``,
 Truncation: the ``N x N`` cut of ``Dd`` misses, in its last column only, the coupling
 ``X_N Dd[N, N-1]`` to the discarded coefficient ``X_N`` (an unknown ``n``-vector).  It is
 absorbed exactly as a pseudo-input with row ``e_{N-1}^T``, like the two boundary rows
-``phi(t0)^T``, ``phi(tN)^T`` (DESIGN.md: 17-21 % -> 0.6-3 % on records not at rest).
+``phi(t0)^T``, ``phi(tN)^T`` (measured: eigenvalue error 17-21 % -> 0.6-3 % on records not at rest).
 """
 
 from __future__ import annotations
@@ -75,8 +75,9 @@ N_MIN, N_MAX = 100, 4000
 def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     """``N`` so that the basis covers ``BAND_MARGIN`` times the data bandwidth ``omega_b``.
 
-    ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[N_MIN, N_MAX]`` (DESIGN.md: N =
-    200-300 worked on 20-40 s records; below ~30 the seed reports poor identification)
+    ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[N_MIN, N_MAX]`` (measured in
+    early runs: N = 200-300 worked on 20-40 s records; below ~30 the thesis, §5, reports poor
+    identification)
     and to ``Ns / 2`` (the samples must resolve the fastest basis function), with a
     warning when an upper limit binds (:func:`~hdpbsid.methods.basis_domain.clip_basis_size`).
     """
@@ -152,7 +153,7 @@ def identify_hermite(
     window: float | str | None = "auto",
     n_jobs: int | None = None,
 ) -> StateSpaceModel:
-    """HD-PBSID (seed §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
+    """HD-PBSID (the thesis, §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
     ``t`` (Ns,) increasing, need not be uniform (projection weights from the spacing);
     ``u`` (Ns, m) or None, ``y`` (Ns, l).  Or ``t`` = a list of ``(t_i, u_i, y_i)``

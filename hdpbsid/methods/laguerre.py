@@ -15,7 +15,7 @@ inverted by :func:`inverse_cayley` (``A = a (Ad + I)(Ad - I)^{-1}``, ...).  A st
 so stability is preserved both ways.  ``Dd != 0`` even when ``D = 0``, so the core runs
 with ``feedthrough=True``.
 
-Variants (seed §3.1: the projection is the exact transformation, the filter an
+Variants (the thesis, §3.1: the projection is the exact transformation, the filter an
 approximation valid as ``t -> inf``):
 
 * ``"projection"`` (Ohta & Kawai 2004; Bergamasco & Lovera 2011): the Laguerre
@@ -152,7 +152,8 @@ def identify_laguerre(
     * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
       energy), so the Laguerre pole sits inside the excited band;
     * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
-      ``N = 2 a T / 3.6`` clipped to ``[100, 600]`` and ``<= Ns / 2``; (filter): 30;
+      ``N = 2 a T / 3.6`` clipped to ``[N_MIN, N_MAX] = [100, 4000]`` and to ``Ns / 2``
+      (a ``RuntimeWarning`` when an upper limit binds); (filter): 30;
     * ``p``: AIC over 2..4 (projection: ``p (m + q + l) <= N / 6``); ``f = p``;
     * ``order``: largest log-gap of the singular values;
     * filter variant: ``burn_in = min(T / 4, 10 / a)`` s skipped, ``n_times = 300``

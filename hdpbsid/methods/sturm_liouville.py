@@ -1,7 +1,8 @@
 """Methods ``"legendre"``, ``"chebyshev"`` and any finite-interval ``slbasis`` basis.
 
-PBSID in a Sturm-Liouville basis on the record window (the seed's §4 "future research"
-direction; DESIGN.md "Any Sturm-Liouville basis").  On a finite window the projected
+PBSID in a Sturm-Liouville basis on the record window (the general theory of the thesis,
+§4, and the Legendre/Jacobi bases its §7 names as future research; docs/theory.md, "Any
+finite-interval Sturm-Liouville basis").  On a finite window the projected
 derivative is nilpotent (Legendre: ``phi_n'`` lies in ``span{phi_0..phi_{n-1}}``), so the
 Hermite construction ``M = ((D/alpha + beta I)/gamma)^{-1}`` would be a polynomial in ``D``
 with norm ``~ (N^2 / (alpha T))^k``: it amplifies noise instead of averaging it.  We use
@@ -197,12 +198,16 @@ def identify_sl(
     ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``) or an
     :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters.  See the
     module docstring for the integrator ``M`` and why it is stable.  Defaults (in
-    ``model.options``): ``N = 1.5 * bandwidth * T / 2`` in ``[50, 600]`` and ``<= Ns/2``
-    (an explicit ``N`` whose band ``2 N / T`` is below the data bandwidth raises
-    ``ValueError``); ``alpha`` = half the data bandwidth; ``beta = gamma = 1``;
-    ``p = max(2, ceil(n / l))`` (``n`` = order, or 3 for order selection, which then
-    considers orders ``1..f l - 1``; pass ``p`` for more); ``order`` from the singular
-    values.
+    ``model.options``):
+
+    * ``N = 1.5 * bandwidth * T / 2`` clipped to ``[N_MIN, N_MAX] = [50, 2000]`` and to
+      ``Ns / 2`` (a ``RuntimeWarning`` when an upper limit binds); an explicit ``N``
+      whose band ``2 N / T`` is below the data bandwidth raises ``ValueError``;
+    * ``alpha`` = half the bandwidth holding 95 % of the output energy (the outputs, not
+      a possibly broadband input, show the system's dynamics); ``beta = gamma = 1``;
+    * ``p = max(2, ceil(n / l))`` (``n`` = order, or 3 for order selection, which then
+      considers orders ``1..min(max_order, f l - 1)``; pass ``p`` for more); ``f = p``;
+    * ``order``: largest log-gap of the singular values.
     """
     records = as_records(t, u, y)
     m, l = records[0].u.shape[1], records[0].y.shape[1]

@@ -1,16 +1,16 @@
-"""Simulation studies of the source (§5-6), one command each (issue 5).
+"""Simulation studies of the thesis (§5-6), one command each.
 
 ``run_study(name, *, runs, seed, jobs, scheduler, out, progress, resume, **settings)``
 runs a study through the Monte Carlo engine (:mod:`hdpbsid.studies.runner`): serial,
 joblib (``jobs > 1``) or Dask (``scheduler``), reproducible from ``seed``, resumable
 from ``out/results.jsonl``.  Studies (:data:`STUDIES`; CLI names in brackets):
 
-* ``snr``: second-order system, eigenvalue error vs SNR (source §5);
-* ``samples``: error vs number of samples, 100 ... 10 000 (source §5);
-* ``basis_order`` [``basis-order``]: Hermite basis size N, 10 ... 1000 (source §5);
-* ``operator``: the differentiation-operator parameters alpha, beta, gamma (source §3.2, §5);
+* ``snr``: second-order system, eigenvalue error vs SNR (the thesis, §5);
+* ``samples``: error vs number of samples, 100 ... 10 000 (the thesis, §5);
+* ``basis_order`` [``basis-order``]: Hermite basis size N, 10 ... 1000 (the thesis, §5);
+* ``operator``: the differentiation-operator parameters alpha, beta, gamma (the thesis, §3.2, §5);
 * ``table1``: closed-loop quadrotor, HD-PBSID vs CT-PBSID (projection, filters) vs DT,
-  SNR 50/20/10/6 dB (source §5, Table 1, Figure 1);
+  SNR 50/20/10/6 dB (the thesis, §5, Table 1, Figure 1);
 * ``quadrotor``: the §6 example, simulated: Hermite-projected sweep, moment in, rate and
   angular acceleration out, singular values, order choice, validation (Figure 2).
 

@@ -1,4 +1,4 @@
-"""Study objects, their results, and the shared per-run / summary helpers (issue 5).
+"""Study objects, their results, and the shared per-run / summary helpers.
 
 A :class:`Study` bundles: how settings become cases (``make_cases``), the task run per
 ``(case, rng)`` (a module-level function, so it pickles by reference for joblib and
@@ -33,7 +33,7 @@ __all__ = [
 ]
 
 #: a run is *divergent* when an identified eigenvalue runs away: its error exceeds ten
-#: times the true eigenvalue's magnitude (source §5: CT-PBSID "divergent behavior";
+#: times the true eigenvalue's magnitude (the thesis, §5: CT-PBSID "divergent behavior";
 #: a biased but bounded estimate, e.g. a real pole pulled to the wrong side of the
 #: axis, is not counted here but shows in the bias and the median error)
 DIVERGENCE = 10.0
@@ -43,7 +43,7 @@ DIVERGENCE = 10.0
 class Study:
     """A Monte Carlo study.
 
-    ``name`` (CLI name), ``title``, ``source`` (section of the source it reproduces),
+    ``name`` (CLI name), ``title``, ``source`` (section of the thesis it reproduces),
     ``task(case, rng) -> dict``, ``make_cases(settings) -> list[dict]``,
     ``summarize(records, settings) -> list[dict]`` (table rows), ``defaults`` (every
     setting with its default, ``runs`` included), ``columns`` (table columns, ``None`` =
@@ -242,12 +242,12 @@ def ok_results(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def eigen_stats(results: list[dict[str, Any]], true: Any) -> dict[str, Any]:
-    """Bias and STD of matched eigenvalues over runs (source Table 1 quantities).
+    """Bias and STD of matched eigenvalues over runs (the thesis's Table 1 quantities).
 
     For each true eigenvalue ``lambda_j`` (only ``Im >= 0`` of a conjugate pair), over
     the runs that returned a model: ``bias_j = |mean(est_j) - lambda_j|`` and
     ``std_j = sqrt(mean |est_j - mean(est_j)|^2)`` (absolute, in rad/s, like the
-    source's Table 1), and the same divided by ``|lambda_j|`` (``rel_``).  Also
+    thesis's Table 1), and the same divided by ``|lambda_j|`` (``rel_``).  Also
     ``median_error`` (median over runs of the worst relative error), ``divergent``
     (runs with worst relative error > :data:`DIVERGENCE`), ``n`` (runs with a model).
     """

@@ -1,5 +1,5 @@
 """Study ``basis_order`` (CLI ``basis-order``): Hermite basis size N from 10 to 1000
-(source §5: "orders below 30 result in poor identification, beyond 50 negligible
+(the thesis, §5: "orders below 30 result in poor identification, beyond 50 negligible
 improvements").
 
 Second-order benchmark at SNR 20 dB, 40 s, 4001 samples, 0.05-1 Hz sweep on 100
@@ -51,7 +51,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="basis-order",
     title="Second-order system: eigenvalue error vs Hermite basis size N (SNR 20 dB)",
-    source="source §5",
+    source="thesis §5",
     task=second_order.task,
     make_cases=make_cases,
     summarize=summarize,

@@ -1,4 +1,4 @@
-"""Simulated records for the studies (source §5: second-order system and closed-loop
+"""Simulated records for the studies (the thesis, §5: second-order system and closed-loop
 quadrotor), with a small per-process cache so that the methods compared on the same
 record (same seed, data settings and run) do not simulate it again.
 
@@ -70,7 +70,7 @@ class Record:
 
 def _hermite_sweep(t: Array, n_max_u: int | None, f0: float, f1: float) -> Array:
     """Unit-amplitude linear sweep ``f0 -> f1`` Hz over the record, projected on
-    ``n_max_u`` Hermite functions when given (source §5)."""
+    ``n_max_u`` Hermite functions when given (the thesis, §5)."""
     if n_max_u is None:
         T = float(t[-1] - t[0])
         tt = t - t[0]
@@ -88,7 +88,7 @@ def second_order_record(
     f1: float = 1.0,
     n_max_u: int | None = 100,
 ) -> Record:
-    """The second-order benchmark (DESIGN.md; source §5) excited by a linear sine sweep
+    """The second-order benchmark (the thesis, §5) excited by a linear sine sweep
     ``f0 -> f1`` Hz projected on ``n_max_u`` Hermite functions (``None``: the plain
     sweep), ``samples`` uniform samples over ``duration`` s, exact FOH response plus
     white noise at ``snr_db`` (:func:`hdpbsid.systems.add_noise`, power SNR)."""
@@ -121,7 +121,7 @@ def quadrotor_record(
     Simulated by :func:`~hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`.
 
     ``excitation="hermite-sweep"`` uses :func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`
-    with ``n_max_u`` terms (source §5-6); ``"sweep"``/``"3211"`` the plain ones.
+    with ``n_max_u`` terms (the thesis, §5-6); ``"sweep"``/``"3211"`` the plain ones.
     """
     outputs = tuple(outputs)
     settings = dict(

@@ -1,6 +1,6 @@
-"""Figures of the studies (issue 5, item 3): Monte Carlo eigenvalue scatter per method
-with the truth (source Figure 1), singular values, measured vs simulated outputs
-(source Figure 2), Bode plots of the true and identified models, and the study curves
+"""Figures of the studies : Monte Carlo eigenvalue scatter per method
+with the truth (the thesis, Figure 1), singular values, measured vs simulated outputs
+(the thesis, Figure 2), Bode plots of the true and identified models, and the study curves
 (error vs SNR / samples / basis size / operator parameters).
 
 Matplotlib through :mod:`hdpbsid.plots` (Agg canvas, never ``pyplot``: no window, no
@@ -163,8 +163,8 @@ def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
 
 def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, Path]:
     """The quadrotor example's figures for run ``run``: singular values, eigenvalues vs
-    truth, measured vs simulated outputs on the validation record (source Figure 2
-    style), Bode true vs identified.  The models come from the record's matrices and the
+    truth, measured vs simulated outputs on the validation record (the thesis's
+    Figure 2 style), Bode true vs identified.  The models come from the record's matrices and the
     records are re-simulated from the seed (exactly; cached in the same process)."""
     from ..model import StateSpaceModel
     from ..plots import display_fit

@@ -1,8 +1,8 @@
 """The identification methods compared in the studies, by study name.
 
-``"hermite"`` is HD-PBSID (source §3.2), ``"laguerre"`` CT-PBSID with projected
+``"hermite"`` is HD-PBSID (the thesis, §3.2), ``"laguerre"`` CT-PBSID with projected
 Laguerre coefficients and ``"laguerre-filter"`` CT-PBSID with the Laguerre filter
-network (source §3.1; Bergamasco & Lovera 2011), ``"dt"`` discrete-time PBSID of the
+network (the thesis, §3.1; Bergamasco & Lovera 2011), ``"dt"`` discrete-time PBSID of the
 samples converted to continuous time.  Every one runs through :func:`hdpbsid.identify`
 with its defaults, plus the study's explicit options, so improvements to the method
 defaults are picked up by the studies.
@@ -58,6 +58,6 @@ def identify_with(
     """``identify(t, u, y, order, method=..., **fixed, **options)`` for study method ``name``."""
     method, fixed = METHODS[name]
     # the studies' records are simulated from rest around a zero operating point, as in
-    # the source: no levels to remove (mean removal would add an O(1/T) level error)
+    # the thesis: no levels to remove (mean removal would add an O(1/T) level error)
     opts = {"detrend": None, **fixed, **(options or {})}
     return identify(t, u, y, order, method=method, **opts)

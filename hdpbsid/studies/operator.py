@@ -1,4 +1,4 @@
-"""Study ``operator``: the differentiation-operator parameters of HD-PBSID (source §3.2,
+"""Study ``operator``: the differentiation-operator parameters of HD-PBSID (the thesis, §3.2,
 ``D' = (D/alpha + beta I)/gamma``; §5: "alpha and beta have minimal impact, provided they
 stay within stable, numerically sound ranges").
 
@@ -63,7 +63,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="operator",
     title="HD-PBSID operator parameters alpha, beta, gamma (SNR 20 dB)",
-    source="source §3.2 and §5",
+    source="thesis §3.2 and §5",
     task=second_order.task,
     make_cases=make_cases,
     summarize=summarize,

@@ -1,6 +1,6 @@
-"""Study ``quadrotor``: the source's §6 experiment, simulated (issue 5, item 2).
+"""Study ``quadrotor``: the thesis's §6 experiment, simulated.
 
-The flight data of §6 are not public, so the ANT-X pitch model flies in its DESIGN.md
+The flight data of §6 are not public, so the ANT-X pitch model flies in its cascade
 closed loop (:mod:`hdpbsid.systems.quadrotor`).  As in §5-6, the excitation added to the moment
 command is the Hermite projection of a 1-4 Hz sine sweep on ``n_max,u`` functions
 (:func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`); the identified input is the
@@ -15,7 +15,7 @@ singular values and the order the largest log-gap selects, and identifies both
 ``orders`` (default 3 and 4): the eigenvalues against the truth (a 4th-order model has
 one extra eigenvalue that the truth does not explain) and the fit (VAF) on the
 identification record and on a fresh validation record (same excitation, new noise)
-- the simulated-vs-measured comparison of the source's Figure 2.
+- the simulated-vs-measured comparison of the thesis's Figure 2.
 
 Measured (20 dB, seed 0, runs 0-3, HD-PBSID defaults but N = 400): with ``q, q_dot``
 the validation VAF is 98.5-99.1 / 99.4 % but the order-3 real pole is 88-154 % off (the
@@ -66,7 +66,7 @@ COLUMNS = (
 def _default_options(method: str, outputs: tuple[str, ...]) -> dict[str, Any]:
     opts: dict[str, Any] = {}
     if method == "hermite":
-        opts["N"] = 400  # source §6: a 400-term Hermite basis (the default would be ~340)
+        opts["N"] = 400  # the thesis, §6: a 400-term Hermite basis (the default would be ~340)
     if "q_dot" in outputs or "a_x" in outputs:
         if method in ("hermite", "dt", "legendre", "chebyshev"):
             opts["feedthrough"] = True  # the accelerations have a moment feedthrough
@@ -207,8 +207,8 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 
 STUDY = Study(
     name="quadrotor",
-    title="Quadrotor pitch (source §6, simulated): HD-PBSID, orders 3 and 4",
-    source="source §5-6, Tables 2-3, Figure 2",
+    title="Quadrotor pitch (thesis §6, simulated): HD-PBSID, orders 3 and 4",
+    source="thesis §5-6, Tables 2-3, Figure 2",
     task=task,
     make_cases=make_cases,
     summarize=summarize,

@@ -1,4 +1,4 @@
-"""The Monte Carlo engine shared by every study (issue 5, item 1; source §5).
+"""The Monte Carlo engine shared by every study (the Monte Carlo runs of the thesis, §5).
 
 A study is a list of **cases** (plain dicts of settings, JSON-serialisable) crossed with
 run indices ``0 .. runs - 1``.  Each *task* ``(case, run)`` calls the study's task
@@ -16,7 +16,7 @@ the simulated record; the whole case if it has no ``"data"`` entry).  So
   the third digit of a bias; the joblib workers and a serial run with one BLAS thread
   gave bit-identical records for all 1437 table1 tasks compared);
 * cases that differ only in the method (``case["method"]``) see the *same* record for
-  the same run (paired comparison, as in the source's Table 1).
+  the same run (paired comparison, as in the thesis's Table 1).
 
 Backends: serial (``jobs=1``), joblib/loky processes (``jobs > 1``), or Dask
 (``scheduler="tcp://host:port"`` or a ``dask.distributed.Client``).  All three yield

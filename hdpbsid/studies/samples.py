@@ -1,5 +1,5 @@
 """Study ``samples``: number of samples 100 ... 10 000 over the same 40 s record
-(source §5: "an increasing number of samples leads to improved accuracy").
+(the thesis, §5: "an increasing number of samples leads to improved accuracy").
 
 Second-order benchmark at SNR 20 dB (per-sample white noise, so more samples of the
 same record average more noise), 0.05-1 Hz sweep on 100 Hermite functions, HD-PBSID
@@ -53,7 +53,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="samples",
     title="Second-order system: eigenvalue error vs number of samples (SNR 20 dB)",
-    source="source §5",
+    source="thesis §5",
     task=second_order.task,
     make_cases=make_cases,
     summarize=summarize,

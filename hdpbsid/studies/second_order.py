@@ -1,4 +1,4 @@
-"""The task and the summary shared by the second-order parameter studies (source §5:
+"""The task and the summary shared by the second-order parameter studies (the thesis, §5:
 ``snr``, ``samples``, ``basis_order``, ``operator``).
 
 A case is ``{"data": {...second_order_record settings}, "method": name, "order": 2,
@@ -20,7 +20,7 @@ from .methods import identify_with
 
 __all__ = ["task", "rows", "DATA_DEFAULTS", "COLUMNS"]
 
-#: the record of source §5: 40 s, 4001 samples, 0.05-1 Hz sweep on 100 Hermite functions
+#: the record of the thesis's §5: 40 s, 4001 samples, 0.05-1 Hz sweep on 100 Hermite functions
 DATA_DEFAULTS: dict[str, Any] = {
     "snr_db": 20.0,
     "samples": 4001,

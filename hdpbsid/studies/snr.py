@@ -1,9 +1,10 @@
-"""Study ``snr``: the second-order system at decreasing SNR (source §5, first study).
+"""Study ``snr``: the second-order system at decreasing SNR (the thesis, §5, first study).
 
-Second-order benchmark (DESIGN.md; eigenvalues ``-0.4 +- 1.9596i``), 40 s, 4001 samples,
-a 0.05-1 Hz linear sweep projected on ``n_max,u = 100`` Hermite functions (source §5),
-white output noise at each SNR; methods with their :func:`hdpbsid.identify` defaults,
-order 2.  Source: accurate at low noise, deviations grow as the SNR falls.
+Second-order benchmark (:func:`hdpbsid.systems.second_order`; eigenvalues
+``-0.4 +- 1.9596i``), 40 s, 4001 samples, a 0.05-1 Hz linear sweep projected on
+``n_max,u = 100`` Hermite functions (the thesis, §5), white output noise at each SNR;
+methods with their :func:`hdpbsid.identify` defaults, order 2.  The thesis reports:
+accurate at low noise, deviations grow as the SNR falls.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="snr",
     title="Second-order system: eigenvalue error vs SNR",
-    source="source §5",
+    source="thesis §5",
     task=second_order.task,
     make_cases=make_cases,
     summarize=summarize,

@@ -1,8 +1,8 @@
 """Study ``table1``: closed-loop quadrotor Monte Carlo, HD-PBSID vs CT-PBSID vs DT
-(source §5, Table 1 and Figure 1).
+(the thesis, §5, Table 1 and Figure 1).
 
-The ANT-X pitch model in its DESIGN.md cascade loop (:mod:`hdpbsid.systems.quadrotor`), 30 s at
-250 Hz, excitation added to the moment command (default: the source's Hermite
+The ANT-X pitch model in its cascade loop (:mod:`hdpbsid.systems.quadrotor`), 30 s at
+250 Hz, excitation added to the moment command (default: the thesis's Hermite
 projection of a 1-4 Hz sweep, ``n_max,u = 300`` terms), sensor noise on ``q`` and
 ``theta`` at each SNR; identified input the total moment, outputs ``q`` and ``theta``,
 order 3 (the true plant's).  Each run identifies the *same* record with every method
@@ -12,7 +12,7 @@ Summary per SNR and method, over the runs that returned a model: bias
 ``|mean(lambda_est) - lambda|`` and STD ``sqrt(mean |lambda_est - mean|^2)`` of the
 identified eigenvalues matched to the truth (absolute, rad/s, like Table 1), for the
 unstable-plant oscillatory pair ``-2.92 + 3.24i`` and the real pole ``+3.08``.  (The
-source's "Dim 1 / Dim 2" columns are not defined in the summary; we report the pair and
+the thesis's "Dim 1 / Dim 2" columns are not defined in the summary; we report the pair and
 the real pole instead.)  ``failed``: runs that raised; ``divergent``: runs whose worst
 relative eigenvalue error exceeds 1000 % (an estimate that ran away,
 :data:`~hdpbsid.studies.base.DIVERGENCE`); ``median err``: median over runs of the worst
@@ -141,7 +141,7 @@ def _figures(result: Any, out: Any) -> dict[str, Any]:
 STUDY = Study(
     name="table1",
     title="Closed-loop quadrotor Monte Carlo: eigenvalue bias and STD per SNR and method",
-    source="source §5, Table 1 and Figure 1",
+    source="thesis §5, Table 1 and Figure 1",
     task=task,
     make_cases=make_cases,
     summarize=summarize,

@@ -1,9 +1,8 @@
-"""Benchmark systems of DESIGN.md ("Benchmark systems") and their data generators.
+"""Linear benchmark systems and their data generators.
 
 Each system is a function returning its state-space matrices; data generators take a
 ``numpy.random.Generator`` (never global random state).  The quadrotor pitch closed
-loop is still to come (it will live here as ``quadrotor_pitch`` and
-``simulate_quadrotor_closed_loop``).
+loop lives in :mod:`hdpbsid.systems.quadrotor`.
 """
 
 from __future__ import annotations

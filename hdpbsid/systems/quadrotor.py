@@ -1,7 +1,8 @@
 """Quadrotor pitch benchmark (ANT-X drone at hover) in its closed loop.
 
-DESIGN.md, "Benchmark systems", "Quadrotor pitch": states ``[u, q, theta]`` (forward
-velocity, pitch rate, pitch angle), input the (normalised) pitching moment ``delta``::
+The pitch axis of the ANT-X quadrotor (the drone of the thesis's §6 experiment): states
+``[u, q, theta]`` (forward velocity, pitch rate, pitch angle), input the (normalised)
+pitching moment ``delta``::
 
     A = [[Xu, Xq, -g], [Mu, Mq, 0], [0, 1, 0]],   B = [[Xd], [Md], [0]]
 
@@ -29,7 +30,7 @@ Gamma delta_k`` with ``[[Phi, Gamma], [0, I]] = expm([[A, B], [0, 0]] Ts)``.  Se
 noise is white Gaussian on ``q`` and ``theta`` (and on ``u`` / ``a_x`` when they are
 chosen as outputs) at a requested SNR; see :func:`simulate_pitch_closed_loop` for the
 definition.  The identified input is the total (applied) moment; outputs ``q`` and
-``theta`` (or ``a_x = Xu u + Xq q + Xd delta``) as DESIGN.md says.
+``theta`` (or ``a_x = Xu u + Xq q + Xd delta``).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: Stability and control derivatives of the ANT-X pitch model (DESIGN.md).
+#: Stability and control derivatives of the ANT-X pitch model (module docstring).
 PITCH_PARAMETERS: dict[str, float] = {
     "Xu": -0.1068,
     "Xq": 0.1192,
@@ -66,7 +67,7 @@ PITCH_PARAMETERS: dict[str, float] = {
     "g": 9.81,
 }
 
-#: Controller of DESIGN.md: attitude P over rate PID, velocity PI, saturation, 250 Hz.
+#: Controller of the module docstring: attitude P over rate PID, velocity PI, saturation, 250 Hz.
 CONTROLLER_DEFAULTS: dict[str, float] = {
     "k_theta": 12.0,
     "kp_q": 0.09,
@@ -80,15 +81,15 @@ CONTROLLER_DEFAULTS: dict[str, float] = {
 }
 
 #: Output names accepted by :func:`pitch_output_matrices` (``u`` is the forward velocity,
-#: ``q_dot`` the angular acceleration ``Mu u + Mq q + Md delta``, source §6).
+#: ``q_dot`` the angular acceleration ``Mu u + Mq q + Md delta``, the thesis, §6).
 OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x", "q_dot")
 
 
 def pitch_model() -> tuple[Array, Array, Array, Array]:
     """Open-loop pitch model ``(A, B, C, D)`` with all three states as outputs.
 
-    ``C = I_3``, ``D = 0``.  Eigenvalues ``-2.92 +- 3.24i`` and ``+3.08`` (DESIGN.md,
-    "Benchmark systems"; checked in ``tests/test_hdpbsid_quadrotor.py``).
+    ``C = I_3``, ``D = 0``.  Eigenvalues ``-2.92 +- 3.24i`` and ``+3.08`` (to three
+    significant digits; checked in ``tests/test_hdpbsid_quadrotor.py``).
     """
     p = PITCH_PARAMETERS
     A = np.array(
@@ -106,8 +107,8 @@ def pitch_output_matrices(outputs: Any = ("q", "theta")) -> tuple[Array, Array, 
     """Rows ``(C, D)`` of the chosen outputs among ``u, q, theta, a_x, q_dot``.
 
     ``a_x = Xu u + Xq q + Xd delta`` (the accelerometer: specific force, so no gravity
-    term; DESIGN.md); ``q_dot = Mu u + Mq q + Md delta`` (the angular acceleration the
-    source's §6 measures).  Returns ``(C (l, 3), D (l, 1), names)``.
+    term); ``q_dot = Mu u + Mq q + Md delta`` (the angular acceleration the
+    thesis's §6 experiment measures).  Returns ``(C (l, 3), D (l, 1), names)``.
     """
     if isinstance(outputs, str):
         outputs = (outputs,)
@@ -146,7 +147,8 @@ def pitch_excitation(
     pulse: float = 0.1,
     period: float = 2.0,
 ) -> Array:
-    """Excitation added to the moment command (DESIGN.md: sine sweep 1-4 Hz or a 3211).
+    """Excitation added to the moment command (a 1-4 Hz sine sweep as in the thesis, §6, or
+    a 3211).
 
     * ``"sweep"``: linear chirp ``amplitude sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))``
       over the record ``[0, T]`` (``f0 = 1``, ``f1 = 4`` Hz by default);
@@ -306,7 +308,7 @@ def simulate_pitch_closed_loop(
     pulse: float = 0.1,
     period: float = 2.0,
 ) -> PitchData:
-    """Simulate the ANT-X pitch dynamics in the DESIGN.md cascade loop (module docstring).
+    """Simulate the ANT-X pitch dynamics in its cascade loop (module docstring).
 
     ``rng`` (``numpy.random.Generator``) draws the sensor noise.  ``duration`` seconds at
     the controller rate (250 Hz: ``Ns = round(duration * 250) + 1`` samples from 0).
@@ -454,7 +456,7 @@ def hermite_sweep_excitation(
     f0: float = 1.0,
     f1: float = 4.0,
 ) -> Array:
-    """The source's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
+    """The thesis's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
     the first ``n_terms`` Hermite functions (``n_max,u``) of the record ``[t0, tN]``.
 
     The sweep of :func:`pitch_excitation` is projected (:meth:`slbasis.Basis.project`,

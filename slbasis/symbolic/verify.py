@@ -413,7 +413,7 @@ def _oracle_checks(rep: VerificationReport, p: SturmLiouville, oracle, nmax: int
             for n in range(max(start, 1), nmax + 1)
         )
         rep.add(
-            f"derivative operator ({frame}) == closed form (seed eq. 3 / DESIGN.md / DLMF)",
+            f"derivative operator ({frame}) == closed form (thesis eq. 3 / DLMF)",
             (SYMBOLIC if symbolic else f"{max(start, 1)} <= n <= {nmax}")
             + (f", n >= {start}" if start and symbolic else ""),
             ok,
