@@ -55,7 +55,6 @@ reshaped to one ``(rows * K, N)`` array, so each step is one BLAS call, not ``K`
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -63,8 +62,16 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import qr
 
-from .pbsid import CoreResult, estimate_cd, riccati_gain, select_order
-from .varx import LagOperator, VarxResult, _parse_regularize, past_blocks, r_factor, ridge_gcv
+from .pbsid import CoreResult, estimate_cd, select_order, stable_gain
+from .varx import (
+    CachedPowers,
+    LagOperator,
+    VarxResult,
+    _parse_regularize,
+    past_blocks,
+    r_factor,
+    ridge_gcv,
+)
 
 __all__ = ["BlockLag", "BlockPseudo", "pbsid_core_blocks", "select_past_window_blocks"]
 
@@ -76,7 +83,7 @@ Mask = NDArray[np.bool_]
 PSEUDO_ROW_FLOOR = 1e-8
 
 
-class BlockLag:
+class BlockLag(CachedPowers):
     """Block-diagonal lag: ``apply(W, j)`` lags the columns of each block with its own
     :class:`~hdpbsid.core.varx.LagOperator`; nothing crosses a block edge.
 
@@ -86,6 +93,7 @@ class BlockLag:
     """
 
     def __init__(self, lags: Sequence[LagOperator], sizes: Sequence[int]) -> None:
+        super().__init__()
         if len(lags) != len(sizes) or not lags:
             raise ValueError("lags and sizes must be non-empty and of equal length")
         self.lags = list(lags)
@@ -98,8 +106,6 @@ class BlockLag:
         self.groups = [
             (self.lags[bs[0]], self.sizes[bs[0]], bs, self.columns(bs)) for bs in groups.values()
         ]
-        self._key: tuple[int, tuple[int, ...]] | None = None
-        self._cache: list[Array] = []
 
     def columns(self, blocks: Sequence[int]) -> NDArray[np.intp]:
         """``(len(blocks), N)`` column indices of blocks of equal size ``N``."""
@@ -114,16 +120,6 @@ class BlockLag:
             Wg = W[:, idx].reshape(rows * len(bs), n)
             out[:, idx] = lag.apply(Wg, 1).reshape(rows, len(bs), n)
         return out
-
-    def apply(self, W: Array, j: int) -> Array:
-        W = np.asarray(W, dtype=float)
-        key = (id(W), W.shape)
-        if self._key != key or not self._cache or not np.array_equal(self._cache[0], W):
-            self._key = key
-            self._cache = [W.copy()]
-        while len(self._cache) <= j:
-            self._cache.append(self._once(self._cache[-1]))
-        return self._cache[j].copy()
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         out = np.empty_like(valid)
@@ -521,16 +517,7 @@ def pbsid_core_blocks(
         ui = np.flatnonzero(use)
         # W = x - A lag(x) - B lag(u) - (pseudo part) = K lag(e) + residual
         W = (resid_abk + Kg @ reg_u[n + m :])[:, ui]
-        try:
-            Kg = riccati_gain(A, C, W, LE[:, ui])
-            k_method = "riccati"
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            warnings.warn(
-                f"stable_k: the Riccati equation has no stabilising solution ({exc}); "
-                f"keeping the least-squares K",
-                RuntimeWarning,
-                stacklevel=2,
-            )
+        Kg, k_method = stable_gain(A, C, W, LE[:, ui], Kg)
     noise_cov = E @ E.T / E.shape[1]
     options = {
         "p": p,

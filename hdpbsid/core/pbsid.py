@@ -29,6 +29,7 @@ __all__ = [
     "estimate_cd",
     "estimate_abk",
     "riccati_gain",
+    "stable_gain",
     "CoreResult",
     "pbsid_core",
 ]
@@ -171,6 +172,22 @@ def riccati_gain(A: Array, C: Array, W: Array, V: Array) -> Array:
     return np.linalg.solve(C @ P @ C.T + R, (A @ P @ C.T + S).T).T
 
 
+def stable_gain(A: Array, C: Array, W: Array, V: Array, K: Array) -> tuple[Array, str]:
+    """``stable_k``: the Riccati gain (:func:`riccati_gain`) in place of the least-squares
+    ``K``, or ``K`` unchanged with a ``RuntimeWarning`` when no stabilising solution
+    exists.  Returns ``(K, how)``."""
+    try:
+        return riccati_gain(A, C, W, V), "riccati"
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        warnings.warn(
+            f"stable_k: the Riccati equation has no stabilising solution ({exc}); "
+            f"keeping the least-squares K",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return K, "least squares"
+
+
 @dataclass
 class CoreResult:
     """Model in the index domain (sampled or basis) and everything the core computed."""
@@ -284,18 +301,7 @@ def pbsid_core(
         D = vx.D
         E = Y[:, cols] - C @ X - D @ U[:, cols]
     A, B, K, W, V = estimate_abk(X, U, E, cols, Y.shape[1], lag)
-    k_method = "least squares"
-    if stable_k:
-        try:
-            K = riccati_gain(A, C, W, V)
-            k_method = "riccati"
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            warnings.warn(
-                f"stable_k: the Riccati equation has no stabilising solution ({exc}); "
-                f"keeping the least-squares K",
-                RuntimeWarning,
-                stacklevel=2,
-            )
+    K, k_method = stable_gain(A, C, W, V, K) if stable_k else (K, "least squares")
     noise_cov = E @ E.T / E.shape[1]
     options = {
         "p": p,

@@ -32,6 +32,7 @@ from scipy.optimize import minimize_scalar
 
 __all__ = [
     "LagOperator",
+    "CachedPowers",
     "SampleShift",
     "MatrixLag",
     "past_blocks",
@@ -60,6 +61,33 @@ class LagOperator(Protocol):
     def apply(self, W: Array, j: int) -> Array: ...
 
     def valid_columns(self, valid: Mask, j: int) -> Mask: ...
+
+
+class CachedPowers:
+    """Base of lag operators whose ``j``-th power is ``j`` one-step applications.
+
+    Subclasses define ``_once(W)`` (one lag of a ``(rows, N)`` array).  The powers of the
+    last argument are cached, so :func:`past_blocks` (``j = p, ..., 1``) costs ``p``
+    one-step applications instead of ``p (p + 1) / 2``.  The cache is keyed on the
+    argument's identity and checked against its contents.
+    """
+
+    def __init__(self) -> None:
+        self._key: tuple[int, tuple[int, ...]] | None = None
+        self._cache: list[Array] = []
+
+    def _once(self, W: Array) -> Array:  # pragma: no cover - defined by subclasses
+        raise NotImplementedError
+
+    def apply(self, W: Array, j: int) -> Array:
+        W = np.asarray(W, dtype=float)
+        key = (id(W), W.shape)
+        if self._key != key or not self._cache or not np.array_equal(self._cache[0], W):
+            self._key = key
+            self._cache = [W.copy()]
+        while len(self._cache) <= j:
+            self._cache.append(self._once(self._cache[-1]))
+        return self._cache[j].copy()
 
 
 class SampleShift:

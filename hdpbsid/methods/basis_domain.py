@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from ..checks import check_method_args, check_positive_int
 from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks, select_past_window_blocks
 from ..core.pbsid import CoreResult
+from ..core.varx import CachedPowers
 from ..model import StateSpaceModel
 from .memo import memoize
 
@@ -85,7 +86,7 @@ INPUT_HOLDS = ("auto", "zoh", "foh", "trapezoid")
 GAUSS_NODES = 3
 
 
-class SolveLag:
+class SolveLag(CachedPowers):
     """``apply(W, j) = W M^j`` with ``W M`` computed by ``solve(W)`` (a callable).
 
     ``solve`` maps a ``(rows, N)`` array to ``W M`` (e.g. a banded solve with ``D'^T``).
@@ -95,20 +96,12 @@ class SolveLag:
     """
 
     def __init__(self, solve: Callable[[Array], Array], name: str = "M") -> None:
+        super().__init__()
         self._solve = solve
         self._name = name
-        self._key: tuple[int, tuple[int, ...]] | None = None
-        self._cache: list[Array] = []
 
-    def apply(self, W: Array, j: int) -> Array:
-        W = np.asarray(W, dtype=float)
-        key = (id(W), W.shape)
-        if self._key != key or not self._cache or not np.array_equal(self._cache[0], W):
-            self._key = key
-            self._cache = [W.copy()]
-        while len(self._cache) <= j:
-            self._cache.append(self._solve(self._cache[-1]))
-        return self._cache[j].copy()
+    def _once(self, W: Array) -> Array:
+        return self._solve(W)
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         # M mixes all columns: one unknown column spoils every lagged column
