@@ -152,10 +152,24 @@ def select_model(
     k, stats = choose_smallest_adequate(errors)
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
-    chosen = ok[k]
-    model = get_method(chosen["method"])(
-        t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
-    )
+    # the chosen candidate identified on the whole record; if that fails (e.g. the
+    # discrete model of the whole record has no continuous counterpart), the next
+    # adequate candidate, then the remaining ones by held-out error
+    adequate = [r for r, z in zip(ok, stats, strict=True) if z <= SIGNIFICANCE_Z]
+    rest = sorted((r for r in ok if r not in adequate), key=lambda r: r["criterion"].total)
+    failures = []
+    for chosen in adequate[adequate.index(ok[k]) :] + rest:
+        try:
+            model = get_method(chosen["method"])(
+                t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
+            )
+            break
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            failures.append(f"{chosen['method']} order {chosen['order']}: {exc}")
+    else:
+        raise ValueError(
+            "no scored candidate could be identified on the whole record: " + "; ".join(failures)
+        )
     rule = (
         f"held-out windowed simulation error on {where} ({windows} windows); "
         f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
