@@ -129,28 +129,6 @@ class _Layout:
         return A, B, C, D, K
 
 
-def _predictor(
-    A: Array, B: Array, C: Array, D: Array, K: Array, h: float, hold: str
-) -> tuple[Array, Array, Array, Array, Array]:
-    """Sampled predictor ``(Phi - Kd C, Gu - Kd Du, Kd, C, Du)`` (module docstring)."""
-    n, m, l = A.shape[0], B.shape[1], C.shape[0]
-    size = n + m + l + (m if hold == "foh" else 0)
-    M = np.zeros((size, size))
-    M[:n, :n] = A * h
-    M[:n, n : n + m] = B * h
-    M[:n, n + m : n + m + l] = K * h
-    if hold == "foh":
-        M[n : n + m, n + m + l :] = np.eye(m)
-    E = expm(M)
-    Phi, Gu, Kd = E[:n, :n], E[:n, n : n + m], E[:n, n + m : n + m + l]
-    Du = D
-    if hold == "foh":
-        G2 = E[:n, n + m + l :]  # int over the step of the ramp part, times 1/h via M
-        Gu = Gu - G2 + Phi @ G2
-        Du = D + C @ G2
-    return Phi - Kd @ C, Gu - Kd @ Du, Kd, C, Du
-
-
 def _is_stable(lam: NDArray[np.complex128]) -> bool:
     return bool(np.all(np.isfinite(lam)) and np.max(np.abs(lam)) < 1.0)
 
@@ -333,7 +311,7 @@ def refine_pem(
     A0, B0, C0, D0, K0 = _scale(model, ys, us)
     un, yn = u / us, y / ys
     starts: dict[str, Array] = {}
-    if _is_stable(np.linalg.eigvals(_predictor(A0, B0, C0, D0, K0, h, hold)[0])):
+    if _is_stable(np.linalg.eigvals(sampled_predictor(A0, B0, C0, D0, K0, h, hold, feedthrough).F)):
         starts["model K"] = lay.pack(A0, B0, C0, D0, K0)
     try:
         K_oe = _kalman_gain(A0, C0, h, OE_PROCESS_NOISE)
