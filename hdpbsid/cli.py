@@ -468,7 +468,7 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     print(
         "singular values: "
         + " ".join(f"{v:.3g}" for v in sv[:8])
-        + (f"  -> largest log-gap: order {res['auto_order']}" if res["auto_order"] else ""),
+        + (f"  -> order chosen (held-out error): {res['auto_order']}" if res["auto_order"] else ""),
         file=out,
     )
     true = data.true_eigenvalues

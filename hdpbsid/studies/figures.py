@@ -192,7 +192,7 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     fig = plot_singular_values(
         res["singular_values"],
         auto,
-        title="Singular values" + ("" if auto is None else f" (largest log-gap: order {auto})"),
+        title="Singular values" + ("" if auto is None else f" (order chosen: {auto})"),
     )
     files["singular_values.png"] = save_figure(fig, out / "singular_values.png")
     fig = new_figure((5.0 * len(models), 4.5))

@@ -11,7 +11,7 @@ feedthrough of the moment, so HD-PBSID runs with ``feedthrough=True``.
 
 §6 identifies a *fourth-order* model "motivated by singular value analysis" with a
 400-term basis.  Our simulated plant has three states, so the study records the
-singular values and the order the largest log-gap selects, and identifies both
+singular values and the order identify chooses (held-out simulation error), and identifies both
 ``orders`` (default 3 and 4): the eigenvalues against the truth (a 4th-order model has
 one extra eigenvalue that the truth does not explain) and the fit (VAF) on the
 identification record and on a fresh validation record (same excitation, new noise)
