@@ -62,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import qr
 
-from .pbsid import CoreResult, estimate_cd, select_order, stable_gain
+from .pbsid import CoreResult, core_options, estimate_cd, select_order, stable_gain
 from .varx import (
     CachedPowers,
     LagOperator,
@@ -519,24 +519,11 @@ def pbsid_core_blocks(
         W = (resid_abk + Kg @ reg_u[n + m :])[:, ui]
         Kg, k_method = stable_gain(A, C, W, LE[:, ui], Kg)
     noise_cov = E @ E.T / E.shape[1]
-    options = {
-        "p": p,
-        "f": f,
-        "order": n,
-        "order_selected": order is None,
-        "feedthrough": feedthrough,
-        "regularize": vx.regularize,
-        "ridge": vx.ridge,
-        "ridge_floor": ridge_floor,
-        "stable_k": stable_k,
-        "k_method": k_method,
-        "lag": repr(lag),
-        "pseudo_inputs": "eliminated per block (Frisch-Waugh-Lovell)",
-        "eliminated_pseudo_directions": elim.rank,
-    }
-    if info:
-        options["order_criterion"] = info["criterion"]
-        options["max_order"] = max_order
+    options = core_options(
+        p, f, n, order, feedthrough, vx, ridge_floor, stable_k, k_method, lag, info, max_order
+    )
+    options["pseudo_inputs"] = "eliminated per block (Frisch-Waugh-Lovell)"
+    options["eliminated_pseudo_directions"] = elim.rank
     return CoreResult(
         A=A,
         B=B,

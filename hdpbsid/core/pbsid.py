@@ -188,6 +188,41 @@ def stable_gain(A: Array, C: Array, W: Array, V: Array, K: Array) -> tuple[Array
         return K, "least squares"
 
 
+def core_options(
+    p: int,
+    f: int,
+    n: int,
+    order: int | None,
+    feedthrough: bool,
+    vx: VarxResult,
+    ridge_floor: float,
+    stable_k: bool,
+    k_method: str,
+    lag: LagOperator,
+    info: dict,
+    max_order: int | None,
+) -> dict:
+    """The settings a core run reports in ``options`` (windows, order and how it was
+    chosen, VARX regularisation, how ``K`` was obtained, the lag operator)."""
+    options = {
+        "p": p,
+        "f": f,
+        "order": n,
+        "order_selected": order is None,
+        "feedthrough": feedthrough,
+        "regularize": vx.regularize,
+        "ridge": vx.ridge,
+        "ridge_floor": ridge_floor,
+        "stable_k": stable_k,
+        "k_method": k_method,
+        "lag": repr(lag),
+    }
+    if info:
+        options["order_criterion"] = info["criterion"]
+        options["max_order"] = max_order
+    return options
+
+
 @dataclass
 class CoreResult:
     """Model in the index domain (sampled or basis) and everything the core computed."""
@@ -303,26 +338,13 @@ def pbsid_core(
     A, B, K, W, V = estimate_abk(X, U, E, cols, Y.shape[1], lag)
     K, k_method = stable_gain(A, C, W, V, K) if stable_k else (K, "least squares")
     noise_cov = E @ E.T / E.shape[1]
-    options = {
-        "p": p,
-        "f": f,
-        "order": n,
-        "order_selected": order is None,
-        "feedthrough": feedthrough,
-        "regularize": vx.regularize,
-        "ridge": vx.ridge,
-        "ridge_floor": ridge_floor,
-        "stable_k": stable_k,
-        "k_method": k_method,
-        "lag": repr(lag),
-        "estimator": "iv" if instruments is not None else "ls",
-    }
+    options = core_options(
+        p, f, n, order, feedthrough, vx, ridge_floor, stable_k, k_method, lag, info, max_order
+    )
+    options["estimator"] = "iv" if instruments is not None else "ls"
     if instruments is not None:
         options["instruments"] = vx.extra.get("instruments")
         options["c_method"] = "first block row of Gamma"
-    if info:
-        options["order_criterion"] = info["criterion"]
-        options["max_order"] = max_order
     return CoreResult(
         A=A,
         B=B,
