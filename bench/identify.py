@@ -40,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cases import DESCRIPTIONS, make_case  # noqa: E402
 
 from hdpbsid import get_method, identify, identify_discrete  # noqa: E402
+from hdpbsid.methods.settings import SETTING_NAMES  # noqa: E402
 from hdpbsid.metrics import match_eigenvalues  # noqa: E402
 
 #: method label -> (registry name, extra keyword arguments of identify)
@@ -72,9 +73,13 @@ def identify_case(label: str, case: Any, free_order: bool = False) -> np.ndarray
 
 
 def case_options(name: str, case: Any) -> dict[str, Any]:
-    """The entries of ``case.options`` that method ``name``'s function accepts."""
+    """The entries of ``case.options`` that method ``name``'s function accepts: its named
+    keywords, and the shared basis settings when it takes them as ``**keywords``."""
     params = inspect.signature(get_method(name)).parameters
-    return {k: v for k, v in case.options.items() if k in params}
+    names = set(params)
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        names |= set(SETTING_NAMES)
+    return {k: v for k, v in case.options.items() if k in names}
 
 
 def monte_carlo(

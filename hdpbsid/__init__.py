@@ -20,6 +20,7 @@ from .identify import (
     register_method,
 )
 from .methods.dt import identify_discrete, identify_dt
+from .methods.settings import BasisSettings
 from .metrics import eigenvalue_errors, match_eigenvalues
 from .model import DiscreteModel, FitResult, StateSpaceModel
 from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
@@ -55,6 +56,7 @@ __all__: list[str] = [
     "METHODS",
     "identify_dt",
     "identify_discrete",
+    "BasisSettings",
     "StateSpaceModel",
     "DiscreteModel",
     "FitResult",

@@ -204,14 +204,18 @@ def check_state_space(
 DEFAULT_MAX_ORDER = 10
 
 
+def check_order(order: int | None) -> int | None:
+    """``order``: None (chosen by the method) or a positive int."""
+    return None if order is None else check_positive_int(order, "order")
+
+
 def check_method_args(
     order: int | None, p: int | None, f: int | None, max_order: int | None
 ) -> tuple[int | None, int | None, int | None, int]:
     """Common integer checks of the identification methods: ``order``, the windows ``p``,
     ``f`` (each ``None`` or a positive int) and ``max_order`` (default
     :data:`DEFAULT_MAX_ORDER`)."""
-    if order is not None:
-        order = check_positive_int(order, "order")
+    order = check_order(order)
     if p is not None:
         p = check_positive_int(p, "p")
     if f is not None:

@@ -49,7 +49,9 @@ def test_doc_examples_run(page: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert result.failed == 0, f"{page.name}: {result.failed} of {result.attempted} failed"
 
 
-@pytest.mark.parametrize("module", ["slbasis.symbolic.problem", "slbasis.families"])
+@pytest.mark.parametrize(
+    "module", ["slbasis.symbolic.problem", "slbasis.families", "hdpbsid.methods.settings"]
+)
 def test_docstring_examples_of_the_api_pages_run(module: str) -> None:
     """The ``Examples`` of the docstrings the API reference shows (doctest)."""
     result = doctest.testmod(

@@ -67,7 +67,7 @@ from .varx import (
     CachedPowers,
     LagOperator,
     VarxResult,
-    _parse_regularize,
+    parse_regularize,
     past_blocks,
     r_factor,
     ridge_gcv,
@@ -298,7 +298,7 @@ class Eliminator:
 
 def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float):
     """Least squares / ridge ``Y ~ Theta Phi`` as :func:`hdpbsid.core.varx.varx` does."""
-    kind, lam = _parse_regularize(regularize)
+    kind, lam = parse_regularize(regularize)
     nreg = Phi.shape[0]
     if kind == "none":
         R = r_factor(Phi, Y)

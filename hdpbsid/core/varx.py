@@ -319,7 +319,7 @@ def two_stage_ls(
     return theta, lam_used, g, {"estimator": "iv", "instruments": r}
 
 
-def _parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
+def parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
     """Map the user option to ``(kind, lam)``: kind in {"none", "gcv", "fixed"}."""
     if regularize is None or regularize is False:
         return "none", None
@@ -388,7 +388,7 @@ def varx(
             f"{' + m' if feedthrough and m else ''}) but only {cols.size} usable columns: "
             f"reduce p (past window) or supply more data"
         )
-    kind, lam = _parse_regularize(regularize)
+    kind, lam = parse_regularize(regularize)
     gcv_val = None
     extra: dict = {}
     if instruments is not None:

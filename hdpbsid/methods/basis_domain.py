@@ -35,6 +35,7 @@ from ..core.pbsid import CoreResult
 from ..core.varx import CachedPowers
 from ..model import StateSpaceModel
 from .memo import memoize
+from .settings import INPUT_HOLDS, BasisSettings
 
 __all__ = [
     "SolveLag",
@@ -79,9 +80,6 @@ COLS_PER_REGRESSOR = 6
 #: letting near-collinear regressors (u ~ controller(y)) blow the VARX up (quadrotor,
 #: noise-free: real pole 80-570 % off at p = 3..4; with the floor 0.1-0.6 %)
 RIDGE_FLOOR = 1e-6
-#: input hold conventions accepted by :func:`project_record` ("auto" is resolved by the
-#: methods: both holds are fitted and the one with the smaller innovation variance kept)
-INPUT_HOLDS = ("auto", "zoh", "foh", "trapezoid")
 #: Gauss-Legendre nodes per sample interval in :func:`project_record`
 GAUSS_NODES = 3
 
@@ -312,9 +310,8 @@ def project_record(
 
 
 def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:
-    """The holds to project for ``input_hold`` (``"auto"``: both ``zoh`` and ``foh``)."""
-    if not isinstance(input_hold, str) or input_hold not in INPUT_HOLDS:
-        raise ValueError(f"input_hold must be one of {INPUT_HOLDS}, got {input_hold!r}")
+    """The holds to project for ``input_hold`` (``"auto"``: both ``zoh`` and ``foh``;
+    validated by :class:`~hdpbsid.methods.settings.BasisSettings`)."""
     if input_hold == "auto":
         return ("zoh", "foh") if m else ("foh",)
     return (input_hold,)
@@ -353,11 +350,10 @@ def integrator_model(
     gamma: float,
     options: dict[str, Any],
     *,
-    input_hold: str,
+    settings: BasisSettings,
     hold: str,
     hold_criterion: dict[str, float],
     order: int | None,
-    max_order: int,
 ) -> StateSpaceModel:
     """Continuous-time model from the basis-domain system of the integrator form.
 
@@ -376,7 +372,7 @@ def integrator_model(
             "input_hold": hold,
             "input_hold_rule": (
                 "given"
-                if input_hold != "auto"
+                if settings.input_hold != "auto"
                 else "auto: zoh and foh fitted, smaller innovation log-det kept"
             ),
             "input_hold_criterion": hold_criterion,
@@ -386,7 +382,7 @@ def integrator_model(
     )
     merged.update(options)
     if order is None:
-        merged["max_order"] = max_order
+        merged["max_order"] = settings.max_order
     return StateSpaceModel(
         alpha * (gamma * out.A - beta * np.eye(n)),
         alpha * gamma * out.B,

@@ -36,7 +36,7 @@ from scipy.linalg import solve_banded
 
 import slbasis
 
-from ..checks import check_positive_int
+from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
@@ -44,7 +44,6 @@ from .basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     best_hold,
-    check_method_args,
     clip_basis_size,
     integrator_model,
     resolve_holds,
@@ -56,6 +55,7 @@ from .segments import (
     records_bandwidth,
     shared_keys,
 )
+from .settings import BasisSettings, resolve_settings
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 
@@ -140,18 +140,9 @@ def identify_hermite(
     alpha: float | None = None,
     beta: float = 1.0,
     gamma: float = 1.0,
-    p: int | None = None,
-    f: int | None = None,
-    boundary: bool = True,
-    regularize: bool | str | float | None = "gcv",
-    feedthrough: bool = False,
-    stable_k: bool = False,
-    normalize: bool = True,
-    max_order: int | None = None,
     scale: float | None = None,
-    input_hold: str = "auto",
-    window: float | str | None = "auto",
-    n_jobs: int | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
 ) -> StateSpaceModel:
     """HD-PBSID (the thesis, §3.2): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
@@ -162,6 +153,13 @@ def identify_hermite(
     equations.  Each record, or window of a long record, is a block: projected on its own
     basis with its own boundary and truncation pseudo-inputs, all blocks stacked in one
     PBSID problem (:mod:`hdpbsid.methods.segments`).
+
+    The basis keywords are HD-PBSID's own (``N``, ``alpha``, ``beta``, ``gamma``,
+    ``scale``); the settings every basis method shares (``p``, ``f``, ``max_order``,
+    ``boundary``, ``regularize``, ``feedthrough``, ``stable_k``, ``normalize``,
+    ``input_hold``, ``window``, ``n_jobs``) come as keywords (``**shared``) or as
+    ``settings=`` :class:`~hdpbsid.methods.settings.BasisSettings`, keywords overriding
+    its fields; they are validated once, there.
 
     Defaults (all reported in ``model.options``):
 
@@ -192,7 +190,8 @@ def identify_hermite(
     """
     records = as_records(t, u, y)
     m = records[0].u.shape[1]
-    order, p, f, mo = check_method_args(order, p, f, max_order)
+    st = resolve_settings(settings, shared, "identify_hermite")
+    order = check_order(order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
     if N is not None:
@@ -200,10 +199,10 @@ def identify_hermite(
     if scale is not None:
         scale = _real(scale, "scale")
     wb = records_bandwidth(records)
-    q = 3 if boundary else 1
+    q = 3 if st.boundary else 1
     segs, w_info = make_segments(
         records,
-        window,
+        st.window,
         lambda: default_window(records, BAND_MARGIN * wb / HERMITE_BAND, q, P_DEFAULT_RANGE[1]),
     )
     keys = shared_keys(segs)
@@ -235,30 +234,15 @@ def identify_hermite(
     for k, b in bases.items():
         lags[k] = hermite_lag(b.derivative_matrix("square"), alpha, beta, gamma)[0]
         r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
-        if boundary:
+        if st.boundary:
             r += list(b.eval(np.array([0.0, segs[k].duration])).T)
         rows[k] = np.array(r)
     seg_bases = [bases[k] for k in keys]
-    holds = resolve_holds(input_hold, m)
-    Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=n_jobs)
+    holds = resolve_holds(st.input_hold, m)
+    Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)
     lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
     P = [rows[k] for k in keys]
-
-    out, hold, hold_crit = best_hold(
-        holds,
-        Us,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=feedthrough,
-        stable_k=stable_k,
-        normalize=normalize,
-    )
+    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **st.core_options(order))
     Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "hermite",
@@ -269,7 +253,7 @@ def identify_hermite(
         "scale": s_ref,
         "centre": records[0].t0 + seg_bases[0].centre,
         "alpha_rule": "4 * scale (median over blocks)" if alpha == 4.0 * s_ref else "given",
-        "boundary": boundary,
+        "boundary": st.boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": int(sum(r.ns for r in records)),
         "t0": records[0].t0,
@@ -281,9 +265,8 @@ def identify_hermite(
         beta,
         gamma,
         options,
-        input_hold=input_hold,
+        settings=st,
         hold=hold,
         hold_criterion=hold_crit,
         order=order,
-        max_order=mo,
     )

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from ..checks import check_positive_int
+from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..core.varx import SampleShift
 from ..model import StateSpaceModel
@@ -49,7 +49,6 @@ from .basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
     best_hold,
-    check_method_args,
     clip_basis_size,
     resolve_holds,
 )
@@ -61,6 +60,7 @@ from .segments import (
     records_bandwidth,
     shared_keys,
 )
+from .settings import BasisSettings, resolve_settings
 
 __all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
 
@@ -127,18 +127,10 @@ def identify_laguerre(
     a: float | None = None,
     N: int | None = None,
     variant: str = "projection",
-    p: int | None = None,
-    f: int | None = None,
-    boundary: bool = True,
-    regularize: bool | str | float | None = "gcv",
-    stable_k: bool = False,
-    normalize: bool = True,
-    max_order: int | None = None,
     n_times: int | None = None,
     burn_in: float | None = None,
-    input_hold: str = "auto",
-    window: float | str | None = "auto",
-    n_jobs: int | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
 ) -> StateSpaceModel:
     """CT-PBSID (Laguerre): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
 
@@ -147,7 +139,12 @@ def identify_laguerre(
     window of a long record (``window``, ``n_jobs``: as in
     :func:`hdpbsid.methods.hermite.identify_hermite`), is projected on its own Laguerre
     basis (common pole ``a``) with its own boundary pseudo-inputs, all stacked in one
-    PBSID problem.  Defaults (in ``model.options``):
+    PBSID problem.  The shared settings (``p``, ``f``, ``max_order``, ``boundary``,
+    ``regularize``, ``stable_k``, ``normalize``, ``input_hold``, ``window``, ``n_jobs``)
+    come as keywords or ``settings=``
+    :class:`~hdpbsid.methods.settings.BasisSettings`; ``feedthrough`` does not apply (the
+    Laguerre-domain ``Dd`` is always estimated, see below).  Defaults (in
+    ``model.options``):
 
     * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
       energy), so the Laguerre pole sits inside the excited band;
@@ -172,7 +169,10 @@ def identify_laguerre(
         raise ValueError(f"variant must be 'projection' or 'filter', got {variant!r}")
     if variant == "filter" and len(records) > 1:
         raise ValueError("variant='filter' takes one record; use variant='projection'")
-    order, p, f, mo = check_method_args(order, p, f, max_order)
+    # the shared ``feedthrough`` setting does not apply: the Laguerre-domain ``Dd`` is
+    # always estimated (module docstring) and reported in options["feedthrough"]
+    st = resolve_settings(settings, shared, "identify_laguerre")
+    order = check_order(order)
     wb = records_bandwidth(records)
     if a is None:
         if wb <= 0:
@@ -188,9 +188,9 @@ def identify_laguerre(
             N = check_positive_int(N, "N", 2)
         segs, w_info = make_segments(
             records,
-            window,
+            st.window,
             lambda: default_window(
-                records, 2 * a / LAGUERRE_SUPPORT, 2 if boundary else 1, P_DEFAULT_RANGE[1]
+                records, 2 * a / LAGUERRE_SUPPORT, 2 if st.boundary else 1, P_DEFAULT_RANGE[1]
             ),
         )
         keys = shared_keys(segs)
@@ -217,10 +217,10 @@ def identify_laguerre(
             n_rules.append(n_rule)
             b = slbasis.basis("laguerre", Nb, (0.0, T), scale=2 * a)
             bases[keys[i]] = b
-            rows[keys[i]] = b.eval(np.array([0.0, T])).T if boundary else np.zeros((0, Nb))
+            rows[keys[i]] = b.eval(np.array([0.0, T])).T if st.boundary else np.zeros((0, Nb))
         seg_bases = [bases[k] for k in keys]
-        holds = resolve_holds(input_hold, m)
-        Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=n_jobs)
+        holds = resolve_holds(st.input_hold, m)
+        Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)
         shift = SampleShift()
         lag = BlockLag([shift] * len(segs), [b.N for b in seg_bases])
         P: Any = [rows[k] for k in keys]
@@ -230,7 +230,7 @@ def identify_laguerre(
                 "N": int(max(Ns_)),
                 "N_per_block": Ns_ if len(Ns_) > 1 else None,
                 "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
-                "boundary": boundary,
+                "boundary": st.boundary,
                 **w_info,
             }
         )
@@ -254,26 +254,13 @@ def identify_laguerre(
         lag = BlockLag([BlockShift(N)], [Yc.shape[1]])
         options.update({"N": N, "burn_in": burn, "n_times": int(idx.size)})
 
-    out, hold, hold_crit = best_hold(
-        holds,
-        Us,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=True,
-        stable_k=stable_k,
-        normalize=normalize,
-    )
+    core_options = {**st.core_options(order), "feedthrough": True}
+    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **core_options)
     if variant == "projection":
         options.update(
             {
                 "input_hold": hold,
-                "input_hold_rule": "given" if input_hold != "auto" else "auto: smaller log-det",
+                "input_hold_rule": "given" if st.input_hold != "auto" else "auto: smaller log-det",
                 "input_hold_criterion": hold_crit,
                 "projection": "exact integral of the sample interpolants (Gauss nodes)",
             }
@@ -295,7 +282,7 @@ def identify_laguerre(
         }
     )
     if order is None:
-        options["max_order"] = mo
+        options["max_order"] = st.max_order
     return StateSpaceModel(
         A,
         B,

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from ..checks import is_uniform
 from ..records import Record, split_windows
 from .basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from .settings import check_window
 
 __all__ = [
     "default_window",
@@ -112,19 +113,14 @@ def make_segments(
     number of seconds.  Returns the segments and the options to report.
     """
     info: dict[str, Any] = {}
+    window = check_window(window)
     if window is None:
         length = None
         info["window_rule"] = "none (window=None)"
-    elif isinstance(window, str):
-        if window != "auto":
-            raise ValueError(f"window must be None, 'auto' or a length in seconds, got {window!r}")
+    elif window == "auto":
         length, info = rule()
     else:
-        if isinstance(window, bool) or not isinstance(window, int | float | np.number):
-            raise TypeError(f"window must be None, 'auto' or a number, got {type(window).__name__}")
         length = float(window)
-        if not (np.isfinite(length) and length > 0):
-            raise ValueError(f"window must be a positive length in seconds, got {window}")
         info["window_rule"] = "given"
     segs: list[Record] = []
     for r in records:

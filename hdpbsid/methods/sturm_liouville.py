@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from ..checks import check_positive_int
+from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
@@ -58,7 +58,6 @@ from .basis_domain import (
     SolveLag,
     bandwidth,
     best_hold,
-    check_method_args,
     clip_basis_size,
     integrator_model,
     resolve_holds,
@@ -72,6 +71,7 @@ from .segments import (
     records_bandwidth,
     shared_keys,
 )
+from .settings import BasisSettings, resolve_settings
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 
@@ -173,18 +173,9 @@ def identify_sl(
     alpha: float | None = None,
     beta: float = 1.0,
     gamma: float = 1.0,
-    p: int | None = None,
-    f: int | None = None,
-    boundary: bool = True,
-    regularize: bool | str | float | None = "gcv",
-    feedthrough: bool = False,
-    stable_k: bool = False,
-    normalize: bool = True,
-    max_order: int | None = None,
     family_params: dict | None = None,
-    input_hold: str = "auto",
-    window: float | str | None = "auto",
-    n_jobs: int | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
 ) -> StateSpaceModel:
     """PBSID in a finite-interval Sturm-Liouville basis on the record window.
 
@@ -211,7 +202,8 @@ def identify_sl(
     """
     records = as_records(t, u, y)
     m, l = records[0].u.shape[1], records[0].y.shape[1]
-    order, p, f, mo = check_method_args(order, p, f, max_order)
+    st = resolve_settings(settings, shared, "identify_sl")
+    order = check_order(order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
     if N is not None:
@@ -225,8 +217,8 @@ def identify_sl(
     p_def = max(2, -(-need // l))
     segs, w_info = make_segments(
         records,
-        window,
-        lambda: default_window(records, BAND_MARGIN * wb / 2, 2 if boundary else 1, p_def),
+        st.window,
+        lambda: default_window(records, BAND_MARGIN * wb / 2, 2 if st.boundary else 1, p_def),
     )
     if alpha is None:
         # the integrator's pole alpha belongs to the system's dynamics, not to the input:
@@ -295,9 +287,9 @@ def identify_sl(
         j_hows.append(j_how)
         lags[k], jinv[k] = _integrator_lag(G, alpha, beta, gamma, j_how)
     seg_bases = [bases[k] for k in keys]
-    holds = resolve_holds(input_hold, m)
+    holds = resolve_holds(st.input_hold, m)
     Us, Yc, ones = project_blocks(
-        seg_bases, segs, holds, y_extra=lambda tau: np.ones(tau.size), n_jobs=n_jobs
+        seg_bases, segs, holds, y_extra=lambda tau: np.ones(tau.size), n_jobs=st.n_jobs
     )
     rows: dict[int, Array] = {}
     for i, k in enumerate(keys):
@@ -305,28 +297,14 @@ def identify_sl(
             continue
         Nb = bases[k].N
         r = [sla.lu_solve(jinv[k], np.eye(Nb)[Nb - 1])]  # truncation: w J = e_{N-1}
-        if boundary:
+        if st.boundary:
             r.append(sla.lu_solve(jinv[k], ones[i]))  # initial state: w J = coefficients of 1
         rows[k] = np.array(r)
     lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
     P = [rows[k] for k in keys]
 
-    out, hold, hold_crit = best_hold(
-        holds,
-        Us,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=feedthrough,
-        stable_k=stable_k,
-        normalize=normalize,
-        p_range=(p_def, p_def),
-    )
+    core_options = st.core_options(order)
+    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **core_options, p_range=(p_def, p_def))
     Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "legendre" if family == "legendre" else "sl",
@@ -339,7 +317,7 @@ def identify_sl(
         "scale": seg_bases[0].scale,
         "centre": records[0].t0 + seg_bases[0].centre,
         "alpha_rule": alpha_rule,
-        "boundary": boundary,
+        "boundary": st.boundary,
         "integration": j_hows[0] if len(set(j_hows)) == 1 else j_hows,
         "window_padding": pads[0] if len(set(pads)) == 1 else pads,
         "n_samples": int(sum(r.ns for r in records)),
@@ -352,11 +330,10 @@ def identify_sl(
         beta,
         gamma,
         options,
-        input_hold=input_hold,
+        settings=st,
         hold=hold,
         hold_criterion=hold_crit,
         order=order,
-        max_order=mo,
     )
 
 
