@@ -71,6 +71,7 @@ from .varx import (
     past_blocks,
     r_factor,
     ridge_gcv,
+    two_stage_ls,
 )
 
 __all__ = ["BlockLag", "BlockPseudo", "pbsid_core_blocks", "select_past_window_blocks"]
@@ -398,6 +399,7 @@ def pbsid_core_blocks(
     ridge_floor: float = 0.0,
     stable_k: bool = False,
     max_order: int | None = None,
+    instruments: Array | None = None,
 ) -> CoreResult:
     """:func:`hdpbsid.core.pbsid.pbsid_core` with block-specific pseudo-inputs eliminated.
 
@@ -407,8 +409,31 @@ def pbsid_core_blocks(
     docstring, and the state ``Gamma_f L_p Z_p`` adds each block's pseudo-input part.
     ``B`` of the result has the real inputs only.  With ``pseudo=None`` the steps reduce
     to those of ``pbsid_core``.
+
+    ``instruments`` (``k x N`` rows on the columns of ``U, Y``, uncorrelated with the
+    innovations, e.g. lags of a projected external reference) selects instrumental
+    variables, as in :func:`hdpbsid.core.pbsid.pbsid_core`: the VARX by two-stage least
+    squares (:func:`hdpbsid.core.varx.two_stage_ls`), ``C`` from the first block row of
+    ``Gamma = U_n S_n^{1/2}`` instead of the regression ``Y = C X + E`` (whose regressor
+    ``X`` is built from the same noisy past), ``A, B, K`` by least squares as before
+    (the state recursion ``X = At lag(X) + Bt lag(Z)`` has no noise term).  The
+    pseudo-input rows are deterministic, so they are their own instruments; by the
+    Frisch-Waugh-Lovell theorem for IV (Davidson & MacKinnon, sec. 8.5: partialling
+    exogenous regressors out of the regressors, the targets and the instruments alike
+    leaves the IV estimate unchanged) the instruments are compressed with the same
+    per-block eliminator and 2SLS runs on the compressed problem.  ``feedthrough`` is
+    not supported with instruments (``ValueError``).
     """
     m, l = U.shape[0], Y.shape[0]
+    if instruments is not None:
+        instruments = np.asarray(instruments, dtype=float)
+        if instruments.ndim != 2 or instruments.shape[1] != Y.shape[1]:
+            raise ValueError(
+                f"instruments must be a 2-D array with {Y.shape[1]} columns (one per data "
+                f"column), got shape {instruments.shape}"
+            )
+        if feedthrough:
+            raise ValueError("instruments: feedthrough=True is not supported with IV")
     f = p if f is None else f
     if f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
@@ -433,8 +458,22 @@ def pbsid_core_blocks(
             f"{' + m' if ft else ''}) but only {elim.ncols} usable columns after "
             f"eliminating {elim.rank} pseudo-input directions: reduce p or supply more data"
         )
-    Cz = elim.compress(np.vstack([Phi, Y]))
-    theta, lam_used, gcv_val, kind = _solve(Cz[:nreg], Cz[nreg:], regularize, ridge_floor)
+    extra_iv: dict = {}
+    if instruments is None:
+        Cz = elim.compress(np.vstack([Phi, Y]))
+        theta, lam_used, gcv_val, kind = _solve(Cz[:nreg], Cz[nreg:], regularize, ridge_floor)
+    else:
+        Cz = elim.compress(np.vstack([Phi, Y, np.where(valid, instruments, 0.0)]))
+        kind, lam = parse_regularize(regularize)
+        theta, lam_used, gcv_val, extra_iv = two_stage_ls(
+            Cz[:nreg],
+            Cz[nreg : nreg + l],
+            Cz[nreg + l :],
+            lam if kind == "fixed" else (None if kind == "gcv" else 0.0),
+            floor=ridge_floor if kind == "gcv" else 0.0,
+        )
+        # the nuisance coefficients are fitted unpenalised to the IV residual below
+        ridge_iv, lam_used = lam_used, 0.0
     if lam_used > 0 and elim.rank:
         # the ridge penalises the pseudo-inputs' coefficients as well (as if they were
         # inputs): same lam, nuisance minimised out exactly (Eliminator.compress)
@@ -452,10 +491,14 @@ def pbsid_core_blocks(
         Zp=Zp_all[:, cols],
         columns=cols,
         residuals=resid[:, cols],
-        ridge=lam_used,
+        ridge=lam_used if instruments is None else ridge_iv,
         regularize=kind,
         gcv=gcv_val,
-        extra={"eliminated_pseudo_directions": elim.rank, "compressed_columns": elim.ncols},
+        extra={
+            "eliminated_pseudo_directions": elim.rank,
+            "compressed_columns": elim.ncols,
+            **extra_iv,
+        },
     )
     # -- 2. Gamma L Z_p (+ each block's pseudo-input part), SVD, state ------------------
     LK = _gamma_l_rows(coef, p, f, m + l, l)
@@ -481,7 +524,11 @@ def pbsid_core_blocks(
         )
     X = np.sqrt(s[:n])[:, None] * Vt[:n]
     # -- 3a. C, D (pseudo-inputs enter the output equation only with feedthrough) -------
-    if feedthrough and pseudo is not None:
+    if instruments is not None:
+        C = Uu[:l, :n] * np.sqrt(s[:n])[None, :]
+        D = np.zeros((l, m))
+        E = Y[:, cols] - C @ X
+    elif feedthrough and pseudo is not None:
         e0 = Eliminator(pseudo, [0], valid)
         Xf = np.zeros((n, ncols))
         Xf[:, cols] = X
@@ -524,6 +571,10 @@ def pbsid_core_blocks(
     )
     options["pseudo_inputs"] = "eliminated per block (Frisch-Waugh-Lovell)"
     options["eliminated_pseudo_directions"] = elim.rank
+    options["estimator"] = "ls" if instruments is None else "iv"
+    if instruments is not None:
+        options["instruments"] = extra_iv.get("instruments")
+        options["c_method"] = "first block row of Gamma"
     return CoreResult(
         A=A,
         B=B,

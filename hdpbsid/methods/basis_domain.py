@@ -439,6 +439,7 @@ def run_core(
     normalize: bool,
     p_range: tuple[int, int] | None = None,
     ridge_floor: float | None = None,
+    instruments: Array | None = None,
 ) -> CoreOut:
     """Run the PBSID core on coefficient rows ``U`` (m x N), ``Y`` (l x N) of all blocks
     (records or windows, side by side) with the block-diagonal lag ``lag`` and the
@@ -452,7 +453,8 @@ def run_core(
     (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that ``p (m + q_b + l) <= N_b / 6``
     in every block (the regression has ``p (m + q_b + l)`` unknowns per output in a
     block of ``N_b`` columns); ``f = p``.  Raises ``ValueError`` when an explicit ``p``
-    does not fit the basis size.
+    does not fit the basis size.  ``instruments`` (rows on the ``N`` columns) selects the
+    instrumental-variable core (:mod:`hdpbsid.methods.hermite_iv`).
     """
     m, l = U.shape[0], Y.shape[0]
     ncols = Y.shape[1]
@@ -528,6 +530,7 @@ def run_core(
         stable_k=stable_k,
         max_order=mo,
         ridge_floor=RIDGE_FLOOR if ridge_floor is None else ridge_floor,
+        instruments=instruments,
     )
     B = core.B[:, :m] / su[None, :] if m else core.B[:, :0]
     C = core.C * sy[:, None]

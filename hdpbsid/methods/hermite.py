@@ -48,6 +48,7 @@ from .basis_domain import (
     integrator_model,
     resolve_holds,
 )
+from .hermite_iv import reference_instruments, with_reference
 from .segments import (
     default_window,
     make_segments,
@@ -141,6 +142,8 @@ def identify_hermite(
     beta: float = 1.0,
     gamma: float = 1.0,
     scale: float | None = None,
+    estimator: str = "ls",
+    reference: Any = None,
     settings: BasisSettings | None = None,
     **shared: Any,
 ) -> StateSpaceModel:
@@ -186,12 +189,19 @@ def identify_hermite(
       (:func:`~hdpbsid.methods.basis_domain.project_record`);
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
-      as in :func:`hdpbsid.methods.dt.identify_dt`.
+      as in :func:`hdpbsid.methods.dt.identify_dt`;
+    * ``estimator="ls"``: least squares, HD-PBSID as published (biased when the noise is
+      correlated with the regressors, more so in closed loop); ``"iv"``: instrumental
+      variables from ``reference`` (an external signal independent of the noise, e.g.
+      the excitation added to the command; one array per record), consistent up to the
+      VARX truncation (:mod:`hdpbsid.methods.hermite_iv`).
     """
     records = as_records(t, u, y)
     m = records[0].u.shape[1]
     st = resolve_settings(settings, shared, "identify_hermite")
     order = check_order(order)
+    # with a reference the records carry it as extra input columns (projected alike)
+    proj_records, m_r = with_reference(records, estimator, reference)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
     if N is not None:
@@ -201,7 +211,7 @@ def identify_hermite(
     wb = records_bandwidth(records)
     q = 3 if st.boundary else 1
     segs, w_info = make_segments(
-        records,
+        proj_records,
         st.window,
         lambda: default_window(records, BAND_MARGIN * wb / HERMITE_BAND, q, P_DEFAULT_RANGE[1]),
     )
@@ -241,8 +251,15 @@ def identify_hermite(
     holds = resolve_holds(st.input_hold, m)
     Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)
     lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
+    Psi = None
+    if m_r:
+        p_max = st.p if st.p is not None else P_DEFAULT_RANGE[1]
+        Psi = reference_instruments(Us[0][m:], lag, p_max * (m + Yc.shape[0]))
+        Us = [U_h[:m] for U_h in Us]
     P = [rows[k] for k in keys]
-    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **st.core_options(order))
+    out, hold, hold_crit = best_hold(
+        holds, Us, Yc, P, lag, instruments=Psi, **st.core_options(order)
+    )
     Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "hermite",
@@ -257,6 +274,7 @@ def identify_hermite(
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": int(sum(r.ns for r in records)),
         "t0": records[0].t0,
+        "estimator": estimator,
         **w_info,
     }
     return integrator_model(

@@ -1,0 +1,168 @@
+"""Data-driven test for feedback and noise: when the prediction-error refinement is worth it.
+
+Subspace estimates in a basis domain are biased when the noise is correlated with the
+regressors, and closed loop makes that worse (docs/theory.md, "Closed loop in the basis
+domain"); the prediction-error refinement (:func:`hdpbsid.methods.refine.refine_pem`) is
+consistent in closed loop (Ljung, *System Identification*, 2nd ed., sec. 13.4, the direct
+approach).  :func:`refine_decision` says from the data alone -- never from a true
+system -- whether a record is closed loop and noisy enough for the bias to matter.
+
+Closed-loop test (Ljung, sec. 13.4 and 16.6, "testing for feedback").  Let ``e_k`` be the
+one-step prediction errors of the first-pass model and ``w_k`` the input prewhitened by
+a least-squares AR model of order :data:`AR_ORDER` (``w_k = u_k - sum_i a_i u_{k-i}``,
+per input channel).  In open loop ``u`` is independent of the noise, and ``e_k``
+depends on the noise and on ``u_j, j <= k`` only (the predictor is causal, model errors
+included), while ``w_{k+tau}``, ``tau >= 1``, is the part of ``u_{k+tau}`` not explained by
+its own past: so ``E[e_k w_{k+tau}] = 0`` for ``tau >= 1`` whatever the model error.  With
+feedback, ``u_{k+tau}`` responds to ``y_k`` and therefore to ``e_k``, and the correlation
+at positive lags is the controller's response to the noise.  With the normalised cross
+correlations ``r_ij(tau)`` of ``e_i`` and ``w_j`` over ``Ns`` samples and ``w`` white,
+``Ns r_ij(tau)^2`` are asymptotically independent ``chi^2(1)`` under open loop
+(Bartlett's formula: the variance of a cross-correlation is ``(1/Ns) sum_k rho_e(k)
+rho_w(k)``, ``1/Ns`` when one of the two is white), so
+
+    S = Ns sum_{tau=1..M} sum_{i,j} r_ij(tau)^2  ~  chi^2(M m l)
+
+and feedback is declared when ``S`` exceeds the ``1 - FEEDBACK_LEVEL`` quantile.
+
+Noise.  The least-squares bias in the basis domain is first order in the noise power
+(``E[E (E M^j)^T] = sigma^2 tr(M^j)``), its standard deviation of order
+``sqrt(sigma^2 / Ns)`` (both relative to the signal power), so the bias outweighs the
+spread once ``rho = sigma^2 / P_y`` exceeds about ``1 / Ns``: the ratio of the residual
+to the output power times ``Ns`` must exceed :data:`NOISE_SAMPLES_PRODUCT` (the
+residual of the first-pass model, ``sum e^2 / sum (y - mean y)^2`` averaged over the
+outputs, estimates ``rho``; it also contains the model's own misfit, which only argues
+for refining).
+
+Rule (:func:`refine_decision`): refine when the sampling is uniform, the data are one
+record (the front end skips lists), feedback is detected and
+``rho Ns >= NOISE_SAMPLES_PRODUCT``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import chi2
+
+from .model import StateSpaceModel
+
+__all__ = [
+    "AR_ORDER",
+    "FEEDBACK_LAGS",
+    "FEEDBACK_LEVEL",
+    "NOISE_SAMPLES_PRODUCT",
+    "feedback_statistics",
+    "refine_decision",
+]
+
+Array = NDArray[np.float64]
+
+#: order of the input's prewhitening AR model: the normal equations make ``w_k``
+#: orthogonal to ``u_{k-1..k-AR_ORDER}`` in the sample, so a causal model error of that
+#: memory cannot leak into the positive-lag correlations
+AR_ORDER = 40
+#: positive lags ``tau = 1..M`` tested: feedback shows from the first sample after the
+#: noise entered the controller; more lags add degrees of freedom and dilute the test
+FEEDBACK_LAGS = 20
+#: false-alarm probability of the chi-square test in open loop
+FEEDBACK_LEVEL = 1e-3
+#: refine when (residual / output power) * Ns reaches this: the least-squares bias
+#: (order rho) then reaches the spread (order sqrt(rho / Ns))
+NOISE_SAMPLES_PRODUCT = 1.0
+
+
+def _prewhiten(u: Array, order: int) -> Array:
+    """Least-squares AR(``order``) residuals of each column of ``u`` (mean removed);
+    the first ``order`` samples are zero."""
+    ns, m = u.shape
+    w = np.zeros_like(u)
+    for j in range(m):
+        x = u[:, j] - u[:, j].mean()
+        if ns <= 2 * order + 1:
+            w[:, j] = x
+            continue
+        X = np.column_stack([x[order - i : ns - i] for i in range(1, order + 1)])
+        a = np.linalg.lstsq(X, x[order:], rcond=None)[0]
+        w[order:, j] = x[order:] - X @ a
+    return w
+
+
+def feedback_statistics(
+    model: StateSpaceModel,
+    t: Any,
+    u: Any,
+    y: Any,
+    *,
+    lags: int = FEEDBACK_LAGS,
+    ar_order: int = AR_ORDER,
+) -> dict[str, Any]:
+    """The closed-loop test and the residual-to-output ratio of ``model`` on ``t, u, y``.
+
+    Returns ``{"statistic": S, "threshold": chi2 quantile, "dof": lags m l,
+    "feedback": S > threshold, "residual_ratio": rho, "residual_ratio_x_samples":
+    rho Ns}`` (module docstring).  Without inputs there is no feedback to test
+    (``feedback=False``).  The one-step predictions use the model's detected input hold.
+    """
+    if not isinstance(model, StateSpaceModel):
+        raise TypeError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+    for name, v in (("lags", lags), ("ar_order", ar_order)):
+        if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    hold = model.options.get("input_hold", "zoh")
+    hold = hold if hold in ("zoh", "foh") else "zoh"
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float).reshape(t.size, -1)
+    u_arr = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
+    e = y - model.predict(t, u_arr, y, k=1, method=hold)
+    yc = y - y.mean(axis=0)
+    py = np.sum(yc**2, axis=0)
+    rho = float(np.mean(np.sum(e**2, axis=0) / np.where(py > 0, py, np.inf)))
+    ns = t.size
+    out: dict[str, Any] = {
+        "residual_ratio": rho,
+        "residual_ratio_x_samples": rho * ns,
+        "lags": lags,
+        "ar_order": ar_order,
+    }
+    m, l = u_arr.shape[1], y.shape[1]
+    if m == 0 or ns <= 2 * (ar_order + lags):
+        out.update(statistic=0.0, threshold=np.inf, dof=0, feedback=False)
+        return out
+    w = _prewhiten(u_arr, ar_order)[ar_order:]
+    ec = e[ar_order:] - e[ar_order:].mean(axis=0)
+    n = w.shape[0]
+    norm = np.sqrt(np.sum(ec**2, axis=0))[:, None] * np.sqrt(np.sum(w**2, axis=0))[None, :]
+    norm[norm == 0] = np.inf
+    stat = 0.0
+    for tau in range(1, lags + 1):
+        r = ec[: n - tau].T @ w[tau:] / norm  # (l, m): e_k against w_{k+tau}
+        stat += float(np.sum(r**2))
+    stat *= n
+    dof = lags * m * l
+    thr = float(chi2.ppf(1.0 - FEEDBACK_LEVEL, dof))
+    out.update(statistic=stat, threshold=thr, dof=dof, feedback=bool(stat > thr))
+    return out
+
+
+def refine_decision(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool
+) -> tuple[bool, str, dict[str, Any] | None]:
+    """Whether ``refine="auto"`` refines ``model`` identified from the single record
+    ``t, u, y`` (module docstring; ``uniform``: whether ``t`` is uniformly sampled):
+    ``(refine, rule text, statistics or None)``."""
+    if not uniform:
+        return False, "auto: t is not uniformly sampled, no refinement", None
+    st = feedback_statistics(model, t, u, y)
+    closed = st["feedback"]
+    noisy = st["residual_ratio_x_samples"] >= NOISE_SAMPLES_PRODUCT
+    text = (
+        f"auto: refine when feedback is detected (chi2 test of the residuals against the "
+        f"prewhitened input at lags 1..{st['lags']}: S = {st['statistic']:.4g} vs "
+        f"{st['threshold']:.4g}, {'closed' if closed else 'open'} loop) and the data are "
+        f"noisy (residual/output power x Ns = {st['residual_ratio_x_samples']:.4g} vs "
+        f"{NOISE_SAMPLES_PRODUCT:g}): {'refined' if closed and noisy else 'no refinement'}"
+    )
+    return bool(closed and noisy), text, st
