@@ -16,7 +16,8 @@ included), while ``w_{k+tau}``, ``tau >= 1``, is the part of ``u_{k+tau}`` not e
 its own past: so ``E[e_k w_{k+tau}] = 0`` for ``tau >= 1`` whatever the model error.  With
 feedback, ``u_{k+tau}`` responds to ``y_k`` and therefore to ``e_k``, and the correlation
 at positive lags is the controller's response to the noise.  With the normalised cross
-correlations ``r_ij(tau)`` of ``e_i`` and ``w_j`` over ``Ns`` samples and ``w`` white,
+correlations ``r_ij(tau)`` of ``e_i`` and ``w_j`` over ``Ns`` samples
+(:func:`hdpbsid.assessment.correlation`) and ``w`` white,
 ``Ns r_ij(tau)^2`` are asymptotically independent ``chi^2(1)`` under open loop
 (Bartlett's formula: the variance of a cross-correlation is ``(1/Ns) sum_k rho_e(k)
 rho_w(k)``, ``1/Ns`` when one of the two is white), so
@@ -47,6 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
+from .assessment import correlation
 from .model import StateSpaceModel
 
 __all__ = [
@@ -133,14 +135,14 @@ def feedback_statistics(
         return out
     w = _prewhiten(u_arr, ar_order)[ar_order:]
     ec = e[ar_order:] - e[ar_order:].mean(axis=0)
-    n = w.shape[0]
-    norm = np.sqrt(np.sum(ec**2, axis=0))[:, None] * np.sqrt(np.sum(w**2, axis=0))[None, :]
-    norm[norm == 0] = np.inf
+    neg = -np.arange(1, lags + 1)  # R_ew(-tau) = (1/n) sum_k e_k w_{k+tau}
     stat = 0.0
-    for tau in range(1, lags + 1):
-        r = ec[: n - tau].T @ w[tau:] / norm  # (l, m): e_k against w_{k+tau}
-        stat += float(np.sum(r**2))
-    stat *= n
+    for i in range(l):
+        for j in range(m):
+            scale = np.sqrt(np.mean(ec[:, i] ** 2) * np.mean(w[:, j] ** 2))
+            if scale > 0:
+                stat += float(np.sum((correlation(ec[:, i], w[:, j], neg) / scale) ** 2))
+    stat *= w.shape[0]
     dof = lags * m * l
     thr = float(chi2.ppf(1.0 - FEEDBACK_LEVEL, dof))
     out.update(statistic=stat, threshold=thr, dof=dof, feedback=bool(stat > thr))
