@@ -634,10 +634,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--refine",
         choices=("none", "pem", "auto"),
-        default="none",
+        default="auto",
         help="prediction-error refinement of the subspace model "
-        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto': only when t is "
-        "uniform; default: none)",
+        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto' (default): only "
+        "where the residuals show feedback and noise, hdpbsid.feedback)",
     )
     p.add_argument(
         "--option",

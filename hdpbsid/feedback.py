@@ -35,6 +35,12 @@ residual of the first-pass model, ``sum e^2 / sum (y - mean y)^2`` averaged over
 outputs, estimates ``rho``; it also contains the model's own misfit, which only argues
 for refining).
 
+A grossly misfit first-pass model can fire the test in open loop as well: its error
+has a memory longer than the prewhitening order, so ``w`` is no longer orthogonal to it
+(the second-order benchmark identified with ``alpha`` twenty times too small, 80 %
+eigenvalue error).  Refining such a model is what one wants anyway; the report then
+says "closed loop" where "misfit" would be accurate.
+
 Rule (:func:`refine_decision`): refine when the sampling is uniform, the data are one
 record (the front end skips lists), feedback is detected and
 ``rho Ns >= NOISE_SAMPLES_PRODUCT``.

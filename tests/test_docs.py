@@ -132,6 +132,7 @@ _LAYER_OF = {
     "assessment": "foundations",
     "detrend": "foundations",
     "records": "foundations",
+    "feedback": "foundations",
     "systems": "systems",
 }
 _MAY_IMPORT = {

@@ -35,9 +35,14 @@ COLUMNS = ("n", "failed", "divergent", "rel bias", "rel std", "median err", "tim
 
 def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     """Simulate the second-order record and identify it (options may hold
-    ``alpha_factor``: ``alpha = alpha_factor * scale`` of the Hermite basis)."""
+    ``alpha_factor``: ``alpha = alpha_factor * scale`` of the Hermite basis).
+
+    These studies measure the subspace methods themselves (the thesis, §5: SNR, samples,
+    basis order, operator), so the prediction-error refinement is off unless the case
+    asks for it (``refine="auto"`` would rescue a grossly misfit model, e.g. ``alpha``
+    far too small, and hide what the study is about)."""
     rec = second_order_record(rng, **case["data"])
-    options = dict(case.get("options") or {})
+    options = {"refine": None, **(case.get("options") or {})}
     factor = options.pop("alpha_factor", None)
     if factor is not None:
         options["alpha"] = float(factor) * _hermite_scale(rec.t, options.get("N"), rec)
