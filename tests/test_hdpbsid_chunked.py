@@ -140,14 +140,16 @@ def test_averaged_spectrum_bandwidth_close_to_whole_record() -> None:
     assert 2 * np.pi * 15 < chunked < 2 * np.pi * 25  # the input's cutoff is 20 Hz
 
 
-def test_window_rule_leaves_two_samples_per_function() -> None:
-    # a band rule asking for more functions per second than half the sampling rate
-    rate, n_per_band, q, p_max = 100.0, 400.0, 3, 4
-    # (w_low = 100 rad/s: ten periods are 0.63 s, so the function count sets the window)
-    length, info = window_rule(100.0, rate, 1e4, n_per_band, q, p_max)
-    n_w = info["window_target_N"]
-    assert length is not None
-    assert rate * length + 1 >= 2 * n_w  # N_w functions fit the Ns/2 clip of the window
+def test_window_rule_is_the_in_memory_rule(data) -> None:
+    t, u, y = data
+    from hdpbsid.methods.segments import default_window
+    from hdpbsid.records import as_records
+
+    recs = as_records(t, u, y)
+    expected = default_window(recs, 300.0, 3, 4)
+    assert window_rule(7.0, t[-1], 300.0, 3, 4)[0] != expected[0]  # depends on w_low
+    w_low = expected[1]["lowest_significant_frequency"]
+    assert window_rule(w_low, t[-1], 300.0, 3, 4) == expected
 
 
 def test_bad_input() -> None:

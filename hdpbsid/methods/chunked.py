@@ -229,14 +229,15 @@ def identify_chunked(
 ) -> StateSpaceModel:
     """HD-PBSID (method ``"hermite"``) of a record read in chunks (module docstring).
 
-    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.io.open_chunked` for HDF5 and
-    ``.npy`` files).  ``order, N, p, f, max_order, window, input_hold, regularize`` as in
-    :func:`~hdpbsid.methods.hermite.identify_hermite` (the other options keep its
-    defaults: ``alpha = 4 scale``, ``beta = gamma = 1``, boundary pseudo-inputs); no mean
-    is removed (pass deviations from the operating point).  ``chunk_samples``: samples
-    read per batch of windows (at least one window); ``spectrum_samples``: samples per
-    periodogram of the bandwidth estimate; ``use_dask``: batches as ``dask.delayed``
-    tasks (on the active ``dask.distributed`` client, if one exists).
+    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.io.open_chunked` for HDF5,
+    Parquet and ``.npy`` files).  ``order, N, p, f, max_order, window, input_hold,
+    regularize`` as in :func:`~hdpbsid.methods.hermite.identify_hermite`; the other
+    options keep its defaults (``alpha = 4 scale``, ``beta = gamma = 1``, boundary
+    pseudo-inputs).  No mean is removed: pass deviations from the operating
+    point.  ``chunk_samples``: samples read per batch of windows (at least one window);
+    ``spectrum_samples``: samples per periodogram of the bandwidth estimate;
+    ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
+    client, if one exists).
     """
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")
@@ -256,9 +257,7 @@ def identify_chunked(
             raise ValueError(f"window must be None, 'auto' or a length in seconds, got {window!r}")
         w_low = spectrum_bandwidth(w, Py, LOW_FRACTION)
         n_per_band = BAND_MARGIN * wb / HERMITE_BAND
-        length, info = window_rule(
-            w_low, 1.0 / h, record.duration, n_per_band, q, P_DEFAULT_RANGE[1]
-        )
+        length, info = window_rule(w_low, record.duration, n_per_band, q, P_DEFAULT_RANGE[1])
     else:
         if isinstance(window, bool) or not isinstance(window, int | float | np.number):
             raise TypeError(f"window must be None, 'auto' or a number, got {type(window).__name__}")

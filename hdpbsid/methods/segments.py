@@ -70,52 +70,42 @@ def default_window(
 
     Rule: ``T_w = max(T_N, T_dyn)`` with
 
-    * ``T_N = N_w / min(n_per_band, fs / 2)`` and ``N_w = (p_max + 1) q /
-      NUISANCE_SHARE``: each window spends ``(p_max + 1) q`` of its ``N_w`` equations
-      on its own pseudo-inputs (lags ``0..p_max`` of ``q`` rows), so at most
-      :data:`NUISANCE_SHARE` of the record's equations are lost to windowing -- a
-      statement about the regression, true for any system and record; and ``N_w`` is
-      fixed by it, so the cost per sample is bounded;
+    * ``T_N = N_w / n_per_band`` and ``N_w = (p_max + 1) q / NUISANCE_SHARE``: each window
+      spends ``(p_max + 1) q`` of its ``N_w`` equations on its own pseudo-inputs (lags
+      ``0..p_max`` of ``q`` rows), so at most :data:`NUISANCE_SHARE` of the record's
+      equations are lost to windowing -- a statement about the regression, true for any
+      system and record; and ``N_w`` is fixed by it, so the cost per sample is bounded;
     * ``T_dyn = WINDOW_PERIODS / f_low``, ``f_low`` the lowest significant frequency of
       the outputs (below it lies :data:`LOW_FRACTION` of their energy above the noise
       floor): the pseudo-inputs of a window absorb every free response on it, and a
       component slower than the window looks like one; over ``WINDOW_PERIODS`` periods
-      of the slowest significant component the window's forced response resolves it;
-    * ``N_w`` functions need ``2 N_w`` samples (the default basis sizes are clipped to
-      ``Ns / 2``, :func:`~hdpbsid.methods.basis_domain.clip_basis_size`), so ``T_N`` uses
-      at most half the sampling rate as functions per second: on a record whose band
-      rule asks for more functions per second than ``fs / 2``, windows sized by the band
-      alone would get their ``N`` cut below ``N_w`` and lose more than
-      :data:`NUISANCE_SHARE` of their equations.
+      of the slowest significant component the window's forced response resolves it.
 
     A record is split only when it is at least twice ``T_w`` long (windows are between
     ``T_w`` and ``2 T_w``, :func:`hdpbsid.records.split_windows`), so short records are
     identified on one basis as before.  Returns ``(T_w or None, info)``.
     """
     w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
-    rate = min((r.ns - 1) / r.duration for r in records)
     longest = max(r.duration for r in records)
-    return window_rule(w_low, rate, longest, n_per_band, q, p_max)
+    return window_rule(w_low, longest, n_per_band, q, p_max)
 
 
 def window_rule(
-    w_low: float, rate: float, longest: float, n_per_band: float, q: int, p_max: int
+    w_low: float, longest: float, n_per_band: float, q: int, p_max: int
 ) -> tuple[float | None, dict[str, Any]]:
     """:func:`default_window` from its ingredients: the lowest significant output
-    frequency ``w_low`` (rad/s), the sampling rate ``rate`` (samples per second), the
-    longest record (s), ``n_per_band``, ``q`` and ``p_max``."""
+    frequency ``w_low`` (rad/s), the longest record (s), ``n_per_band``, ``q`` and
+    ``p_max`` (a record read in chunks has no in-memory records to pass)."""
     n_w = int(np.ceil((p_max + 1) * q / NUISANCE_SHARE))
-    per_second = min(n_per_band, rate / 2.0)
-    t_n = n_w / per_second
+    t_n = n_w / n_per_band
     t_dyn = WINDOW_PERIODS * 2.0 * np.pi / w_low if w_low > 0 else np.inf
     t_w = max(t_n, t_dyn)
     info = {
         "window_rule": (
             f"T_w = max(N_w / (N per second) = {t_n:.4g} s with N_w = (p_max+1) q / "
-            f"{NUISANCE_SHARE} = {n_w} and N per second = min(band rule, fs/2) = "
-            f"{per_second:.4g}, {WINDOW_PERIODS:g} periods of the lowest significant output "
-            f"frequency {w_low:.4g} rad/s = {t_dyn:.4g} s); records shorter than 2 T_w are "
-            f"not split"
+            f"{NUISANCE_SHARE} = {n_w}, {WINDOW_PERIODS:g} periods of the lowest "
+            f"significant output frequency {w_low:.4g} rad/s = {t_dyn:.4g} s); records "
+            f"shorter than 2 T_w are not split"
         ),
         "window_target_N": n_w,
         "lowest_significant_frequency": w_low,
