@@ -168,7 +168,7 @@ def averaged_spectra(
     (module docstring); the tail shorter than ``L`` is not used."""
     L = min(rec.ns, check_positive_int(spectrum_samples, "spectrum_samples", 16))
     k = rec.ns // L
-    parts = _compute([(_spectra, rec, i * L, (i + 1) * L) for i in range(k)], use_dask)
+    parts = _compute([[_spectra, rec, i * L, (i + 1) * L] for i in range(k)], use_dask)
     w = parts[0][0]
     return w, sum(p[1] for p in parts) / k, sum(p[2] for p in parts) / k
 
@@ -182,27 +182,40 @@ def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
     return np.round(np.linspace(0, rec.ns - 1, K + 1)).astype(int)
 
 
+def _apply_map(G: Array, x: Array, idx: NDArray[np.intp]) -> list[Array]:
+    """``G`` (``N x n``) applied to the windows ``x[idx[k]]`` (``idx``: ``K x n`` sample
+    indices) of the columns of ``x``: ``K`` arrays ``(columns, N)``."""
+    K, n = idx.shape
+    c = x.shape[1]
+    if c == 0:
+        return [np.zeros((0, G.shape[0]))] * K
+    X = x[idx].transpose(1, 0, 2).reshape(n, K * c)  # (n, K c)
+    C = (G @ X).reshape(G.shape[0], K, c)
+    return [C[:, k, :].T for k in range(K)]
+
+
 def _project_batch(
-    rec: ChunkedRecord, a: int, b: int, maps: list[Array], sizes: list[int]
+    rec: ChunkedRecord, a: int, b: int, sizes: list[int], maps: dict[int, list[Array]]
 ) -> tuple[list[Array], Array]:
-    """Coefficients of consecutive windows starting at sample ``a`` with ``sizes``
-    samples each (consecutive windows share their edge sample), all of one time axis,
-    by the projection maps ``maps = [G_hold ..., G_y]`` (``N x Ns_w`` each)."""
+    """Coefficients of consecutive windows starting at sample ``a`` with ``sizes[i]``
+    samples each (consecutive windows share their edge sample), read at once; windows
+    of ``n`` samples are projected together by their maps ``maps[n] = [G_hold ...,
+    G_y]`` (``N x n`` each).  Returns ``([U per hold], Y)``, windows side by side."""
     u, y = rec.checked(a, b)
-    starts = np.concatenate([[0], np.cumsum(np.array(sizes[:-1], dtype=int) - 1)]).astype(int)
-    n = sizes[0]
-    idx = starts[:, None] + np.arange(n)[None, :]  # (K, Ns_w)
-    K = len(sizes)
-
-    def apply(G: Array, x: Array) -> Array:  # x (Ns, c) -> (c, K N)
-        c = x.shape[1]
-        if c == 0:
-            return np.zeros((0, K * G.shape[0]))
-        X = x[idx].transpose(1, 0, 2).reshape(n, K * c)  # (Ns_w, K c)
-        C = G @ X  # (N, K c)
-        return C.reshape(G.shape[0], K, c).transpose(2, 1, 0).reshape(c, K * G.shape[0])
-
-    return [apply(G, u) for G in maps[:-1]], apply(maps[-1], y)
+    sizes_a = np.array(sizes, dtype=int)
+    starts = np.concatenate([[0], np.cumsum(sizes_a[:-1] - 1)]).astype(int)
+    nh = len(next(iter(maps.values()))) - 1
+    parts_u: list[list[Any]] = [[None] * len(sizes) for _ in range(nh)]
+    parts_y: list[Any] = [None] * len(sizes)
+    for n in sorted(set(sizes)):
+        sel = np.flatnonzero(sizes_a == n)
+        idx = starts[sel, None] + np.arange(n)[None, :]  # (K, n)
+        for hh in range(nh):
+            for k, c in zip(sel, _apply_map(maps[n][hh], u, idx), strict=True):
+                parts_u[hh][k] = c
+        for k, c in zip(sel, _apply_map(maps[n][-1], y, idx), strict=True):
+            parts_y[k] = c
+    return [np.hstack(p) for p in parts_u], np.hstack(parts_y)
 
 
 def _project_single(
@@ -296,36 +309,37 @@ def identify_chunked(
         r = [np.eye(1, b.N, b.N - 1)[0]] + list(b.eval(np.array([0.0, (n - 1) * h])).T)
         rows[n] = np.array(r)
     holds = resolve_holds(input_hold, m)
-    # batches: runs of consecutive windows of one length, about chunk_samples samples each
+    # batches: consecutive windows, about chunk_samples samples each, read at once
     tasks: list[Any] = []
-    maps: dict[int, Any] = {}
-    k = 0
-    while k < len(sizes):
-        n = int(sizes[k])
+    maps: dict[int, list[Array]] = {}
+    batch: list[int] = []
+
+    def flush() -> None:
+        if batch:
+            a, b = int(edges[batch[0]]), int(edges[batch[-1] + 1]) + 1
+            tasks.append([_project_batch, record, a, b, [int(sizes[i]) for i in batch], maps])
+            batch.clear()
+
+    for k, n in enumerate(int(n) for n in sizes):
         b = bases[n]
-        if b.N * n * 8 * (len(holds) + 1) > MAP_BYTES:
-            tasks.append((_project_single, record, int(edges[k]), int(edges[k + 1]) + 1, b, holds))
-            k += 1
+        if b.N * n * 8 * (len(holds) + 1) > MAP_BYTES:  # too large a map: one by one
+            flush()
+            tasks.append([_project_single, record, int(edges[k]), int(edges[k + 1]) + 1, b, holds])
             continue
         if n not in maps:
             Gu, Gy = _maps(b, np.arange(n) * h, holds)
             maps[n] = Gu + [Gy]
-        per = max(1, chunk_samples // n)
-        j = k
-        while j < len(sizes) and j - k < per and sizes[j] == n:
-            j += 1
-        tasks.append(
-            (_project_batch, record, int(edges[k]), int(edges[j]) + 1, maps[n], [n] * (j - k))
-        )
-        k = j
-    if use_dask:
+        if batch and int(edges[k + 1]) - int(edges[batch[0]]) + 1 > chunk_samples:
+            flush()
+        batch.append(k)
+    flush()
+    if use_dask and maps:
         import dask
 
-        shared = {n: dask.delayed(G, pure=True) for n, G in maps.items()}
-        tasks = [
-            (t[0], t[1], t[2], t[3], shared[t[5][0]], t[5]) if t[0] is _project_batch else t
-            for t in tasks
-        ]
+        shared = dask.delayed(maps, pure=True)  # one copy of the maps in the graph
+        for task in tasks:
+            if task[0] is _project_batch:
+                task[5] = shared
     results = _compute(tasks, use_dask)
     Us = [np.hstack([r[0][i] for r in results]) for i in range(len(holds))]
     Yc = np.hstack([r[1] for r in results])
