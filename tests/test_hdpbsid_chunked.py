@@ -187,3 +187,14 @@ def test_open_chunked_errors(tmp_path) -> None:
         open_chunked(h5, ["u"], ["y"], dt=0.1)
     with pytest.raises(ValueError, match="no dataset 'v'"):
         open_chunked(h5, ["v"], ["y"], dt=0.1)
+
+
+def test_time_series_without_input_matches_in_memory(data) -> None:
+    t, _, y = data
+    ref = identify_hermite(t, None, y, order=2, window=4.0)
+    m = identify_chunked(
+        ChunkedRecord.from_arrays(None, y, 1.0 / FS), order=2, window=4.0, chunk_samples=6000
+    )
+    assert m.B.shape == (2, 0)
+    assert _rel(m.A, ref.A) < SAME
+    assert _rel(m.K, ref.K) < SAME
