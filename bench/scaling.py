@@ -1,22 +1,39 @@
-"""How the cost of HD-PBSID (method ``hermite``) and of method ``dt`` grows with the data.
+"""Time and memory of the identification methods vs the number of samples and the band.
 
-Run: ``.venv/bin/python bench/scaling.py [--quick]``.
+Run: ``.venv/bin/python bench/scaling.py [--quick] [--out FILE]`` (the ``bench`` extra
+for SIPPY, ``cluster`` for Dask, ``io`` for h5py).  One run, one table; every point runs
+in a fresh subprocess (one BLAS thread, address space capped at ``--mem-limit-gb``), so
+the timings of all methods are taken side by side under the same machine load (the load
+average is printed with the table).
 
-Two sweeps on the second-order benchmark (random smooth input low-passed at 1 Hz,
-``dt = 0.01``, exact ZOH response, SNR 20 dB, order 2):
+Rows (``sweep`` column):
 
-* number of samples ``Ns`` = 10^3, 10^4, 10^5, 10^6 with every default (``hermite``
-  chooses its basis size ``N`` from the record; ``dt`` its past window ``p`` by AIC);
-* basis size ``N`` = 100 ... 3200 for ``hermite`` at ``Ns = 10^4`` (and ``10^5``).
+* ``target``: the numbers the scaling work aims at --
+  ``binary 10^4``: the second-order system of :mod:`hdpbsid.systems` (``dt = 0.01``),
+  random binary input held 5 samples, 20 dB, order 2: HD-PBSID with every default
+  (``identify(..., method="hermite", order=2)``) against SIPPY N4SID (``f = p = 60``),
+  alternating on ``--seeds`` seeds in one process (median times, their ratio, median and
+  worst eigenvalue errors);
+  ``resonance70``: a lightly damped 70 Hz resonance sampled at 610 Hz, 86 000 samples,
+  multisine to 200 Hz, 20 dB (:func:`segments.resonance70_record`);
+  ``projection``: 10^6 uniform samples onto 2000 Hermite functions
+  (:meth:`slbasis.Basis.project`, default engine);
+* ``samples``: the 5 Hz resonance sampled at 1 kHz, input low-passed to 20 Hz, 20 dB,
+  order 2 (:func:`segments.resonance_record`), ``Ns = 10^3 ... 10^6`` for ``hermite``,
+  ``laguerre``, ``dt``, ``hermite`` + ``refine="pem"`` and SIPPY N4SID (``f = p = 60``,
+  up to 10^5), and ``10^6``, ``10^7`` through the chunked path
+  (:func:`hdpbsid.methods.chunked.identify_chunked`) on a ``dask.distributed``
+  ``LocalCluster`` (2 worker processes, one thread each), the record written chunk by
+  chunk to an HDF5 file under ``--tmp`` first (not timed);
+* ``band``: the same resonance at ``10^5`` samples with the input band 10 ... 200 Hz.
 
-Each point runs in a fresh subprocess (one BLAS thread, address space capped at
-``--mem-limit-gb``): the data are generated, then one untimed warm-up call, then the
-identification is timed (median of ``--repeats``).  Reported per point: median wall and
-CPU time of ``hdpbsid.identify``; the peak resident set size of the process
-(``ru_maxrss``); the peak *extra* memory of one identification call measured with
-``tracemalloc`` (numpy reports its buffers to it), which excludes the data and the
-interpreter; the chosen ``N`` / ``p``; and the eigenvalue error as a sanity check.  A
-point that runs out of memory or time is reported as such.  Nothing is asserted.
+Reported per point: median wall and CPU time of the identification call (``--repeats``
+for points below 10^6 samples, after one untimed warm-up; one call above); the peak
+*extra* memory of one call traced by ``tracemalloc`` (numpy reports its buffers to it;
+the data and the interpreter excluded); the peak resident set size of the process; the
+worst relative eigenvalue error.  Chunked rows: the driver's traced peak and the peak
+RSS of the largest worker (its RSS before the call in brackets).  Failures (time-out,
+memory) are reported as such.  Nothing is asserted.
 """
 
 from __future__ import annotations
@@ -34,76 +51,249 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402  (after the BLAS thread settings)
 
 HERE = Path(__file__).resolve()
+sys.path.insert(0, str(HERE.parent))
+
+N4SID_HORIZON = 60
+METHODS = ("hermite", "laguerre", "dt", "hermite+pem", "n4sid")
 
 
-def measure_point(method: str, n_samples: int, basis_size: int | None, repeats: int) -> dict:
-    """Generate the data and time/measure ``repeats`` identifications (in this process)."""
-    import resource
-    import time
-    import tracemalloc
+# -- data -------------------------------------------------------------------------------
+def binary_record(ns: int, seed: int):
+    """Second-order system, random binary input held 5 samples, ``dt = 0.01``, 20 dB."""
+    from hdpbsid.systems import add_noise, second_order, simulate_zoh
+
+    rng = np.random.default_rng(seed)
+    A, B, C, D = second_order()
+    t = np.arange(ns) * 0.01
+    u = np.repeat(np.sign(rng.standard_normal(ns // 5 + 1)), 5)[:ns][:, None]
+    y, _ = add_noise(simulate_zoh(A, B, C, D, t, u), 20.0, rng)
+    return (t, u, y), np.linalg.eigvals(A)
+
+
+def resonance_data(ns: int, band: float, seed: int = 0):
+    from segments import resonance, resonance_record
+
+    return resonance_record(ns, seed, band_hz=band), np.linalg.eigvals(resonance()[0])
+
+
+def write_resonance_h5(path: Path, ns: int, band: float, chunk: int = 2**20, seed: int = 0):
+    """The resonance record written chunk by chunk (filter states carried across chunks;
+    the 20 dB noise level from the first chunk's output power)."""
+    import h5py
+    from scipy import signal
+    from segments import FS, resonance
+
+    from hdpbsid.conversion import c2d
+
+    rng = np.random.default_rng(seed)
+    A, B, C, D = resonance()
+    sos = signal.butter(8, band, fs=FS, output="sos")
+    Ad, Bd, Cd, Dd, _ = c2d(A, B, C, D, None, 1.0 / FS)
+    num, den = signal.ss2tf(Ad, Bd, Cd, Dd)
+    zs = np.zeros((sos.shape[0], 2))
+    zl = np.zeros(max(len(den), len(num[0])) - 1)
+    _, zs = signal.sosfilt(sos, rng.standard_normal(2000), zi=zs)  # settle the filter
+    sigma = None
+    with h5py.File(path, "w") as f:
+        du = f.create_dataset("u", (ns,), dtype="f8", chunks=(min(ns, 2**16),))
+        dy = f.create_dataset("y", (ns,), dtype="f8", chunks=(min(ns, 2**16),))
+        for a in range(0, ns, chunk):
+            b = min(ns, a + chunk)
+            u, zs = signal.sosfilt(sos, rng.standard_normal(b - a), zi=zs)
+            y, zl = signal.lfilter(num[0], den, u, zi=zl)
+            if sigma is None:
+                sigma = np.sqrt(np.mean(y**2)) * 10 ** (-20.0 / 20)
+            du[a:b] = u
+            dy[a:b] = y + sigma * rng.standard_normal(b - a)
+    return np.linalg.eigvals(A)
+
+
+# -- one point, in a fresh process ------------------------------------------------------
+def _errors(est, true) -> float:
+    from hdpbsid.metrics import eigenvalue_errors
+
+    return float(eigenvalue_errors(est, true).max())
+
+
+def _n4sid(t, u, y):
+    import contextlib
+    import io
+
+    from sippy_unipi import system_identification
+
+    h = float(t[1] - t[0])
+    with contextlib.redirect_stdout(io.StringIO()):
+        s = system_identification(
+            y.T, u.T, "N4SID", SS_fixed_order=2, SS_f=N4SID_HORIZON, SS_p=N4SID_HORIZON, tsample=h
+        )
+    return np.log(np.linalg.eigvals(s.A).astype(complex)) / h
+
+
+def _fit(method: str, data):
     import warnings
 
     import hdpbsid
-    from hdpbsid.metrics import eigenvalue_errors
-    from hdpbsid.systems import add_noise, second_order, simulate_zoh
 
-    sys.path.insert(0, str(HERE.parent))
-    from cases import smooth_random_input
+    t, u, y = data
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if method == "n4sid":
+            return _n4sid(t, u, y), {}
+        name, _, refine = method.partition("+")
+        m = hdpbsid.identify(t, u, y, order=2, method=name, refine=refine or None)
+        o = m.options
+        return m.eigenvalues, {k: o.get(k) for k in ("N", "p", "n_segments")}
 
-    rng = np.random.default_rng(n_samples)
-    dt = 0.01
-    t = np.arange(n_samples) * dt
-    A, B, C, D = second_order()
-    u = smooth_random_input(rng, t)[:, None]
-    y, _ = add_noise(simulate_zoh(A, B, C, D, t, u), 20.0, rng)
-    options = {} if basis_size is None else {"N": basis_size}
 
-    def call() -> hdpbsid.StateSpaceModel:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return hdpbsid.identify(t, u, y, order=2, method=method, **options)
+def _timed(call, repeats: int):
+    import time
 
-    model = call()  # warm-up (kernel caches, imports)
-    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    times, cpu = [], []
+    out, times, cpu = None, [], []
     for _ in range(repeats):
         t0, c0 = time.perf_counter(), time.process_time()
-        model = call()
+        out = call()
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
+    return out, float(np.median(times)), float(np.median(cpu))
+
+
+def _traced(call) -> float:
+    import tracemalloc
+
     tracemalloc.start()
     call()
-    _, peak = tracemalloc.get_traced_memory()
+    peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
+    return peak / 2**20
+
+
+def _rss_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def measure_point(spec: dict) -> dict:
+    kind, method, ns = spec["case"], spec["method"], int(spec["ns"])
+    repeats = int(spec.get("repeats", 1)) if ns < 10**6 else 1
+    if kind == "binary-target":
+        return _binary_target(ns, int(spec["seeds"]))
+    if kind == "projection":
+        return _projection(ns, int(spec["N"]))
+    if method == "chunked":
+        return _chunked(ns, float(spec["band"]), Path(spec["tmp"]))
+    if kind == "resonance70":
+        from segments import resonance70, resonance70_record
+
+        data, true = resonance70_record(0), np.linalg.eigvals(resonance70()[0])
+    else:
+        data, true = resonance_data(ns, float(spec["band"]))
+    if ns < 10**6:
+        _fit(method, data)  # warm-up: imports, compiled kernels
+    else:
+        _fit(method, resonance_data(10**4, 20.0)[0])
+    (eig, info), wall, cpu = _timed(lambda: _fit(method, data), repeats)
+    peak = _traced(lambda: _fit(method, data))
     return {
-        "time": float(np.median(times)),
-        "cpu": float(np.median(cpu)),
-        "peak_call_mb": peak / 2**20,
-        "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        "rss_before_mb": rss_before / 1024,
-        "N": model.options.get("N"),
-        "p": model.options.get("p"),
-        "error": float(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(A)).max()),
+        "time": wall,
+        "cpu": cpu,
+        "peak_mb": peak,
+        "rss_mb": _rss_mb(),
+        "error": _errors(eig, true),
+        **info,
     }
 
 
-def run_point(
-    method: str,
-    n_samples: int,
-    basis_size: int | None,
-    repeats: int,
-    timeout: float,
-    mem_limit_gb: float,
-) -> dict:
+def _binary_target(ns: int, seeds: int) -> dict:
+    out: dict[str, list] = {"hermite": [], "n4sid": []}
+    err: dict[str, list] = {"hermite": [], "n4sid": []}
+    _fit("hermite", binary_record(ns, 99)[0])
+    _fit("n4sid", binary_record(ns, 99)[0])
+    for s in range(seeds):
+        data, true = binary_record(ns, s)
+        for method in ("hermite", "n4sid"):
+            (eig, _), wall, _ = _timed(lambda m=method, d=data: _fit(m, d), 1)
+            out[method].append(wall)
+            err[method].append(_errors(eig, true))
+    return {
+        "time": {k: float(np.median(v)) for k, v in out.items()},
+        "error_median": {k: float(np.median(v)) for k, v in err.items()},
+        "error_max": {k: float(np.max(v)) for k, v in err.items()},
+        "wins": int(sum(a <= b for a, b in zip(err["hermite"], err["n4sid"], strict=True))),
+        "seeds": seeds,
+    }
+
+
+def _projection(ns: int, N: int) -> dict:
+    import slbasis
+
+    t = np.linspace(0.0, 1.0, ns)
+    x = np.sin(40 * t)[:, None]
+    B = slbasis.basis("hermite", N, (0.0, 1.0))
+    B.project(t[:5000], x[:5000])  # compile / load the kernels
+    _, wall, cpu = _timed(lambda: B.project(t, x), 1)
+    peak = _traced(lambda: B.project(t, x))
+    return {"time": wall, "cpu": cpu, "peak_mb": peak, "rss_mb": _rss_mb(), "error": None}
+
+
+def _chunked(ns: int, band: float, tmp: Path) -> dict:
+    import resource
+    import time
+    import tracemalloc
+
+    from dask.distributed import Client, LocalCluster
+
+    from hdpbsid.io import open_chunked
+    from hdpbsid.methods.chunked import identify_chunked
+
+    tmp.mkdir(parents=True, exist_ok=True)
+    path = tmp / f"resonance-{ns}.h5"
+    true = write_resonance_h5(path, ns, band)
+    rec = open_chunked(path, ["u"], ["y"], fs=1000.0)
+
+    def worker_rss() -> float:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cl,
+        Client(cl) as client,
+    ):
+        client.run(lambda: __import__("hdpbsid.methods.chunked"))
+        before = max(client.run(worker_rss).values())
+        tracemalloc.start()
+        t0, c0 = time.perf_counter(), time.process_time()
+        m = identify_chunked(rec, order=2, use_dask=True)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        peak = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+        workers = max(client.run(worker_rss).values())
+    path.unlink()
+    return {
+        "time": wall,
+        "cpu": cpu,
+        "peak_mb": peak,
+        "rss_mb": _rss_mb(),
+        "worker_rss_mb": workers,
+        "worker_rss_before_mb": before,
+        "error": _errors(m.eigenvalues, true),
+        "N": m.options["N"],
+        "p": m.options["p"],
+        "n_segments": m.options["n_segments"],
+        "batches": m.options["chunked"]["batches"],
+    }
+
+
+# -- driver -----------------------------------------------------------------------------
+def run_point(spec: dict, timeout: float, mem_limit_gb: float) -> dict:
     """:func:`measure_point` in a fresh subprocess; failures come back as ``status``."""
     cmd = [
         sys.executable,
         str(HERE),
         "--point",
-        method,
-        str(n_samples),
-        str(basis_size or 0),
-        str(repeats),
+        json.dumps(spec),
+        "--mem-limit-gb",
         str(mem_limit_gb),
     ]
     try:
@@ -112,7 +302,7 @@ def run_point(
         return {"status": f"timeout > {timeout:.0f} s"}
     if out.returncode != 0:
         last = (out.stderr.strip().splitlines() or ["?"])[-1]
-        status = "out of memory" if "MemoryError" in out.stderr else f"failed: {last[:80]}"
+        status = "out of memory" if "MemoryError" in out.stderr else f"failed: {last[:70]}"
         return {"status": status}
     res = json.loads(out.stdout.strip().splitlines()[-1])
     res["status"] = "ok"
@@ -121,37 +311,59 @@ def run_point(
 
 def _pow10(n: int) -> str:
     k = round(np.log10(n))
-    return f"10^{k}" if 10**k == n else str(n)
+    return f"10^{k}" if 10**k == n else f"{n:,}"
 
 
-def _row(method: str, ns: int, basis: int | None, r: dict) -> str:
+def _ms(x: float) -> str:
+    return f"{x:.2f} s" if x >= 1 else f"{1e3 * x:.0f} ms"
+
+
+def _row(sweep: str, case: str, method: str, spec: dict, r: dict) -> str:
+    head = f"| {sweep} | {case} | {method} | {_pow10(int(spec['ns']))} | {spec.get('band', '')} |"
     if r["status"] != "ok":
-        return f"| {method} | {_pow10(ns)} | {basis or 'default'} | {r['status']} | | | | |"
-    chosen = f"N={r['N']}" if r.get("N") else f"p={r['p']}"
+        return f"{head} {r['status']} | | | | | |"
+    notes = ", ".join(f"{k}={r[k]}" for k in ("N", "p", "n_segments", "batches") if r.get(k))
+    mem = f"{r['peak_mb']:.0f} MB"
+    rss = f"{r['rss_mb']:.0f} MB"
+    if "worker_rss_mb" in r:
+        rss += f"; workers {r['worker_rss_mb']:.0f} MB (before {r['worker_rss_before_mb']:.0f})"
+    err = "" if r["error"] is None else f"{100 * r['error']:.3g} %"
+    return f"{head} {_ms(r['time'])} | {_ms(r['cpu'])} | {mem} | {rss} | {err} | {notes} |"
+
+
+def _target_row(spec: dict, r: dict) -> str:
+    what = f"HD-PBSID vs N4SID f=p={N4SID_HORIZON}"
+    head = f"| target | binary, 2nd order | {what} | {_pow10(int(spec['ns']))} | |"
+    if r["status"] != "ok":
+        return f"{head} {r['status']} | | | | | |"
+    th, tn = r["time"]["hermite"], r["time"]["n4sid"]
+    em, ex = r["error_median"], r["error_max"]
     return (
-        f"| {method} | {_pow10(ns)} | {basis or 'default'} ({chosen}) | {1e3 * r['time']:.1f} ms "
-        f"| {1e3 * r['cpu']:.1f} ms "
-        f"| {r['peak_call_mb']:.1f} MB | {r['max_rss_mb']:.0f} MB | {100 * r['error']:.2g} % |"
+        f"{head} {_ms(th)} vs {_ms(tn)} (ratio {th / tn:.2f}) | | | | "
+        f"median {100 * em['hermite']:.3g} % vs {100 * em['n4sid']:.3g} %; worst "
+        f"{100 * ex['hermite']:.3g} % vs {100 * ex['n4sid']:.3g} % | HD-PBSID error <= N4SID's "
+        f"on {r['wins']} of {r['seeds']} seeds |"
     )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="Ns up to 10^4, N up to 800")
+    ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke run)")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--timeout", type=float, default=900.0, help="seconds per point")
+    ap.add_argument("--seeds", type=int, default=5, help="seeds of the binary 10^4 target")
+    ap.add_argument("--timeout", type=float, default=600.0, help="seconds per point")
     ap.add_argument("--mem-limit-gb", type=float, default=8.0)
-    ap.add_argument("--point", nargs=5, help=argparse.SUPPRESS)
+    ap.add_argument("--tmp", default="/tmp/hdpbsid-scaling", help="directory of the chunked files")
+    ap.add_argument("--out", help="also write the table to this file")
+    ap.add_argument("--point", help=argparse.SUPPRESS)
     args = ap.parse_args()
 
     if args.point:
-        method, ns, basis, repeats, mem_gb = args.point
         import resource
 
-        limit = int(float(mem_gb) * 2**30)
+        limit = int(args.mem_limit_gb * 2**30)
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-        res = measure_point(method, int(ns), int(basis) or None, int(repeats))
-        print(json.dumps(res))
+        print(json.dumps(measure_point(json.loads(args.point))))
         return
 
     head = subprocess.run(
@@ -159,31 +371,68 @@ def main() -> None:
         capture_output=True,
         text=True,
     ).stdout.strip()
-    print(f"# code {head or 'unknown'}; second-order benchmark, SNR 20 dB, one BLAS thread")
-    sizes = [10**3, 10**4] if args.quick else [10**3, 10**4, 10**5, 10**6]
-    bases = [100, 200, 400, 800] if args.quick else [100, 200, 400, 800, 1600, 3200]
-    basis_ns = [10**4] if args.quick else [10**4, 10**5]
-    print(
-        "| method | samples | basis size | wall time (median) | CPU time | peak extra memory "
-        "of the call | peak RSS of the process | eigenvalue error |"
-    )
-    print("|---|---|---|---|---|---|---|---|")
-    kw = {"repeats": args.repeats, "timeout": args.timeout, "mem_limit_gb": args.mem_limit_gb}
+    lines = [
+        f"# code {head or 'unknown'}; one BLAS thread per process; load average at start "
+        f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)",
+        "| sweep | case | method | samples | input band (Hz) | wall time | CPU time "
+        "| peak extra memory of the call | peak RSS | worst eigenvalue error | notes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for line in lines:
+        print(line, flush=True)
+    kw = {"timeout": args.timeout, "mem_limit_gb": args.mem_limit_gb}
+
+    def emit(line: str) -> None:
+        lines.append(line)
+        print(line, flush=True)
+
+    quick = args.quick
+    spec = {"case": "binary-target", "method": "", "ns": 10**4, "seeds": 2 if quick else args.seeds}
+    emit(_target_row(spec, run_point(spec, **kw)))
+    spec = {"case": "resonance70", "method": "hermite", "ns": 86_000, "band": 200, "repeats": 1}
+    emit(_row("target", "70 Hz resonance at 610 Hz", "hermite", spec, run_point(spec, **kw)))
+    spec = {"case": "projection", "method": "", "ns": 10**5 if quick else 10**6, "N": 2000}
+    emit(_row("target", "projection, N = 2000", "slbasis project", spec, run_point(spec, **kw)))
+
+    sizes = [10**3, 10**4] if quick else [10**3, 10**4, 10**5, 10**6]
     for ns in sizes:
-        for method in ("hermite", "dt"):
-            r = run_point(
-                method,
-                ns,
-                None,
-                repeats=1 if ns >= 10**6 else args.repeats,
-                timeout=args.timeout,
-                mem_limit_gb=args.mem_limit_gb,
+        for method in METHODS:
+            if method == "n4sid" and ns > 10**5:
+                continue
+            spec = {
+                "case": "resonance",
+                "method": method,
+                "ns": ns,
+                "band": 20,
+                "repeats": args.repeats,
+            }
+            emit(_row("samples", "5 Hz resonance", method, spec, run_point(spec, **kw)))
+    for ns in [10**5] if quick else [10**6, 10**7]:
+        spec = {"case": "resonance", "method": "chunked", "ns": ns, "band": 20, "tmp": args.tmp}
+        emit(
+            _row(
+                "samples",
+                "5 Hz resonance, HDF5 file",
+                "hermite chunked, Dask",
+                spec,
+                run_point(spec, **kw),
             )
-            print(_row(method, ns, None, r), flush=True)
-    for ns in basis_ns:
-        for basis in bases:
-            r = run_point("hermite", ns, basis, **kw)
-            print(_row("hermite", ns, basis, r), flush=True)
+        )
+    bands = [10, 50] if quick else [10, 20, 50, 100, 200]
+    ns = 10**4 if quick else 10**5
+    for band in bands:
+        for method in METHODS:
+            spec = {
+                "case": "resonance",
+                "method": method,
+                "ns": ns,
+                "band": band,
+                "repeats": args.repeats,
+            }
+            emit(_row("band", "5 Hz resonance", method, spec, run_point(spec, **kw)))
+    emit(f"# load average at the end {os.getloadavg()[0]:.2f}")
+    if args.out:
+        Path(args.out).write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -40,6 +40,7 @@ __all__ = [
     "read_columns",
     "read_record",
     "SUFFIXES",
+    "open_chunked",
 ]
 
 Array = NDArray[np.float64]
@@ -358,3 +359,141 @@ def read_record(
     u = np.column_stack([cols[c] for c in inputs]) if inputs else None
     y = np.column_stack([cols[c] for c in outputs])
     return Record(t, u, y, inputs, outputs, time, str(path), dt=step)
+
+
+# -- records read in chunks (larger than memory) -----------------------------------------
+class _Hdf5Chunks:
+    """Picklable reader of samples ``a..b-1`` of HDF5 vector datasets (the file is
+    opened per read, so it can run on any worker of a cluster)."""
+
+    def __init__(self, path: str, inputs: list[str], outputs: list[str]) -> None:
+        self.path, self.inputs, self.outputs = path, inputs, outputs
+
+    def __call__(self, a: int, b: int) -> tuple[Array, Array]:
+        h5py = _optional("h5py")
+        with h5py.File(self.path, "r") as f:
+            u = [np.asarray(f[c.strip("/")][a:b], dtype=float).ravel() for c in self.inputs]
+            y = [np.asarray(f[c.strip("/")][a:b], dtype=float).ravel() for c in self.outputs]
+        return (np.column_stack(u) if u else np.zeros((b - a, 0))), np.column_stack(y)
+
+
+class _NpyChunks:
+    """Picklable reader of rows ``a..b-1`` of a 2-D ``.npy`` array, memory-mapped per
+    read; ``inputs``/``outputs`` are column indices."""
+
+    def __init__(self, path: str, inputs: list[int], outputs: list[int]) -> None:
+        self.path, self.inputs, self.outputs = path, inputs, outputs
+
+    def __call__(self, a: int, b: int) -> tuple[Array, Array]:
+        x = np.load(self.path, mmap_mode="r")
+        return (
+            np.array(x[a:b, self.inputs], dtype=float),
+            np.array(x[a:b, self.outputs], dtype=float),
+        )
+
+
+class _ParquetChunks:
+    """Picklable reader of rows ``a..b-1`` of Parquet columns (only the row groups that
+    overlap ``a..b-1`` are read)."""
+
+    def __init__(self, path: str, inputs: list[str], outputs: list[str]) -> None:
+        self.path, self.inputs, self.outputs = path, inputs, outputs
+        pq = _optional("pyarrow.parquet")
+        meta = pq.ParquetFile(path).metadata
+        sizes = [meta.row_group(i).num_rows for i in range(meta.num_row_groups)]
+        self.starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+
+    def __call__(self, a: int, b: int) -> tuple[Array, Array]:
+        pq = _optional("pyarrow.parquet")
+        g0 = int(np.searchsorted(self.starts, a, side="right")) - 1
+        g1 = int(np.searchsorted(self.starts, b, side="left"))
+        table = pq.ParquetFile(self.path).read_row_groups(
+            list(range(g0, g1)), columns=self.inputs + self.outputs
+        )
+        off = a - int(self.starts[g0])
+
+        def cols(names: list[str]) -> Array:
+            if not names:
+                return np.zeros((b - a, 0))
+            return np.column_stack(
+                [table.column(c).to_numpy()[off : off + b - a].astype(float) for c in names]
+            )
+
+        return cols(self.inputs), cols(self.outputs)
+
+
+def open_chunked(
+    path: str | Path,
+    inputs: Sequence[Any],
+    outputs: Sequence[Any],
+    dt: float | None = None,
+    fs: float | None = None,
+    t0: float = 0.0,
+) -> Any:
+    """A uniformly sampled record in a file, read chunk by chunk during identification.
+
+    Returns a :class:`hdpbsid.methods.chunked.ChunkedRecord` for
+    :func:`hdpbsid.methods.chunked.identify_chunked`; nothing but the lengths is read
+    here.  ``.h5 .hdf5 .hdf``: ``inputs``/``outputs`` name vector datasets (paths
+    ``group/name``); ``.parquet .pq``: column names (rows are read by row group);
+    ``.npy``: a 2-D ``(Ns, channels)`` array, ``inputs``/``outputs`` are column indices
+    (memory-mapped).  Exactly one of ``dt`` (sampling interval) and ``fs`` (rate).  Raises
+    ``ValueError`` for an unknown suffix, missing signals, signals of different lengths
+    or a bad ``dt`` / ``fs``.
+    """
+    from .methods.chunked import ChunkedRecord
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"data file not found: {path}")
+    if (dt is None) == (fs is None):
+        raise ValueError("give exactly one of the sampling interval dt and the rate fs")
+    step = dt if dt is not None else 1.0 / float(fs)  # type: ignore[arg-type]
+    inputs, outputs = list(inputs), list(outputs)
+    if not outputs:
+        raise ValueError("outputs: name at least one output")
+    suffix = path.suffix.lower()
+    reader: Any
+    if suffix == ".npy":
+        x = np.load(path, mmap_mode="r")
+        if x.ndim != 2:
+            raise ValueError(f"{path}: expected a 2-D (Ns, channels) array, got shape {x.shape}")
+        for c in inputs + outputs:
+            if isinstance(c, bool) or not isinstance(c, int | np.integer):
+                raise TypeError(f"{path}: .npy columns are integer indices, got {c!r}")
+            if not 0 <= int(c) < x.shape[1]:
+                raise ValueError(f"{path}: column index {c} outside 0..{x.shape[1] - 1}")
+        ns = x.shape[0]
+        reader = _NpyChunks(str(path), [int(c) for c in inputs], [int(c) for c in outputs])
+    elif SUFFIXES.get(suffix) == "hdf5":
+        h5py = _optional("h5py")
+        with h5py.File(str(path), "r") as f:
+            lengths = {}
+            for c in inputs + outputs:
+                key = str(c).strip("/")
+                if key not in f or not isinstance(f[key], h5py.Dataset):
+                    raise ValueError(f"{path}: no dataset {c!r}")
+                shape = f[key].shape
+                if sum(s > 1 for s in shape) > 1:
+                    raise ValueError(f"{path}: dataset {c!r} is not a vector (shape {shape})")
+                lengths[c] = int(np.prod(shape))
+        ns = _equal_lengths(path, lengths)
+        reader = _Hdf5Chunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
+    elif SUFFIXES.get(suffix) == "parquet":
+        pq = _optional("pyarrow.parquet")
+        pf = pq.ParquetFile(str(path))
+        _missing(path, inputs + outputs, pf.schema_arrow.names)
+        ns = int(pf.metadata.num_rows)
+        reader = _ParquetChunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
+    else:
+        raise ValueError(
+            f"{path}: chunked reading supports .npy, HDF5 (.h5 .hdf5 .hdf) and Parquet "
+            f"(.parquet .pq), got {path.suffix!r}"
+        )
+    return ChunkedRecord(reader, ns, len(inputs), len(outputs), step, t0)
+
+
+def _equal_lengths(path: Path, lengths: dict[Any, int]) -> int:
+    if len(set(lengths.values())) > 1:
+        raise ValueError(f"{path}: the signals have different lengths {lengths}")
+    return next(iter(lengths.values()))

@@ -7,7 +7,9 @@
   (Legendre, Chebyshev, Jacobi, a custom problem);
 * :mod:`~hdpbsid.methods.basis_domain` -- what the basis methods share (projection of the
   sample interpolants, bandwidth, pseudo-inputs, running the core);
-* :mod:`~hdpbsid.methods.refine` -- prediction-error refinement of any method's model.
+* :mod:`~hdpbsid.methods.refine` -- prediction-error refinement of any method's model;
+* :mod:`~hdpbsid.methods.chunked` -- HD-PBSID of records read in chunks (files larger
+  than memory, Dask).
 
 The methods are imported on first use by :func:`hdpbsid.identify` (a light
 ``import hdpbsid``).

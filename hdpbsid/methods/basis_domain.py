@@ -42,6 +42,8 @@ __all__ = [
     "BlockShift",
     "bandwidth",
     "data_bandwidth",
+    "spectrum_bandwidth",
+    "spectra_data_bandwidth",
     "noise_floor",
     "clip_basis_size",
     "CoreOut",
@@ -190,7 +192,14 @@ def bandwidth(
     no power above its floor keeps its raw spectrum.  The result is the largest value over
     the columns.
     """
-    w, P = _power_spectra(t, x)
+    return spectrum_bandwidth(*_power_spectra(t, x), fraction, subtract_floor)
+
+
+def spectrum_bandwidth(
+    w: Array, P: Array, fraction: float = ENERGY_FRACTION, subtract_floor: bool = True
+) -> float:
+    """:func:`bandwidth` from power spectra ``P`` (bins x columns) at angular frequencies
+    ``w`` (e.g. periodograms averaged over the chunks of a record read from disk)."""
     best = 0.0
     for k in range(P.shape[1]):
         Pk = P[:, k]
@@ -245,10 +254,16 @@ def data_bandwidth(t: Array, u: Array, y: Array) -> float:
     plant, do.  The outputs get the lower fraction because their noise is never fully
     removed by a floor estimate.
     """
-    w, P = _power_spectra(t, u) if u.shape[1] else (None, np.zeros((1, 0)))
-    limited = [k for k in range(P.shape[1]) if noise_floor(P[:, k])[1] < BROADBAND_SHARE]
-    wu = bandwidth(t, u[:, limited], 0.99) if limited else 0.0
-    return max(wu, bandwidth(t, y, 0.95))
+    wu, Pu = _power_spectra(t, u)
+    return spectra_data_bandwidth(wu, Pu, *_power_spectra(t, y))
+
+
+def spectra_data_bandwidth(wu: Array, Pu: Array, wy: Array, Py: Array) -> float:
+    """:func:`data_bandwidth` from the power spectra of the inputs ``Pu`` and outputs
+    ``Py`` (bins x columns, at angular frequencies ``wu``, ``wy``)."""
+    limited = [k for k in range(Pu.shape[1]) if noise_floor(Pu[:, k])[1] < BROADBAND_SHARE]
+    band_u = spectrum_bandwidth(wu, Pu[:, limited], 0.99) if limited else 0.0
+    return max(band_u, spectrum_bandwidth(wy, Py, 0.95))
 
 
 @memoize

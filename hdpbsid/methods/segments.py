@@ -29,6 +29,7 @@ from .settings import check_window
 
 __all__ = [
     "default_window",
+    "window_rule",
     "make_segments",
     "project_blocks",
     "records_bandwidth",
@@ -85,9 +86,19 @@ def default_window(
     ``T_w`` and ``2 T_w``, :func:`hdpbsid.records.split_windows`), so short records are
     identified on one basis as before.  Returns ``(T_w or None, info)``.
     """
+    w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
+    longest = max(r.duration for r in records)
+    return window_rule(w_low, longest, n_per_band, q, p_max)
+
+
+def window_rule(
+    w_low: float, longest: float, n_per_band: float, q: int, p_max: int
+) -> tuple[float | None, dict[str, Any]]:
+    """:func:`default_window` from its ingredients: the lowest significant output
+    frequency ``w_low`` (rad/s), the longest record (s), ``n_per_band``, ``q`` and
+    ``p_max`` (a record read in chunks has no in-memory records to pass)."""
     n_w = int(np.ceil((p_max + 1) * q / NUISANCE_SHARE))
     t_n = n_w / n_per_band
-    w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
     t_dyn = WINDOW_PERIODS * 2.0 * np.pi / w_low if w_low > 0 else np.inf
     t_w = max(t_n, t_dyn)
     info = {
@@ -100,7 +111,6 @@ def default_window(
         "window_target_N": n_w,
         "lowest_significant_frequency": w_low,
     }
-    longest = max(r.duration for r in records)
     return (t_w if longest >= 2 * t_w else None), info
 
 
