@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_method_args, check_positive_int
+from ..checks import check_positive_int
 from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks, select_past_window_blocks
 from ..core.pbsid import CoreResult
 from ..core.varx import CachedPowers
@@ -48,7 +48,6 @@ __all__ = [
     "clip_basis_size",
     "CoreOut",
     "run_core",
-    "check_method_args",
     "INPUT_HOLDS",
     "project_record",
     "resolve_holds",

@@ -39,14 +39,13 @@ from numpy.typing import NDArray
 
 import slbasis
 
-from ..checks import check_positive_int
+from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from .basis_domain import (
     P_DEFAULT_RANGE,
     _power_spectra,
     best_hold,
-    check_method_args,
     integrator_model,
     project_record,
     resolve_holds,
@@ -55,6 +54,7 @@ from .basis_domain import (
 )
 from .hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
 from .segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
+from .settings import BasisSettings, resolve_settings
 
 __all__ = ["ChunkedRecord", "identify_chunked", "SPECTRUM_SAMPLES", "CHUNK_SAMPLES"]
 
@@ -230,23 +230,20 @@ def identify_chunked(
     order: int | None = None,
     *,
     N: int | None = None,
-    p: int | None = None,
-    f: int | None = None,
-    max_order: int | None = None,
-    window: float | str | None = "auto",
-    input_hold: str = "auto",
-    regularize: bool | str | float | None = "gcv",
     chunk_samples: int = CHUNK_SAMPLES,
     spectrum_samples: int = SPECTRUM_SAMPLES,
     use_dask: bool = False,
+    settings: BasisSettings | None = None,
+    **shared: Any,
 ) -> StateSpaceModel:
     """HD-PBSID (method ``"hermite"``) of a record read in chunks (module docstring).
 
     ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.io.open_chunked` for HDF5,
-    Parquet and ``.npy`` files).  ``order, N, p, f, max_order, window, input_hold,
-    regularize`` as in :func:`~hdpbsid.methods.hermite.identify_hermite`; the other
-    options keep its defaults (``alpha = 4 scale``, ``beta = gamma = 1``, boundary
-    pseudo-inputs).  No mean is removed: pass deviations from the operating
+    Parquet and ``.npy`` files).  ``order``, ``N`` and the shared settings (keywords or
+    ``settings=`` :class:`~hdpbsid.methods.settings.BasisSettings`; ``n_jobs`` is not
+    used: batches run serially or on Dask) as in
+    :func:`~hdpbsid.methods.hermite.identify_hermite`, with ``alpha = 4 scale``,
+    ``beta = gamma = 1``.  No mean is removed: pass deviations from the operating
     point.  ``chunk_samples``: samples read per batch of windows (at least one window);
     ``spectrum_samples``: samples per periodogram of the bandwidth estimate;
     ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
@@ -255,28 +252,24 @@ def identify_chunked(
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")
     chunk_samples = check_positive_int(chunk_samples, "chunk_samples", 2)
-    order, p, f, mo = check_method_args(order, p, f, max_order)
+    st = resolve_settings(settings, shared, "identify_chunked")
+    order = check_order(order)
     if N is not None:
         N = check_positive_int(N, "N", 2)
     m, h = record.m, record.dt
     w, Pu, Py = averaged_spectra(record, spectrum_samples, use_dask)
     wb = spectra_data_bandwidth(w, Pu, w, Py)
-    q = 3  # truncation row and the two boundary rows
+    q = 3 if st.boundary else 1  # truncation row and the two boundary rows
     info: dict[str, Any] = {}
+    window = st.window
     if window is None:
         length, info["window_rule"] = None, "none (window=None)"
-    elif isinstance(window, str):
-        if window != "auto":
-            raise ValueError(f"window must be None, 'auto' or a length in seconds, got {window!r}")
+    elif window == "auto":
         w_low = spectrum_bandwidth(w, Py, LOW_FRACTION)
         n_per_band = BAND_MARGIN * wb / HERMITE_BAND
         length, info = window_rule(w_low, record.duration, n_per_band, q, P_DEFAULT_RANGE[1])
     else:
-        if isinstance(window, bool) or not isinstance(window, int | float | np.number):
-            raise TypeError(f"window must be None, 'auto' or a number, got {type(window).__name__}")
         length = float(window)
-        if not (np.isfinite(length) and length > 0):
-            raise ValueError(f"window must be a positive length in seconds, got {window}")
         info["window_rule"] = "given"
     edges = _window_edges(record, length)
     sizes = np.diff(edges) + 1  # samples per window (edge samples shared)
@@ -306,9 +299,11 @@ def identify_chunked(
     lags, rows = {}, {}
     for n, b in bases.items():
         lags[n] = hermite_lag(b.derivative_matrix("square"), alpha, beta, gamma)[0]
-        r = [np.eye(1, b.N, b.N - 1)[0]] + list(b.eval(np.array([0.0, (n - 1) * h])).T)
+        r = [np.eye(1, b.N, b.N - 1)[0]]
+        if st.boundary:
+            r += list(b.eval(np.array([0.0, (n - 1) * h])).T)
         rows[n] = np.array(r)
-    holds = resolve_holds(input_hold, m)
+    holds = resolve_holds(st.input_hold, m)
     # batches: consecutive windows, about chunk_samples samples each, read at once
     tasks: list[Any] = []
     maps: dict[int, list[Array]] = {}
@@ -352,14 +347,7 @@ def identify_chunked(
         Yc,
         [rows[n] for n in keys],
         lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=False,
-        stable_k=False,
-        normalize=True,
+        **st.core_options(order),
     )
     Ns_ = [b.N for b in seg_bases]
     options = {
@@ -374,7 +362,7 @@ def identify_chunked(
         "scale": s_ref,
         "centre": record.t0 + seg_bases[0].centre,
         "alpha_rule": "4 * scale (median over blocks)",
-        "boundary": True,
+        "boundary": st.boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": record.ns,
         "t0": record.t0,
@@ -390,9 +378,8 @@ def identify_chunked(
         beta,
         gamma,
         options,
-        input_hold=input_hold,
+        settings=st,
         hold=hold,
         hold_criterion=hold_crit,
         order=order,
-        max_order=mo,
     )
