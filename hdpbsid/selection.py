@@ -34,6 +34,8 @@ from .criteria import (
     WindowedError,
     choose_smallest_adequate,
     default_windows,
+    is_uniform_grid,
+    windowed_prediction_error,
     windowed_simulation_error,
 )
 from .model import StateSpaceModel
@@ -46,6 +48,37 @@ AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
 HOLDOUT = 1.0 / 3.0
 #: largest order tried by default
 AUTO_MAX_ORDER = 8
+#: a method's orders are tried upwards until this many consecutive orders have not
+#: lowered its best held-out error (two, so that one odd order that splits a pair of
+#: modes badly does not end the sweep before the even order that completes it)
+PATIENCE = 2
+
+
+def _scores(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[WindowedError, ...]:
+    """``(simulation error, prediction error)`` of ``model`` on one record ``(t, u, y)``
+    (the prediction error only on uniform samples)."""
+    t, u, y = check_data(*rec)
+    sim = windowed_simulation_error(model, t, u, y, windows)
+    if not is_uniform_grid(t):
+        return (sim,)
+    return sim, windowed_prediction_error(model, t, u, y, windows)
+
+
+def choose_predictor(model: StateSpaceModel, est: tuple, max_states: int) -> bool:
+    """Whether ``model``'s one-step predictor uses its innovation gain ``K`` (module
+    docstring): ``True`` when the prediction error with ``K`` is smaller than with
+    ``K = 0`` (the simulation error) on the estimation data ``est`` (a ``(t, u, y)``
+    record or ``([(t, u, y), ...], None, None)``).  Non-uniform samples: ``False``."""
+    recs = est[0] if est[1] is None and isinstance(est[0], list) else [est]
+    sim = pred = 0.0
+    for rec in recs:
+        t = np.asarray(rec[0])
+        scores = _scores(model, rec, default_windows(t.size, max_states))
+        if len(scores) < 2 or not scores[1].finite:
+            return False
+        sim += float(np.sum(scores[0].per_window))
+        pred += float(np.sum(scores[1].per_window))
+    return pred < sim
 
 
 def _fit_one(
@@ -61,12 +94,61 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
-            err = windowed_simulation_error(model, *val, windows)
-        row.update(status="ok" if err.finite else "simulation overflow", criterion=err)
+            use_k = choose_predictor(model, est, max(order, 1))
+            scores = _scores(model, val, windows)
+            err = scores[1] if use_k and len(scores) > 1 else scores[0]
+        row.update(
+            status="ok" if err.finite else "simulation overflow",
+            criterion=err,
+            predictor="innovation (K)" if use_k else "output error (K = 0)",
+        )
     except (ValueError, np.linalg.LinAlgError) as exc:
-        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None)
+        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None, predictor=None)
     row["time"] = time.perf_counter() - t0
     return row
+
+
+def _sweep(
+    get_method: Any,
+    method: str,
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+) -> list[dict[str, Any]]:
+    """The candidates of one method in increasing order, stopped once :data:`PATIENCE`
+    consecutive orders have not lowered the method's best held-out error (module
+    docstring); the orders left out get a row with ``status="skipped: ..."``."""
+    rows: list[dict[str, Any]] = []
+    best, stale = np.inf, 0
+    for i, n in enumerate(orders):
+        row = _fit_one(get_method, method, n, est, val, windows, options)
+        rows.append(row)
+        c = row["criterion"]
+        err = c.total if c is not None and c.finite else np.inf
+        if err < best:
+            best, stale = err, 0
+        elif np.isfinite(best):
+            stale += 1
+        if stale >= PATIENCE:
+            reason = (
+                f"skipped: orders {orders[i - PATIENCE + 1]}..{n} did not lower {method}'s "
+                f"best held-out error"
+            )
+            for k in orders[i + 1 :]:
+                rows.append(
+                    {
+                        "method": method,
+                        "order": k,
+                        "status": reason,
+                        "criterion": None,
+                        "predictor": None,
+                        "time": 0.0,
+                    }
+                )
+            break
+    return rows
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -80,6 +162,7 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "error": c.total if c is not None else None,
                 "fit": c.fit if c is not None else None,
                 "z": r.get("z"),
+                "predictor": r.get("predictor"),
                 "time": r["time"],
                 "status": r["status"],
             }
@@ -134,15 +217,16 @@ def select_model(
             f"longer record, a smaller max_order, or give the order"
         )
     opts = method_options or {}
-    jobs = [(m, n) for m in methods for n in orders]
+    orders = sorted(orders)
     if n_jobs is not None and n_jobs != 1:
         from joblib import Parallel, delayed
 
-        rows = Parallel(n_jobs=n_jobs)(
-            delayed(_fit_one)(get_method, m, n, est, val, windows, opts) for m, n in jobs
+        sweeps = Parallel(n_jobs=n_jobs)(
+            delayed(_sweep)(get_method, m, orders, est, val, windows, opts) for m in methods
         )
     else:
-        rows = [_fit_one(get_method, m, n, est, val, windows, opts) for m, n in jobs]
+        sweeps = [_sweep(get_method, m, orders, est, val, windows, opts) for m in methods]
+    rows = [r for sweep in sweeps for r in sweep]
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
