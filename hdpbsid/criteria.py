@@ -25,6 +25,12 @@ data show it beyond their own spread).  Each window's residual energy is divided
 degrees of freedom (samples minus the fitted initial-state entries), so the per-window
 initial state does not favour models with more states.
 
+The same windows score the **one-step prediction error** of the model's innovation
+predictor (:func:`windowed_prediction_error`): the recursion runs on
+``Phi - Gk C`` and is driven by the measured output as well, and the window's initial
+state enters through ``C (Phi - Gk C)^k`` instead of ``C Phi^k``.  With ``K = 0`` it is
+the simulation error.
+
 Simulation uses the exact sampled model for the hold of the input (``zoh``: held
 between samples, ``foh``: linear), as :meth:`hdpbsid.model.StateSpaceModel.simulate`.
 """

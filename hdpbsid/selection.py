@@ -1,20 +1,48 @@
 """``method="auto"``: choose the method and the order by their out-of-sample error.
 
 Every candidate ``(method, order)`` is identified on the first part of the record
-(``1 - holdout`` of the samples) and scored on the rest by the windowed simulation error
-of :mod:`hdpbsid.criteria` (initial state fitted in each window, outputs weighted by
-their variance), computed identically for every method.  The rule of
-:func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all candidates ordered
-by order (and, for equal orders, by the error), the first one whose error is not
-within one standard error of the best candidate's; that ``(method, order)`` is then
-identified on the whole record.  Held-out data judge the models, so a method that is
-biased on this record, or an order the data do not support, loses by the measure a
-user would apply to the result (simulation on data not used for estimation).
+(``1 - holdout`` of the samples) and scored on the rest by the **windowed one-step
+prediction error of the candidate's own predictor** (:mod:`hdpbsid.criteria`: initial
+state fitted in each window, outputs weighted by their variance), computed identically
+for every method:
+
+* every candidate is an innovation model ``dx/dt = A x + B u + K e``; its one-step
+  predictor with the gain ``K`` is the predictor of the prediction-error method, whose
+  criterion is minimised by the true system also in closed loop, where ``u`` depends on
+  past noise (the "direct method": Ljung, *System Identification*, 2nd ed., sec. 13.4;
+  Forssell & Ljung, Automatica 35(7), 1999).  The simulation error (the predictor with
+  ``K = 0``) is not: in closed loop the simulated output ignores the noise fed back
+  through ``u``, and a model that absorbs the correlation of ``u`` with the noise
+  simulates the record better than the true system (on the PBSID toolbox's closed-loop
+  example it chose a wrong order on some records);
+* but ``K`` is an estimate, and a poor one (a basis-domain method's on white output
+  noise, for instance) makes the predictor worse than none.  So each candidate uses
+  ``K`` only when it predicts the *estimation* part better than ``K = 0``
+  (:func:`choose_predictor`); otherwise it is scored by its simulation error, which is
+  the one-step prediction error of the output-error predictor (``K = 0``) and the right
+  criterion when the noise is white output noise.  The choice is made on the data the
+  candidate was identified from, so the held-out data judge the candidates only once.
+
+The rule of :func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all
+candidates ordered by order (and, for equal orders, by the error), the first one whose
+error is within one standard error of the best candidate's; that ``(method, order)`` is
+then identified on the whole record.  Held-out data judge the models, so a method that
+is biased on this record, or an order the data do not support, loses by the measure a
+user would apply to the result.
+
+Orders are tried upwards, every method at each order, until :data:`PATIENCE`
+consecutive orders have not lowered the best held-out error by more than its standard
+error (:func:`_sweep`): such larger orders cannot be chosen by the one-standard-error
+rule, so on records whose true order is small most of the ``8 x 4`` candidates are not
+fitted.  The expensive order-independent steps of the methods (projection of the
+record, basis operators, the past-window criterion of ``dt``) are memoised
+(:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
 
 The comparison is reported in ``model.options["selection"]``: one row per candidate
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
-variance), ``fit`` (percent), ``z`` (paired statistic against the best), ``time``
-(seconds) and ``status`` (``"ok"`` or the error message).
+variance), ``fit`` (percent), ``z`` (statistic against the best), ``predictor``
+(``"innovation (K)"`` or ``"output error (K = 0)"``), ``time`` (seconds) and ``status``
+(``"ok"``, the error message, or ``"skipped: ..."``).
 """
 
 from __future__ import annotations
@@ -48,9 +76,9 @@ AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
 HOLDOUT = 1.0 / 3.0
 #: largest order tried by default
 AUTO_MAX_ORDER = 8
-#: a method's orders are tried upwards until this many consecutive orders have not
-#: lowered its best held-out error (two, so that one odd order that splits a pair of
-#: modes badly does not end the sweep before the even order that completes it)
+#: orders are tried upwards until this many consecutive orders have not lowered the
+#: best held-out error (two, so that one odd order that splits a pair of modes badly
+#: does not end the sweep before the even order that completes it)
 PATIENCE = 2
 
 
@@ -108,47 +136,82 @@ def _fit_one(
     return row
 
 
+def _standard_error(err: WindowedError) -> float:
+    """Standard error of ``err.total`` from its window errors (as
+    :func:`hdpbsid.criteria.choose_smallest_adequate`)."""
+    w = err.per_window
+    if w.size < 2 or not np.sum(w) > 0:
+        return 0.0
+    return float(err.total * np.std(w, ddof=1) * np.sqrt(w.size) / np.sum(w))
+
+
+def _skipped(method: str, order: int, reason: str) -> dict[str, Any]:
+    return {
+        "method": method,
+        "order": order,
+        "status": f"skipped: {reason}",
+        "criterion": None,
+        "predictor": None,
+        "time": 0.0,
+    }
+
+
 def _sweep(
     get_method: Any,
-    method: str,
+    methods: Sequence[str],
     orders: list[int],
     est: tuple,
     val: tuple,
     windows: int,
     options: dict,
+    n_jobs: int | None,
 ) -> list[dict[str, Any]]:
-    """The candidates of one method in increasing order, stopped once :data:`PATIENCE`
-    consecutive orders have not lowered the method's best held-out error (module
-    docstring); the orders left out get a row with ``status="skipped: ..."``."""
+    """Every method's candidates, orders upwards (module docstring).
+
+    The sweep stops once :data:`PATIENCE` consecutive orders have not lowered the best
+    held-out error of all candidates by more than that error's standard error
+    (``SIGNIFICANCE_Z`` of them).  A larger order that does not beat the best by a
+    standard error cannot be chosen by the one-standard-error rule (the smaller best is
+    within one standard error of it), so the orders left out could only have mattered
+    if the error fell again after two such orders.  They get a row with
+    ``status="skipped: ..."``.  With ``n_jobs`` the methods of one order are fitted in
+    parallel (joblib); the candidates, and so the result, are those of the serial run.
+    """
     rows: list[dict[str, Any]] = []
-    best, stale = np.inf, 0
+    # the error a candidate must beat to count as an improvement: the best error so far
+    # minus its standard error
+    bar, stale = np.inf, 0
+    parallel = None
+    if n_jobs is not None and n_jobs != 1:
+        from joblib import Parallel, delayed
+
+        parallel = Parallel(n_jobs=n_jobs)
     for i, n in enumerate(orders):
-        row = _fit_one(get_method, method, n, est, val, windows, options)
-        rows.append(row)
-        c = row["criterion"]
-        err = c.total if c is not None and c.finite else np.inf
-        if err < best:
-            best, stale = err, 0
-        elif np.isfinite(best):
-            stale += 1
-        if stale >= PATIENCE:
-            reason = (
-                f"skipped: orders {orders[i - PATIENCE + 1]}..{n} did not lower {method}'s "
-                f"best held-out error"
+        if parallel is not None:
+            new = parallel(
+                delayed(_fit_one)(get_method, m, n, est, val, windows, options) for m in methods
             )
-            for k in orders[i + 1 :]:
-                rows.append(
-                    {
-                        "method": method,
-                        "order": k,
-                        "status": reason,
-                        "criterion": None,
-                        "predictor": None,
-                        "time": 0.0,
-                    }
-                )
+        else:
+            new = [_fit_one(get_method, m, n, est, val, windows, options) for m in methods]
+        rows.extend(new)
+        improved = False
+        for row in sorted(new, key=lambda r: _total(r["criterion"])):
+            err = _total(row["criterion"])
+            if err < bar:
+                bar, improved = err - SIGNIFICANCE_Z * _standard_error(row["criterion"]), True
+        stale = 0 if improved else stale + (1 if np.isfinite(bar) else 0)
+        if stale >= PATIENCE:
+            why = (
+                f"orders {orders[i - PATIENCE + 1]}..{n} did not lower the best held-out "
+                f"error by a standard error"
+            )
+            rows.extend(_skipped(m, k, why) for k in orders[i + 1 :] for m in methods)
             break
     return rows
+
+
+def _total(err: WindowedError | None) -> float:
+    return err.total if err is not None and err.finite else np.inf
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -218,15 +281,7 @@ def select_model(
         )
     opts = method_options or {}
     orders = sorted(orders)
-    if n_jobs is not None and n_jobs != 1:
-        from joblib import Parallel, delayed
-
-        sweeps = Parallel(n_jobs=n_jobs)(
-            delayed(_sweep)(get_method, m, orders, est, val, windows, opts) for m in methods
-        )
-    else:
-        sweeps = [_sweep(get_method, m, orders, est, val, windows, opts) for m in methods]
-    rows = [r for sweep in sweeps for r in sweep]
+    rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
@@ -255,7 +310,9 @@ def select_model(
             "no scored candidate could be identified on the whole record: " + "; ".join(failures)
         )
     rule = (
-        f"held-out windowed simulation error on {where} ({windows} windows); "
+        f"held-out windowed one-step prediction error on {where} ({windows} windows; "
+        f"each candidate's predictor with its K, or with K = 0 when that predicts the "
+        f"estimation part better); "
         f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule)"
     )
@@ -275,7 +332,7 @@ def identify_auto(
     method_options: dict[str, dict[str, Any]] | None = None,
 ) -> StateSpaceModel:
     """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
-    given ``order``), the best by held-out simulation error (module docstring).
+    given ``order``), the best by held-out prediction error (module docstring).
 
     ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
     non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
@@ -320,7 +377,7 @@ def select_order(
     holdout: float = HOLDOUT,
     **options: Any,
 ) -> StateSpaceModel:
-    """The order of ``method`` chosen by held-out simulation error (module docstring).
+    """The order of ``method`` chosen by held-out prediction error (module docstring).
 
     Orders ``1..max_order`` (default 8) are identified on the first ``1 - holdout`` of
     the record and scored on the rest; the chosen order is identified on the whole
