@@ -51,7 +51,12 @@ def _key_part(x: Any, h: Any) -> None:
             _key_part(v, h)
         h.update(b")")
     elif hasattr(x, "kernel") and hasattr(x, "t_span"):  # an slbasis.Basis
-        h.update(repr((repr(x), _kernel_key(x.kernel))).encode())
+        # repr(x) rounds the floats; the exact values of the mapping are added
+        exact = tuple(
+            float(v) if np.ndim(v) == 0 else tuple(map(float, v))
+            for v in (getattr(x, "scale", 0.0), getattr(x, "centre", 0.0), x.t_span)
+        )
+        h.update(repr((repr(x), exact, _kernel_key(x.kernel))).encode())
     else:
         h.update(repr(x).encode())
 
