@@ -32,9 +32,8 @@ user would apply to the result.
 
 Orders are tried upwards, every method at each order, until :data:`PATIENCE`
 consecutive orders have not lowered the best held-out error by more than its standard
-error (:func:`_sweep`): such larger orders cannot be chosen by the one-standard-error
-rule, so on records whose true order is small most of the ``8 x 4`` candidates are not
-fitted.  The expensive order-independent steps of the methods (projection of the
+error: such larger orders cannot be chosen by the one-standard-error
+rule, so orders more than two above the supported one are not fitted.  The expensive order-independent steps of the methods (projection of the
 record, basis operators, the past-window criterion of ``dt``) are memoised
 (:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
 
