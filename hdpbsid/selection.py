@@ -32,10 +32,11 @@ user would apply to the result.
 
 Orders are tried upwards, every method at each order, until :data:`PATIENCE`
 consecutive orders have not lowered the best held-out error by more than its standard
-error: such larger orders cannot be chosen by the one-standard-error
-rule, so orders more than two above the supported one are not fitted.  The expensive order-independent steps of the methods (projection of the
-record, basis operators, the past-window criterion of ``dt``) are memoised
-(:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
+error: such larger orders cannot be chosen by the one-standard-error rule, so orders
+more than two above the supported one are not fitted.  The expensive order-independent
+steps of the methods (projection of the record, basis operators, the past-window
+criterion of ``dt``) are memoised (:mod:`hdpbsid.methods.memo`), so the orders of one
+method share them.
 
 The comparison is reported in ``model.options["selection"]``: one row per candidate
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
@@ -122,8 +123,8 @@ def _fit_one(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
             use_k = choose_predictor(model, est, max(order, 1))
-            scores = _scores(model, val, windows)
-            err = scores[1] if use_k and len(scores) > 1 else scores[0]
+            score = windowed_prediction_error if use_k else windowed_simulation_error
+            err = score(model, *check_data(*val), windows)
         row.update(
             status="ok" if err.finite else "simulation overflow",
             criterion=err,
