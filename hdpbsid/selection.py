@@ -9,12 +9,12 @@ for every method:
 * every candidate is an innovation model ``dx/dt = A x + B u + K e``; its one-step
   predictor with the gain ``K`` is the predictor of the prediction-error method, whose
   criterion is minimised by the true system also in closed loop, where ``u`` depends on
-  past noise (the "direct method": Ljung, *System Identification*, 2nd ed., sec. 13.4;
-  Forssell & Ljung, Automatica 35(7), 1999).  The simulation error (the predictor with
-  ``K = 0``) is not: in closed loop the simulated output ignores the noise fed back
-  through ``u``, and a model that absorbs the correlation of ``u`` with the noise
-  simulates the record better than the true system (on the PBSID toolbox's closed-loop
-  example it chose a wrong order on some records);
+  past noise (the "direct method" of closed-loop identification: Forssell & Ljung,
+  "Closed-loop identification revisited", Automatica 35(7), 1999).  The simulation
+  error (the predictor with ``K = 0``) is not: in closed loop the simulated output
+  ignores the noise fed back through ``u``, and a model that absorbs the correlation
+  of ``u`` with the noise simulates the record better than the true system (on the
+  PBSID toolbox's closed-loop example it chose a wrong order on some records);
 * but ``K`` is an estimate, and a poor one (a basis-domain method's on white output
   noise, for instance) makes the predictor worse than none.  So each candidate uses
   ``K`` only when it predicts the *estimation* part better than ``K = 0``
@@ -122,9 +122,10 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
-            use_k = choose_predictor(model, est, max(order, 1))
+            tv, uv, yv = check_data(*val)
+            use_k = choose_predictor(model, est, max(order, 1)) and is_uniform_grid(tv)
             score = windowed_prediction_error if use_k else windowed_simulation_error
-            err = score(model, *check_data(*val), windows)
+            err = score(model, tv, uv, yv, windows)
         row.update(
             status="ok" if err.finite else "simulation overflow",
             criterion=err,
@@ -336,7 +337,7 @@ def identify_auto(
 
     ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
     non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
-    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the candidates in parallel
+    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the methods of each order in parallel
     with joblib (results are identical to the serial run); ``method_options``: extra
     options per method, e.g. ``{"hermite": {"N": 400}}``.  ``model.options["selection"]``
     lists every candidate, ``options["order_selection"]`` the chosen method's.
