@@ -192,11 +192,10 @@ def identify(
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
-    one-step prediction error on the last third (with the model's ``K``, or ``K = 0``,
-    i.e. the simulation error, when that predicts the first two thirds better; the
-    prediction error is consistent in closed loop); the smallest order within one
-    standard error of
-    the best is identified on the whole record, and the scores are in
+    one-step prediction error on the last third (the better of the predictors with the
+    model's ``K`` and with ``K = 0``, i.e. the simulation error; the prediction error is
+    consistent in closed loop); the smallest order within one standard error of the
+    best is identified on the whole record, and the scores are in
     ``options["order_selection"]``.  A record too short to score, a list of records and
     ``order_rule="svd"`` use the method's singular-value rule instead (said in
     ``options["order_selection"]``).  A constant input column raises a ``UserWarning``

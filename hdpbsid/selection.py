@@ -16,12 +16,14 @@ for every method:
   of ``u`` with the noise simulates the record better than the true system (on the
   PBSID toolbox's closed-loop example it chose a wrong order on some records);
 * but ``K`` is an estimate, and a poor one (a basis-domain method's on white output
-  noise, for instance) makes the predictor worse than none.  So each candidate uses
-  ``K`` only when it predicts the *estimation* part better than ``K = 0``
-  (:func:`choose_predictor`); otherwise it is scored by its simulation error, which is
-  the one-step prediction error of the output-error predictor (``K = 0``) and the right
-  criterion when the noise is white output noise.  The choice is made on the data the
-  candidate was identified from, so the held-out data judge the candidates only once.
+  noise, for instance) makes the predictor worse than none.  So each candidate is
+  scored by the better of its two predictors on the held-out data (:func:`score_model`):
+  with ``K``, or with ``K = 0``, i.e. its simulation error, the right criterion when the
+  noise is white output noise.  A model is worth its best predictor; a bad noise
+  estimate does not count against a good plant model, and in closed loop the models
+  whose noise model matters are judged with it.  (Choosing the predictor on the
+  estimation part instead, where ``K`` was fitted, kept ``K`` for models it then made
+  worse on the held-out part: the closed-loop quadrotor's order 3 lost to order 4.)
 
 The rule of :func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all
 candidates ordered by order (and, for equal orders, by the error), the first one whose
@@ -30,19 +32,15 @@ then identified on the whole record.  Held-out data judge the models, so a metho
 is biased on this record, or an order the data do not support, loses by the measure a
 user would apply to the result.
 
-Orders are tried upwards, every method at each order, until :data:`PATIENCE`
-consecutive orders have not lowered the best held-out error by more than its standard
-error: such larger orders cannot be chosen by the one-standard-error rule, so orders
-more than two above the supported one are not fitted.  The expensive order-independent
-steps of the methods (projection of the record, basis operators, the past-window
-criterion of ``dt``) are memoised (:mod:`hdpbsid.methods.memo`), so the orders of one
-method share them.
+The expensive order-independent steps of the methods (projection of the record, basis
+operators, the past-window criterion of ``dt``) are memoised
+(:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
 
 The comparison is reported in ``model.options["selection"]``: one row per candidate
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
 variance), ``fit`` (percent), ``z`` (statistic against the best), ``predictor``
 (``"innovation (K)"`` or ``"output error (K = 0)"``), ``time`` (seconds) and ``status``
-(``"ok"``, the error message, or ``"skipped: ..."``).
+(``"ok"`` or the error message).
 """
 
 from __future__ import annotations
@@ -76,37 +74,21 @@ AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
 HOLDOUT = 1.0 / 3.0
 #: largest order tried by default
 AUTO_MAX_ORDER = 8
-#: orders are tried upwards until this many consecutive orders have not lowered the
-#: best held-out error (two, so that one odd order that splits a pair of modes badly
-#: does not end the sweep before the even order that completes it)
-PATIENCE = 2
 
 
-def _scores(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[WindowedError, ...]:
-    """``(simulation error, prediction error)`` of ``model`` on one record ``(t, u, y)``
-    (the prediction error only on uniform samples)."""
+def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[WindowedError, bool]:
+    """The held-out score of ``model`` on the record ``rec = (t, u, y)`` (module
+    docstring): the smaller of its windowed one-step prediction error with its gain
+    ``K`` and with ``K = 0`` (the simulation error), and whether that is the one with
+    ``K``.  Non-uniform samples: the simulation error."""
     t, u, y = check_data(*rec)
     sim = windowed_simulation_error(model, t, u, y, windows)
     if not is_uniform_grid(t):
-        return (sim,)
-    return sim, windowed_prediction_error(model, t, u, y, windows)
-
-
-def choose_predictor(model: StateSpaceModel, est: tuple, max_states: int) -> bool:
-    """Whether ``model``'s one-step predictor uses its innovation gain ``K`` (module
-    docstring): ``True`` when the prediction error with ``K`` is smaller than with
-    ``K = 0`` (the simulation error) on the estimation data ``est`` (a ``(t, u, y)``
-    record or ``([(t, u, y), ...], None, None)``).  Non-uniform samples: ``False``."""
-    recs = est[0] if est[1] is None and isinstance(est[0], list) else [est]
-    sim = pred = 0.0
-    for rec in recs:
-        t = np.asarray(rec[0])
-        scores = _scores(model, rec, default_windows(t.size, max_states))
-        if len(scores) < 2 or not scores[1].finite:
-            return False
-        sim += float(np.sum(scores[0].per_window))
-        pred += float(np.sum(scores[1].per_window))
-    return pred < sim
+        return sim, False
+    pred = windowed_prediction_error(model, t, u, y, windows)
+    if pred.finite and (not sim.finite or pred.total < sim.total):
+        return pred, True
+    return sim, False
 
 
 def _fit_one(
@@ -122,10 +104,7 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
-            tv, uv, yv = check_data(*val)
-            use_k = choose_predictor(model, est, max(order, 1)) and is_uniform_grid(tv)
-            score = windowed_prediction_error if use_k else windowed_simulation_error
-            err = score(model, tv, uv, yv, windows)
+            err, use_k = score_model(model, val, windows)
         row.update(
             status="ok" if err.finite else "simulation overflow",
             criterion=err,
@@ -135,26 +114,6 @@ def _fit_one(
         row.update(status=f"{type(exc).__name__}: {exc}", criterion=None, predictor=None)
     row["time"] = time.perf_counter() - t0
     return row
-
-
-def _standard_error(err: WindowedError) -> float:
-    """Standard error of ``err.total`` from its window errors (as
-    :func:`hdpbsid.criteria.choose_smallest_adequate`)."""
-    w = err.per_window
-    if w.size < 2 or not np.sum(w) > 0:
-        return 0.0
-    return float(err.total * np.std(w, ddof=1) * np.sqrt(w.size) / np.sum(w))
-
-
-def _skipped(method: str, order: int, reason: str) -> dict[str, Any]:
-    return {
-        "method": method,
-        "order": order,
-        "status": f"skipped: {reason}",
-        "criterion": None,
-        "predictor": None,
-        "time": 0.0,
-    }
 
 
 def _sweep(
@@ -167,52 +126,31 @@ def _sweep(
     options: dict,
     n_jobs: int | None,
 ) -> list[dict[str, Any]]:
-    """Every method's candidates, orders upwards (module docstring).
+    """Every ``(method, order)`` candidate, orders upwards.  With ``n_jobs`` the methods
+    of one order are fitted in parallel (joblib); the candidates, and so the result, are
+    those of the serial run.
 
-    The sweep stops once :data:`PATIENCE` consecutive orders have not lowered the best
-    held-out error of all candidates by more than that error's standard error
-    (``SIGNIFICANCE_Z`` of them).  A larger order that does not beat the best by a
-    standard error cannot be chosen by the one-standard-error rule (the smaller best is
-    within one standard error of it), so the orders left out could only have mattered
-    if the error fell again after two such orders.  They get a row with
-    ``status="skipped: ..."``.  With ``n_jobs`` the methods of one order are fitted in
-    parallel (joblib); the candidates, and so the result, are those of the serial run.
+    Every order is fitted: a larger order that does not beat the best by a standard
+    error cannot be chosen, but it can become the best and so move the reference of the
+    one-standard-error rule (the closed-loop quadrotor's order 3 against 2 depends on
+    its order 7), so stopping the sweep early would change the choice.
     """
     rows: list[dict[str, Any]] = []
-    # the error a candidate must beat to count as an improvement: the best error so far
-    # minus its standard error
-    bar, stale = np.inf, 0
     parallel = None
     if n_jobs is not None and n_jobs != 1:
         from joblib import Parallel, delayed
 
         parallel = Parallel(n_jobs=n_jobs)
-    for i, n in enumerate(orders):
+    for n in orders:
         if parallel is not None:
-            new = parallel(
-                delayed(_fit_one)(get_method, m, n, est, val, windows, options) for m in methods
+            rows.extend(
+                parallel(
+                    delayed(_fit_one)(get_method, m, n, est, val, windows, options) for m in methods
+                )
             )
         else:
-            new = [_fit_one(get_method, m, n, est, val, windows, options) for m in methods]
-        rows.extend(new)
-        improved = False
-        for row in sorted(new, key=lambda r: _total(r["criterion"])):
-            err = _total(row["criterion"])
-            if err < bar:
-                bar, improved = err - SIGNIFICANCE_Z * _standard_error(row["criterion"]), True
-        stale = 0 if improved else stale + (1 if np.isfinite(bar) else 0)
-        if stale >= PATIENCE:
-            why = (
-                f"orders {orders[i - PATIENCE + 1]}..{n} did not lower the best held-out "
-                f"error by a standard error"
-            )
-            rows.extend(_skipped(m, k, why) for k in orders[i + 1 :] for m in methods)
-            break
+            rows.extend(_fit_one(get_method, m, n, est, val, windows, options) for m in methods)
     return rows
-
-
-def _total(err: WindowedError | None) -> float:
-    return err.total if err is not None and err.finite else np.inf
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -312,8 +250,7 @@ def select_model(
         )
     rule = (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
-        f"each candidate's predictor with its K, or with K = 0 when that predicts the "
-        f"estimation part better); "
+        f"each candidate's better predictor: with its K or with K = 0); "
         f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule)"
     )
