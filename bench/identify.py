@@ -6,6 +6,13 @@ Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
 choice).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
 busy machine (the refinement's small-matrix loops).
 
+``--defaults`` measures ``hdpbsid.identify(t, u, y)`` with every default instead
+(``method="auto"``, held-out order choice, mean removal) on :data:`DEFAULTS_CASES`:
+per seed the order and method chosen, the worst relative eigenvalue error and the cost
+of the call (CPU time of the process, which a loaded machine disturbs less than wall
+time) relative to one HD-PBSID fit at the true order (``method="hermite"``), then a
+summary row per case (``--runs`` seeds, default 10 here).
+
 Prints, per case (the generators of ``bench/cases.py``),
 SNR and method, over seeded Monte Carlo runs with the true order given:
 
@@ -56,6 +63,17 @@ METHODS: dict[str, tuple[str, dict[str, Any]]] = {
 DEFAULT_CASES = ("second-order", "chirp", "quadrotor", "pbsid-mimo", "nonuniform")
 #: acceptance threshold: every closed-loop eigenvalue within 5 % (relative error)
 WITHIN = 0.05
+#: ``--defaults``: (case, SNR) pairs, the SNR the case is usually quoted at
+DEFAULTS_CASES: tuple[tuple[str, float | None], ...] = (
+    ("second-order", 20.0),
+    ("quadrotor", 20.0),
+    ("stiff", 20.0),
+    ("stiff", 40.0),
+    ("rao-garnier", 10.0),
+    ("pbsid-mimo", None),
+    ("mimo-2x2", 20.0),
+    ("table2-closed-loop-rate", 20.0),
+)
 
 
 def identify_case(label: str, case: Any, free_order: bool = False) -> np.ndarray:
@@ -150,6 +168,96 @@ def fit_time(N: int = 400, ns: int = 10_000) -> None:
         print(f"  {label:16s} {np.median(el) * 1e3:9.1f} ms")
 
 
+def defaults_run(case_name: str, seed: int, snr: float | None) -> dict[str, Any]:
+    """One seed of ``--defaults``: ``identify(t, u, y)`` and one HD-PBSID fit at the true
+    order on the same record (module docstring).  A discrete case's model is compared
+    through ``exp(lambda dt)`` (its times are sample indices, ``dt = 1``)."""
+    case = make_case(case_name, seed, snr)
+    rec = case.estimation
+    true = np.asarray(case.true_eigenvalues)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t0 = time.process_time()
+        identify(rec.t, rec.u, rec.y, case.order, method="hermite")
+        t_one = time.process_time() - t0
+        t0 = time.process_time()
+        model = identify(rec.t, rec.u, rec.y)
+        t_auto = time.process_time() - t0
+    ev = model.eigenvalues
+    if case.discrete:
+        ev = np.exp(ev * float(rec.t[1] - rec.t[0]))
+    worst = float("nan")
+    if ev.size == true.size:
+        paired, tr = match_eigenvalues(ev, true)
+        worst = float(np.max(np.abs(paired - tr) / np.abs(tr)))
+    return {
+        "order": model.n,
+        "true_order": case.order,
+        "method": model.options.get("method"),
+        "worst": worst,
+        "t_auto": t_auto,
+        "t_one": t_one,
+    }
+
+
+def defaults_table(runs: int, cases: Any = DEFAULTS_CASES) -> list[dict[str, Any]]:
+    """``--defaults``: print one line per seed and return one summary row per case."""
+    # one small fit first, so that no case pays for the first call's compilation
+    warm = make_case("second-order", 0, 20.0).estimation
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        identify(warm.t[:800], warm.u[:800], warm.y[:800], 2, method="hermite")
+    summary = []
+    for case_name, snr in cases:
+        snr_txt = "own" if snr is None else f"{snr:g} dB"
+        rows = []
+        for seed in range(runs):
+            r = defaults_run(case_name, seed, snr)
+            rows.append(r)
+            print(
+                f"  {case_name:23s} {snr_txt:>6s} seed {seed:2d}: order {r['order']} "
+                f"(true {r['true_order']}) {r['method']:9s} worst {100 * r['worst']:7.3f} % "
+                f"auto {r['t_auto']:6.2f} s CPU = {r['t_auto'] / r['t_one']:5.1f} x one "
+                f"HD-PBSID fit ({r['t_one']:.3f} s)",
+                flush=True,
+            )
+        hit = [r for r in rows if r["order"] == r["true_order"]]
+        worst = [r["worst"] for r in hit]
+        ratio = [r["t_auto"] / r["t_one"] for r in rows]
+        methods: dict[str, int] = {}
+        for r in rows:
+            methods[r["method"]] = methods.get(r["method"], 0) + 1
+        summary.append(
+            {
+                "case": case_name,
+                "snr": snr_txt,
+                "true_order": rows[0]["true_order"],
+                "picked": f"{len(hit)}/{runs}",
+                "orders": sorted(r["order"] for r in rows),
+                "worst_median": float(np.median(worst)) if worst else float("nan"),
+                "worst_max": float(np.max(worst)) if worst else float("nan"),
+                "t_auto_median": float(np.median([r["t_auto"] for r in rows])),
+                "ratio_median": float(np.median(ratio)),
+                "ratio_max": float(np.max(ratio)),
+                "methods": methods,
+            }
+        )
+    print(
+        "\n| case | SNR | true order | picked | worst eig. error (median / max) "
+        "| auto CPU time (median) | x one HD-PBSID fit (median / max) | methods chosen |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
+    for s_ in summary:
+        meth = ", ".join(f"{k} {v}" for k, v in sorted(s_["methods"].items()))
+        print(
+            f"| {s_['case']} | {s_['snr']} | {s_['true_order']} | {s_['picked']} | "
+            f"{100 * s_['worst_median']:.2f} / {100 * s_['worst_max']:.2f} % | "
+            f"{s_['t_auto_median']:.2f} s | {s_['ratio_median']:.0f} / {s_['ratio_max']:.0f} | "
+            f"{meth} |"
+        )
+    return summary
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20)
@@ -165,7 +273,18 @@ def main() -> None:
         help="give the true order, or order=None (the method chooses; errors over the "
         "runs that chose the true order, the chosen orders listed)",
     )
+    ap.add_argument(
+        "--defaults",
+        action="store_true",
+        help="identify(t, u, y) with every default: order picked per seed, worst "
+        "eigenvalue error and cost relative to one HD-PBSID fit (--runs seeds, default 10)",
+    )
     args = ap.parse_args()
+    if args.defaults:
+        runs = args.runs if "--runs" in sys.argv else 10
+        print(f"identify(t, u, y) with every default, {runs} seeds per case")
+        defaults_table(runs)
+        return
     free = args.order == "none"
     if args.quick:
         args.runs, args.snr = 5, [20.0]

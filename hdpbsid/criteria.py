@@ -25,6 +25,12 @@ data show it beyond their own spread).  Each window's residual energy is divided
 degrees of freedom (samples minus the fitted initial-state entries), so the per-window
 initial state does not favour models with more states.
 
+The same windows score the **one-step prediction error** of the model's innovation
+predictor (:func:`windowed_prediction_error`): the recursion runs on
+``Phi - Gk C`` and is driven by the measured output as well, and the window's initial
+state enters through ``C (Phi - Gk C)^k`` instead of ``C Phi^k``.  With ``K = 0`` it is
+the simulation error.
+
 Simulation uses the exact sampled model for the hold of the input (``zoh``: held
 between samples, ``foh``: linear), as :meth:`hdpbsid.model.StateSpaceModel.simulate`.
 """
@@ -43,6 +49,8 @@ from .model import StateSpaceModel
 __all__ = [
     "WindowedError",
     "windowed_simulation_error",
+    "windowed_prediction_error",
+    "is_uniform_grid",
     "default_windows",
     "choose_smallest_adequate",
     "SIGNIFICANCE_Z",
@@ -87,18 +95,33 @@ def default_windows(ns: int, max_states: int) -> int:
     return int(max(1, min(MAX_WINDOWS, ns // per)))
 
 
-def _sampled(model: StateSpaceModel, h: float, hold: str) -> tuple[Array, Array, Array | None]:
-    """Exact one-step matrices ``(Phi, G1, G2)`` for step ``h`` (``G2`` only for foh)."""
-    n, m = model.n, model.m
-    size = n + m + (m if hold == "foh" else 0)
+def is_uniform_grid(t: Array) -> bool:
+    """Whether the criteria treat ``t`` as uniform: every step within ``1e-6`` of the mean
+    step (then one sampled model serves every step)."""
+    if t.size < 3:
+        return True
+    h = float((t[-1] - t[0]) / (t.size - 1))
+    return bool(np.max(np.abs(np.diff(t) - h)) <= 1e-6 * h)
+
+
+def _sampled(
+    model: StateSpaceModel, h: float, hold: str
+) -> tuple[Array, Array, Array | None, Array]:
+    """Exact one-step matrices ``(Phi, G1, G2, Gk)`` for step ``h`` (``G2`` only for foh;
+    ``Gk`` multiplies the innovation held over the step, the convention of
+    :meth:`hdpbsid.model.StateSpaceModel.predict`)."""
+    n, m, l = model.n, model.m, model.l
+    mu = m + (m if hold == "foh" else 0)
+    size = n + mu + l
     M = np.zeros((size, size))
     M[:n, :n] = model.A * h
     M[:n, n : n + m] = model.B * h
     if hold == "foh":
-        M[n : n + m, n + m :] = np.eye(m)
+        M[n : n + m, n + m : n + 2 * m] = np.eye(m)
+    M[:n, n + mu :] = model.K * h
     E = expm(M)
-    G2 = E[:n, n + m :] if hold == "foh" else None
-    return E[:n, :n], E[:n, n : n + m], G2
+    G2 = E[:n, n + m : n + 2 * m] if hold == "foh" else None
+    return E[:n, :n], E[:n, n : n + m], G2, E[:n, n + mu :]
 
 
 def windowed_simulation_error(
@@ -118,6 +141,46 @@ def windowed_simulation_error(
     it has none).  ``weights`` (l,): per-output weights of the squared residuals, default
     ``1 / var(y)``.
     """
+    return _windowed_error(model, t, u, y, windows, hold, weights, predict=False)
+
+
+def windowed_prediction_error(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str | None = None,
+    weights: Array | None = None,
+) -> WindowedError:
+    """Windowed one-step-ahead prediction error of ``model`` (module docstring).
+
+    As :func:`windowed_simulation_error`, but the output is predicted one sample ahead
+    by the model's sampled innovation predictor (Ljung, *System Identification*, 2nd
+    ed., eq. 4.87; the innovation held over each step as in
+    :meth:`hdpbsid.model.StateSpaceModel.predict`),
+
+        x_{k+1|k} = Phi x_{k|k-1} + G1 u_k [+ G2 (u_{k+1} - u_k)] + Gk (y_k - C x_{k|k-1} - D u_k),
+
+    ``yhat_k = C x_{k|k-1} + D u_k``; the predictions are affine in the window's initial
+    state through ``C (Phi - Gk C)^k``, which is fitted by least squares as in the
+    simulation error.  A model whose predictor ``Phi - Gk C`` is unstable scores
+    ``finite=False`` when its predictions overflow.  Non-uniform ``t`` raises
+    ``ValueError``.
+    """
+    return _windowed_error(model, t, u, y, windows, hold, weights, predict=True)
+
+
+def _windowed_error(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str | None,
+    weights: Array | None,
+    predict: bool,
+) -> WindowedError:
     ns, l = y.shape
     L = ns // windows
     if windows < 1 or L <= model.n:
@@ -128,16 +191,19 @@ def windowed_simulation_error(
     if hold is None:
         hold = model.options.get("input_hold", "zoh")
         hold = hold if hold in ("zoh", "foh") else "zoh"
-    d = np.diff(t)
     h = float((t[-1] - t[0]) / (ns - 1))
-    if np.max(np.abs(d - h)) > 1e-6 * h:
+    if not is_uniform_grid(t):
+        if predict:
+            raise ValueError("t: the windowed prediction error needs uniformly sampled times")
         return _windowed_nonuniform(model, t, u, y, windows, hold, weights)
     wgt = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny) if weights is None else weights
     sw = np.sqrt(wgt)
     n = model.n
     yw = y[: windows * L].reshape(windows, L, l)
     uw = u[: windows * L].reshape(windows, L, -1)
-    Phi, G1, G2 = _sampled(model, h, hold)
+    Phi, G1, G2, Gk = _sampled(model, h, hold)
+    C, D = model.C, model.D
+    F = Phi - Gk @ C if predict else Phi
     # forced response in every window from a zero state, all windows at once
     X = np.zeros((windows, n))
     Yf = np.empty((windows, L, l))
@@ -145,12 +211,15 @@ def windowed_simulation_error(
     P = np.eye(n)
     with np.errstate(over="ignore", invalid="ignore"):
         for k in range(L):
-            Yf[:, k] = X @ model.C.T + uw[:, k] @ model.D.T
-            O[k] = model.C @ P
+            Yf[:, k] = X @ C.T + uw[:, k] @ D.T
+            O[k] = C @ P
             if k + 1 < L:
                 du = (uw[:, k + 1] - uw[:, k]) @ G2.T if G2 is not None else 0.0
-                X = X @ Phi.T + uw[:, k] @ G1.T + du
-                P = Phi @ P
+                drive = uw[:, k] @ G1.T + du
+                if predict:
+                    drive = drive + (yw[:, k] - uw[:, k] @ D.T) @ Gk.T
+                X = X @ F.T + drive
+                P = F @ P
         R = (yw - Yf) * sw  # (W, L, l)
         Ow = (O * sw[None, :, None]).reshape(L * l, n)
         finite = bool(np.all(np.isfinite(R)) and np.all(np.isfinite(Ow)))

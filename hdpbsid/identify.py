@@ -184,7 +184,7 @@ def identify(
     left out); every record is detrended on its own and the list is passed to the
     method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
     ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
-    simulation error (:func:`hdpbsid.selection.identify_auto`; with several records the
+    prediction error (:func:`hdpbsid.selection.identify_auto`; with several records the
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
     ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (see :func:`available_methods`).
     ``options`` go to the method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for
@@ -193,8 +193,10 @@ def identify(
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
-    simulation error on the last third; the smallest order within one standard error of
-    the best is identified on the whole record, and the scores are in
+    one-step prediction error on the last third (the better of the predictors with the
+    model's ``K`` and with ``K = 0``, i.e. the simulation error; the prediction error is
+    consistent in closed loop); the smallest order within one standard error of the
+    best is identified on the whole record, and the scores are in
     ``options["order_selection"]``.  A record too short to score, a list of records and
     ``order_rule="svd"`` use the method's singular-value rule instead (said in
     ``options["order_selection"]``).  A constant input column raises a ``UserWarning``

@@ -1,20 +1,46 @@
 """``method="auto"``: choose the method and the order by their out-of-sample error.
 
 Every candidate ``(method, order)`` is identified on the first part of the record
-(``1 - holdout`` of the samples) and scored on the rest by the windowed simulation error
-of :mod:`hdpbsid.criteria` (initial state fitted in each window, outputs weighted by
-their variance), computed identically for every method.  The rule of
-:func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all candidates ordered
-by order (and, for equal orders, by the error), the first one whose error is not
-within one standard error of the best candidate's; that ``(method, order)`` is then
-identified on the whole record.  Held-out data judge the models, so a method that is
-biased on this record, or an order the data do not support, loses by the measure a
-user would apply to the result (simulation on data not used for estimation).
+(``1 - holdout`` of the samples) and scored on the rest by the **windowed one-step
+prediction error of the candidate's own predictor** (:mod:`hdpbsid.criteria`: initial
+state fitted in each window, outputs weighted by their variance), computed identically
+for every method:
+
+* every candidate is an innovation model ``dx/dt = A x + B u + K e``; its one-step
+  predictor with the gain ``K`` is the predictor of the prediction-error method, whose
+  criterion is minimised by the true system also in closed loop, where ``u`` depends on
+  past noise (the "direct method" of closed-loop identification: Forssell & Ljung,
+  "Closed-loop identification revisited", Automatica 35(7), 1999).  The simulation
+  error (the predictor with ``K = 0``) is not: in closed loop the simulated output
+  ignores the noise fed back through ``u``, and a model that absorbs the correlation
+  of ``u`` with the noise simulates the record better than the true system (on the
+  PBSID toolbox's closed-loop example it chose a wrong order on some records);
+* but ``K`` is an estimate, and a poor one (a basis-domain method's on white output
+  noise, for instance) makes the predictor worse than none.  So each candidate is
+  scored by the better of its two predictors on the held-out data (:func:`score_model`):
+  with ``K``, or with ``K = 0``, i.e. its simulation error, the right criterion when the
+  noise is white output noise.  A model is worth its best predictor; a bad noise
+  estimate does not count against a good plant model, and in closed loop the models
+  whose noise model matters are judged with it.  (Choosing the predictor on the
+  estimation part instead, where ``K`` was fitted, kept ``K`` for models it then made
+  worse on the held-out part: the closed-loop quadrotor's order 3 lost to order 4.)
+
+The rule of :func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all
+candidates ordered by order (and, for equal orders, by the error), the first one whose
+error is within one standard error of the best candidate's; that ``(method, order)`` is
+then identified on the whole record.  Held-out data judge the models, so a method that
+is biased on this record, or an order the data do not support, loses by the measure a
+user would apply to the result.
+
+The expensive order-independent steps of the methods (projection of the record, basis
+operators, the past-window criterion of ``dt``) are memoised
+(:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
 
 The comparison is reported in ``model.options["selection"]``: one row per candidate
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
-variance), ``fit`` (percent), ``z`` (paired statistic against the best), ``time``
-(seconds) and ``status`` (``"ok"`` or the error message).
+variance), ``fit`` (percent), ``z`` (statistic against the best), ``predictor``
+(``"innovation (K)"`` or ``"output error (K = 0)"``), ``time`` (seconds) and ``status``
+(``"ok"`` or the error message).
 """
 
 from __future__ import annotations
@@ -34,6 +60,8 @@ from .criteria import (
     WindowedError,
     choose_smallest_adequate,
     default_windows,
+    is_uniform_grid,
+    windowed_prediction_error,
     windowed_simulation_error,
 )
 from .model import StateSpaceModel
@@ -46,6 +74,21 @@ AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
 HOLDOUT = 1.0 / 3.0
 #: largest order tried by default
 AUTO_MAX_ORDER = 8
+
+
+def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[WindowedError, bool]:
+    """The held-out score of ``model`` on the record ``rec = (t, u, y)`` (module
+    docstring): the smaller of its windowed one-step prediction error with its gain
+    ``K`` and with ``K = 0`` (the simulation error), and whether that is the one with
+    ``K``.  Non-uniform samples: the simulation error."""
+    t, u, y = check_data(*rec)
+    sim = windowed_simulation_error(model, t, u, y, windows)
+    if not is_uniform_grid(t):
+        return sim, False
+    pred = windowed_prediction_error(model, t, u, y, windows)
+    if pred.finite and (not sim.finite or pred.total < sim.total):
+        return pred, True
+    return sim, False
 
 
 def _fit_one(
@@ -61,12 +104,53 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
-            err = windowed_simulation_error(model, *val, windows)
-        row.update(status="ok" if err.finite else "simulation overflow", criterion=err)
+            err, use_k = score_model(model, val, windows)
+        row.update(
+            status="ok" if err.finite else "simulation overflow",
+            criterion=err,
+            predictor="innovation (K)" if use_k else "output error (K = 0)",
+        )
     except (ValueError, np.linalg.LinAlgError) as exc:
-        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None)
+        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None, predictor=None)
     row["time"] = time.perf_counter() - t0
     return row
+
+
+def _sweep(
+    get_method: Any,
+    methods: Sequence[str],
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+    n_jobs: int | None,
+) -> list[dict[str, Any]]:
+    """Every ``(method, order)`` candidate, orders upwards.  With ``n_jobs`` the methods
+    of one order are fitted in parallel (joblib); the candidates, and so the result, are
+    those of the serial run.
+
+    Every order is fitted: a larger order that does not beat the best by a standard
+    error cannot be chosen, but it can become the best and so move the reference of the
+    one-standard-error rule (the closed-loop quadrotor's order 3 against 2 depends on
+    its order 7), so stopping the sweep early would change the choice.
+    """
+    rows: list[dict[str, Any]] = []
+    parallel = None
+    if n_jobs is not None and n_jobs != 1:
+        from joblib import Parallel, delayed
+
+        parallel = Parallel(n_jobs=n_jobs)
+    for n in orders:
+        if parallel is not None:
+            rows.extend(
+                parallel(
+                    delayed(_fit_one)(get_method, m, n, est, val, windows, options) for m in methods
+                )
+            )
+        else:
+            rows.extend(_fit_one(get_method, m, n, est, val, windows, options) for m in methods)
+    return rows
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -80,6 +164,7 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "error": c.total if c is not None else None,
                 "fit": c.fit if c is not None else None,
                 "z": r.get("z"),
+                "predictor": r.get("predictor"),
                 "time": r["time"],
                 "status": r["status"],
             }
@@ -134,15 +219,8 @@ def select_model(
             f"longer record, a smaller max_order, or give the order"
         )
     opts = method_options or {}
-    jobs = [(m, n) for m in methods for n in orders]
-    if n_jobs is not None and n_jobs != 1:
-        from joblib import Parallel, delayed
-
-        rows = Parallel(n_jobs=n_jobs)(
-            delayed(_fit_one)(get_method, m, n, est, val, windows, opts) for m, n in jobs
-        )
-    else:
-        rows = [_fit_one(get_method, m, n, est, val, windows, opts) for m, n in jobs]
+    orders = sorted(orders)
+    rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
@@ -171,7 +249,8 @@ def select_model(
             "no scored candidate could be identified on the whole record: " + "; ".join(failures)
         )
     rule = (
-        f"held-out windowed simulation error on {where} ({windows} windows); "
+        f"held-out windowed one-step prediction error on {where} ({windows} windows; "
+        f"each candidate's better predictor: with its K or with K = 0); "
         f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule)"
     )
@@ -191,11 +270,11 @@ def identify_auto(
     method_options: dict[str, dict[str, Any]] | None = None,
 ) -> StateSpaceModel:
     """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
-    given ``order``), the best by held-out simulation error (module docstring).
+    given ``order``), the best by held-out prediction error (module docstring).
 
     ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
     non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
-    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the candidates in parallel
+    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the methods of each order in parallel
     with joblib (results are identical to the serial run); ``method_options``: extra
     options per method, e.g. ``{"hermite": {"N": 400}}``.  ``model.options["selection"]``
     lists every candidate, ``options["order_selection"]`` the chosen method's.
@@ -236,7 +315,7 @@ def select_order(
     holdout: float = HOLDOUT,
     **options: Any,
 ) -> StateSpaceModel:
-    """The order of ``method`` chosen by held-out simulation error (module docstring).
+    """The order of ``method`` chosen by held-out prediction error (module docstring).
 
     Orders ``1..max_order`` (default 8) are identified on the first ``1 - holdout`` of
     the record and scored on the rest; the chosen order is identified on the whole

@@ -32,3 +32,24 @@ def test_cached_results_are_read_only():
         out[0][0] = 5.0
     with pytest.raises(ValueError):
         out[1][0][0] = 5.0
+
+
+def test_bases_are_keyed_on_family_and_exact_mapping():
+    """Two bases of one closed-form family with the same mapping share a cache entry
+    (orders of an order selection reuse the projection); a scale that differs below
+    the precision of the basis's repr does not."""
+    import slbasis
+
+    calls = []
+
+    @memoize
+    def h(basis):
+        calls.append(1)
+        return np.array([basis.scale])
+
+    h(slbasis.basis("hermite", 20, (0.0, 1.0), scale=2.0))
+    h(slbasis.basis("hermite", 20, (0.0, 1.0), scale=2.0))
+    assert len(calls) == 1
+    h(slbasis.basis("hermite", 20, (0.0, 1.0), scale=2.0 + 1e-9))
+    h(slbasis.basis("laguerre", 20, (0.0, 1.0), scale=2.0))
+    assert len(calls) == 3

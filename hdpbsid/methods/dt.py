@@ -45,6 +45,7 @@ from ..core.pbsid import pbsid_core
 from ..core.varx import LagOperator, SampleShift, select_past_window
 from ..model import DiscreteModel, StateSpaceModel
 from ..records import as_records
+from .memo import memoize
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
 
@@ -114,6 +115,16 @@ def _rms(x: Array, name: str) -> Array:
     return r
 
 
+@memoize
+def _past_window_criteria(
+    U: Array, Y: Array, p_max: int, feedthrough: bool, criterion: str
+) -> Array:
+    """The criterion of :func:`~hdpbsid.core.varx.select_past_window` for every
+    ``p = 1..p_max`` (sample shift), memoised: it does not depend on the order, so an
+    order selection computes it once per record."""
+    return select_past_window(U, Y, p_max, p_min=1, feedthrough=feedthrough, criterion=criterion)[1]
+
+
 def identify_discrete(
     u: Any,
     y: Any,
@@ -171,9 +182,15 @@ def identify_discrete(
     crit = None
     p_rule = "given"
     if p is None:
-        p, crit = select_past_window(
-            U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
-        )
+        if lag is None or type(lag) is SampleShift:
+            # every order of an order selection asks the same question of the same data
+            crit = _past_window_criteria(U, Y, p_max, feedthrough, p_criterion).copy()
+            crit[: p_min - 1] = np.inf
+            p = int(np.argmin(crit)) + 1
+        else:
+            p, crit = select_past_window(
+                U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
+            )
         p_rule = (
             f"min {p_criterion.upper()} of the VARX fit over p in [{p_min}, {p_max}] "
             f"(p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR}, p <= {P_CAP}, f*l >= required rows)"

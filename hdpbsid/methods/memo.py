@@ -30,6 +30,16 @@ CACHE_SIZE = 8
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+def _kernel_key(kernel: Any) -> Any:
+    """A catalogue kernel in closed form is fixed by its module and parameters, so two
+    bases built from the same family share cache entries; any other kernel (a numerically
+    solved one) is keyed by its identity."""
+    module, params = getattr(kernel, "module", None), getattr(kernel, "params", None)
+    if module is not None and isinstance(params, dict):
+        return (type(kernel).__qualname__, getattr(module, "__name__", repr(module)), repr(params))
+    return id(kernel)
+
+
 def _key_part(x: Any, h: Any) -> None:
     if isinstance(x, np.ndarray):
         a = np.ascontiguousarray(x)
@@ -41,7 +51,12 @@ def _key_part(x: Any, h: Any) -> None:
             _key_part(v, h)
         h.update(b")")
     elif hasattr(x, "kernel") and hasattr(x, "t_span"):  # an slbasis.Basis
-        h.update(repr((repr(x), id(x.kernel))).encode())
+        # repr(x) rounds the floats; the exact values of the mapping are added
+        exact = tuple(
+            float(v) if np.ndim(v) == 0 else tuple(map(float, v))
+            for v in (getattr(x, "scale", 0.0), getattr(x, "centre", 0.0), x.t_span)
+        )
+        h.update(repr((repr(x), exact, _kernel_key(x.kernel))).encode())
     else:
         h.update(repr(x).encode())
 

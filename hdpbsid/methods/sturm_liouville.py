@@ -146,6 +146,7 @@ def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Arr
     return _integration_quadrature(basis, N, K), f"quadrature in x = -cos(theta), {K} points"
 
 
+@memoize
 def _integrator_lag(
     G: Array, alpha: float, beta: float, gamma: float, j_how: str
 ) -> tuple[SolveLag, Any]:
