@@ -427,6 +427,14 @@ class CoreOut:
     options: dict
 
 
+def _largest_determined_p(nb: int, d: int, ncols: int, z: int) -> int:
+    """Largest past window ``p`` for which the VARX least squares is determined: in the
+    tightest block of ``nb`` columns, ``p d`` regressors (``d = m + q + l``) and ``p``
+    columns lost to the lags leave more equations than unknowns, ``p d < nb - p``; over
+    all ``ncols`` columns, ``p z < ncols - p`` (``z = m + l``)."""
+    return int(max(0, min((nb - 1) // (d + 1), (ncols - 1) // (z + 1))))
+
+
 def run_core(
     U: Array,
     Y: Array,
@@ -455,8 +463,14 @@ def run_core(
     VARX fit (:func:`hdpbsid.core.blocks.select_past_window_blocks`) over ``p_range``
     (default :data:`P_DEFAULT_RANGE`, 2..4), capped so that ``p (m + q_b + l) <= N_b / 6``
     in every block (the regression has ``p (m + q_b + l)`` unknowns per output in a
-    block of ``N_b`` columns); ``f = p``.  Raises ``ValueError`` when an explicit ``p``
-    does not fit the basis size.
+    block of ``N_b`` columns); ``f = p``.
+
+    Which limit is real: ``N_b / 6`` is a precision preference (the VARX variance grows
+    like ``1 / (N_b - p d)``), not a limit.  When the order needs ``f l >= n`` rows of
+    ``Gamma L`` and so a window above the preferred range, ``p = ceil(n / l)`` is used as
+    long as the regression is *determined*, ``p d < N_b - p`` (more equations than
+    unknowns: the mathematical limit); only beyond that is a ``ValueError`` raised.
+    Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
     """
     m, l = U.shape[0], Y.shape[0]
     ncols = Y.shape[1]
@@ -495,22 +509,33 @@ def run_core(
         lo = max(lo, f_min, f or 1)
         hi = min(hi, p_cap)
         if hi < lo:
-            raise ValueError(
-                f"the basis is too small for the requested order: it needs a past window "
-                f"p >= {lo}, but N = {nb} coefficients and m+q+l = {d} rows allow only "
-                f"p <= {hi} (p*(m+q+l) <= N/{COLS_PER_REGRESSOR}); increase N, pass p, or "
-                f"ask for a smaller order"
-            )
-        if hi == lo:
+            # the order needs more rows of Gamma L (f*l >= n) than the preferred range
+            # allows: the smallest window that shows it, if the regression is determined
+            p_max = _largest_determined_p(nb, d, ncols, m + l)
+            if lo > p_max:
+                raise ValueError(
+                    f"the basis is too small for the requested order: it needs a past "
+                    f"window p >= {lo}, but N = {nb} coefficients and m+q+l = {d} rows "
+                    f"determine the VARX only for p <= {p_max} (p*(m+q+l) < N - p); "
+                    f"increase N, or ask for a smaller order"
+                )
             p = lo
-        else:
-            p, crit = select_past_window_blocks(
-                Uz, Yz, hi, p_min=lo, lag=lag, pseudo=pseudo, feedthrough=feedthrough
+            p_rule = (
+                f"p = {lo}, the smallest window with f*l >= the order (above the "
+                f"preferred p*(m+q+l) <= N/{COLS_PER_REGRESSOR}; determined while "
+                f"p*(m+q+l) < N - p)"
             )
-        p_rule = (
-            f"min AIC of the VARX fit over p in [{lo}, {hi}] "
-            f"(p*(m+q+l) <= N/{COLS_PER_REGRESSOR}, f*l >= required rows)"
-        )
+        else:
+            if hi > lo:
+                p, crit = select_past_window_blocks(
+                    Uz, Yz, hi, p_min=lo, lag=lag, pseudo=pseudo, feedthrough=feedthrough
+                )
+            else:
+                p = lo
+            p_rule = (
+                f"min AIC of the VARX fit over p in [{lo}, {hi}] "
+                f"(p*(m+q+l) <= N/{COLS_PER_REGRESSOR}, f*l >= required rows)"
+            )
     if f is not None and f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
     if f is not None and f * l < need:

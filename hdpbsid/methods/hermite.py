@@ -49,6 +49,7 @@ from .basis_domain import (
     integrator_model,
     resolve_holds,
 )
+from .operator_scale import alpha_from_dynamics
 from .segments import (
     default_window,
     make_segments,
@@ -173,14 +174,21 @@ def identify_hermite(
       (:func:`default_hermite_N`); an explicit ``N`` (used for every block) whose band
       ``3.6 N / T`` is below the data bandwidth raises ``ValueError``;
     * ``scale``: each block fills 90 % of the effective support (``slbasis.basis``);
-    * ``alpha = 4 * scale`` (the median over the blocks: ``A'`` is shared, so ``alpha``
-      must be), ``beta = gamma = 1`` (0.1-1 % errors at SNR 20 dB; an eigenvalue
-      ``lambda`` maps to ``(lambda/alpha + beta)/gamma``, inside the unit disc iff
-      ``|lambda + alpha beta| < alpha gamma``: the stable predictor eigenvalues of
-      moderate size; an unstable plant eigenvalue maps outside, e.g. +3.08 -> 1.49 on
-      the quadrotor, which is fine: the truncation ``A'^p ~ 0`` concerns ``A - K C``);
+    * ``alpha``: from the identified modes (:mod:`~hdpbsid.methods.operator_scale`): a
+      first pass at ``4 * scale`` (the median over the blocks: ``A'`` is shared, so
+      ``alpha`` must be), then ``alpha`` minimising the largest contraction factor
+      ``|alpha + lambda| / |alpha + i |lambda||`` over the identified modes (unstable ones
+      by their mirror images), re-identified until it settles; ``options["alpha_rule"]``
+      and ``options["alpha_passes"]`` say what was done.  ``4 * scale`` alone follows
+      ``sqrt(N) / T``, not the dynamics (stiff system ``-50, -0.5 +- 2i`` at 40 dB:
+      slow pair 17 % off).  An explicit ``alpha`` is used as given, in one pass.
+      ``beta = gamma = 1``: an eigenvalue ``lambda`` maps to ``(lambda/alpha + beta)/gamma``;
+      inside the unit disc iff ``|lambda + alpha beta| < alpha gamma``;
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
+      an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` as long as
+      the VARX is determined (``p (m + q + l) < N - p``, the real limit:
+      :func:`~hdpbsid.methods.basis_domain.run_core`);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
@@ -229,11 +237,10 @@ def identify_hermite(
         bases[keys[i]] = slbasis.basis("hermite", Nb, (0.0, T), scale=scale)
     scales = np.array([b.scale for b in bases.values()])
     s_ref = float(np.median(scales))
-    alpha = 4.0 * s_ref if alpha is None else _real(alpha, "alpha")
-    lags: dict[int, SolveLag] = {}
+    alpha_given = alpha is not None
+    alpha0 = 4.0 * s_ref if alpha is None else _real(alpha, "alpha")
     rows: dict[int, Array] = {}
     for k, b in bases.items():
-        lags[k] = hermite_lag(b.derivative_matrix("square"), alpha, beta, gamma)[0]
         r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
         if boundary:
             r += list(b.eval(np.array([0.0, segs[k].duration])).T)
@@ -241,24 +248,7 @@ def identify_hermite(
     seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(input_hold, m)
     Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=n_jobs)
-    lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
     P = [rows[k] for k in keys]
-
-    out, hold, hold_crit = best_hold(
-        holds,
-        Us,
-        Yc,
-        P,
-        lag,
-        order=order,
-        p=p,
-        f=f,
-        max_order=mo,
-        regularize=regularize,
-        feedthrough=feedthrough,
-        stable_k=stable_k,
-        normalize=normalize,
-    )
     Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "hermite",
@@ -268,22 +258,56 @@ def identify_hermite(
         "bandwidth": wb,
         "scale": s_ref,
         "centre": records[0].t0 + seg_bases[0].centre,
-        "alpha_rule": "4 * scale (median over blocks)" if alpha == 4.0 * s_ref else "given",
+        "alpha_rule": "given",
         "boundary": boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": int(sum(r.ns for r in records)),
         "t0": records[0].t0,
         **w_info,
     }
-    return integrator_model(
-        out,
-        alpha,
-        beta,
-        gamma,
-        options,
-        input_hold=input_hold,
-        hold=hold,
-        hold_criterion=hold_crit,
-        order=order,
-        max_order=mo,
+
+    def fit(a: float) -> StateSpaceModel:
+        lags = {
+            k: hermite_lag(b.derivative_matrix("square"), a, beta, gamma)[0]
+            for k, b in bases.items()
+        }
+        lag = BlockLag([lags[k] for k in keys], Ns_)
+        out, hold, hold_crit = best_hold(
+            holds,
+            Us,
+            Yc,
+            P,
+            lag,
+            order=order,
+            p=p,
+            f=f,
+            max_order=mo,
+            regularize=regularize,
+            feedthrough=feedthrough,
+            stable_k=stable_k,
+            normalize=normalize,
+        )
+        return integrator_model(
+            out,
+            a,
+            beta,
+            gamma,
+            dict(options),
+            input_hold=input_hold,
+            hold=hold,
+            hold_criterion=hold_crit,
+            order=order,
+            max_order=mo,
+        )
+
+    if alpha_given:
+        return fit(alpha0)
+    # modes the record resolves: at least one cycle per record, at most the basis band
+    band = (
+        2.0 * np.pi / max(seg.duration for seg in segs),
+        min(HERMITE_BAND * b.N / b.t_span[1] for b in bases.values()),
     )
+    _, model, info = alpha_from_dynamics(fit, alpha0, band)
+    info["alpha_rule"] += " (4 * scale, median over blocks)"
+    model.options.update(info)
+    return model
