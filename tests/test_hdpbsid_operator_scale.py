@@ -29,7 +29,7 @@ def test_contraction_factor_closed_form() -> None:
 
 def test_minimax_alpha_single_mode_is_its_magnitude() -> None:
     lam = [-0.4 + 1.9596j, -0.4 - 1.9596j]
-    # rho(., lambda) is minimal at |lambda| (previous test); the grid starts there
+    # rho(., lambda) is minimal at |lambda| (previous test), where the grid starts
     assert opscale.minimax_alpha(lam, 4) == pytest.approx(abs(lam[0]), rel=1e-12)
 
 
@@ -45,14 +45,17 @@ def test_minimax_alpha_two_real_poles_is_their_geometric_mean(
 def test_minimax_alpha_slack_moves_alpha_down_not_up() -> None:
     lam = [-0.5 + 2j, -0.5 - 2j, -50.0]
     a = opscale.minimax_alpha(lam, 4)
+    # an independent dense search of max_i rho_i^4
     grid = np.geomspace(2.0, 60.0, 4000)
     worst = np.array([opscale.contraction_factor(g, lam).max() ** 4 for g in grid])
-    best = grid[np.argmin(worst)]
-    assert a <= best
-    # within the slack of the minimum (plus the 1 % grid step of minimax_alpha)
+    assert a < grid[np.argmin(worst)]
+    # within the slack of the minimum (the factor 1.01: the 1 % grid step)
+    bound = (1 + opscale.TRUNCATION_SLACK) * worst.min() * 1.01
+    assert opscale.contraction_factor(a, lam).max() ** 4 <= bound
+    # and the smallest such alpha: 1 % below it the slack is exceeded
     assert (
-        opscale.contraction_factor(a, lam).max() ** 4
-        <= (1 + opscale.TRUNCATION_SLACK) * worst.min() * 1.01
+        opscale.contraction_factor(0.99 * a, lam).max() ** 4
+        > (1 + opscale.TRUNCATION_SLACK) * worst.min() * 0.99
     )
 
 
@@ -125,8 +128,8 @@ def test_order_six_on_a_short_record() -> None:
         m = identify_hermite(t, u, y, order=6)
     assert m.options["p"] == 6 and "smallest window" in m.options["p_rule"]
     err = float(eigenvalue_errors(m.eigenvalues, np.array(eigs)).max())
-    # noise-free: limited by the projection of 682 samples (measured below 1 %)
-    assert err < 0.02
+    # noise-free: limited by the projection of 682 samples (measured 0.2 % on 3 seeds)
+    assert err < 0.01
 
 
 def test_p_above_the_determined_limit_still_raises() -> None:

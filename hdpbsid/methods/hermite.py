@@ -43,13 +43,14 @@ from ..records import as_records
 from .basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
+    bandwidth,
     best_hold,
     check_method_args,
     clip_basis_size,
     integrator_model,
     resolve_holds,
 )
-from .operator_scale import alpha_from_dynamics
+from .operator_scale import MODE_ENERGY_FRACTION, alpha_from_dynamics
 from .segments import (
     default_window,
     make_segments,
@@ -176,9 +177,10 @@ def identify_hermite(
     * ``scale``: each block fills 90 % of the effective support (``slbasis.basis``);
     * ``alpha``: from the identified modes (:mod:`~hdpbsid.methods.operator_scale`): a
       first pass at ``4 * scale`` (the median over the blocks: ``A'`` is shared, so
-      ``alpha`` must be), then ``alpha`` minimising the largest contraction factor
-      ``|alpha + lambda| / |alpha + i |lambda||`` over the identified modes (unstable ones
-      by their mirror images), re-identified until it settles; ``options["alpha_rule"]``
+      ``alpha`` must be), lowered (never raised) to the smallest ``alpha`` that
+      minimises, within 2 %, the largest truncation factor
+      ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the identified modes (unstable
+      ones by their mirror images), re-identified until it settles; ``options["alpha_rule"]``
       and ``options["alpha_passes"]`` say what was done.  ``4 * scale`` alone follows
       ``sqrt(N) / T``, not the dynamics (stiff system ``-50, -0.5 +- 2i`` at 40 dB:
       slow pair 17 % off).  An explicit ``alpha`` is used as given, in one pass.
@@ -302,9 +304,10 @@ def identify_hermite(
 
     if alpha_given:
         return fit(alpha0)
-    # modes the record resolves: at least one cycle per record, at most the basis band
+    # modes the data resolve: from the frequency below which MODE_ENERGY_FRACTION of the
+    # output energy lies (slower modes are drifts the data barely show) to the basis band
     band = (
-        2.0 * np.pi / max(seg.duration for seg in segs),
+        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records),
         min(HERMITE_BAND * b.N / b.t_span[1] for b in bases.values()),
     )
     _, model, info = alpha_from_dynamics(fit, alpha0, band)
