@@ -465,11 +465,14 @@ def run_core(
     in every block (the regression has ``p (m + q_b + l)`` unknowns per output in a
     block of ``N_b`` columns); ``f = p``.
 
-    Which limit is real: ``N_b / 6`` is a precision preference (the VARX variance grows
-    like ``1 / (N_b - p d)``), not a limit.  When the order needs ``f l >= n`` rows of
-    ``Gamma L`` and so a window above the preferred range, ``p = ceil(n / l)`` is used as
-    long as the regression is *determined*, ``p d < N_b - p`` (more equations than
-    unknowns: the mathematical limit); only beyond that is a ``ValueError`` raised.
+    Which limit is real: the preferred range's upper end (4) is a variance choice, so
+    an order that needs ``f l >= n`` rows of ``Gamma L`` beyond it gets
+    ``p = ceil(n / l)``.  ``N_b / 6`` is a precision rule (the VARX variance grows like
+    ``1 / (N_b - p d)``); it stays for the default ``p`` (lifting it let held-out order
+    selection pick order 6 with ``N = 126`` on the ball-and-beam record, which then
+    validated worse: 81.8 % against 82.6 %).  The mathematical limit is that the VARX be
+    determined, ``p d < N_b - p``: an explicit ``p`` may go up to it, and the error for
+    a default ``p`` says so.
     Raises ``ValueError`` when an explicit ``p`` does not fit the basis size.
     """
     m, l = U.shape[0], Y.shape[0]
@@ -509,21 +512,23 @@ def run_core(
         lo = max(lo, f_min, f or 1)
         hi = min(hi, p_cap)
         if hi < lo:
-            # the order needs more rows of Gamma L (f*l >= n) than the preferred range
-            # allows: the smallest window that shows it, if the regression is determined
-            p_max = _largest_determined_p(nb, d, ncols, m + l)
-            if lo > p_max:
+            if lo > p_cap:
+                p_max = _largest_determined_p(nb, d, ncols, m + l)
                 raise ValueError(
-                    f"the basis is too small for the requested order: it needs a past "
-                    f"window p >= {lo}, but N = {nb} coefficients and m+q+l = {d} rows "
-                    f"determine the VARX only for p <= {p_max} (p*(m+q+l) < N - p); "
-                    f"increase N, or ask for a smaller order"
+                    f"the basis is too small for the requested order by the default rule: "
+                    f"it needs a past window p >= {lo}, but N = {nb} coefficients and "
+                    f"m+q+l = {d} rows give p <= {p_cap} by p*(m+q+l) <= "
+                    f"N/{COLS_PER_REGRESSOR}; the VARX is determined up to p = {p_max} "
+                    f"(p*(m+q+l) < N - p): pass p explicitly (less precise), increase N, or "
+                    f"ask for a smaller order"
                 )
+            # the order needs more rows of Gamma L (f*l >= n) than the preferred range
+            # gives: the smallest window that shows it
             p = lo
             p_rule = (
-                f"p = {lo}, the smallest window with f*l >= the order (above the "
-                f"preferred p*(m+q+l) <= N/{COLS_PER_REGRESSOR}; determined while "
-                f"p*(m+q+l) < N - p)"
+                f"p = {lo}, the smallest window with f*l >= the order (above the preferred "
+                f"range {P_DEFAULT_RANGE if p_range is None else p_range}; "
+                f"p*(m+q+l) <= N/{COLS_PER_REGRESSOR})"
             )
         else:
             if hi > lo:

@@ -188,9 +188,9 @@ def identify_hermite(
       inside the unit disc iff ``|lambda + alpha beta| < alpha gamma``;
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
-      an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` as long as
-      the VARX is determined (``p (m + q + l) < N - p``, the real limit:
-      :func:`~hdpbsid.methods.basis_domain.run_core`);
+      an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` within
+      ``N / 6``; an explicit ``p`` may go up to the real limit, a determined VARX
+      (``p (m + q + l) < N - p``; :func:`~hdpbsid.methods.basis_domain.run_core`);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
