@@ -177,8 +177,8 @@ def identify_hermite(
     * ``scale``: each block fills 90 % of the effective support (``slbasis.basis``);
     * ``alpha``: from the identified modes (:mod:`~hdpbsid.methods.operator_scale`): a
       first pass at ``4 * scale`` (the median over the blocks: ``A'`` is shared, so
-      ``alpha`` must be), lowered (never raised) to the smallest ``alpha`` that
-      minimises, within 2 %, the largest truncation factor
+      ``alpha`` must be), then the smallest ``alpha`` that minimises, within 2 %, the
+      largest truncation factor
       ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the identified modes (unstable
       ones by their mirror images), re-identified until it settles; ``options["alpha_rule"]``
       and ``options["alpha_passes"]`` say what was done.  ``4 * scale`` alone follows
