@@ -50,7 +50,7 @@ from .basis_domain import (
     integrator_model,
     resolve_holds,
 )
-from .operator_scale import MODE_ENERGY_FRACTION, alpha_from_dynamics
+from .operator_scale import MODE_BAND_MARGIN, MODE_ENERGY_FRACTION, alpha_from_dynamics
 from .segments import (
     default_window,
     make_segments,
@@ -305,9 +305,10 @@ def identify_hermite(
     if alpha_given:
         return fit(alpha0)
     # modes the data resolve: from the frequency below which MODE_ENERGY_FRACTION of the
-    # output energy lies (slower modes are drifts the data barely show) to the basis band
+    # output energy lies, over MODE_BAND_MARGIN (slower modes are drifts the data barely
+    # show), to the basis band
     band = (
-        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records),
+        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records) / MODE_BAND_MARGIN,
         min(HERMITE_BAND * b.N / b.t_span[1] for b in bases.values()),
     )
     _, model, info = alpha_from_dynamics(fit, alpha0, band)
