@@ -50,7 +50,11 @@ from .basis_domain import (
     integrator_model,
     resolve_holds,
 )
-from .operator_scale import MODE_BAND_MARGIN, MODE_ENERGY_FRACTION, alpha_from_dynamics
+from .operator_scale import (
+    MODE_ENERGY_FRACTION,
+    alpha_from_dynamics,
+    held_out_check,
+)
 from .segments import (
     default_window,
     make_segments,
@@ -180,12 +184,15 @@ def identify_hermite(
       ``alpha`` must be), then the smallest ``alpha`` that minimises, within 2 %, the
       largest truncation factor
       ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the identified modes (unstable
-      ones by their mirror images), re-identified until it settles; ``options["alpha_rule"]``
-      and ``options["alpha_passes"]`` say what was done.  ``4 * scale`` alone follows
-      ``sqrt(N) / T``, not the dynamics (stiff system ``-50, -0.5 +- 2i`` at 40 dB:
-      slow pair 17 % off).  An explicit ``alpha`` is used as given, in one pass.
-      ``beta = gamma = 1``: an eigenvalue ``lambda`` maps to ``(lambda/alpha + beta)/gamma``;
-      inside the unit disc iff ``|lambda + alpha beta| < alpha gamma``;
+      ones by their mirror images), re-identified until it settles; kept unless the first
+      pass's ``alpha`` simulates the held-out last third of a single record better by more
+      than one standard error (:func:`~hdpbsid.methods.operator_scale.held_out_check`);
+      ``options["alpha_rule"]``, ``["alpha_passes"]``, ``["alpha_check"]`` say what was
+      done.  ``4 * scale`` alone follows ``sqrt(N) / T``, not the dynamics (stiff
+      system ``-50, -0.5 +- 2i`` at 40 dB: slow pair 17 % off).  An explicit ``alpha``
+      is used as given, in one pass.  ``beta = gamma = 1``: an eigenvalue ``lambda``
+      maps to ``(lambda/alpha + beta)/gamma``, inside the unit disc iff
+      ``|lambda + alpha beta| < alpha gamma``;
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
       an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` within
@@ -305,13 +312,42 @@ def identify_hermite(
     if alpha_given:
         return fit(alpha0)
     # modes the data resolve: from the frequency below which MODE_ENERGY_FRACTION of the
-    # output energy lies, over MODE_BAND_MARGIN (slower modes are drifts the data barely
-    # show), to the basis band
+    # output energy lies (slower modes are drifts the data barely show) to the basis band
     band = (
-        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records) / MODE_BAND_MARGIN,
+        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records),
         min(HERMITE_BAND * b.N / b.t_span[1] for b in bases.values()),
     )
-    _, model, info = alpha_from_dynamics(fit, alpha0, band)
+    a_new, model, info = alpha_from_dynamics(fit, alpha0, band)
     info["alpha_rule"] += " (4 * scale, median over blocks)"
+    if a_new != alpha0 and len(records) == 1:
+        rec = records[0]
+        same = {
+            "N": N,
+            "beta": beta,
+            "gamma": gamma,
+            "p": p,
+            "f": f,
+            "boundary": boundary,
+            "regularize": regularize,
+            "feedthrough": feedthrough,
+            "stable_k": stable_k,
+            "normalize": normalize,
+            "scale": scale,
+            "input_hold": input_hold,
+            "window": window,
+        }
+        keep, how = held_out_check(
+            lambda t_, u_, y_, a: identify_hermite(t_, u_, y_, order=model.n, alpha=a, **same),
+            rec.t,
+            rec.u,
+            rec.y,
+            a_new,
+            alpha0,
+            model.n,
+        )
+        info["alpha_check"] = how
+        if not keep:
+            model = fit(alpha0)
+            info["alpha_rule"] += "; the held-out check kept the first pass's alpha"
     model.options.update(info)
     return model

@@ -41,29 +41,38 @@ The modes come from a first-pass model (:func:`alpha_from_dynamics`): identified
 basis rule, then re-identified with ``alpha*`` until ``alpha`` settles.  The truncation
 concerns the predictor ``A - K C``, stable by construction: an unstable plant mode
 enters by its mirror image (:func:`minimax_alpha`).  Modes outside the band the data
-resolve (more than :data:`MODE_BAND_MARGIN` times slower than the frequency below which
-:data:`MODE_ENERGY_FRACTION` of the output energy lies, or faster than the basis band)
-are left out: a spurious slow mode would
+resolve (slower than the frequency below which :data:`MODE_ENERGY_FRACTION` of the
+output energy lies, or faster than the basis band) are left out: a spurious slow mode would
 otherwise pull ``alpha`` down to it.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..criteria import (
+    MIN_WINDOWS,
+    WindowedError,
+    choose_smallest_adequate,
+    default_windows,
+    windowed_simulation_error,
+)
+
 __all__ = [
     "contraction_factor",
     "minimax_alpha",
     "alpha_from_dynamics",
+    "held_out_check",
+    "HOLDOUT",
     "GRID_PER_DECADE",
     "TRUNCATION_SLACK",
     "MAX_PASSES",
     "MODE_ENERGY_FRACTION",
-    "MODE_BAND_MARGIN",
     "SETTLED",
 ]
 
@@ -83,14 +92,13 @@ MAX_PASSES = 2
 #: (above the noise floor) do not set ``alpha``: such a mode carries at most about that
 #: share of the output, so its eigenvalue is poorly determined, and a spurious slow mode
 #: would drag ``alpha`` down to it (robot-arm record: modes at 0.015-0.04 rad/s at
-#: orders 7-8, 1 % frequency 0.37 rad/s)
+#: orders 7-8, 1 % frequency 0.37 rad/s).  The output band shows where the input
+#: excites, not where the modes are: closed-loop records swept above their modes
+#: (6-25 rad/s, modes at 5.9 and 10 rad/s) lose those modes here and get a too large
+#: alpha, which :func:`held_out_check` then rejects
 MODE_ENERGY_FRACTION = 0.01
-#: ... divided by this margin: the output band shows where the input excites, not where
-#: the modes are.  A judgement bracketed by measurements, not derived: closed-loop
-#: records swept at 6-25 rad/s (1 % frequency 9.6-10.7 rad/s, modes at 5.9 and 10 rad/s
-#: identified to a few per cent) need >= 1.8; the robot-arm record (1 % frequency 0.37,
-#: spurious modes at 0.015-0.04 rad/s at orders 7-8) needs < 9.7
-MODE_BAND_MARGIN = 3.0
+#: share of a record held out by :func:`held_out_check` (as ``method="auto"`` does)
+HOLDOUT = 1.0 / 3.0
 #: relative change of ``alpha`` below which the passes stop
 SETTLED = 0.05
 
@@ -169,3 +177,52 @@ def alpha_from_dynamics(
         "alpha_passes": path,
     }
     return alpha, model, info
+
+
+def held_out_check(
+    identify: Callable[[Any, Any, Any, float], Any],
+    t: Any,
+    u: Any,
+    y: Any,
+    alpha_new: float,
+    alpha_old: float,
+    order: int,
+) -> tuple[bool, str]:
+    """Whether ``alpha_new`` is at least as good as ``alpha_old`` out of sample.
+
+    Both are used to identify (``identify(t, u, y, alpha)``, order ``order``) on the
+    first ``1 - HOLDOUT`` of the record and scored by the windowed simulation error on
+    the rest (:mod:`hdpbsid.criteria`, the criterion of ``method="auto"``);
+    ``alpha_new`` is kept unless ``alpha_old``'s error is smaller by more than one
+    standard error of the held-out windows
+    (:func:`~hdpbsid.criteria.choose_smallest_adequate`).  The truncation factor models
+    neither the variance nor modes the first pass got wrong; the held-out data see both.
+    A record too short to hold out :data:`~hdpbsid.criteria.MIN_WINDOWS` windows keeps
+    ``alpha_new``.  Returns ``(keep_new, how)``.
+    """
+    ns = t.shape[0]
+    split = int(round(ns * (1.0 - HOLDOUT)))
+    windows = default_windows(ns - split, order)
+    if windows < MIN_WINDOWS:
+        return True, "record too short for the held-out check"
+    errs = []
+    for a in (alpha_new, alpha_old):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                model = identify(t[:split], u[:split], y[:split], a)
+                errs.append(
+                    windowed_simulation_error(model, t[split:], u[split:], y[split:], windows)
+                )
+        except (ValueError, np.linalg.LinAlgError):
+            errs.append(WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False))
+    try:
+        k, stats = choose_smallest_adequate(errs)
+    except ValueError:
+        return True, "neither alpha could be scored on the held-out part"
+    fits = ", ".join(f"{e.fit:.4g} %" for e in errs)
+    how = (
+        f"held-out fit (last {HOLDOUT:.0%}, {windows} windows) {fits} for alpha = "
+        f"{alpha_new:.4g}, {alpha_old:.4g}; excess over the best {stats[0]:.2f} SE"
+    )
+    return k == 0, how
