@@ -146,3 +146,21 @@ def test_default_p_keeps_the_precision_rule_explicit_p_the_real_limit() -> None:
     # beyond the real limit an explicit p is refused too: 19 * 5 = 95 >= 110 - 19
     with pytest.raises(ValueError, match="too large for the basis"):
         identify_hermite(t, u, y, order=6, N=110, p=19)
+
+
+def test_held_out_check_rejects_a_worse_alpha_only() -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    t, u, y = make_data(4, snr=20)
+
+    def fit(t_: np.ndarray, u_: np.ndarray, y_: np.ndarray, a: float) -> object:
+        return identify_hermite(t_, u_, y_, order=2, alpha=a)
+
+    # second-order system, |lambda| = 2: alpha = 0.05 maps the pair to
+    # 1 + lambda / alpha = -7 +- 39i, far outside the unit disc: held-out fit 53 % against
+    # 71 % (38 SE), so the basis rule's alpha must win; alpha = 2 and 3 both fit to the
+    # noise (71 %, 0 SE apart)
+    keep, how = opscale.held_out_check(fit, t, u, y, 0.05, 3.0, 2)
+    assert not keep, how
+    keep, how = opscale.held_out_check(fit, t, u, y, 2.0, 3.0, 2)
+    assert keep, how
