@@ -74,7 +74,14 @@ from .varx import (
     two_stage_ls,
 )
 
-__all__ = ["BlockLag", "BlockPseudo", "pbsid_core_blocks", "select_past_window_blocks"]
+__all__ = [
+    "BlockLag",
+    "BlockPseudo",
+    "VarxStage",
+    "pbsid_core_blocks",
+    "select_past_window_blocks",
+    "varx_stage_blocks",
+]
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
@@ -121,6 +128,18 @@ class BlockLag(CachedPowers):
             Wg = W[:, idx].reshape(rows * len(bs), n)
             out[:, idx] = lag.apply(Wg, 1).reshape(rows, len(bs), n)
         return out
+
+    def cache_key(self) -> tuple | None:
+        """Exact key of the operator for memoisation: the block sizes and every block
+        lag's ``cache_key()``; None when a block lag has none."""
+        keys = []
+        for lag in self.lags:
+            k = getattr(lag, "cache_key", None)
+            k = k() if callable(k) else None
+            if k is None:
+                return None
+            keys.append((type(lag).__qualname__, k))
+        return (tuple(self.sizes), tuple(keys))
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         out = np.empty_like(valid)
@@ -386,62 +405,44 @@ def _gamma_l_rows(coef: Array, p: int, f: int, d: int, l: int) -> Array:
     return LK
 
 
-def pbsid_core_blocks(
+@dataclass
+class VarxStage:
+    """The order-independent part of :func:`pbsid_core_blocks`: the VARX fit, the
+    singular value decomposition ``Gamma_f L_p Z_p = Uu diag(s) Vt`` and the eliminator
+    and lagged inputs of the ``A, B, K`` step.  Every order of one ``(data, lag, p, f)``
+    truncates the same decomposition (the state is ``diag(s_1..n)^{1/2} Vt_{1..n}``), so
+    a sweep over orders computes it once (:func:`varx_stage_blocks`)."""
+
+    cols: NDArray[np.intp]
+    valid: Mask
+    varx: VarxResult
+    elim: Eliminator
+    Uu: Array
+    s: Array
+    Vt: Array
+    LU: Array
+    use: Mask
+    e1: Eliminator
+    extra_iv: dict
+
+
+def varx_stage_blocks(
     U: Array,
     Y: Array,
     p: int,
     lag: LagOperator,
     pseudo: BlockPseudo | None = None,
     f: int | None = None,
-    order: int | None = None,
     feedthrough: bool = False,
     regularize: bool | str | float | None = False,
     ridge_floor: float = 0.0,
-    stable_k: bool = False,
-    max_order: int | None = None,
     instruments: Array | None = None,
-) -> CoreResult:
-    """:func:`hdpbsid.core.pbsid.pbsid_core` with block-specific pseudo-inputs eliminated.
-
-    ``U`` (m x N), ``Y`` (l x N) are the real inputs and outputs of all blocks side by
-    side; ``pseudo`` the pseudo-input rows per block (None: none).  Every least-squares
-    step (VARX, ``C, D``, ``A, B, K``) eliminates the nuisance regressors as in the module
-    docstring, and the state ``Gamma_f L_p Z_p`` adds each block's pseudo-input part.
-    ``B`` of the result has the real inputs only.  With ``pseudo=None`` the steps reduce
-    to those of ``pbsid_core``.
-
-    ``instruments`` (``k x N`` rows on the columns of ``U, Y``, uncorrelated with the
-    innovations, e.g. lags of a projected external reference) selects instrumental
-    variables, as in :func:`hdpbsid.core.pbsid.pbsid_core`: the VARX by two-stage least
-    squares (:func:`hdpbsid.core.varx.two_stage_ls`), ``C`` from the first block row of
-    ``Gamma = U_n S_n^{1/2}`` instead of the regression ``Y = C X + E`` (whose regressor
-    ``X`` is built from the same noisy past), ``A, B, K`` by least squares as before
-    (the state recursion ``X = At lag(X) + Bt lag(Z)`` has no noise term).  The
-    pseudo-input rows are deterministic, so they are their own instruments; by the
-    Frisch-Waugh-Lovell theorem for IV (Davidson & MacKinnon, sec. 8.5: partialling
-    exogenous regressors out of the regressors, the targets and the instruments alike
-    leaves the IV estimate unchanged) the instruments are compressed with the same
-    per-block eliminator and 2SLS runs on the compressed problem.  ``feedthrough`` is
-    not supported with instruments (``ValueError``).
-    """
+) -> VarxStage:
+    """Steps 1-2 of :func:`pbsid_core_blocks` (VARX, ``Gamma_f L_p Z_p`` with each
+    block's pseudo-input part, its SVD) and the order-independent regressors of step 3b;
+    the arguments as there (checked by the caller)."""
     m, l = U.shape[0], Y.shape[0]
-    if instruments is not None:
-        instruments = np.asarray(instruments, dtype=float)
-        if instruments.ndim != 2 or instruments.shape[1] != Y.shape[1]:
-            raise ValueError(
-                f"instruments must be a 2-D array with {Y.shape[1]} columns (one per data "
-                f"column), got shape {instruments.shape}"
-            )
-        if feedthrough:
-            raise ValueError("instruments: feedthrough=True is not supported with IV")
     f = p if f is None else f
-    if f > p:
-        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
-    if order is not None and order > f * l:
-        raise ValueError(
-            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
-            f"increase f (and p) or reduce the order"
-        )
     ncols = Y.shape[1]
     ft = feedthrough and m > 0
     # -- 1. VARX ---------------------------------------------------------------------
@@ -512,6 +513,77 @@ def pbsid_core_blocks(
         LKb = np.stack([_gamma_l_rows(G[k][:, : p * q], p, f, q, l) for k in range(K)])
         S[:, sub.cols] += np.einsum("kfr,rn->fkn", LKb, Pp)
     Uu, s, Vt = np.linalg.svd(S[:, cols], full_matrices=False)
+    LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
+    use = valid & lag.valid_columns(valid, 1) & vu
+    e1 = Eliminator(pseudo, [1], use)
+    return VarxStage(cols, valid, vx, elim, Uu, s, Vt, LU, use, e1, extra_iv)
+
+
+def pbsid_core_blocks(
+    U: Array,
+    Y: Array,
+    p: int,
+    lag: LagOperator,
+    pseudo: BlockPseudo | None = None,
+    f: int | None = None,
+    order: int | None = None,
+    feedthrough: bool = False,
+    regularize: bool | str | float | None = False,
+    ridge_floor: float = 0.0,
+    stable_k: bool = False,
+    max_order: int | None = None,
+    instruments: Array | None = None,
+    stage: VarxStage | None = None,
+) -> CoreResult:
+    """:func:`hdpbsid.core.pbsid.pbsid_core` with block-specific pseudo-inputs eliminated.
+
+    ``U`` (m x N), ``Y`` (l x N) are the real inputs and outputs of all blocks side by
+    side; ``pseudo`` the pseudo-input rows per block (None: none).  Every least-squares
+    step (VARX, ``C, D``, ``A, B, K``) eliminates the nuisance regressors as in the module
+    docstring, and the state ``Gamma_f L_p Z_p`` adds each block's pseudo-input part.
+    ``B`` of the result has the real inputs only.  With ``pseudo=None`` the steps reduce
+    to those of ``pbsid_core``.
+
+    ``instruments`` (``k x N`` rows on the columns of ``U, Y``, uncorrelated with the
+    innovations, e.g. lags of a projected external reference) selects instrumental
+    variables, as in :func:`hdpbsid.core.pbsid.pbsid_core`: the VARX by two-stage least
+    squares (:func:`hdpbsid.core.varx.two_stage_ls`), ``C`` from the first block row of
+    ``Gamma = U_n S_n^{1/2}`` instead of the regression ``Y = C X + E`` (whose regressor
+    ``X`` is built from the same noisy past), ``A, B, K`` by least squares as before
+    (the state recursion ``X = At lag(X) + Bt lag(Z)`` has no noise term).  The
+    pseudo-input rows are deterministic, so they are their own instruments; by the
+    Frisch-Waugh-Lovell theorem for IV (Davidson & MacKinnon, sec. 8.5: partialling
+    exogenous regressors out of the regressors, the targets and the instruments alike
+    leaves the IV estimate unchanged) the instruments are compressed with the same
+    per-block eliminator and 2SLS runs on the compressed problem.  ``feedthrough`` is
+    not supported with instruments (``ValueError``).
+    """
+    m, l = U.shape[0], Y.shape[0]
+    if instruments is not None:
+        instruments = np.asarray(instruments, dtype=float)
+        if instruments.ndim != 2 or instruments.shape[1] != Y.shape[1]:
+            raise ValueError(
+                f"instruments must be a 2-D array with {Y.shape[1]} columns (one per data "
+                f"column), got shape {instruments.shape}"
+            )
+        if feedthrough:
+            raise ValueError("instruments: feedthrough=True is not supported with IV")
+    f = p if f is None else f
+    if f > p:
+        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
+    if order is not None and order > f * l:
+        raise ValueError(
+            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
+            f"increase f (and p) or reduce the order"
+        )
+    if stage is None:
+        stage = varx_stage_blocks(
+            U, Y, p, lag, pseudo, f, feedthrough, regularize, ridge_floor, instruments
+        )
+    ncols, cols, valid, vx = Y.shape[1], stage.cols, stage.valid, stage.varx
+    ft = feedthrough and m > 0
+    Uu, s, Vt = stage.Uu, stage.s, stage.Vt
+    extra_iv = stage.extra_iv
     info: dict = {}
     if order is None:
         n, info = select_order(s, max_order)
@@ -540,16 +612,13 @@ def pbsid_core_blocks(
     else:
         C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
     # -- 3b. A, B, K -------------------------------------------------------------------
-    known = valid.copy()
     Xf = np.zeros((n, ncols))
     Xf[:, cols] = X
     Ef = np.zeros((l, ncols))
     Ef[:, cols] = E
-    LX, vx_ = lag.apply(Xf, 1), lag.valid_columns(known, 1)
+    LX = lag.apply(Xf, 1)
     LE = lag.apply(Ef, 1)
-    LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
-    use = known & vx_ & vu
-    e1 = Eliminator(pseudo, [1], use)
+    LU, use, e1 = stage.LU, stage.use, stage.e1
     if e1.ncols <= n + m + l:
         raise ValueError(
             f"too few usable columns ({e1.ncols}) to estimate A, B, K with "
@@ -570,7 +639,7 @@ def pbsid_core_blocks(
         p, f, n, order, feedthrough, vx, ridge_floor, stable_k, k_method, lag, info, max_order
     )
     options["pseudo_inputs"] = "eliminated per block (Frisch-Waugh-Lovell)"
-    options["eliminated_pseudo_directions"] = elim.rank
+    options["eliminated_pseudo_directions"] = stage.elim.rank
     options["estimator"] = "ls" if instruments is None else "iv"
     if instruments is not None:
         options["instruments"] = extra_iv.get("instruments")

@@ -113,6 +113,10 @@ class SampleShift:
             out[j:] = valid[:-j]
         return out
 
+    def cache_key(self) -> tuple:
+        """The shift has no parameters (exact key for memoisation)."""
+        return ()
+
     def __repr__(self) -> str:
         return "SampleShift()"
 
@@ -149,6 +153,10 @@ class MatrixLag:
             return valid.copy()
         touches_invalid = (np.abs(self.power(j))[~valid, :] > 0).any(axis=0)
         return ~touches_invalid
+
+    def cache_key(self) -> Array:
+        """``M`` defines the operator (exact key for memoisation)."""
+        return self.M
 
     def __repr__(self) -> str:
         return f"MatrixLag(M of shape {self.M.shape})"

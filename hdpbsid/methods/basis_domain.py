@@ -30,11 +30,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..checks import check_positive_int
-from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks, select_past_window_blocks
+from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks
 from ..core.pbsid import CoreResult
 from ..core.varx import CachedPowers
 from ..model import StateSpaceModel
-from .memo import memoize
+from .memo import digest, memoize, past_window_aic, varx_stage
 from .settings import INPUT_HOLDS, BasisSettings
 
 __all__ = [
@@ -91,13 +91,23 @@ class SolveLag(CachedPowers):
     ``solve`` maps a ``(rows, N)`` array to ``W M`` (e.g. a banded solve with ``D'^T``).
     Every column is valid (the basis-domain equations hold on all columns once the
     boundary and truncation terms are pseudo-inputs).  The last argument's powers are
-    cached, so ``past_blocks`` (``j = p, ..., 1``) costs ``p`` solves.
+    cached, so ``past_blocks`` (``j = p, ..., 1``) costs ``p`` solves.  ``key``: the
+    arrays and numbers that define ``M`` exactly (e.g. the banded matrix solved with),
+    returned by :meth:`cache_key` for the memoised core stages; None: not keyable.
     """
 
-    def __init__(self, solve: Callable[[Array], Array], name: str = "M") -> None:
+    def __init__(self, solve: Callable[[Array], Array], name: str = "M", key: Any = None) -> None:
         super().__init__()
         self._solve = solve
         self._name = name
+        self._cache_key = key
+
+    def cache_key(self) -> Any:
+        """What defines ``M`` exactly (:mod:`hdpbsid.methods.memo`), or None; a digest
+        of ``key``, computed once (a dense ``M`` would otherwise be hashed every call)."""
+        if self._cache_key is not None and not isinstance(self._cache_key, bytes):
+            self._cache_key = digest(self._cache_key)
+        return self._cache_key
 
     def _once(self, W: Array) -> Array:
         return self._solve(W)
@@ -120,6 +130,10 @@ class BlockShift:
 
     def __init__(self, block: int) -> None:
         self.block = check_positive_int(block, "block")
+
+    def cache_key(self) -> Any:
+        """The block length defines the operator (:mod:`hdpbsid.methods.memo`)."""
+        return self.block
 
     def apply(self, W: Array, j: int) -> Array:
         nb = W.shape[1] // self.block
@@ -545,9 +559,7 @@ def run_core(
             )
         else:
             if hi > lo:
-                p, crit = select_past_window_blocks(
-                    Uz, Yz, hi, p_min=lo, lag=lag, pseudo=pseudo, feedthrough=feedthrough
-                )
+                p, crit = past_window_aic(Uz, Yz, hi, lo, lag, P, feedthrough)
             else:
                 p = lo
             p_rule = (
@@ -562,12 +574,16 @@ def run_core(
     mo = min(max_order, f_used * l - 1) if order is None else None
     if mo is not None and mo < 1:
         raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+    # the order-independent VARX and SVD, shared by the orders of a sweep (memo.py)
+    rf = RIDGE_FLOOR if ridge_floor is None else ridge_floor
+    stage = varx_stage(Uz, Yz, p, lag, P, f_used, feedthrough, regularize, rf, instruments)
     core = pbsid_core_blocks(
         Uz,
         Yz,
         p,
         lag,
         pseudo,
+        stage=stage,
         f=f_used,
         order=order,
         feedthrough=feedthrough,

@@ -121,7 +121,8 @@ def hermite_lag(
         # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
         return solve_banded((1, 1), ab, W.T).T
 
-    return SolveLag(solve, f"D'^-1, D' = (D/{alpha:.4g} + {beta:g} I)/{gamma:g}"), ab
+    name = f"D'^-1, D' = (D/{alpha:.4g} + {beta:g} I)/{gamma:g}"
+    return SolveLag(solve, name, key=ab), ab
 
 
 def _real(x: Any, name: str, positive: bool = True) -> float:

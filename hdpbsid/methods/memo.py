@@ -8,11 +8,21 @@ their bytes, shapes and dtypes) and the ``repr`` of every other argument, keepin
 most recent :data:`CACHE_SIZE` results per function.  Arrays are never compared by
 identity (a caller may reuse a buffer), and the cached arrays are made read-only, so a
 caller that tried to modify a shared result would get an error instead of corrupting
-the cache.
+the cache.  An object that defines ``cache_key()`` (a lag operator) is keyed by what that
+returns, the arrays and exact numbers that define it; ``None`` there means "cannot be
+keyed", and the call is then computed without the cache.
+
+The PBSID core's order-independent stages are memoised here as well
+(:func:`past_window_aic`, :func:`varx_stage`): the VARX regression and the singular value
+decomposition of ``Gamma_f L_p Z_p`` depend on the data, the lag operator, ``p`` and
+``f``, not on the order, which only truncates the decomposition.  An order sweep of one
+method (``method="auto"``, :func:`hdpbsid.selection.select_order`) therefore runs them
+once per distinct ``(lag, p)``, and every order gets the numbers it would get alone.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 from collections import OrderedDict
@@ -21,11 +31,23 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["memoize", "CACHE_SIZE"]
+from ..core.blocks import BlockPseudo, VarxStage, select_past_window_blocks, varx_stage_blocks
+from ..core.varx import LagOperator
+
+__all__ = ["memoize", "digest", "CACHE_SIZE", "STAGE_CACHE_SIZE", "past_window_aic", "varx_stage"]
 
 #: results kept per memoised function: one order/method selection touches two records
 #: (the estimation part and the whole record) with up to two input holds
 CACHE_SIZE = 8
+#: results kept of the core's stages: a sweep fits, per order, every method with both
+#: input holds, HD-PBSID at up to three operator scales plus its two held-out fits, so
+#: about 16 stages are made per order; twice that keeps the previous order's
+STAGE_CACHE_SIZE = 32
+
+
+class _Uncacheable(Exception):
+    """An argument has no exact key (its ``cache_key()`` returned None)."""
+
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -41,7 +63,13 @@ def _kernel_key(kernel: Any) -> Any:
 
 
 def _key_part(x: Any, h: Any) -> None:
-    if isinstance(x, np.ndarray):
+    if callable(getattr(x, "cache_key", None)):
+        k = x.cache_key()
+        if k is None:
+            raise _Uncacheable
+        h.update(type(x).__qualname__.encode())
+        _key_part(k, h)
+    elif isinstance(x, np.ndarray):
         a = np.ascontiguousarray(x)
         h.update(repr((a.shape, a.dtype.str)).encode())
         h.update(a.view(np.uint8).tobytes() if a.size else b"")
@@ -61,24 +89,41 @@ def _key_part(x: Any, h: Any) -> None:
         h.update(repr(x).encode())
 
 
+def digest(x: Any) -> bytes:
+    """The content key of ``x`` (arrays by their bytes, shapes and dtypes; module
+    docstring) as a 20-byte BLAKE2 digest."""
+    h = hashlib.blake2b(digest_size=20)
+    _key_part(x, h)
+    return h.digest()
+
+
 def _read_only(x: Any) -> Any:
     if isinstance(x, np.ndarray):
         x.flags.writeable = False
     elif isinstance(x, tuple | list):
         for v in x:
             _read_only(v)
+    elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+        for f in dataclasses.fields(x):
+            _read_only(getattr(x, f.name))
     return x
 
 
-def memoize(func: F) -> F:
-    """Cache ``func`` by the contents of its arguments (module docstring)."""
+def memoize(func: F | None = None, *, size: int = CACHE_SIZE) -> Any:
+    """Cache ``func`` by the contents of its arguments (module docstring), keeping the
+    ``size`` most recent results; ``@memoize`` or ``@memoize(size=...)``."""
+    if func is None:
+        return functools.partial(memoize, size=size)
     cache: OrderedDict[bytes, tuple[Any, Any]] = OrderedDict()
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         h = hashlib.blake2b(digest_size=20)
-        _key_part(args, h)
-        _key_part(sorted(kwargs.items()), h)
+        try:
+            _key_part(args, h)
+            _key_part(sorted(kwargs.items()), h)
+        except _Uncacheable:
+            return func(*args, **kwargs)
         key = h.digest()
         if key in cache:
             cache.move_to_end(key)
@@ -86,9 +131,44 @@ def memoize(func: F) -> F:
         out = _read_only(func(*args, **kwargs))
         # keep the arguments' kernels alive so that their ids in the key stay unique
         cache[key] = (out, [a.kernel for a in args if hasattr(a, "kernel")])
-        if len(cache) > CACHE_SIZE:
+        if len(cache) > size:
             cache.popitem(last=False)
         return out
 
     wrapper.cache_clear = cache.clear  # type: ignore[attr-defined]
     return wrapper  # type: ignore[return-value]
+
+
+def _pseudo(lag: LagOperator, rows: Any) -> BlockPseudo | None:
+    return BlockPseudo(lag, rows) if rows is not None else None  # type: ignore[arg-type]
+
+
+@memoize(size=STAGE_CACHE_SIZE)
+def past_window_aic(
+    U: Any, Y: Any, p_max: int, p_min: int, lag: LagOperator, rows: Any, feedthrough: bool
+) -> tuple[int, Any]:
+    """:func:`hdpbsid.core.blocks.select_past_window_blocks` with the pseudo-input rows
+    ``rows`` (one array per block, or None), memoised."""
+    return select_past_window_blocks(
+        U, Y, p_max, p_min=p_min, lag=lag, pseudo=_pseudo(lag, rows), feedthrough=feedthrough
+    )
+
+
+@memoize(size=STAGE_CACHE_SIZE)
+def varx_stage(
+    U: Any,
+    Y: Any,
+    p: int,
+    lag: LagOperator,
+    rows: Any,
+    f: int,
+    feedthrough: bool,
+    regularize: Any,
+    ridge_floor: float,
+    instruments: Any,
+) -> VarxStage:
+    """:func:`hdpbsid.core.blocks.varx_stage_blocks` with the pseudo-input rows ``rows``
+    (one array per block, or None), memoised (module docstring)."""
+    return varx_stage_blocks(
+        U, Y, p, lag, _pseudo(lag, rows), f, feedthrough, regularize, ridge_floor, instruments
+    )

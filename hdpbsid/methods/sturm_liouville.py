@@ -159,7 +159,9 @@ def _integrator_lag(
     def solve(W: Array) -> Array:
         return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
 
-    lag = SolveLag(solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]")
+    lag = SolveLag(
+        solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]", key=(J, alpha, beta, gamma)
+    )
     return lag, sla.lu_factor(J.T)
 
 
