@@ -22,6 +22,7 @@ the rest and discarded.  They do not enter the output equation (``D = 0`` for th
 from __future__ import annotations
 
 import warnings
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -94,13 +95,22 @@ class SolveLag(CachedPowers):
     cached, so ``past_blocks`` (``j = p, ..., 1``) costs ``p`` solves.  ``key``: the
     arrays and numbers that define ``M`` exactly (e.g. the banded matrix solved with),
     returned by :meth:`cache_key` for the memoised core stages; None: not keyable.
+
+    ``remember``: how many one-step results ``W -> W M`` to keep, keyed by the contents of
+    ``W`` (for a dense, costly ``M`` whose lag object is reused: the orders of a sweep lag
+    the same data and pseudo-input rows to their ``p`` powers, each order one power
+    further, so the powers are computed once).
     """
 
-    def __init__(self, solve: Callable[[Array], Array], name: str = "M", key: Any = None) -> None:
+    def __init__(
+        self, solve: Callable[[Array], Array], name: str = "M", key: Any = None, remember: int = 0
+    ) -> None:
         super().__init__()
         self._solve = solve
         self._name = name
         self._cache_key = key
+        self._remember = int(remember)
+        self._steps: OrderedDict[bytes, Array] = OrderedDict()
 
     def cache_key(self) -> Any:
         """What defines ``M`` exactly (:mod:`hdpbsid.methods.memo`), or None; a digest
@@ -110,7 +120,17 @@ class SolveLag(CachedPowers):
         return self._cache_key
 
     def _once(self, W: Array) -> Array:
-        return self._solve(W)
+        if not self._remember:
+            return self._solve(W)
+        k = digest(W)
+        if k in self._steps:
+            self._steps.move_to_end(k)
+            return self._steps[k].copy()
+        out = self._solve(W)
+        self._steps[k] = out.copy()
+        if len(self._steps) > self._remember:
+            self._steps.popitem(last=False)
+        return out
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         # M mixes all columns: one unknown column spoils every lagged column

@@ -86,6 +86,9 @@ ALPHA_FACTOR = 0.5
 OUTPUT_FRACTION = 0.95
 #: relative padding of the basis window for families singular at the interval ends
 PAD = 1e-3
+#: one-step lag results kept by the (memoised) integrator lag: the data and pseudo-input
+#: rows of both input holds at up to 8 powers, plus the order-dependent states
+LAG_STEPS_KEPT = 64
 
 
 def _integration_exact(basis: Any, N: int, t0: float) -> Array | None:
@@ -159,8 +162,12 @@ def _integrator_lag(
     def solve(W: Array) -> Array:
         return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
 
+    # memoised, so the orders of a sweep share this object: it remembers its dense steps
     lag = SolveLag(
-        solve, f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]", key=(J, alpha, beta, gamma)
+        solve,
+        f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]",
+        key=(J, alpha, beta, gamma),
+        remember=LAG_STEPS_KEPT,
     )
     return lag, sla.lu_factor(J.T)
 
