@@ -74,6 +74,22 @@ def test_noise_free_foh_needs_the_foh_predictor() -> None:
     )
 
 
+def test_hold_chosen_by_the_refinement_unless_the_method_was_given_it() -> None:
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 20.0, 0.01)
+    u = random_steps(rng, t, hold=0.3)
+    y = simulate_zoh(A2, B2, C2, D2, t, u)  # held input: the zoh predictor is exact
+    start = _perturbed(rng, hold="foh")  # a method that picked the wrong hold itself
+    m = refine_pem(start, t, u, y)
+    assert m.options["refine_hold"] == "zoh" and m.options["input_hold"] == "zoh"
+    assert m.options["input_hold_before_refine"] == "foh"
+    # exact sampled model of exact data, as in the zoh test above
+    assert eigenvalue_errors(m.eigenvalues, TRUE2).max() < 1e-6
+    start.options["input_hold_rule"] = "given"  # the user said foh: respected
+    kept = refine_pem(start, t, u, y)
+    assert kept.options["refine_hold"] == "foh" and kept.options["refine_holds_tried"] == ("foh",)
+
+
 def test_reported_std_matches_the_monte_carlo_spread() -> None:
     estimates, stds = [], []
     for seed in range(12):
