@@ -76,15 +76,18 @@ def test_noise_free_foh_needs_the_foh_predictor() -> None:
 
 def test_hold_chosen_by_the_refinement_unless_the_method_was_given_it() -> None:
     rng = np.random.default_rng(2)
-    t = np.arange(0.0, 20.0, 0.01)
+    t = np.arange(0.0, 60.0, 0.02)
     u = random_steps(rng, t, hold=0.3)
-    y = simulate_zoh(A2, B2, C2, D2, t, u)  # held input: the zoh predictor is exact
+    # held input: the zoh predictor is the true one
+    y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 20.0, rng)
     start = _perturbed(rng, hold="foh")  # a method that picked the wrong hold itself
     m = refine_pem(start, t, u, y)
+    zoh = refine_pem(start, t, u, y, hold="zoh")
     assert m.options["refine_hold"] == "zoh" and m.options["input_hold"] == "zoh"
     assert m.options["input_hold_before_refine"] == "foh"
-    # exact sampled model of exact data, as in the zoh test above
-    assert eigenvalue_errors(m.eigenvalues, TRUE2).max() < 1e-6
+    # same structure, same data: the same optimum up to the LM tolerances (and the
+    # conditioning of eig)
+    np.testing.assert_allclose(m.eigenvalues, zoh.eigenvalues, rtol=1e-5)
     start.options["input_hold_rule"] = "given"  # the user said foh: respected
     kept = refine_pem(start, t, u, y)
     assert kept.options["refine_hold"] == "foh" and kept.options["refine_holds_tried"] == ("foh",)
