@@ -34,10 +34,11 @@ when its cost (same output weighting) is lower with every mode resolved by the s
 (:func:`_other_hold`, :func:`_modes_resolved`).  Measured on a Table-2-like closed loop
 (plant eigenvalues -28, -10, 1.2 +- 5.8i, rate output, 250 Hz, 20 dB, seeds 0-4): the
 subspace model chose ``foh`` for ``zoh`` data and the ``foh`` fit stopped 22-25 % and
-32-45 % off on the two real poles, with a cost above the ``zoh`` fit's (it is the
-optimum of the wrong structure, not a local minimum); with the hold chosen here all
-four eigenvalues are within 1-6 %, for 12 more evaluations when the method's hold was
-right (closed-loop quadrotor: 0.5-0.7 s -> 0.7-0.9 s, end points unchanged).  On
+32-45 % off on the two real poles at a stationary point of the ``foh`` cost (the
+prediction-error cost of the ``zoh`` predictor falls monotonically on the straight line
+from that point to the ``zoh`` optimum: the data prefer the other structure); with the
+hold chosen here all four eigenvalues are within 1-6 %, for 12 more evaluations when the
+method's hold was right (closed-loop quadrotor: 0.5-0.7 s -> 0.7-0.9 s, end points unchanged).  On
 noise-free data the first hold's cost can be so small that the other hold does not beat
 it within the probe and the method's hold is kept (the bias is then the half-sample
 shift, ~``h |lambda| / 2``).
