@@ -74,6 +74,25 @@ def test_noise_free_foh_needs_the_foh_predictor() -> None:
     )
 
 
+def test_hold_chosen_by_the_refinement_unless_the_method_was_given_it() -> None:
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 60.0, 0.02)
+    u = random_steps(rng, t, hold=0.3)
+    # held input: the zoh predictor is the true one
+    y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 20.0, rng)
+    start = _perturbed(rng, hold="foh")  # a method that picked the wrong hold itself
+    m = refine_pem(start, t, u, y)
+    zoh = refine_pem(start, t, u, y, hold="zoh")
+    assert m.options["refine_hold"] == "zoh" and m.options["input_hold"] == "zoh"
+    assert m.options["input_hold_before_refine"] == "foh"
+    # same structure, same data: the same optimum up to the LM tolerances (and the
+    # conditioning of eig)
+    np.testing.assert_allclose(m.eigenvalues, zoh.eigenvalues, rtol=1e-5)
+    start.options["input_hold_rule"] = "given"  # the user said foh: respected
+    kept = refine_pem(start, t, u, y)
+    assert kept.options["refine_hold"] == "foh" and kept.options["refine_holds_tried"] == ("foh",)
+
+
 def test_reported_std_matches_the_monte_carlo_spread() -> None:
     estimates, stds = [], []
     for seed in range(12):
