@@ -1,10 +1,10 @@
 """Time and memory of the identification methods vs the number of samples and the band.
 
-Run: ``.venv/bin/python bench/scaling.py [--quick] [--out FILE]`` (the ``bench`` extra
-for SIPPY, ``cluster`` for Dask, ``io`` for h5py).  One run, one table; every point runs
-in a fresh subprocess (one BLAS thread, address space capped at ``--mem-limit-gb``), so
-the timings of all methods are taken side by side under the same machine load (the load
-average is printed with the table).
+Run: ``.venv/bin/python bench/scaling.py [--quick] [--target-only] [--out FILE]`` (the
+``bench`` extra for SIPPY, ``cluster`` for Dask, ``io`` for h5py).  One run, one table;
+every point runs in a fresh subprocess (one BLAS thread, address space capped at
+``--mem-limit-gb``), so the timings of all methods are taken side by side under the
+same machine load (the load average is printed with the table).
 
 Rows (``sweep`` column):
 
@@ -346,6 +346,12 @@ def _target_row(spec: dict, r: dict) -> str:
     )
 
 
+def _finish(lines: list[str], emit, out: str | None) -> None:
+    emit(f"# load average at the end {os.getloadavg()[0]:.2f}")
+    if out:
+        Path(out).write_text("\n".join(lines) + "\n")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke run)")
@@ -355,6 +361,11 @@ def main() -> None:
     ap.add_argument("--mem-limit-gb", type=float, default=8.0)
     ap.add_argument("--tmp", default="/tmp/hdpbsid-scaling", help="directory of the chunked files")
     ap.add_argument("--out", help="also write the table to this file")
+    ap.add_argument(
+        "--target-only",
+        action="store_true",
+        help="only the binary 10^4 target row (HD-PBSID vs N4SID)",
+    )
     ap.add_argument("--point", help=argparse.SUPPRESS)
     args = ap.parse_args()
 
@@ -389,6 +400,9 @@ def main() -> None:
     quick = args.quick
     spec = {"case": "binary-target", "method": "", "ns": 10**4, "seeds": 2 if quick else args.seeds}
     emit(_target_row(spec, run_point(spec, **kw)))
+    if args.target_only:
+        _finish(lines, emit, args.out)
+        return
     spec = {"case": "resonance70", "method": "hermite", "ns": 86_000, "band": 200, "repeats": 1}
     emit(_row("target", "70 Hz resonance at 610 Hz", "hermite", spec, run_point(spec, **kw)))
     spec = {"case": "projection", "method": "", "ns": 10**5 if quick else 10**6, "N": 2000}
@@ -430,9 +444,7 @@ def main() -> None:
                 "repeats": args.repeats,
             }
             emit(_row("band", "5 Hz resonance", method, spec, run_point(spec, **kw)))
-    emit(f"# load average at the end {os.getloadavg()[0]:.2f}")
-    if args.out:
-        Path(args.out).write_text("\n".join(lines) + "\n")
+    _finish(lines, emit, args.out)
 
 
 if __name__ == "__main__":
