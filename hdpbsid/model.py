@@ -30,8 +30,17 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
-from .checks import as_float_array, check_positive_int, check_signal, check_state_space, check_time
+from .checks import (
+    as_float_array,
+    check_positive_int,
+    check_signal,
+    check_state_space,
+    check_time,
+    check_uniform,
+    is_uniform,
+)
 from .conversion import c2d, d2c
+from .recursion import linear_recursion
 
 __all__ = [
     "StateSpaceModel",
@@ -202,8 +211,16 @@ def _level(x: Any, name: str, size: int) -> Array:
 
 def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     """``(h, h_groups, inv)``: the steps ``h = diff(t)``, one representative per group of
-    steps equal to 1e-12 relative, and each step's group index (``h ~ h_groups[inv]``)."""
+    steps equal to 1e-12 relative, and each step's group index (``h ~ h_groups[inv]``).
+
+    A uniformly sampled ``t`` (:func:`~hdpbsid.checks.check_uniform`: spacing equal to
+    1e-6 relative plus the stamps' own rounding) is one group with the mean spacing:
+    ``arange(Ns) * dt`` has steps that differ in their last bits, which would otherwise
+    split it into several groups and the recursions into a loop over the samples.
+    """
     h = np.diff(t)
+    if h.size > 1 and is_uniform(t):
+        return h, np.array([check_uniform(t)]), np.zeros(h.size, dtype=np.intp)
     key = np.round(h / np.max(h), 12)
     uniq, inv = np.unique(key, return_inverse=True)
     first = np.array([np.flatnonzero(inv == i)[0] for i in range(uniq.size)])
@@ -312,11 +329,8 @@ class StateSpaceModel(_ModelBase):
             Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
             if G2 is not None:
                 Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
-            if hg.size == 1:
-                P = Phi[0]
-                for k in range(ns - 1):
-                    x = P @ x + Bu[k]
-                    X[k + 1] = x
+            if hg.size == 1:  # uniform sampling: modal filters
+                X = linear_recursion(Phi[0], Bu, x)
             else:
                 for k in range(ns - 1):
                     x = Phi[inv[k]] @ x + Bu[k]
@@ -382,9 +396,12 @@ class StateSpaceModel(_ModelBase):
             Ku = np.einsum("kij,kj->ki", Gk[inv], y[:-1] - u[:-1] @ self.D.T)
             # predictor: x_{j+1} = (Phi - Gk C) x_j + Bu_j + Gk (y_j - D u_j)
             F = Phi - np.einsum("kij,jl->kil", Gk, self.C)
-            for j in range(ns - 1):
-                x = F[inv[j]] @ x + Bu[j] + Ku[j]
-                Z[j + 1] = x
+            if F.shape[0] == 1:  # uniform sampling: one predictor matrix, modal filters
+                Z = linear_recursion(F[0], Bu + Ku, x)
+            else:
+                for j in range(ns - 1):
+                    x = F[inv[j]] @ x + Bu[j] + Ku[j]
+                    Z[j + 1] = x
             # Z[j] = x_{j|j-1}; k - 1 open-loop steps give x_{j|j-k} (x_{j|.} = x0 for the
             # first samples, where no measurement precedes)
             for _ in range(k - 1):
@@ -559,11 +576,7 @@ class DiscreteModel(_ModelBase):
         x = np.zeros(self.n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
         if x.shape[0] != self.n:
             raise ValueError(f"x0 must have {self.n} entries, got {x.shape[0]}")
-        X = np.empty((u.shape[0], self.n))
-        Bu = u @ self.B.T
-        for k in range(u.shape[0]):
-            X[k] = x
-            x = self.A @ x + Bu[k]
+        X = linear_recursion(self.A, (u @ self.B.T)[:-1], x)
         return X @ self.C.T + u @ self.D.T + Y0
 
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:

@@ -132,6 +132,7 @@ _LAYER_OF = {
     "assessment": "foundations",
     "detrend": "foundations",
     "records": "foundations",
+    "recursion": "foundations",
     "feedback": "foundations",
     "systems": "systems",
 }

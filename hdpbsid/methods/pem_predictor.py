@@ -33,7 +33,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
-from scipy.signal import lfilter
+
+from ..recursion import modal_filter
 
 __all__ = ["Predictor", "sampled_predictor", "conjugate_representatives", "modal_filter"]
 
@@ -155,20 +156,3 @@ def conjugate_representatives(
             fac.append(1.0)
             a += 1
     return np.array(keep, dtype=np.intp), np.array(fac)
-
-
-def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
-    """``z_{k+1} = lam_a z_k + R[..., a, k]`` from ``z_0 = 0`` for every eigenvalue ``a``.
-
-    ``R`` has shape ``(..., n, Ns)``; the output has the same shape (complex),
-    ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when its row of
-    ``R`` is real.
-    """
-    Z = np.zeros(R.shape, dtype=complex)
-    for a in range(lam.size):
-        ra = R[..., a, :-1]
-        if lam[a].imag == 0 and not np.any(np.imag(ra)):
-            Z[..., a, 1:] = lfilter([1.0], [1.0, -lam[a].real], np.real(ra), axis=-1)
-        else:
-            Z[..., a, 1:] = lfilter([1.0], [1.0, -lam[a]], ra, axis=-1)
-    return Z

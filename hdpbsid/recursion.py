@@ -1,0 +1,70 @@
+"""Linear state recursions ``x_{k+1} = F x_k + w_k`` run as modal first-order filters.
+
+A Python loop over the samples costs about 5 us a step (0.2 s for 10^4 samples of a
+k-step predictor evaluated three times); the same recursion diagonalised,
+``F = V diag(lam) V^{-1}``, ``z = V^{-1} x``, is ``n`` independent first-order filters
+``z_{a,k+1} = lam_a z_{a,k} + (V^{-1} w_k)_a`` run by :func:`scipy.signal.lfilter` in
+compiled code.  Rounding: the change of coordinates multiplies the rounding error by at
+most ``cond(V)`` (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed.,
+ch. 7), so :func:`linear_recursion` falls back to the loop when ``cond(V)`` exceeds
+:data:`MAX_MODAL_CONDITION` (nearly defective ``F``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import lfilter
+
+__all__ = ["modal_filter", "linear_recursion", "MAX_MODAL_CONDITION"]
+
+Array = NDArray[np.float64]
+
+#: largest eigenvector condition number for the modal form: rounding errors of order
+#: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
+MAX_MODAL_CONDITION = 1e6
+
+
+def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
+    """``z_{k+1} = lam_a z_k + R[..., a, k]`` from ``z_0 = 0`` for every eigenvalue ``a``.
+
+    ``R`` has shape ``(..., n, Ns)``; the output has the same shape (complex),
+    ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when its row of
+    ``R`` is real.
+    """
+    Z = np.zeros(R.shape, dtype=complex)
+    for a in range(lam.size):
+        ra = R[..., a, :-1]
+        if lam[a].imag == 0 and not np.any(np.imag(ra)):
+            Z[..., a, 1:] = lfilter([1.0], [1.0, -lam[a].real], np.real(ra), axis=-1)
+        else:
+            Z[..., a, 1:] = lfilter([1.0], [1.0, -lam[a]], ra, axis=-1)
+    return Z
+
+
+def linear_recursion(F: Array, W: Array, x0: Array) -> Array:
+    """States ``x_0 = x0``, ``x_{k+1} = F x_k + W[k]`` for ``k = 0 .. len(W) - 1``.
+
+    ``F (n, n)`` real, ``W (Ns - 1, n)``, ``x0 (n,)``; returns ``X (Ns, n)``.  Modal
+    filters (module docstring) when ``F`` is diagonalisable with
+    ``cond(V) <= MAX_MODAL_CONDITION``, else the plain loop (the oracle of the tests).
+    """
+    F = np.asarray(F, dtype=float)
+    W = np.asarray(W, dtype=float)
+    x0 = np.asarray(x0, dtype=float)
+    ns, n = W.shape[0] + 1, F.shape[0]
+    if n:
+        lam, V = np.linalg.eig(F)
+        if np.all(np.isfinite(V)) and np.linalg.cond(V) <= MAX_MODAL_CONDITION:
+            Vi = np.linalg.inv(V)
+            R = np.zeros((n, ns), dtype=complex)
+            R[:, 0] = Vi @ x0  # z_1 = lam z_0 + ..., entered as the drive of step -1
+            R[:, 1:] = Vi @ W.T
+            # modal_filter starts from 0, so shift by one step: z_k = filtered[k + 1]
+            Z = modal_filter(lam, np.concatenate([R, np.zeros((n, 1))], axis=1))[:, 1:]
+            return np.real(V @ Z).T
+    X = np.empty((ns, n))
+    X[0] = x0
+    for k in range(ns - 1):
+        X[k + 1] = F @ X[k] + W[k]
+    return X
