@@ -186,7 +186,7 @@ def _other_hold(
     kw: dict,
     budget: int,
     h: float,
-) -> tuple[Array, float, int, str]:
+) -> tuple[Array, float, int, str, bool]:
     """Levenberg-Marquardt with the other hold's ``residuals`` from ``theta``, the end
     point of the first hold (cost ``cost``): one run of :data:`HOLD_PROBE_NFEV`
     evaluations, continued to convergence only when it already went below ``cost``.
@@ -198,7 +198,7 @@ def _other_hold(
     fit = _lm_fit(theta, lay, residuals, kw, min(HOLD_PROBE_NFEV, budget))
     if fit[1] < cost and budget > fit[2]:
         more = _lm_fit(fit[0], lay, residuals, kw, budget - fit[2])
-        fit = (more[0], more[1], fit[2] + more[2], more[3])
+        fit = (more[0], more[1], fit[2] + more[2], more[3], more[4])
     return fit
 
 
@@ -238,13 +238,14 @@ def _lm_fit(
     residuals: Callable[..., Any],
     kw: dict,
     budget: int,
-) -> tuple[Array, float, int, str]:
+) -> tuple[Array, float, int, str, bool]:
     """Levenberg-Marquardt on ``residuals(theta)`` from ``theta`` with the analytic
     Jacobian ``residuals(theta, jac=True, directions=Q)``, in local coordinates ``Q``
     re-centred after every run of at most ``DDLC_RUN_NFEV`` evaluations, until a run
     converges within ``DDLC_CONVERGED_NFEV`` evaluations (the chart no longer moves) or
-    ``budget`` evaluations are spent.  Returns ``(theta, cost, nfev, message)``."""
-    nfev, message = 0, "no evaluation budget"
+    ``budget`` evaluations are spent.  Returns ``(theta, cost, nfev, message,
+    converged)``; ``converged`` is False when the budget ran out first."""
+    nfev, message, converged = 0, "no evaluation budget", False
     while nfev < budget:
         Q = _ddlc_basis(lay, theta)
         centre = theta
@@ -261,9 +262,10 @@ def _lm_fit(
         nfev += int(sol.nfev)
         message = sol.message
         if sol.status > 0 and sol.nfev <= DDLC_CONVERGED_NFEV:
+            converged = True
             break
     cost = float(np.mean(residuals(theta) ** 2))
-    return theta, cost, nfev, message
+    return theta, cost, nfev, message, converged
 
 
 def _residuals(
@@ -368,7 +370,8 @@ def refine_pem(
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``input_hold`` (the refined hold;
     the method's in ``input_hold_before_refine``), ``refine_cost`` (initial and final
-    mean squared weighted prediction error), ``refine_nfev``, ``refine_status`` and
+    mean squared weighted prediction error), ``refine_nfev``, ``refine_status``,
+    ``refine_converged`` (False when ``max_nfev`` ran out first) and
     ``eigenvalues_before_refine``.  When the fit does not lower the cost, the initial
     model is returned unchanged (with a ``RuntimeWarning``).
     """
@@ -436,7 +439,9 @@ def refine_pem(
     fits = {name: _lm_fit(th, lay, weighted[hold], kw, probe) for name, th in starts.items()}
     k_start = min(fits, key=lambda k: fits[k][1])
     nfev = sum(f[2] for f in fits.values())
-    theta, cost, n_run, status = _lm_fit(fits[k_start][0], lay, weighted[hold], kw, budget - nfev)
+    theta, cost, n_run, status, converged = _lm_fit(
+        fits[k_start][0], lay, weighted[hold], kw, budget - nfev
+    )
     nfev += n_run
     hold_costs = {hold: cost}
     for other in holds[1:]:
@@ -446,7 +451,7 @@ def refine_pem(
         nfev += fit[2]
         hold_costs[other] = fit[1]
         if fit[1] < cost and _modes_resolved(lay, fit[0], h):
-            theta, cost, status, hold = fit[0], fit[1], fit[3], other
+            theta, cost, status, converged, hold = fit[0], fit[1], fit[3], fit[4], other
     if not (np.isfinite(cost) and cost < cost0):
         warnings.warn(
             f"refine='pem' did not lower the prediction-error cost ({cost0:.4g} -> "
@@ -474,6 +479,7 @@ def refine_pem(
         refine_cost={"initial": cost0, "final": cost},
         refine_nfev=nfev,
         refine_status=status,
+        refine_converged=converged,
         refine_parameters=int(Q.shape[1]),
         eigenvalues_before_refine=model.eigenvalues,
         eigenvalue_std=eig_std,
