@@ -163,7 +163,13 @@ def refine_decision(
     ``(refine, rule text, statistics or None)``."""
     if not uniform:
         return False, "auto: t is not uniformly sampled, no refinement", None
-    st = feedback_statistics(model, t, u, y)
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            st = feedback_statistics(model, t, u, y)
+    except np.linalg.LinAlgError:
+        # the model's one-step predictor diverges on the record (its residuals overflow):
+        # the test cannot be computed, and a refinement started there is not a PEM start
+        return False, "auto: the model's one-step predictor diverges on the record", None
     closed = st["feedback"]
     noisy = st["residual_ratio_x_samples"] >= NOISE_SAMPLES_PRODUCT
     text = (

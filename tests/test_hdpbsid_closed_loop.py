@@ -141,3 +141,20 @@ def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge() 
     assert auto.options["refine"] is None
     # the same model, to the last bit: nothing of the cut-off iterate is kept
     np.testing.assert_array_equal(auto.A, plain.A)
+
+
+def test_auto_does_not_refine_a_model_whose_predictor_diverges() -> None:
+    # predictor eigenvalue A - K C = 5 + 100 = 105 rad/s: x grows by e^1.05 a sample and
+    # overflows within 1000 samples, so the residuals of the feedback test are not finite
+    model = StateSpaceModel(
+        np.array([[5.0]]),
+        np.array([[1.0]]),
+        np.array([[1.0]]),
+        np.zeros((1, 1)),
+        np.array([[-100.0]]),
+    )
+    t = np.arange(1000) * 0.01
+    rng = np.random.default_rng(1)
+    u, y = rng.standard_normal((1000, 1)), rng.standard_normal((1000, 1))
+    do, rule, stats = refine_decision(model, t, u, y, True)
+    assert not do and "diverges" in rule and stats is None
