@@ -446,4 +446,8 @@ assert o["input_hold"] == "zoh"  # the simulator holds the moment between sample
 assert np.isclose(o["alpha"], 4 * o["scale"]) and o["beta"] == 1.0 and o["gamma"] == 1.0
 mu = np.linalg.eigvals(o["A_prime"])
 print("eigenvalues of A' = A/alpha + I:", np.round(mu, 3), "moduli", np.round(np.abs(mu), 3))
-assert np.allclose(np.sort_complex(mu), np.sort_complex(1 + model.eigenvalues / o["alpha"]))
+# A' is the subspace model's; the default refine="auto" then refined this closed-loop,
+# noisy record (o["refine_rule"] says why), so compare with the eigenvalues before it
+subspace_eigenvalues = o.get("eigenvalues_before_refine", model.eigenvalues)
+print("refinement:", o["refine_rule"])
+assert np.allclose(np.sort_complex(mu), np.sort_complex(1 + subspace_eigenvalues / o["alpha"]))
