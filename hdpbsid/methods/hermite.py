@@ -300,8 +300,16 @@ def identify_hermite(
         **w_info,
     }
 
+    fitted: dict[float, StateSpaceModel] = {}
+
     def fit(a: float) -> StateSpaceModel:
-        """HD-PBSID with the operator scale ``alpha = a``."""
+        """HD-PBSID with the operator scale ``alpha = a`` (each ``a`` fitted once: the
+        first pass's model is reused when the held-out check keeps its ``alpha``)."""
+        if a not in fitted:
+            fitted[a] = _fit(a)
+        return fitted[a]
+
+    def _fit(a: float) -> StateSpaceModel:
         lags = {
             k: hermite_lag(b.derivative_matrix("square"), a, beta, gamma)[0]
             for k, b in bases.items()
