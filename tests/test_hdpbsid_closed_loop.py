@@ -9,8 +9,10 @@ import pytest
 from hdpbsid import identify
 from hdpbsid.feedback import feedback_statistics, refine_decision
 from hdpbsid.methods.hermite import identify_hermite
+from hdpbsid.metrics import match_eigenvalues
 from hdpbsid.model import StateSpaceModel
 from hdpbsid.studies.data import quadrotor_record, second_order_record
+from hdpbsid.systems.linear import add_noise, random_steps, simulate_zoh
 from hdpbsid.systems.quadrotor import pitch_model
 
 TRUE = np.linalg.eigvals(pitch_model()[0])
@@ -83,28 +85,50 @@ def test_feedback_test_separates_open_from_closed_loop() -> None:
         assert not st["feedback"], st
 
 
-def test_auto_rule_needs_noise_as_well_as_feedback() -> None:
+def test_auto_refines_a_nearly_noise_free_closed_loop_record_and_reports_feedback() -> None:
     d = quadrotor_record(
         np.random.default_rng([5, 0]), snr_db=50.0, excitation="hermite-sweep", n_max_u=300
     )
     m = identify_hermite(d.t, d.u, d.y, 3)
     do, rule, st = refine_decision(m, d.t, d.u, d.y, uniform=True)
-    # feedback is visible at 50 dB too, but the residual power ratio (~1e-5) times
-    # Ns = 7501 is far below one: the least-squares bias is below its spread
-    assert st is not None and st["feedback"]
-    assert st["residual_ratio_x_samples"] < 1.0
-    assert not do and "no refinement" in rule
+    # the decision does not depend on the test; the test still sees the loop at 50 dB
+    assert do and st is not None and st["feedback"] and "closed loop" in rule
     model = identify(d.t, d.u, d.y, 3, method="hermite", detrend=None)
-    assert model.options["refine"] is None
-    assert model.options["refine_statistics"]["feedback"]
+    assert model.options["refine"] == "pem", model.options["refine_rule"]
+    plain = identify(d.t, d.u, d.y, 3, method="hermite", detrend=None, refine=None)
+    err = [
+        np.max(np.abs(_nearest(x.eigenvalues, z) - z) / abs(z))
+        for x in (model, plain)
+        for z in (PAIR, REAL)
+    ]
+    # at 50 dB both are close; the refined model must not be worse than the subspace
+    # model by more than the refinement's own 3-sigma spread at this SNR (about 0.1 %)
+    assert max(err[:2]) <= max(err[2:]) + 1e-3, err
 
 
-def test_open_loop_default_is_the_subspace_model() -> None:
-    d = second_order_record(np.random.default_rng(3), snr_db=10.0)
-    auto = identify(d.t, d.u, d.y, 2, method="hermite", detrend=None)
-    plain = identify(d.t, d.u, d.y, 2, method="hermite", detrend=None, refine=None)
-    assert auto.options["refine"] is None and "open loop" in auto.options["refine_rule"]
-    np.testing.assert_array_equal(auto.A, plain.A)
+def test_open_loop_default_refines_and_is_more_accurate() -> None:
+    """Open-loop stiff system (eigenvalues -50, -0.5 +- 2i), random steps held 0.05 s,
+    20 dB: the prediction-error refinement is efficient where the subspace estimate is
+    not, so on every seed the default (refined) model beats the unrefined one."""
+    A = np.array([[-50.0, 0.0, 0.0], [0.0, -0.5, 2.0], [0.0, -2.0, -0.5]])
+    B, C = np.array([[50.0], [1.0], [1.0]]), np.array([[1.0, 1.0, 0.5]])
+    truth = np.linalg.eigvals(A)
+    t = np.arange(4001) * 0.01
+    for seed in range(3):
+        rng = np.random.default_rng([31, seed])
+        u = random_steps(rng, t, 0.05)
+        y = add_noise(simulate_zoh(A, B, C, None, t, u), 20.0, rng)[0]
+        auto = identify(t, u, y, 3, method="dt")
+        plain = identify(t, u, y, 3, method="dt", refine=None)
+        assert auto.options["refine"] == "pem", auto.options["refine_rule"]
+        assert "open loop" in auto.options["refine_rule"]
+        errs = []
+        for m in (auto, plain):
+            est, tru = match_eigenvalues(m.eigenvalues, truth)
+            errs.append(float(np.max(np.abs(est - tru) / np.abs(tru))))
+        # measured 0.23-0.40 % refined against 0.92-2.7 % unrefined on these seeds:
+        # a strict improvement on each seed is the property, not a margin
+        assert errs[0] < errs[1], (seed, errs)
 
 
 def test_bad_arguments() -> None:
@@ -126,17 +150,47 @@ def test_bad_arguments() -> None:
         feedback_statistics("model", d.t, d.u, d.y)  # type: ignore[arg-type]
 
 
-def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge() -> None:
-    """CT-PBSID (Laguerre filters) on the closed-loop quadrotor at 20 dB: the predictor of
-    its model is poor (approximate K), the prediction-error fit from it runs out of its
-    evaluations far from the truth (measured 153 % worst eigenvalue error, against 8.5 %
-    for the Laguerre model itself), so the default must return the Laguerre model."""
+def test_refinement_reaches_one_optimum_from_every_method_in_closed_loop() -> None:
+    """Closed-loop quadrotor at 20 dB: CT-PBSID (Laguerre filters, whose ``D`` is
+    estimated in the Laguerre domain without being asked), HD-PBSID and Legendre starts
+    are 2-12 % apart; the default refinement takes each to the same prediction-error
+    optimum.  Before ``D`` was fixed at zero the Laguerre start was refined with a free
+    ``D`` to a wrong minimum (153 % eigenvalue error)."""
     d = quadrotor_record(
         np.random.default_rng([7, 0]), snr_db=20.0, excitation="hermite-sweep", n_max_u=300
     )
-    kw = {"method": "laguerre", "variant": "filter", "detrend": None}
-    plain = identify(d.t, d.u, d.y, 3, refine=None, **kw)
-    auto = identify(d.t, d.u, d.y, 3, **kw)
+    models = [
+        identify(d.t, d.u, d.y, 3, detrend=None, **kw)
+        for kw in (
+            {"method": "laguerre", "variant": "filter"},
+            {"method": "hermite"},
+            {"method": "legendre"},
+        )
+    ]
+    ref = models[1]
+    std = np.asarray(ref.options["eigenvalue_std"])
+    for m in models:
+        assert m.options["refine"] == "pem" and m.options["refine_converged"]
+        np.testing.assert_array_equal(m.D, 0.0)
+        est, tru = match_eigenvalues(m.eigenvalues, ref.eigenvalues)
+        # each fit stops within STALL_SD = 0.1 standard deviation of the optimum, so two
+        # fits agree within 0.2 of the reported standard deviation
+        assert np.all(np.abs(est - tru) <= 0.2 * np.max(std)), (est, tru, std)
+
+
+def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A budget too small to converge (the fit needs ~30 evaluations here): the iterate
+    cut off on its way is dropped and the subspace model returned unchanged."""
+    import hdpbsid.methods.refine as refine_module
+
+    monkeypatch.setattr(refine_module, "DEFAULT_MAX_NFEV", 4)
+    d = quadrotor_record(
+        np.random.default_rng([7, 0]), snr_db=20.0, excitation="hermite-sweep", n_max_u=300
+    )
+    plain = identify(d.t, d.u, d.y, 3, method="hermite", detrend=None, refine=None)
+    auto = identify(d.t, d.u, d.y, 3, method="hermite", detrend=None)
     assert "did not converge" in auto.options["refine_rule"], auto.options["refine_rule"]
     assert auto.options["refine"] is None
     # the same model, to the last bit: nothing of the cut-off iterate is kept

@@ -40,13 +40,13 @@ def test_default_method_is_auto() -> None:
 def test_dt_dispatch_matches_identify_dt_and_records_options(second_order_data) -> None:
     t, u, y = second_order_data
     # simulated from rest around a zero operating point: detrend=None keeps the data exact
-    m = identify(t, u, y, order=2, method="dt", p=10, detrend=None)
+    m = identify(t, u, y, order=2, method="dt", p=10, detrend=None, refine=None)
     ref = identify_dt(t, u, y, order=2, p=10)
     # same function with the same arguments: bit-identical results
     np.testing.assert_array_equal(m.A, ref.A)
     np.testing.assert_array_equal(m.C, ref.C)
     # the default removes the means first: the same as the method on mean-free data
-    md = identify(t, u, y, order=2, method="dt", p=10)
+    md = identify(t, u, y, order=2, method="dt", p=10, refine=None)
     refd = identify_dt(t, u - np.mean(u, axis=0), y - np.mean(y, axis=0), order=2, p=10)
     np.testing.assert_array_equal(md.A, refd.A)
     np.testing.assert_array_equal(md.u0, np.mean(u, axis=0))

@@ -138,7 +138,7 @@ def test_list_of_one_record_equals_the_record(ball_and_beam) -> None:
         m1 = identify([(t, u, y)], order=2, method="stacked-test")
     finally:
         del METHODS["stacked-test"]
-    m = identify(t, u, y, order=2, method="dt")
+    m = identify(t, u, y, order=2, method="dt", refine=None)  # a list is not refined
     np.testing.assert_array_equal(m1.A, m.A)
     np.testing.assert_array_equal(m1.u0, m.u0)
     np.testing.assert_array_equal(m1.y0, m.y0)
