@@ -53,6 +53,22 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / np.abs(b).max())
 
 
+def _signed(model, ref) -> dict[str, np.ndarray]:
+    """``model``'s A, B, C, K in ``ref``'s state signs: ``T = diag(+-1)`` with each
+    state's sign read off the largest entry of ``C``'s column.  The chunked core signs
+    the singular vectors of ``Gamma L Z_p`` by its own rule, LAPACK's in-memory SVD by
+    another; only a sign flip per state is aligned, any other difference stays."""
+    j = np.argmax(np.abs(ref.C), axis=0)
+    cols = np.arange(ref.C.shape[1])
+    T = np.diag(np.sign(model.C[j, cols] * ref.C[j, cols]))
+    return {"A": T @ model.A @ T, "B": T @ model.B, "C": model.C @ T, "K": T @ model.K}
+
+
+def _diff(model, ref, names=("A", "B", "C", "K")) -> dict[str, float]:
+    mm = _signed(model, ref)
+    return {k: _rel(mm[k], getattr(ref, k)) for k in names}
+
+
 @pytest.fixture(scope="module")
 def data() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return _record(40_000)
@@ -75,8 +91,7 @@ def test_default_windows_match_in_memory(data, in_memory) -> None:
     assert in_memory.options["n_segments"] > 1  # the record is windowed by the default
     assert m.options["n_segments"] == in_memory.options["n_segments"]
     assert m.options["chunked"]["batches"] > 1  # several reads
-    for name in ("A", "B", "C", "K"):
-        assert _rel(getattr(m, name), getattr(in_memory, name)) < SAME, name
+    assert max(_diff(m, in_memory).values()) < SAME, _diff(m, in_memory)
     # and both are the true system: 40 s of a 5 Hz resonance at 20 dB
     err = eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(_resonance())).max()
     assert err < 0.01  # 1 %: measured 0.05-0.2 % on such records; 5x margin
@@ -100,7 +115,7 @@ def test_files_match_in_memory(tmp_path, data, in_memory) -> None:
     for rec in recs:
         assert (rec.ns, rec.m, rec.l) == (t.size, 1, 1)
         m = identify_chunked(rec, order=2, chunk_samples=5000)
-        assert _rel(m.A, in_memory.A) < SAME
+        assert _diff(m, in_memory)["A"] < SAME
     # reads that straddle Parquet row groups and HDF5 chunks return the exact samples
     for a, b in ((0, 1), (2999, 3003), (5999, 12_002), (39_000, 40_000)):
         for rec in recs:
@@ -113,7 +128,7 @@ def test_dask_delayed_matches_serial(data, in_memory) -> None:
     t, u, y = data
     rec = ChunkedRecord.from_arrays(u, y, 1.0 / FS)
     m = identify_chunked(rec, order=2, chunk_samples=9000, use_dask=True)
-    assert _rel(m.A, in_memory.A) < SAME
+    assert _diff(m, in_memory)["A"] < SAME
 
 
 def test_given_window_and_N_match_in_memory(data) -> None:
@@ -123,7 +138,7 @@ def test_given_window_and_N_match_in_memory(data) -> None:
         ChunkedRecord.from_arrays(u, y, 1.0 / FS), order=2, window=3.0, N=240, chunk_samples=4000
     )
     assert ref.options["n_segments"] == m.options["n_segments"] == 13
-    assert _rel(m.A, ref.A) < SAME
+    assert _diff(m, ref)["A"] < SAME
 
 
 def test_averaged_spectrum_bandwidth_close_to_whole_record() -> None:
@@ -196,5 +211,4 @@ def test_time_series_without_input_matches_in_memory(data) -> None:
         ChunkedRecord.from_arrays(None, y, 1.0 / FS), order=2, window=4.0, chunk_samples=6000
     )
     assert m.B.shape == (2, 0)
-    assert _rel(m.A, ref.A) < SAME
-    assert _rel(m.K, ref.K) < SAME
+    assert max(_diff(m, ref, ("A", "C", "K")).values()) < SAME
