@@ -7,6 +7,8 @@ the simulated system.
 
 from __future__ import annotations
 
+import dataclasses
+
 import h5py
 import numpy as np
 import pyarrow as pa
@@ -15,6 +17,7 @@ import pytest
 from scipy import signal
 
 from hdpbsid.conversion import c2d
+from hdpbsid.core import streamed
 from hdpbsid.io import open_chunked
 from hdpbsid.methods.basis_domain import data_bandwidth
 from hdpbsid.methods.chunked import (
@@ -212,3 +215,44 @@ def test_time_series_without_input_matches_in_memory(data) -> None:
     )
     assert m.B.shape == (2, 0)
     assert max(_diff(m, ref, ("A", "C", "K")).values()) < SAME
+
+
+def _arrays(x):
+    """Every numpy array inside ``x`` (dataclasses, dicts, lists, tuples)."""
+    if isinstance(x, np.ndarray):
+        yield x
+    elif dataclasses.is_dataclass(x):
+        for f in dataclasses.fields(x):
+            yield from _arrays(getattr(x, f.name))
+    elif isinstance(x, dict):
+        for v in x.values():
+            yield from _arrays(v)
+    elif isinstance(x, list | tuple):
+        for v in x:
+            yield from _arrays(v)
+
+
+def test_driver_statistics_do_not_grow_with_the_record(monkeypatch, data) -> None:
+    """Everything the batches hand back and the driver combines is a fixed-size factor:
+    the largest array is the same for a record twice as long (twice the batches)."""
+    t, u, y = data
+    real = streamed.merge
+    seen: list[int] = []
+
+    def spy(a, b):
+        out = real(a, b)
+        seen.extend(arr.size for arr in _arrays([a, b, out]))
+        return out
+
+    monkeypatch.setattr(streamed, "merge", spy)
+    largest, batches = {}, {}
+    for ns in (20_000, 40_000):
+        seen.clear()
+        rec = ChunkedRecord.from_arrays(u[:ns], y[:ns], 1.0 / FS)
+        m = identify_chunked(rec, order=2, window=2.0, chunk_samples=4000)
+        largest[ns], batches[ns] = max(seen), m.options["chunked"]["batches"]
+    assert batches[40_000] >= 2 * batches[20_000] - 1  # the longer record: more batches
+    assert largest[40_000] == largest[20_000]
+    # and that size is a (rows x rows) factor of the core's regressions, not columns:
+    # p (m + l) + l = 9 rows of the VARX, 2 f l + m + l = 10 of the A, B, K step
+    assert largest[40_000] <= 10 * 10
