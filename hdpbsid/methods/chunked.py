@@ -5,7 +5,7 @@ A uniformly sampled record that does not fit in memory is described by a
 (u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.io.open_chunked`;
 any sliceable arrays, e.g. ``dask.array`` or ``zarr``: :meth:`ChunkedRecord.from_arrays`).
 :func:`identify_chunked` runs method ``"hermite"`` (:mod:`hdpbsid.methods.hermite`) on it
-in two passes over the data, never holding more than one chunk of samples:
+in three passes over the data, never holding more than one batch of samples:
 
 1. the data bandwidth and the lowest significant output frequency (the default rules of
    ``N`` and of the window) from periodograms averaged over chunks of
@@ -14,18 +14,25 @@ in two passes over the data, never holding more than one chunk of samples:
    :func:`~hdpbsid.methods.basis_domain.bandwidth`).  A record of at most
    ``spectrum_samples`` samples is one chunk: the estimate is then the in-memory one;
 2. the record is cut into the windows of :func:`hdpbsid.records.split_windows` (same
-   edges), and batches of windows (about ``chunk_samples`` samples each) are read and
-   projected on their basis; only the basis coefficients are kept.  With
-   ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
-   ``dask.distributed`` client, if any), so batches are read and projected on the
-   workers.
+   edges); batches of windows (about ``chunk_samples`` samples each) are read, projected
+   on their basis and reduced to the first-pass factors of the core
+   (:func:`hdpbsid.core.streamed.varx_factors`: the AIC of every candidate ``p`` and the
+   VARX);
+3. the batches are read and projected again and reduced to the second-pass factors
+   (:func:`hdpbsid.core.streamed.state_factors`: the state, ``C``, ``A, B, K``).
 
-The basis-domain problem of all windows is then solved as by
-:func:`~hdpbsid.methods.hermite.identify_hermite` (same bases, lags, pseudo-inputs and
-core), so on the same windows the model is the in-memory one to rounding.  Memory: one
-batch of samples plus the coefficients, ``N_w / Ns_w`` of the samples (``N_w`` functions
-on windows of ``Ns_w`` samples) per signal and input hold, plus the core's work arrays on
-those coefficients -- these grow with the record, at that fraction of its size.
+With ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
+``dask.distributed`` client, if any) and the factors are combined pairwise by tasks as
+well, so only the final factors reach the caller.  The basis-domain problem of all
+windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (same bases,
+lags, pseudo-inputs, rules of ``p`` and of the input hold), solved from triangular
+factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so on the
+same windows the model is the in-memory one to rounding, up to the sign of each state
+coordinate.  Memory: one batch of samples and its coefficients, the projection maps
+(one per window length) and factors of a few rows squared -- nothing grows with the
+record.  ``feedthrough=True`` and ``stable_k=True`` are not covered by the streamed
+core: with them every window's coefficients are gathered and solved at once (memory
+``N_w / Ns_w`` of the samples per signal and input hold, plus the core's work arrays).
 """
 
 from __future__ import annotations
@@ -520,7 +527,9 @@ def identify_chunked(
     point.  ``chunk_samples``: samples read per batch of windows (at least one window);
     ``spectrum_samples``: samples per periodogram of the bandwidth estimate;
     ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
-    client, if one exists).
+    client, if one exists).  The options report the batches and which core ran
+    (``options["chunked"]["core"]``: ``"streamed"``, or ``"in memory"`` with
+    ``feedthrough``/``stable_k``).
     """
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")
