@@ -54,7 +54,7 @@ def _batch(U, Y, lag, P, blocks):
     return U[:, cols], Y[:, cols], bl, BlockPseudo(bl, [P] * len(blocks))
 
 
-def _streamed(U, Y, lag, P, partition, p, ps=(2, 3, 4), regularize="gcv", order=2):
+def _streamed(U, Y, lag, P, partition, p, ps=(2, 3, 4), regularize="gcv", order=2, stable_k=False):
     vf = None
     for blocks in partition:
         vf = streamed.merge(vf, streamed.varx_factors(*_batch(U, Y, lag, P, blocks), list(ps)))
@@ -62,7 +62,7 @@ def _streamed(U, Y, lag, P, partition, p, ps=(2, 3, 4), regularize="gcv", order=
     sf = None
     for blocks in partition:
         sf = streamed.merge(sf, streamed.state_factors(*_batch(U, Y, lag, P, blocks), vs))
-    return vf, vs, streamed.solve_model(vs, sf, 1, 1, order, None, 1e-6)
+    return vf, vs, streamed.solve_model(vs, sf, 1, 1, order, None, 1e-6, stable_k)
 
 
 def _signed(model, ref):
@@ -155,3 +155,16 @@ def test_merge_with_nothing_is_identity() -> None:
     U, Y, lag, P = _blocks()
     vf = streamed.varx_factors(*_batch(U, Y, lag, P, [0, 1]), [2])
     assert streamed.merge(None, vf) is vf and streamed.merge(vf, None) is vf
+
+
+def test_stable_k_is_the_in_memory_riccati_gain() -> None:
+    U, Y, lag, P = _blocks(4)
+    _, bl, pseudo = _batch(U, Y, lag, P, list(range(K_BLOCKS)))[1:]
+    kw = {"order": 2, "regularize": "gcv", "ridge_floor": 1e-6}
+    ref = pbsid_core_blocks(U, Y, 3, bl, pseudo, stable_k=True, **kw)
+    ls = pbsid_core_blocks(U, Y, 3, bl, pseudo, **kw)
+    got = _streamed(U, Y, lag, P, [[0, 1, 2, 3], [4, 5], [6, 7, 8, 9, 10, 11]], 3, stable_k=True)
+    assert got[2].options["k_method"] == ref.options["k_method"] == "riccati"
+    K_got = _signed(got[2], ref)[3]
+    assert _rel(K_got, ref.K) < SAME
+    assert _rel(ls.K, ref.K) > 1e3 * SAME  # the Riccati gain is not the least-squares one

@@ -256,3 +256,17 @@ def test_driver_statistics_do_not_grow_with_the_record(monkeypatch, data) -> Non
     # and that size is a (rows x rows) factor of the core's regressions, not columns:
     # p (m + l) + l = 9 rows of the VARX, 2 f l + m + l = 10 of the A, B, K step
     assert largest[40_000] <= 10 * 10
+
+
+@pytest.mark.parametrize(
+    ("setting", "core"), [("stable_k", "streamed"), ("feedthrough", "in memory")]
+)
+def test_other_core_settings_match_in_memory(data, setting, core) -> None:
+    t, u, y = data
+    ref = identify_hermite(t, u, y, order=2, window=4.0, **{setting: True})
+    rec = ChunkedRecord.from_arrays(u, y, 1.0 / FS)
+    m = identify_chunked(rec, order=2, window=4.0, chunk_samples=6000, **{setting: True})
+    assert m.options["chunked"]["core"] == core
+    assert max(_diff(m, ref).values()) < SAME, _diff(m, ref)
+    if setting == "feedthrough":
+        assert _rel(m.D, ref.D) < SAME

@@ -31,7 +31,8 @@ order of :func:`~hdpbsid.core.blocks.pbsid_core_blocks`):
 The model is the in-memory one to rounding, except that the sign of each state
 coordinate (a singular vector's sign) follows the rule of :func:`state_map`, so the
 realisation may differ from the in-memory one by ``diag(+-1)``.  Only the defaults
-``feedthrough=False``, ``stable_k=False``, least squares (no instruments) are covered.
+``feedthrough=False``, least squares (no instruments) are covered; ``stable_k`` needs
+the covariances of the state residual and of ``lag E`` only (:func:`solve_model`).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .blocks import BlockLag, BlockPseudo, Eliminator, _gamma_l_rows
-from .pbsid import CoreResult, core_options, select_order
+from .pbsid import CoreResult, core_options, select_order, stable_gain
 from .varx import VarxResult, parse_regularize, past_blocks, ridge_gcv_r
 
 __all__ = [
@@ -157,12 +158,14 @@ class StateFactors:
     """Second-pass statistics: ``sy`` the factor of ``[S; Y]`` (all ``ncols`` columns,
     ``S = Gamma_f L_p Z_p`` with the pseudo part), ``abk`` that of ``[lag S; lag U; lag
     Y; S]`` compressed onto the complement of the pseudo rows lagged once
-    (``compressed`` columns); normalised coefficients."""
+    (``compressed`` columns), ``lagged`` that of ``[lag S; lag Y]`` on all columns (the
+    innovations' lag for ``stable_k``); normalised coefficients."""
 
     ncols: int
     sy: Array
     abk: Array
     compressed: int
+    lagged: Array
     batches: int = 1
 
 
@@ -208,12 +211,14 @@ def state_factors(
         LKb = np.stack([_gamma_l_rows(G[k][:, : p * q], p, f, q, l) for k in range(len(blocks))])
         S[:, sub.cols] += np.einsum("kfr,rn->fkn", LKb, Pp)
     e1 = Eliminator(pseudo, [1], valid)
-    W = np.vstack([lag.apply(S, 1), lag.apply(Uz, 1), lag.apply(Yz, 1), S])
+    LS, LY = lag.apply(S, 1), lag.apply(Yz, 1)
+    W = np.vstack([LS, lag.apply(Uz, 1), LY, S])
     return StateFactors(
         ncols,
         r_of(np.vstack([S, Yz]).T),
         r_of(e1.compress(W).T, W.shape[0]),
         e1.ncols,
+        r_of(np.vstack([LS, LY]).T),
     )
 
 
@@ -233,6 +238,7 @@ def merge(a, b):  # type: ignore[no-untyped-def]
             _stack(a.sy, b.sy),
             _stack(a.abk, b.abk),
             a.compressed + b.compressed,
+            _stack(a.lagged, b.lagged),
             a.batches + b.batches,
         )
     soft: dict[int, dict[tuple[int, int], Array]] = {}
@@ -365,6 +371,7 @@ def solve_model(
     order: int | None,
     max_order: int | None,
     ridge_floor: float = 0.0,
+    stable_k: bool = False,
 ) -> CoreResult:
     """Steps 2-3 of :func:`~hdpbsid.core.blocks.pbsid_core_blocks` (order, ``C``, ``A, B,
     K``, innovation covariance) from the second-pass factors (normalised units).
@@ -409,6 +416,19 @@ def solve_model(
         0
     ].T
     A, B, K = th[:, :n], th[:, n : n + m], th[:, n + m :]
+    k_method = "least squares"
+    if stable_k:
+        # W = X - A lag X - B lag U - (pseudo part) = residual + K lag E, V = lag E; the
+        # residual is orthogonal to the regressor lag E, so with L = lag E lag E^T:
+        # W W^T = Res + K L K^T, W V^T = K L, V V^T = L.  Columns with these products:
+        # W' = [F_res^T, K F_L^T], V' = [0, F_L^T] (F^T F = Res, L), scaled to N columns
+        F_res = R2[dreg:, dreg:]
+        Ml = np.hstack([-C @ T, np.eye(l)])  # lag E = Ml [lag S; lag Y]
+        F_L = r_of(sf.lagged @ Ml.T, l)
+        w = np.sqrt((n + l) / sf.ncols)
+        Wv = w * np.hstack([F_res.T, K @ F_L.T])
+        Vv = w * np.hstack([np.zeros((l, n)), F_L.T])
+        K, k_method = stable_gain(A, C, Wv, Vv, K)
     coef = vs.theta[:, : p * (m + l)]
     Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
     vx = VarxResult(
@@ -424,7 +444,7 @@ def solve_model(
         extra=dict(vs.extra),
     )
     options = core_options(
-        p, f, n, order, False, vx, ridge_floor, False, "least squares", "", info, max_order
+        p, f, n, order, False, vx, ridge_floor, stable_k, k_method, "", info, max_order
     )
     options["estimator"] = "ls"
     options["pseudo_inputs"] = "eliminated per block (Frisch-Waugh-Lovell)"

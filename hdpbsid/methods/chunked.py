@@ -30,9 +30,9 @@ factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so o
 same windows the model is the in-memory one to rounding, up to the sign of each state
 coordinate.  Memory: one batch of samples and its coefficients, the projection maps
 (one per window length) and factors of a few rows squared -- nothing grows with the
-record.  ``feedthrough=True`` and ``stable_k=True`` are not covered by the streamed
-core: with them every window's coefficients are gathered and solved at once (memory
-``N_w / Ns_w`` of the samples per signal and input hold, plus the core's work arrays).
+record.  ``feedthrough=True`` is not covered by the streamed core: with it every
+window's coefficients are gathered and solved at once (memory ``N_w / Ns_w`` of the
+samples per signal and input hold, plus the core's work arrays).
 """
 
 from __future__ import annotations
@@ -428,7 +428,7 @@ def _best_hold_streamed(
                 f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
                 f"of Gamma L; increase f (and p) or reduce the order"
             )
-        core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR)
+        core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
         core.options["lag"] = lag_text
         su, sy = vs.su, vs.sy
         ncov = sy[:, None] * core.noise_covariance * sy[None, :]
@@ -529,7 +529,7 @@ def identify_chunked(
     ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
     client, if one exists).  The options report the batches and which core ran
     (``options["chunked"]["core"]``: ``"streamed"``, or ``"in memory"`` with
-    ``feedthrough``/``stable_k``).
+    ``feedthrough=True``).
     """
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")
@@ -616,7 +616,7 @@ def identify_chunked(
     kinds = {n: _Kind(lags[n], b.N, rows[n], b) for n, b in bases.items()}
     shared_data = _Shared(record, maps, kinds, holds)
     ctx = _Batches(jobs, shared_data, use_dask)
-    if st.feedthrough or st.stable_k:
+    if st.feedthrough:
         # not covered by the streamed core: every window's coefficients held at once
         out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
     else:
@@ -644,7 +644,7 @@ def identify_chunked(
             "batches": len(jobs),
             "chunk_samples": chunk_samples,
             "dask": use_dask,
-            "core": "streamed" if not (st.feedthrough or st.stable_k) else "in memory",
+            "core": "in memory" if st.feedthrough else "streamed",
         },
         **info,
         "window": length,
