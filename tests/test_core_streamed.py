@@ -168,3 +168,45 @@ def test_stable_k_is_the_in_memory_riccati_gain() -> None:
     K_got = _signed(got[2], ref)[3]
     assert _rel(K_got, ref.K) < SAME
     assert _rel(ls.K, ref.K) > 1e3 * SAME  # the Riccati gain is not the least-squares one
+
+
+def test_blocks_of_equal_size_and_different_pseudo_rows() -> None:
+    """Two kinds of blocks with the same column count: their nuisance directions and
+    singular values differ, so their ridge columns must be scaled apart."""
+    U, Y, lag, P = _blocks(5)
+    P2 = np.array([[2.0, 1.0] + [0.0] * (N_BLOCK - 2)])  # another initial-condition row
+    rows = [P] * 6 + [P2] * 6
+    bl = BlockLag([lag] * K_BLOCKS, [N_BLOCK] * K_BLOCKS)
+    ref = pbsid_core_blocks(
+        U, Y, 3, bl, BlockPseudo(bl, rows), order=2, regularize="gcv", ridge_floor=1e-6
+    )
+    assert ref.varx.ridge > 0  # the ridge columns matter
+
+    def run(partition, labels):
+        vf = sf = None
+        for blocks in partition:
+            cols = np.concatenate([np.arange(b * N_BLOCK, (b + 1) * N_BLOCK) for b in blocks])
+            b_lag = BlockLag([lag] * len(blocks), [N_BLOCK] * len(blocks))
+            pseudo = BlockPseudo(b_lag, [rows[b] for b in blocks])
+            kinds = [labels[b] for b in blocks]
+            vf = streamed.merge(
+                vf, streamed.varx_factors(U[:, cols], Y[:, cols], b_lag, pseudo, [3], kinds)
+            )
+        vs = streamed.solve_varx(vf, 1, 1, 3, 3, "gcv", 1e-6, normalize=False)
+        for blocks in partition:
+            cols = np.concatenate([np.arange(b * N_BLOCK, (b + 1) * N_BLOCK) for b in blocks])
+            b_lag = BlockLag([lag] * len(blocks), [N_BLOCK] * len(blocks))
+            pseudo = BlockPseudo(b_lag, [rows[b] for b in blocks])
+            sf = streamed.merge(
+                sf, streamed.state_factors(U[:, cols], Y[:, cols], b_lag, pseudo, vs)
+            )
+        return vs, streamed.solve_model(vs, sf, 1, 1, 2, None, 1e-6)
+
+    labels = ["first"] * 6 + ["second"] * 6
+    vs, got = run([[0, 7, 1], [2, 3, 8, 9], [4, 5, 6, 10, 11]], labels)
+    assert _rel(vs.theta, ref.varx.coef) < SAME
+    for a, b in zip(_signed(got, ref), (ref.A, ref.B, ref.C, ref.K), strict=True):
+        assert _rel(a, b) < SAME
+    # one label for both kinds is caught, not silently mixed
+    with pytest.raises(ValueError, match="different pseudo rows"):
+        run([list(range(K_BLOCKS))], ["same"] * K_BLOCKS)

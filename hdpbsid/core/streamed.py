@@ -37,8 +37,9 @@ the covariances of the state residual and of ``lag E`` only (:func:`solve_model`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -96,9 +97,9 @@ class VarxFactors:
     rows of ``Z`` and ``lag_sumsq[j - 1]`` of ``lag^j Z``; for every candidate ``p``:
     ``hard[p]`` the factor of ``[lag^1 Z; ..; lag^p Z; Y]`` compressed onto the
     complement of the pseudo rows lagged ``1..p`` (``compressed[p]`` columns,
-    ``rank[p]`` nuisance directions), ``soft[p][(n, i)]`` the factor of the rows ``W_b
-    Q_i`` of the blocks of ``n`` columns (``Q_i`` the ``i``-th nuisance direction of
-    singular value ``sv[p][n][i]``).
+    ``rank[p]`` nuisance directions), ``soft[p][(kind, i)]`` the factor of the rows ``W_b
+    Q_i`` of the blocks of one kind (``Q_i`` their ``i``-th nuisance direction, of
+    singular value ``sv[p][kind][i]``).
     """
 
     ncols: int
@@ -107,16 +108,26 @@ class VarxFactors:
     hard: dict[int, Array]
     compressed: dict[int, int]
     rank: dict[int, int]
-    soft: dict[int, dict[tuple[int, int], Array]]
-    sv: dict[int, dict[int, Array]]
+    soft: dict[int, dict[tuple[Hashable, int], Array]]
+    sv: dict[int, dict[Hashable, Array]]
     batches: int = 1
 
 
 def varx_factors(
-    U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo | None, ps: Sequence[int]
+    U: Array,
+    Y: Array,
+    lag: BlockLag,
+    pseudo: BlockPseudo | None,
+    ps: Sequence[int],
+    kinds: Sequence[Hashable] | None = None,
 ) -> VarxFactors:
     """:class:`VarxFactors` of one batch of blocks (``U`` m x N, ``Y`` l x N raw
-    coefficients side by side, ``lag``/``pseudo`` of these blocks)."""
+    coefficients side by side, ``lag``/``pseudo`` of these blocks).
+
+    ``kinds``: a label per block, the same for blocks with the same lag operator and
+    pseudo rows in every batch (their nuisance directions and singular values are then
+    the same, so their ridge columns are scaled alike); default: the block's column
+    count (right when blocks of equal size are of one kind)."""
     Z = np.vstack([U, Y])
     ncols = Z.shape[1]
     p_hi = max(ps)
@@ -143,13 +154,16 @@ def varx_factors(
         out.soft[p], out.sv[p] = {}, {}
         for s in elim.subs:
             K, nv = s.cols.shape
+            kind = nv if kinds is None else kinds[s.blocks[0]]
+            if kind in out.sv[p] and not np.array_equal(out.sv[p][kind], s.sv):
+                raise ValueError(f"kinds: blocks labelled {kind!r} have different pseudo rows")
             WQ = (W[:, s.cols].reshape(rows * K, nv) @ s.Q).reshape(rows, K, -1)
             for i in range(WQ.shape[2]):
-                key = (nv, i)
+                key = (kind, i)
                 R = r_of(WQ[:, :, i].T, rows)
                 prev = out.soft[p].get(key)
                 out.soft[p][key] = R if prev is None else _stack(prev, R)
-            out.sv[p][nv] = s.sv
+            out.sv[p][kind] = s.sv
     return out
 
 
@@ -222,7 +236,7 @@ def state_factors(
     )
 
 
-def merge(a, b):  # type: ignore[no-untyped-def]
+def merge(a: Any, b: Any) -> Any:
     """Statistics of the union of two sets of batches (factors stacked and
     re-triangularised, counts and sums added); ``None`` is the empty set.  Lists
     (one entry per input hold) are merged entry by entry."""
@@ -241,8 +255,13 @@ def merge(a, b):  # type: ignore[no-untyped-def]
             _stack(a.lagged, b.lagged),
             a.batches + b.batches,
         )
-    soft: dict[int, dict[tuple[int, int], Array]] = {}
+    soft: dict[int, dict[tuple[Hashable, int], Array]] = {}
     sv = {p: {**a.sv[p], **b.sv[p]} for p in a.hard}
+    for p in a.hard:
+        for kind in set(a.sv[p]) & set(b.sv[p]):
+            # the same rows in another process may differ by rounding (1e-8: far above)
+            if not np.allclose(a.sv[p][kind], b.sv[p][kind], rtol=1e-8, atol=0.0):
+                raise ValueError(f"kinds: blocks labelled {kind!r} have different pseudo rows")
     for p in a.hard:
         soft[p] = dict(a.soft[p])
         for key, R in b.soft[p].items():
@@ -273,7 +292,13 @@ def _scales(vf: VarxFactors, m: int, normalize: bool) -> tuple[Array, Array]:
 
 
 def select_p(
-    vf: VarxFactors, m: int, l: int, p_min: int, p_max: int, normalize: bool, rel_floor=1e-12
+    vf: VarxFactors,
+    m: int,
+    l: int,
+    p_min: int,
+    p_max: int,
+    normalize: bool,
+    rel_floor: float = 1e-12,
 ) -> tuple[int, Array]:
     """:func:`~hdpbsid.core.blocks.select_past_window_blocks` from the first-pass factors
     (``AIC = N log det Sigma_p + 2 l (p (m + l) + rank_p)``)."""

@@ -283,14 +283,14 @@ def _coefficients(shared: _Shared, a: int, b: int, sizes: list[int], single: boo
 def _batch_task(
     shared: _Shared, a: int, b: int, sizes: list[int], single: bool, step: Any, params: Any
 ) -> list[Any]:
-    """Read and project one batch, then ``step(U, Y, lag, pseudo, params[hold])`` per
-    input hold on its windows."""
+    """Read and project one batch, then ``step(U, Y, lag, pseudo, params[hold], sizes)``
+    per input hold on its windows."""
     Us, Y = _coefficients(shared, a, b, sizes, single)
     # private copies: the lag operators cache their powers, which threads must not share
     lags = {n: copy.deepcopy(shared.kinds[n].lag) for n in set(sizes)}
     lag = BlockLag([lags[n] for n in sizes], [shared.kinds[n].N for n in sizes])
     pseudo = BlockPseudo(lag, [shared.kinds[n].rows for n in sizes])
-    return [step(U, Y, lag, pseudo, prm) for U, prm in zip(Us, params, strict=True)]
+    return [step(U, Y, lag, pseudo, prm, sizes) for U, prm in zip(Us, params, strict=True)]
 
 
 def _coefficient_task(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
@@ -301,8 +301,10 @@ class _Batches:
     """The batches of a record: ``(first sample, end, window sizes, single)`` each, run
     serially or as ``dask.delayed`` tasks and reduced."""
 
-    def __init__(self, jobs: list[tuple[int, int, list[int], bool]], shared: _Shared, dask_: bool):
-        self.jobs, self.shared, self.use_dask = jobs, shared, dask_
+    def __init__(
+        self, jobs: list[tuple[int, int, list[int], bool]], shared: _Shared, use_dask: bool
+    ) -> None:
+        self.jobs, self.shared, self.use_dask = jobs, shared, use_dask
 
     def reduce(self, step: Any, params: Any, combine: Callable[[Any, Any], Any]) -> Any:
         """``combine`` of ``step``'s statistics over all batches (:func:`_reduce`)."""
@@ -322,11 +324,12 @@ class _Batches:
         return _compute(tasks, self.use_dask, shared=self.shared)
 
 
-def _varx_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, ps: list[int]):
-    return streamed.varx_factors(U, Y, lag, pseudo, ps)
+def _varx_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, ps: list[int], sizes):
+    # windows of one sample count share lag and pseudo rows: the count labels their kind
+    return streamed.varx_factors(U, Y, lag, pseudo, ps, sizes)
 
 
-def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any):
+def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any, sizes):
     return streamed.state_factors(U, Y, lag, pseudo, vs)
 
 
