@@ -352,6 +352,20 @@ def _finish(lines: list[str], emit, out: str | None) -> None:
         Path(out).write_text("\n".join(lines) + "\n")
 
 
+def _chunked_rows(args, quick: bool, kw: dict, emit) -> None:
+    for ns in [10**5] if quick else [10**6, 10**7]:
+        spec = {"case": "resonance", "method": "chunked", "ns": ns, "band": 20, "tmp": args.tmp}
+        emit(
+            _row(
+                "samples",
+                "5 Hz resonance, HDF5 file",
+                "hermite chunked, Dask",
+                spec,
+                run_point(spec, **kw),
+            )
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes only (a smoke run)")
@@ -365,6 +379,11 @@ def main() -> None:
         "--target-only",
         action="store_true",
         help="only the binary 10^4 target row (HD-PBSID vs N4SID)",
+    )
+    ap.add_argument(
+        "--chunked-only",
+        action="store_true",
+        help="only the chunked rows (10^6 and 10^7 samples from an HDF5 file on Dask)",
     )
     ap.add_argument("--point", help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -398,6 +417,10 @@ def main() -> None:
         print(line, flush=True)
 
     quick = args.quick
+    if args.chunked_only:
+        _chunked_rows(args, quick, kw, emit)
+        _finish(lines, emit, args.out)
+        return
     spec = {"case": "binary-target", "method": "", "ns": 10**4, "seeds": 2 if quick else args.seeds}
     emit(_target_row(spec, run_point(spec, **kw)))
     if args.target_only:
@@ -421,17 +444,7 @@ def main() -> None:
                 "repeats": args.repeats,
             }
             emit(_row("samples", "5 Hz resonance", method, spec, run_point(spec, **kw)))
-    for ns in [10**5] if quick else [10**6, 10**7]:
-        spec = {"case": "resonance", "method": "chunked", "ns": ns, "band": 20, "tmp": args.tmp}
-        emit(
-            _row(
-                "samples",
-                "5 Hz resonance, HDF5 file",
-                "hermite chunked, Dask",
-                spec,
-                run_point(spec, **kw),
-            )
-        )
+    _chunked_rows(args, quick, kw, emit)
     bands = [10, 50] if quick else [10, 20, 50, 100, 200]
     ns = 10**4 if quick else 10**5
     for band in bands:

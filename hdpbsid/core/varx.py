@@ -38,6 +38,7 @@ __all__ = [
     "past_blocks",
     "VarxResult",
     "ridge_gcv",
+    "ridge_gcv_r",
     "varx",
     "two_stage_ls",
     "select_past_window",
@@ -242,8 +243,17 @@ def ridge_gcv(
     make the exact-fit solution meaningless along the near-null directions of ``Phi``.
     """
     d, N = Phi.shape
+    return ridge_gcv_r(r_factor(Phi, Y), d, N, lam, floor)
+
+
+def ridge_gcv_r(
+    R: Array, d: int, N: int, lam: float | None = None, floor: float = 0.0
+) -> tuple[Array, float, float | None]:
+    """:func:`ridge_gcv` from the triangular factor ``R`` of ``[Phi^T, Y^T]``
+    (:func:`r_factor`; ``d`` regressors, ``N`` columns of ``Phi``), e.g. one accumulated
+    over batches of columns (:mod:`hdpbsid.core.streamed`): the GCV function and the
+    Tikhonov solution need ``R`` and ``N`` only."""
     # Phi^T = Q R11 and R11 = Ur S V^T give the SVD Phi^T = (Q Ur) S V^T without forming Q
-    R = r_factor(Phi, Y)
     Ur, s, Vt = np.linalg.svd(R[:d, :d])
     QtY = R[:d, d:]  # Q^T Y^T (d x l)
     beta = Ur.T @ QtY  # (Q Ur)^T Y^T
@@ -276,7 +286,7 @@ def ridge_gcv(
     g_best = gcv(best)
     # lam = 0 (plain least squares on the numerical range) is a candidate as well: on
     # exact data GCV decreases all the way to 0 and any lam > 0 would only add bias
-    rank_tol = smax * max(Phi.shape) * np.finfo(float).eps
+    rank_tol = smax * max(d, N) * np.finfo(float).eps
     r = int(np.sum(s > rank_tol))
     rss0 = out_of_range + float(np.sum(beta2[r:]))
     g0 = rss0 / (N - r) ** 2 if N > r else np.inf

@@ -5,7 +5,7 @@ A uniformly sampled record that does not fit in memory is described by a
 (u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.io.open_chunked`;
 any sliceable arrays, e.g. ``dask.array`` or ``zarr``: :meth:`ChunkedRecord.from_arrays`).
 :func:`identify_chunked` runs method ``"hermite"`` (:mod:`hdpbsid.methods.hermite`) on it
-in two passes over the data, never holding more than one chunk of samples:
+in three passes over the data, never holding more than one batch of samples:
 
 1. the data bandwidth and the lowest significant output frequency (the default rules of
    ``N`` and of the window) from periodograms averaged over chunks of
@@ -14,22 +14,30 @@ in two passes over the data, never holding more than one chunk of samples:
    :func:`~hdpbsid.methods.basis_domain.bandwidth`).  A record of at most
    ``spectrum_samples`` samples is one chunk: the estimate is then the in-memory one;
 2. the record is cut into the windows of :func:`hdpbsid.records.split_windows` (same
-   edges), and batches of windows (about ``chunk_samples`` samples each) are read and
-   projected on their basis; only the basis coefficients are kept.  With
-   ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
-   ``dask.distributed`` client, if any), so batches are read and projected on the
-   workers.
+   edges); batches of windows (about ``chunk_samples`` samples each) are read, projected
+   on their basis and reduced to the first-pass factors of the core
+   (:func:`hdpbsid.core.streamed.varx_factors`: the AIC of every candidate ``p`` and the
+   VARX);
+3. the batches are read and projected again and reduced to the second-pass factors
+   (:func:`hdpbsid.core.streamed.state_factors`: the state, ``C``, ``A, B, K``).
 
-The basis-domain problem of all windows is then solved as by
-:func:`~hdpbsid.methods.hermite.identify_hermite` (same bases, lags, pseudo-inputs and
-core), so on the same windows the model is the in-memory one to rounding.  Memory: one
-batch of samples plus the coefficients, ``N_w / Ns_w`` of the samples (``N_w`` functions
-on windows of ``Ns_w`` samples) per signal and input hold, plus the core's work arrays on
-those coefficients -- these grow with the record, at that fraction of its size.
+With ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
+``dask.distributed`` client, if any) and the factors are combined pairwise by tasks as
+well, so only the final factors reach the caller.  The basis-domain problem of all
+windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (same bases,
+lags, pseudo-inputs, rules of ``p`` and of the input hold), solved from triangular
+factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so on the
+same windows the model is the in-memory one to rounding, up to the sign of each state
+coordinate.  Memory: one batch of samples and its coefficients, the projection maps
+(one per window length) and factors of a few rows squared -- nothing grows with the
+record.  ``feedthrough=True`` is not covered by the streamed core: with it every
+window's coefficients are gathered and solved at once (memory ``N_w / Ns_w`` of the
+samples per signal and input hold, plus the core's work arrays).
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -40,10 +48,15 @@ from numpy.typing import NDArray
 import slbasis
 
 from ..checks import check_order, check_positive_int
-from ..core.blocks import BlockLag
+from ..core import streamed
+from ..core.blocks import BlockLag, BlockPseudo
 from ..model import StateSpaceModel
 from .basis_domain import (
+    COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
+    RIDGE_FLOOR,
+    CoreOut,
+    _largest_determined_p,
     _power_spectra,
     best_hold,
     integrator_model,
@@ -152,12 +165,20 @@ def _spectra(rec: ChunkedRecord, a: int, b: int) -> tuple[Array, Array, Array]:
     return w, Pu, _power_spectra(t, y)[1]
 
 
-def _compute(tasks: list[Any], use_dask: bool) -> list[Any]:
+def _compute(tasks: list[Any], use_dask: bool, shared: Any = None) -> list[Any]:
     if not use_dask:
         return [f(*args) for f, *args in tasks]
     import dask
 
-    return list(dask.compute(*[dask.delayed(f)(*args) for f, *args in tasks]))
+    one = dask.delayed(shared, pure=True) if shared is not None else None
+    return list(
+        dask.compute(
+            *[
+                dask.delayed(f)(*[one if (one is not None and a is shared) else a for a in args])
+                for f, *args in tasks
+            ]
+        )
+    )
 
 
 def averaged_spectra(
@@ -168,9 +189,14 @@ def averaged_spectra(
     (module docstring); the tail shorter than ``L`` is not used."""
     L = min(rec.ns, check_positive_int(spectrum_samples, "spectrum_samples", 16))
     k = rec.ns // L
-    parts = _compute([[_spectra, rec, i * L, (i + 1) * L] for i in range(k)], use_dask)
-    w = parts[0][0]
-    return w, sum(p[1] for p in parts) / k, sum(p[2] for p in parts) / k
+    w, Pu, Py = _reduce(
+        [[_spectra, rec, i * L, (i + 1) * L] for i in range(k)], _add_spectra, use_dask
+    )
+    return w, Pu / k, Py / k
+
+
+def _add_spectra(a: tuple[Array, Array, Array], b: tuple[Array, Array, Array]):
+    return a[0], a[1] + b[1], a[2] + b[2]
 
 
 def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
@@ -225,6 +251,263 @@ def _project_single(
     return project_record(basis, np.arange(b - a) * rec.dt, u, y, holds)
 
 
+@dataclass(frozen=True)
+class _Kind:
+    """What the windows of one sample count share: lag operator, basis size, pseudo rows
+    and basis."""
+
+    lag: Any
+    N: int
+    rows: Array
+    basis: Any
+
+
+@dataclass(frozen=True)
+class _Shared:
+    """The record and the per-length data every batch task needs (one copy in a Dask
+    graph)."""
+
+    record: ChunkedRecord
+    maps: dict[int, list[Array]]
+    kinds: dict[int, _Kind]
+    holds: tuple[str, ...]
+
+
+def _coefficients(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
+    """Coefficients of a batch of windows: ``([U per hold], Y)``."""
+    if single:
+        return _project_single(shared.record, a, b, shared.kinds[sizes[0]].basis, shared.holds)
+    return _project_batch(shared.record, a, b, sizes, shared.maps)
+
+
+def _batch_task(
+    shared: _Shared, a: int, b: int, sizes: list[int], single: bool, step: Any, params: Any
+) -> list[Any]:
+    """Read and project one batch, then ``step(U, Y, lag, pseudo, params[hold], sizes)``
+    per input hold on its windows."""
+    Us, Y = _coefficients(shared, a, b, sizes, single)
+    # private copies: the lag operators cache their powers, which threads must not share
+    lags = {n: copy.deepcopy(shared.kinds[n].lag) for n in set(sizes)}
+    lag = BlockLag([lags[n] for n in sizes], [shared.kinds[n].N for n in sizes])
+    pseudo = BlockPseudo(lag, [shared.kinds[n].rows for n in sizes])
+    return [step(U, Y, lag, pseudo, prm, sizes) for U, prm in zip(Us, params, strict=True)]
+
+
+def _coefficient_task(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
+    return _coefficients(shared, a, b, sizes, single)
+
+
+class _Batches:
+    """The batches of a record: ``(first sample, end, window sizes, single)`` each, run
+    serially or as ``dask.delayed`` tasks and reduced."""
+
+    def __init__(
+        self, jobs: list[tuple[int, int, list[int], bool]], shared: _Shared, use_dask: bool
+    ) -> None:
+        self.jobs, self.shared, self.use_dask = jobs, shared, use_dask
+
+    def reduce(self, step: Any, params: Any, combine: Callable[[Any, Any], Any]) -> Any:
+        """``combine`` of ``step``'s statistics over all batches (:func:`_reduce`)."""
+        return _reduce(
+            [
+                [_batch_task, self.shared, a, b, sz, one, step, params]
+                for a, b, sz, one in self.jobs
+            ],
+            combine,
+            self.use_dask,
+            shared=self.shared,
+        )
+
+    def gather(self) -> list[Any]:
+        """Every batch's coefficients (the memory of all of them at once)."""
+        tasks = [[_coefficient_task, self.shared, a, b, sz, one] for a, b, sz, one in self.jobs]
+        return _compute(tasks, self.use_dask, shared=self.shared)
+
+
+def _varx_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, ps: list[int], sizes):
+    # windows of one sample count share lag and pseudo rows: the count labels their kind
+    return streamed.varx_factors(U, Y, lag, pseudo, ps, sizes)
+
+
+def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any, sizes):
+    return streamed.state_factors(U, Y, lag, pseudo, vs)
+
+
+def _p_plan(
+    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
+) -> tuple[list[int], int | None, int, int, str]:
+    """The past windows to try, as :func:`~hdpbsid.methods.basis_domain.run_core` rules
+    them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
+    need = order if order is not None else 3
+    f_min = -(-need // l)
+    counts = {n: int(np.sum(sizes == n)) for n in kinds}
+    ncols = sum(kinds[n].N * counts[n] for n in kinds)
+    qs = {n: _kept_rows(k) for n, k in kinds.items()}
+    ratio = {n: kinds[n].N / (m + qs[n] + l) for n in kinds}
+    worst = min(kinds, key=lambda n: ratio[n])  # first length of least ratio (dict order)
+    nb, d = kinds[worst].N, m + qs[worst] + l
+    p_cap = min(nb // (COLS_PER_REGRESSOR * d), ncols // (COLS_PER_REGRESSOR * (m + l)))
+    if st.p is not None:
+        p = st.p
+        if p * d >= nb - p:
+            raise ValueError(
+                f"p={p} is too large for the basis: the VARX has p*(m+q+l) = {p}*{d} = "
+                f"{p * d} regressors per output (q = {qs[worst]} boundary/truncation rows) "
+                f"but only {nb} basis coefficients per window; reduce p or increase N"
+            )
+        if st.f is None and p * l < need:
+            raise ValueError(f"order needs f*l >= {need}, but f = p = {p}; increase p")
+        return [p], p, p, p, "given"
+    lo = max(P_DEFAULT_RANGE[0], f_min, st.f or 1)
+    hi = min(P_DEFAULT_RANGE[1], p_cap)
+    if hi < lo:
+        if lo > p_cap:
+            raise ValueError(
+                f"the basis is too small for the requested order by the default rule: it "
+                f"needs a past window p >= {lo}, but N = {nb} coefficients and m+q+l = {d} "
+                f"rows give p <= {p_cap} by p*(m+q+l) <= N/{COLS_PER_REGRESSOR}; the VARX is "
+                f"determined up to p = {_largest_determined_p(nb, d, ncols, m + l)}: pass p "
+                f"explicitly (less precise), increase N, or ask for a smaller order"
+            )
+        rule = (
+            f"p = {lo}, the smallest window with f*l >= the order (above the preferred "
+            f"range {P_DEFAULT_RANGE}; p*(m+q+l) <= N/{COLS_PER_REGRESSOR})"
+        )
+        return [lo], lo, lo, lo, rule
+    rule = (
+        f"min AIC of the VARX fit over p in [{lo}, {hi}] "
+        f"(p*(m+q+l) <= N/{COLS_PER_REGRESSOR}, f*l >= required rows)"
+    )
+    return list(range(lo, hi + 1)), (lo if hi == lo else None), lo, hi, rule
+
+
+def _kept_rows(kind: _Kind) -> int:
+    """Pseudo rows of a window kept by :class:`~hdpbsid.core.blocks.BlockPseudo`."""
+    one = BlockPseudo(BlockLag([kind.lag], [kind.N]), [kind.rows])
+    return int(one.groups[0][4].shape[0])
+
+
+def _best_hold_streamed(
+    ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
+) -> tuple[CoreOut, str, dict[str, float]]:
+    """:func:`~hdpbsid.methods.basis_domain.best_hold` with
+    :func:`~hdpbsid.methods.basis_domain.run_core` replaced by the streamed core
+    (:mod:`hdpbsid.core.streamed`): two passes over the batches, factors reduced."""
+    kinds, holds = ctx.shared.kinds, ctx.shared.holds
+    ps, p_fixed, lo, hi, p_rule = _p_plan(kinds, sizes, m, l, st, order)
+    first = ctx.reduce(_varx_step, [ps] * len(holds), streamed.merge)
+    need = order if order is not None else 3
+    sols, crits = [], []
+    for vf in first:
+        crit = None
+        p = p_fixed
+        if p is None:
+            p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+        if st.f is not None and st.f > p:
+            raise ValueError(f"the future window f must satisfy f <= p, got f={st.f} > p={p}")
+        if st.f is not None and st.f * l < need:
+            raise ValueError(f"order needs f*l >= {need}, but f*l = {st.f * l}; increase f")
+        f = p if st.f is None else st.f
+        sols.append(streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize))
+        crits.append(crit)
+    second = ctx.reduce(_state_step, sols, streamed.merge)
+    n_blocks = int(sizes.size)
+    n_pseudo = sum(
+        _kept_rows(kinds[int(n)]) * int(c)
+        for n, c in zip(*np.unique(sizes, return_counts=True), strict=True)
+    )
+    lag_text = (
+        f"BlockLag({n_blocks} blocks: {', '.join(sorted({repr(k.lag) for k in kinds.values()}))})"
+    )
+    best: tuple[float, CoreOut, str] | None = None
+    hold_crit: dict[str, float] = {}
+    for hold, vs, sf, crit in zip(holds, sols, second, crits, strict=True):
+        f_used = vs.f
+        mo = min(st.max_order, f_used * l - 1) if order is None else None
+        if mo is not None and mo < 1:
+            raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+        if order is not None and order > f_used * l:
+            raise ValueError(
+                f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
+                f"of Gamma L; increase f (and p) or reduce the order"
+            )
+        core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
+        core.options["lag"] = lag_text
+        su, sy = vs.su, vs.sy
+        ncov = sy[:, None] * core.noise_covariance * sy[None, :]
+        opts: dict[str, Any] = dict(core.options)
+        opts.update(
+            {
+                "normalize": st.normalize,
+                "input_scale": su,
+                "output_scale": sy,
+                "p_rule": p_rule,
+                "p_criterion_values": crit,
+                "f_rule": "given" if st.f is not None else "f = p",
+                "n_pseudo_inputs": n_pseudo,
+                "n_blocks": n_blocks,
+            }
+        )
+        out = CoreOut(
+            core.A,
+            core.B / su[None, :] if m else core.B[:, :0],
+            core.C * sy[:, None],
+            np.zeros((l, m)),
+            core.K / sy[None, :],
+            np.zeros((core.A.shape[0], 0)),
+            ncov,
+            core,
+            opts,
+        )
+        sign, ld = np.linalg.slogdet(np.atleast_2d(ncov))
+        val = float(ld) if sign > 0 else -np.inf
+        hold_crit[hold] = val
+        if best is None or val < best[0]:
+            best = (val, out, hold)
+    assert best is not None
+    return best[1], best[2], hold_crit
+
+
+def _best_hold_in_memory(
+    ctx: _Batches, sizes: Array, core_options: dict[str, Any]
+) -> tuple[CoreOut, str, dict[str, float]]:
+    """:func:`~hdpbsid.methods.basis_domain.best_hold` on every window's coefficients at
+    once (the settings the streamed core does not cover)."""
+    kinds, holds = ctx.shared.kinds, ctx.shared.holds
+    results = ctx.gather()
+    Us = [np.hstack([r[0][i] for r in results]) for i in range(len(holds))]
+    Yc = np.hstack([r[1] for r in results])
+    keys = [int(n) for n in sizes]
+    lag = BlockLag([kinds[n].lag for n in keys], [kinds[n].N for n in keys])
+    return best_hold(holds, Us, Yc, [kinds[n].rows for n in keys], lag, **core_options)
+
+
+def _reduce(
+    tasks: list[Any], combine: Callable[[Any, Any], Any], use_dask: bool, shared: Any = None
+) -> Any:
+    """``combine`` over the results of ``tasks`` (``[f, *args]``) without holding them
+    all: serially a running fold; with Dask a pairwise tree of ``combine`` tasks, so the
+    workers reduce and only the final result reaches the caller.  ``shared`` (an
+    argument of many tasks) is put in the graph once."""
+    if not use_dask:
+        acc = None
+        for f, *args in tasks:
+            r = f(*args)
+            acc = r if acc is None else combine(acc, r)
+        return acc
+    import dask
+
+    one = dask.delayed(shared, pure=True) if shared is not None else None
+    parts = [
+        dask.delayed(f)(*[one if (one is not None and a is shared) else a for a in args])
+        for f, *args in tasks
+    ]
+    while len(parts) > 1:
+        nxt = [dask.delayed(combine)(x, y) for x, y in zip(parts[::2], parts[1::2], strict=False)]
+        parts = nxt + ([parts[-1]] if len(parts) % 2 else [])
+    return dask.compute(parts[0])[0]
+
+
 def identify_chunked(
     record: ChunkedRecord,
     order: int | None = None,
@@ -247,7 +530,9 @@ def identify_chunked(
     point.  ``chunk_samples``: samples read per batch of windows (at least one window);
     ``spectrum_samples``: samples per periodogram of the bandwidth estimate;
     ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
-    client, if one exists).
+    client, if one exists).  The options report the batches and which core ran
+    (``options["chunked"]["core"]``: ``"streamed"``, or ``"in memory"`` with
+    ``feedthrough=True``).
     """
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")
@@ -304,73 +589,70 @@ def identify_chunked(
             r += list(b.eval(np.array([0.0, (n - 1) * h])).T)
         rows[n] = np.array(r)
     holds = resolve_holds(st.input_hold, m)
-    # batches: consecutive windows, about chunk_samples samples each, read at once
-    tasks: list[Any] = []
-    maps: dict[int, list[Array]] = {}
+    # batches: consecutive windows, about chunk_samples samples each, read at once; a
+    # window whose projection map would be too large is a batch of its own
+    jobs: list[tuple[int, int, list[int], bool]] = []
     batch: list[int] = []
+    single: set[int] = set()
 
     def flush() -> None:
         if batch:
             a, b = int(edges[batch[0]]), int(edges[batch[-1] + 1]) + 1
-            tasks.append([_project_batch, record, a, b, [int(sizes[i]) for i in batch], maps])
+            jobs.append((a, b, [int(sizes[i]) for i in batch], False))
             batch.clear()
 
     for k, n in enumerate(int(n) for n in sizes):
-        b = bases[n]
-        if b.N * n * 8 * (len(holds) + 1) > MAP_BYTES:  # too large a map: one by one
+        if bases[n].N * n * 8 * (len(holds) + 1) > MAP_BYTES:  # too large a map: one by one
             flush()
-            tasks.append([_project_single, record, int(edges[k]), int(edges[k + 1]) + 1, b, holds])
+            single.add(n)
+            jobs.append((int(edges[k]), int(edges[k + 1]) + 1, [n], True))
             continue
-        if n not in maps:
-            Gu, Gy = _maps(b, np.arange(n) * h, holds)
-            maps[n] = Gu + [Gy]
         if batch and int(edges[k + 1]) - int(edges[batch[0]]) + 1 > chunk_samples:
             flush()
         batch.append(k)
     flush()
-    if use_dask and maps:
-        import dask
-
-        shared = dask.delayed(maps, pure=True)  # one copy of the maps in the graph
-        for task in tasks:
-            if task[0] is _project_batch:
-                task[5] = shared
-    results = _compute(tasks, use_dask)
-    Us = [np.hstack([r[0][i] for r in results]) for i in range(len(holds))]
-    Yc = np.hstack([r[1] for r in results])
-    keys = [int(n) for n in sizes]
+    maps: dict[int, list[Array]] = {}
+    for n, b in bases.items():
+        if n not in single:
+            Gu, Gy = _maps(b, np.arange(n) * h, holds)
+            maps[n] = Gu + [Gy]
+    kinds = {n: _Kind(lags[n], b.N, rows[n], b) for n, b in bases.items()}
+    shared_data = _Shared(record, maps, kinds, holds)
+    ctx = _Batches(jobs, shared_data, use_dask)
+    if st.feedthrough:
+        # not covered by the streamed core: every window's coefficients held at once
+        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
+    else:
+        out, hold, hold_crit = _best_hold_streamed(ctx, sizes, m, record.l, st, order)
+    keys = [int(n) for n in np.unique(sizes)]
     seg_bases = [bases[n] for n in keys]
-    lag = BlockLag([lags[n] for n in keys], [b.N for b in seg_bases])
-    out, hold, hold_crit = best_hold(
-        holds,
-        Us,
-        Yc,
-        [rows[n] for n in keys],
-        lag,
-        **st.core_options(order),
-    )
-    Ns_ = [b.N for b in seg_bases]
+    Ns_all = [bases[int(n)].N for n in sizes]
     options = {
         "method": "hermite",
-        "N": int(max(Ns_)),
-        "N_per_block": Ns_ if len(Ns_) > 1 else None,
+        "N": int(max(b.N for b in seg_bases)),
+        "N_per_block": Ns_all if len(Ns_all) > 1 else None,
         "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
         "bandwidth": wb,
         "bandwidth_rule": (
             f"periodograms averaged over chunks of {min(record.ns, spectrum_samples)} samples"
         ),
         "scale": s_ref,
-        "centre": record.t0 + seg_bases[0].centre,
+        "centre": record.t0 + bases[int(sizes[0])].centre,
         "alpha_rule": "4 * scale (median over blocks)",
         "boundary": st.boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": record.ns,
         "t0": record.t0,
-        "chunked": {"batches": len(tasks), "chunk_samples": chunk_samples, "dask": use_dask},
+        "chunked": {
+            "batches": len(jobs),
+            "chunk_samples": chunk_samples,
+            "dask": use_dask,
+            "core": "in memory" if st.feedthrough else "streamed",
+        },
         **info,
         "window": length,
         "n_records": 1,
-        "n_segments": len(keys),
+        "n_segments": int(sizes.size),
     }
     return integrator_model(
         out,
