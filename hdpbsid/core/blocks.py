@@ -61,6 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import qr
+from scipy.linalg.lapack import dorgqr, dormqr
 
 from .pbsid import CoreResult, core_options, estimate_cd, select_order, stable_gain
 from .varx import (
@@ -225,6 +226,40 @@ class _Sub:
     tau: Array
 
 
+def _row_space(S: Array) -> tuple[Array, Array, Array, Array, Array]:
+    """Orthonormal basis ``Q`` (``Nv x k``) of the row space of ``S`` (``r x Nv``), its
+    singular values ``s`` and right vectors ``Vt`` (``S^T = Q diag(s) Vt``, rank ``k``
+    by the usual ``max(r, Nv) eps s_1`` cut), and Householder reflectors (LAPACK raw
+    layout ``refl, tau``) whose first ``k`` columns span ``Q``.
+
+    ``S^T = Q_0 R`` by Householder QR first, then the SVD of the small ``r x r`` factor
+    ``R = U_r diag(s) Vt``: ``S^T = (Q_0 U_r) diag(s) Vt`` is the thin SVD of ``S^T``
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 8.6.3, R-SVD), at the cost of
+    one QR of the tall ``Nv x r`` matrix and none of its SVD.  At full rank ``k = r`` the
+    QR's own reflectors already span ``Q``; only a rank-deficient ``S`` needs the
+    reflectors of ``Q`` itself (a second QR)."""
+    Nv, r = S.shape[1], S.shape[0]
+    if r == 0 or Nv < r:
+        U, s, Vt = np.linalg.svd(S.T, full_matrices=False)
+        tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
+        k = int(np.sum(s > tol))
+        (refl, tau), _ = qr(U[:, :k], mode="raw")
+        return U[:, :k], s[:k], Vt[:k], refl, tau
+    (refl, tau), R = qr(S.T, mode="raw")
+    Ur, s, Vt = np.linalg.svd(R[:r], full_matrices=False)
+    tol = max(S.shape) * np.finfo(float).eps * s[0]
+    k = int(np.sum(s > tol))
+    Q0, _, info = dorgqr(refl[:, :r], tau[:r], lwork=max(1, 64 * r))
+    if info != 0:  # pragma: no cover - argument errors only
+        raise ValueError(f"LAPACK orgqr failed (info = {info})")
+    Q = Q0 @ Ur[:, :k]
+    if k < r:
+        (refl, tau), _ = qr(Q, mode="raw")
+    else:
+        refl, tau = refl[:, :r], tau[:r]
+    return Q, s[:k], Vt[:k], refl, tau
+
+
 class Eliminator:
     """Compression onto the complement of every block's nuisance rows (module docstring).
 
@@ -250,16 +285,11 @@ class Eliminator:
             for rows_i in patterns.values():
                 mk = masks[rows_i[0]]
                 S = S_full[:, mk]
-                U, s, Vt = np.linalg.svd(S.T, full_matrices=False)
-                tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
-                k = int(np.sum(s > tol))
-                Q = U[:, :k]
-                (refl, tau), _ = qr(Q, mode="raw")
+                Q, s, Vt, refl, tau = _row_space(S)
+                k = Q.shape[1]
                 cols = idx[rows_i][:, mk]
                 has[idx[rows_i]] = True
-                self.subs.append(
-                    _Sub([bs[i] for i in rows_i], cols, S, Q, s[:k], Vt[:k], refl, tau)
-                )
+                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, Q, s, Vt, refl, tau))
                 self.rank += k * len(rows_i)
         self.plain = np.flatnonzero(mask & ~has)
 
@@ -283,11 +313,11 @@ class Eliminator:
         for s in self.subs:
             K, nv = s.cols.shape
             k = s.Q.shape[1]
-            C = W[:, s.cols].reshape(rows * K, nv).T.copy()  # (Nv, rows K)
-            for i in range(k):  # C <- H_i C, H_i = I - tau v v^T (Q^T = H_k ... H_1)
-                v = s.refl[i:, i].copy()
-                v[0] = 1.0
-                C[i:] -= s.tau[i] * np.outer(v, v @ C[i:])
+            C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
+            if k:
+                # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
+                # reflectors applied by LAPACK ormqr in one blocked call
+                C = _apply_qt(s.refl, s.tau, C)
             parts.append(C[k:].T.reshape(rows, K * (nv - k)))
             if lam > 0:
                 Wb = W[:, s.cols].reshape(rows * K, nv)
@@ -314,6 +344,19 @@ class Eliminator:
             out[:, s.cols] = (Rb - fit).reshape(rows, K, nv)
             coefs.append((s.blocks, G.reshape(rows, K, -1).transpose(1, 0, 2)))
         return out, coefs
+
+
+def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
+    """``Q^T C`` for the full orthogonal ``Q`` of ``scipy.linalg.qr(.., mode="raw")``
+    (Householder vectors ``refl``, factors ``tau``), by LAPACK ``ormqr``."""
+    C = np.asfortranarray(C, dtype=float)
+    if C.shape[1] == 0:
+        return C
+    lwork = max(1, C.shape[1]) * 64  # the blocked ormqr's work space (nb = 64 columns)
+    out, _, info = dormqr("L", "T", refl, tau, C, lwork, overwrite_c=False)
+    if info != 0:  # pragma: no cover - argument errors only
+        raise ValueError(f"LAPACK ormqr failed (info = {info})")
+    return out
 
 
 def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float):

@@ -241,7 +241,7 @@ def evaluate(
         raise ValueError(f"out: expected shape {(N, xa.size)}, got {out.shape}")
     if xa.size == 0:
         return out
-    use = _engine.resolve(engine, N * xa.size)
+    use = _engine.resolve(engine, _engine.work(N, xa.size))
     logabs, sign = kernel.log_phi0(xa)
     m0, e0 = _split_log(np.asarray(logabs, dtype=float), np.asarray(sign, dtype=float))
     if use == "numba":
