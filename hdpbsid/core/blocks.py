@@ -123,6 +123,8 @@ class BlockLag(CachedPowers):
         )
 
     def _once(self, W: Array) -> Array:
+        if len(self.groups) == 1 and len(self.groups[0][2]) == 1:
+            return self.groups[0][0].apply(W, 1)  # one block: no gather / scatter of columns
         out = np.empty_like(W)
         rows = W.shape[0]
         for lag, n, bs, idx in self.groups:
@@ -179,6 +181,20 @@ class BlockPseudo:
             (lag.lags[bs[0]], lag.sizes[bs[0]], bs, lag.columns(bs), normed[key[2]])
             for key, bs in groups.items()
         ]
+        # lag powers of each group's rows, shared by every eliminator built on this object
+        # (the AIC over p needs the powers 1..p for every p: p_max lags, not p_max^2 / 2)
+        self._powers: list[list[Array]] = [[P] for *_, P in self.groups]
+
+    def lagged(self, g: int, js: Sequence[int]) -> Array:
+        """``[lag^j P for j in js]`` stacked for group ``g`` (``lag^0`` = identity); the
+        powers are computed once per object."""
+        lag, *_, P = self.groups[g]
+        if P.shape[0] == 0:
+            return np.zeros((0, P.shape[1]))
+        powers = self._powers[g]
+        while len(powers) <= max(js, default=0):
+            powers.append(lag.apply(powers[-1], 1))
+        return np.vstack([powers[j] for j in js])
 
     @property
     def count(self) -> int:
@@ -194,22 +210,6 @@ def _normalise_rows(P: Array) -> Array:
         return P[:0]
     keep = r > PSEUDO_ROW_FLOOR * r.max()
     return P[keep] / r[keep, None]
-
-
-def _lagged(lag: LagOperator, P: Array, js: Sequence[int]) -> Array:
-    """``[lag^j P for j in js]`` stacked (lag^0 = identity)."""
-    if P.shape[0] == 0:
-        return np.zeros((0, P.shape[1]))
-    out, cur, done = [], P.copy(), 0
-    powers: dict[int, Array] = {0: P}
-    for j in sorted(set(js)):
-        while done < j:
-            cur = lag.apply(cur, 1)
-            done += 1
-        powers[j] = cur
-    for j in js:
-        out.append(powers[j])
-    return np.vstack(out)
 
 
 @dataclass
@@ -273,10 +273,10 @@ class Eliminator:
         if pseudo is None or not js:
             return
         has = np.zeros(mask.size, dtype=bool)
-        for lag, _n, bs, idx, P in pseudo.groups:
+        for g, (_lag, _n, bs, idx, P) in enumerate(pseudo.groups):
             if P.shape[0] == 0:
                 continue
-            S_full = _lagged(lag, P, js)
+            S_full = pseudo.lagged(g, js)
             masks = mask[idx]  # (K, N)
             # blocks of a group normally share the usable pattern; split where not
             patterns: dict[bytes, list[int]] = {}

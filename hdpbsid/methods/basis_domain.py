@@ -275,6 +275,7 @@ def clip_basis_size(
     return N, text
 
 
+@memoize
 def data_bandwidth(t: Array, u: Array, y: Array) -> float:
     """Bandwidth of a record: 95 % of each output's energy above its noise floor, and
     99 % of each band-limited input's.

@@ -28,6 +28,7 @@ absorbed exactly as a pseudo-input with row ``e_{N-1}^T``, like the two boundary
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -106,6 +107,23 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
         "hermite",
         f"N = {BAND_MARGIN} * bandwidth * T / {HERMITE_BAND}",
     )
+
+
+@functools.lru_cache(maxsize=16)
+def _hermite_basis(N: int, T: float, scale: float | None) -> Any:
+    """``slbasis.basis("hermite", N, (0, T), scale=scale)``, kept for the next call with the
+    same arguments: the held-out check identifies one sub-record at two operator scales,
+    and the default scale needs the extreme zeros of ``phi_N`` (an eigenvalue problem of
+    size ``N``).  A basis is not modified after construction."""
+    return slbasis.basis("hermite", N, (0.0, T), scale=scale)
+
+
+@functools.lru_cache(maxsize=16)
+def _boundary_rows(N: int, T: float, scale: float | None) -> Array:
+    """``phi_n(0)``, ``phi_n(T)`` of :func:`_hermite_basis` (``2 x N``, read-only)."""
+    P = _hermite_basis(N, T, scale).eval(np.array([0.0, T]))
+    P.flags.writeable = False
+    return P
 
 
 def _diagonal(Dmat: Any, k: int) -> Array:
@@ -276,7 +294,7 @@ def identify_hermite(
             if N > ns:
                 raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
         n_rules.append(rule)
-        bases[keys[i]] = slbasis.basis("hermite", Nb, (0.0, T), scale=scale)
+        bases[keys[i]] = _hermite_basis(int(Nb), float(T), scale)
     scales = np.array([b.scale for b in bases.values()])
     s_ref = float(np.median(scales))
     alpha_given = alpha is not None
@@ -285,7 +303,7 @@ def identify_hermite(
     for k, b in bases.items():
         r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
         if st.boundary:
-            r += list(b.eval(np.array([0.0, segs[k].duration])).T)
+            r += list(_boundary_rows(b.N, b.t_span[1], scale).T)
         rows[k] = np.array(r)
     seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(st.input_hold, m)
