@@ -245,7 +245,8 @@ def identify_hermite(
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
       ``zoh`` and ``foh`` and keeps the smaller innovation variance
-      (:func:`~hdpbsid.methods.basis_domain.project_record`);
+      (:func:`~hdpbsid.methods.basis_domain.project_record`), in the first
+      operator-scale pass; the later passes and the held-out fits keep its choice;
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.methods.dt.identify_dt`;
