@@ -93,3 +93,43 @@ def test_monte_carlo_bias_and_std() -> None:
     # issue targets: bias <= 1 %, std <= 2 % of |lambda| (measured ~0.1 % and ~0.1 %)
     assert bias.max() <= 0.01
     assert std.max() <= 0.02
+
+
+@pytest.mark.parametrize("ns", [2001, 2000])  # odd / even node counts: with / without a centre
+def test_mirrored_nodes_projected_once_same_coefficients(ns: int) -> None:
+    import hdpbsid.methods.basis_domain as bd
+    import slbasis
+
+    rng = np.random.default_rng(ns)
+    t = np.arange(ns) * 0.01
+    u = np.repeat(np.sign(rng.standard_normal(ns // 5 + 1)), 5)[:ns, None]
+    y = rng.standard_normal((ns, 1))
+    basis = slbasis.basis("hermite", 300, (0.0, float(t[-1])))
+    assert bd._has_parity(basis)
+    assert not bd._has_parity(slbasis.basis("laguerre", 30, (0.0, float(t[-1]))))
+    sizes: list[int] = []
+    project = basis.project
+
+    def spy(tt, *a, **k):
+        sizes.append(len(tt))
+        return project(tt, *a, **k)
+
+    basis.project = spy  # type: ignore[method-assign]
+    Us, Y = bd.project_record.__wrapped__(basis, t, u, y, ("zoh", "foh"))
+    basis.project = project  # type: ignore[method-assign]
+    assert sizes == [-(-3 * (ns - 1) // 2)]  # the mirrored nodes were paired: half of them
+    # oracle: every node projected on its own (the unpaired quadrature, same nodes)
+    x, w = np.polynomial.legendre.leggauss(bd.GAUSS_NODES)
+    h = np.diff(t)
+    tn = (t[:-1, None] + h[:, None] * (1.0 + x[None, :]) / 2.0).ravel()
+    wn = (h[:, None] * w[None, :] / 2.0).ravel()
+    lam = np.tile((1.0 + x) / 2.0, ns - 1)
+    foh = (1.0 - lam) * np.repeat(u[:-1, 0], 3) + lam * np.repeat(u[1:, 0], 3)
+    lin_y = (1.0 - lam) * np.repeat(y[:-1, 0], 3) + lam * np.repeat(y[1:, 0], 3)
+    S = np.column_stack([np.repeat(u[:-1, 0], 3), foh, lin_y])
+    ref = basis.project(tn, S, weights=wn).T
+    got = np.vstack([Us[0], Us[1], Y])
+    # pairing moves a node by <= PAIRING_ULPS ulps of t (~2e-14 s); with |phi_n'| <=
+    # scale * sqrt(2 N) max|phi| that changes a coefficient by ~1e-12 of the largest, far
+    # below 1e-9; summation order differs by rounding only
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())

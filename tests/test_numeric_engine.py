@@ -223,3 +223,12 @@ def test_engine_choice(monkeypatch):
         evaluate(HERMITE, 3, np.zeros(2), engine="numba")
     monkeypatch.setenv("SLBASIS_NO_NUMBA", "0")
     assert engine.numba_available()
+
+
+def test_auto_counts_the_numpy_row_overhead():
+    # many functions at a few points: the numpy engine still pays its per-row cost
+    # (NUMPY_ROW_OVERHEAD values per row), so "auto" compiles; few rows stay with numpy
+    assert engine.work(4000, 2) == 4000 * (2 + engine.NUMPY_ROW_OVERHEAD)
+    if engine.numba_available():
+        assert engine.resolve("auto", engine.work(4000, 2)) == "numba"
+    assert engine.resolve("auto", engine.work(10, 2)) == "numpy"

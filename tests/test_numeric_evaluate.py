@@ -1,5 +1,7 @@
 """Stable evaluation: the mantissa/exponent recurrence against mpmath at 50 digits."""
 
+import importlib
+
 import mpmath
 import numpy as np
 import pytest
@@ -105,3 +107,26 @@ def test_bad_inputs():
         evaluate(HERMITE, 3, np.zeros((2, 2)))
     with pytest.raises(ValueError, match="x"):
         evaluate(HERMITE, 3, np.array([0.0, np.nan]))
+
+
+@pytest.mark.parametrize(
+    ("kernel", "N", "xr"),
+    [(HERMITE, 4000, (-80.0, 80.0)), (HERMITE, 66, (0.0, 5.0)), (LAGUERRE, 3000, (0.0, 1e4))],
+)
+def test_schedule_is_the_sequential_growth_rule(kernel, N, xr):
+    """The renormalisation points found block by block equal the rule stated row by row:
+    close a block before step ``n`` when its summed growth exceeds the budget or it has
+    ``_MAX_STEPS`` steps (a point at ``n = 0`` is a no-op and is not used)."""
+    ev = importlib.import_module("slbasis.numeric.evaluate")  # the module, not the function
+    rec = ev.Recurrence(kernel, N)
+    b = rec.b[: N - 1]
+    dist = np.maximum(np.abs(xr[1] - b), np.abs(xr[0] - b))
+    g = np.log2(np.maximum(1.0, (dist + rec.abs_A_prev[: N - 1]) * rec.abs_inv_A[: N - 1]))
+    want, acc, last = [], 0.0, 0
+    for n in range(N - 1):
+        acc += g[n]
+        if acc > ev._GROWTH_BUDGET or n + 1 - last >= ev._MAX_STEPS:
+            want.append(n)
+            acc, last = g[n], n
+    got = rec.schedule(xr[0], xr[1], N - 1)
+    assert [n for n in got if n > 0] == [n for n in want if n > 0]

@@ -60,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import qr
+from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
 
 from .pbsid import CoreResult, core_options, estimate_cd, select_order, stable_gain
 from .varx import (
@@ -122,6 +122,8 @@ class BlockLag(CachedPowers):
         )
 
     def _once(self, W: Array) -> Array:
+        if len(self.groups) == 1 and len(self.groups[0][2]) == 1:
+            return self.groups[0][0].apply(W, 1)  # one block: no gather / scatter of columns
         out = np.empty_like(W)
         rows = W.shape[0]
         for lag, n, bs, idx in self.groups:
@@ -178,6 +180,20 @@ class BlockPseudo:
             (lag.lags[bs[0]], lag.sizes[bs[0]], bs, lag.columns(bs), normed[key[2]])
             for key, bs in groups.items()
         ]
+        # lag powers of each group's rows, shared by every eliminator built on this object
+        # (the AIC over p needs the powers 1..p for every p: p_max lags, not p_max^2 / 2)
+        self._powers: list[list[Array]] = [[P] for *_, P in self.groups]
+
+    def lagged(self, g: int, js: Sequence[int]) -> Array:
+        """``[lag^j P for j in js]`` stacked for group ``g`` (``lag^0`` = identity); the
+        powers are computed once per object."""
+        lag, *_, P = self.groups[g]
+        if P.shape[0] == 0:
+            return np.zeros((0, P.shape[1]))
+        powers = self._powers[g]
+        while len(powers) <= max(js, default=0):
+            powers.append(lag.apply(powers[-1], 1))
+        return np.vstack([powers[j] for j in js])
 
     @property
     def count(self) -> int:
@@ -195,22 +211,6 @@ def _normalise_rows(P: Array) -> Array:
     return P[keep] / r[keep, None]
 
 
-def _lagged(lag: LagOperator, P: Array, js: Sequence[int]) -> Array:
-    """``[lag^j P for j in js]`` stacked (lag^0 = identity)."""
-    if P.shape[0] == 0:
-        return np.zeros((0, P.shape[1]))
-    out, cur, done = [], P.copy(), 0
-    powers: dict[int, Array] = {0: P}
-    for j in sorted(set(js)):
-        while done < j:
-            cur = lag.apply(cur, 1)
-            done += 1
-        powers[j] = cur
-    for j in js:
-        out.append(powers[j])
-    return np.vstack(out)
-
-
 @dataclass
 class _Sub:
     """Blocks with one nuisance row space: orthonormal basis and Householder reflectors."""
@@ -223,6 +223,54 @@ class _Sub:
     Vt: Array  # right singular vectors (k x r_raw)
     refl: Array  # Householder vectors (Nv x k, LAPACK raw layout)
     tau: Array
+
+
+def _householder(A: Array) -> tuple[Array, Array]:
+    """Householder QR of ``A`` in LAPACK's raw layout (``geqrf``: ``R`` in the upper
+    triangle, the reflectors below it, factors ``tau``), as ``scipy.linalg.qr(A,
+    mode="raw")`` but without its workspace query and input checks (a fifth of the time
+    for the tall, thin nuisance matrices here)."""
+    A = np.asfortranarray(A, dtype=float)
+    if A.shape[1] == 0:
+        return A, np.zeros(0)
+    h, tau, _, info = dgeqrf(A, lwork=max(1, 64 * A.shape[1]))
+    if info != 0:  # pragma: no cover - argument errors only
+        raise ValueError(f"LAPACK geqrf failed (info = {info})")
+    return h, tau
+
+
+def _row_space(S: Array) -> tuple[Array, Array, Array, Array, Array]:
+    """Orthonormal basis ``Q`` (``Nv x k``) of the row space of ``S`` (``r x Nv``), its
+    singular values ``s`` and right vectors ``Vt`` (``S^T = Q diag(s) Vt``, rank ``k``
+    by the usual ``max(r, Nv) eps s_1`` cut), and Householder reflectors (LAPACK raw
+    layout ``refl, tau``) whose first ``k`` columns span ``Q``.
+
+    ``S^T = Q_0 R`` by Householder QR first, then the SVD of the small ``r x r`` factor
+    ``R = U_r diag(s) Vt``: ``S^T = (Q_0 U_r) diag(s) Vt`` is the thin SVD of ``S^T``
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 8.6.3, R-SVD), at the cost of
+    one QR of the tall ``Nv x r`` matrix and none of its SVD.  At full rank ``k = r`` the
+    QR's own reflectors already span ``Q``; only a rank-deficient ``S`` needs the
+    reflectors of ``Q`` itself (a second QR)."""
+    Nv, r = S.shape[1], S.shape[0]
+    if r == 0 or Nv < r:
+        U, s, Vt = np.linalg.svd(S.T, full_matrices=False)
+        tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
+        k = int(np.sum(s > tol))
+        refl, tau = _householder(U[:, :k])
+        return U[:, :k], s[:k], Vt[:k], refl, tau
+    refl, tau = _householder(S.T)
+    Ur, s, Vt = np.linalg.svd(np.triu(refl[:r]), full_matrices=False)
+    tol = max(S.shape) * np.finfo(float).eps * s[0]
+    k = int(np.sum(s > tol))
+    Q0, _, info = dorgqr(refl[:, :r], tau[:r], lwork=max(1, 64 * r))
+    if info != 0:  # pragma: no cover - argument errors only
+        raise ValueError(f"LAPACK orgqr failed (info = {info})")
+    Q = Q0 @ Ur[:, :k]
+    if k < r:
+        refl, tau = _householder(Q)
+    else:
+        refl, tau = refl[:, :r], tau[:r]
+    return Q, s[:k], Vt[:k], refl, tau
 
 
 class Eliminator:
@@ -238,10 +286,10 @@ class Eliminator:
         if pseudo is None or not js:
             return
         has = np.zeros(mask.size, dtype=bool)
-        for lag, _n, bs, idx, P in pseudo.groups:
+        for g, (_lag, _n, bs, idx, P) in enumerate(pseudo.groups):
             if P.shape[0] == 0:
                 continue
-            S_full = _lagged(lag, P, js)
+            S_full = pseudo.lagged(g, js)
             masks = mask[idx]  # (K, N)
             # blocks of a group normally share the usable pattern; split where not
             patterns: dict[bytes, list[int]] = {}
@@ -250,16 +298,11 @@ class Eliminator:
             for rows_i in patterns.values():
                 mk = masks[rows_i[0]]
                 S = S_full[:, mk]
-                U, s, Vt = np.linalg.svd(S.T, full_matrices=False)
-                tol = max(S.shape) * np.finfo(float).eps * (s[0] if s.size else 0.0)
-                k = int(np.sum(s > tol))
-                Q = U[:, :k]
-                (refl, tau), _ = qr(Q, mode="raw")
+                Q, s, Vt, refl, tau = _row_space(S)
+                k = Q.shape[1]
                 cols = idx[rows_i][:, mk]
                 has[idx[rows_i]] = True
-                self.subs.append(
-                    _Sub([bs[i] for i in rows_i], cols, S, Q, s[:k], Vt[:k], refl, tau)
-                )
+                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, Q, s, Vt, refl, tau))
                 self.rank += k * len(rows_i)
         self.plain = np.flatnonzero(mask & ~has)
 
@@ -283,11 +326,11 @@ class Eliminator:
         for s in self.subs:
             K, nv = s.cols.shape
             k = s.Q.shape[1]
-            C = W[:, s.cols].reshape(rows * K, nv).T.copy()  # (Nv, rows K)
-            for i in range(k):  # C <- H_i C, H_i = I - tau v v^T (Q^T = H_k ... H_1)
-                v = s.refl[i:, i].copy()
-                v[0] = 1.0
-                C[i:] -= s.tau[i] * np.outer(v, v @ C[i:])
+            C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
+            if k:
+                # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
+                # reflectors applied by LAPACK ormqr in one blocked call
+                C = _apply_qt(s.refl, s.tau, C)
             parts.append(C[k:].T.reshape(rows, K * (nv - k)))
             if lam > 0:
                 Wb = W[:, s.cols].reshape(rows * K, nv)
@@ -314,6 +357,19 @@ class Eliminator:
             out[:, s.cols] = (Rb - fit).reshape(rows, K, nv)
             coefs.append((s.blocks, G.reshape(rows, K, -1).transpose(1, 0, 2)))
         return out, coefs
+
+
+def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
+    """``Q^T C`` for the full orthogonal ``Q`` of a QR in raw layout (:func:`_householder`)
+    (Householder vectors ``refl``, factors ``tau``), by LAPACK ``ormqr``."""
+    C = np.asfortranarray(C, dtype=float)
+    if C.shape[1] == 0:
+        return C
+    lwork = max(1, C.shape[1]) * 64  # the blocked ormqr's work space (nb = 64 columns)
+    out, _, info = dormqr("L", "T", refl, tau, C, lwork, overwrite_c=False)
+    if info != 0:  # pragma: no cover - argument errors only
+        raise ValueError(f"LAPACK ormqr failed (info = {info})")
+    return out
 
 
 def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float):

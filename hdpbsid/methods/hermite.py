@@ -28,11 +28,12 @@ absorbed exactly as a pseudo-input with row ``e_{N-1}^T``, like the two boundary
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import solve_banded
+from scipy.linalg.lapack import dgttrf, dgttrs
 
 import slbasis
 
@@ -108,6 +109,23 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     )
 
 
+@functools.lru_cache(maxsize=16)
+def _hermite_basis(N: int, T: float, scale: float | None) -> Any:
+    """``slbasis.basis("hermite", N, (0, T), scale=scale)``, kept for the next call with the
+    same arguments: the held-out check identifies one sub-record at two operator scales,
+    and the default scale needs the extreme zeros of ``phi_N`` (an eigenvalue problem of
+    size ``N``).  A basis is not modified after construction."""
+    return slbasis.basis("hermite", N, (0.0, T), scale=scale)
+
+
+@functools.lru_cache(maxsize=16)
+def _boundary_rows(N: int, T: float, scale: float | None) -> Array:
+    """``phi_n(0)``, ``phi_n(T)`` of :func:`_hermite_basis` (``2 x N``, read-only)."""
+    P = _hermite_basis(N, T, scale).eval(np.array([0.0, T]))
+    P.flags.writeable = False
+    return P
+
+
 def _diagonal(Dmat: Any, k: int) -> Array:
     return np.asarray(Dmat.diagonal(k), dtype=float)
 
@@ -120,7 +138,7 @@ def hermite_lag(
     ``Dmat`` is the square ``N x N`` d/dt matrix (tridiagonal, sparse or dense);
     ``Dd = -Dmat``.  The banded storage of ``D'^T`` (``scipy.linalg.solve_banded``
     layout, rows: super-, main, sub-diagonal) is filled from the three diagonals of
-    ``Dmat`` directly, never forming an ``N x N`` array.  Returns the
+    ``Dmat`` directly, never forming an ``N x N`` array, and factored once.  Returns the
     :class:`~hdpbsid.methods.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
     banded storage.
     """
@@ -131,9 +149,20 @@ def hermite_lag(
     ab[1] = (-_diagonal(Dmat, 0) / alpha + beta) / gamma
     ab[2, :-1] = -_diagonal(Dmat, 1) / (alpha * gamma)
 
+    # LU factors of the tridiagonal D'^T (partial pivoting, LAPACK gttrf) computed once:
+    # the core applies the lag some twenty times per fit, each then one O(N) gttrs
+    dl, d, du, du2, ipiv, info = dgttrf(ab[2, :-1], ab[1], ab[0, 1:])
+    if info != 0:
+        raise ValueError(f"D' is singular (LAPACK gttrf info = {info}); change alpha or beta")
+
     def solve(W: Array) -> Array:
         # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
-        return solve_banded((1, 1), ab, W.T).T
+        if W.shape[0] == 0:
+            return np.zeros_like(W)
+        X, err = dgttrs(dl, d, du, du2, ipiv, np.asfortranarray(W.T, dtype=float))
+        if err != 0:
+            raise ValueError(f"LAPACK gttrs failed (info = {err})")
+        return X.T
 
     name = f"D'^-1, D' = (D/{alpha:.4g} + {beta:g} I)/{gamma:g}"
     return SolveLag(solve, name, key=ab), ab
@@ -216,7 +245,8 @@ def identify_hermite(
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
       ``zoh`` and ``foh`` and keeps the smaller innovation variance
-      (:func:`~hdpbsid.methods.basis_domain.project_record`);
+      (:func:`~hdpbsid.methods.basis_domain.project_record`), in the first
+      operator-scale pass; the later passes and the held-out fits keep its choice;
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.methods.dt.identify_dt`;
@@ -265,7 +295,7 @@ def identify_hermite(
             if N > ns:
                 raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
         n_rules.append(rule)
-        bases[keys[i]] = slbasis.basis("hermite", Nb, (0.0, T), scale=scale)
+        bases[keys[i]] = _hermite_basis(int(Nb), float(T), scale)
     scales = np.array([b.scale for b in bases.values()])
     s_ref = float(np.median(scales))
     alpha_given = alpha is not None
@@ -274,7 +304,7 @@ def identify_hermite(
     for k, b in bases.items():
         r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
         if st.boundary:
-            r += list(b.eval(np.array([0.0, segs[k].duration])).T)
+            r += list(_boundary_rows(b.N, b.t_span[1], scale).T)
         rows[k] = np.array(r)
     seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(st.input_hold, m)
@@ -301,6 +331,9 @@ def identify_hermite(
     }
 
     fitted: dict[float, StateSpaceModel] = {}
+    # the input hold is decided by the first fit (with both holds when "auto") and kept
+    # for the later operator-scale passes: see _fit
+    decided: dict[str, Any] = {}
 
     def fit(a: float) -> StateSpaceModel:
         """HD-PBSID with the operator scale ``alpha = a`` (each ``a`` fitted once: the
@@ -310,6 +343,17 @@ def identify_hermite(
         return fitted[a]
 
     def _fit(a: float) -> StateSpaceModel:
+        """One fit at ``alpha = a``.  With ``input_hold="auto"`` only the first fit tries
+        both holds; the later passes (another ``alpha``) use the hold it chose.  The hold
+        says how the input behaved between its samples, a property of the record that the
+        operator scale does not change, and the first fit judges it on the same data and
+        with the same criterion (the innovation log-determinant) as a later pass would:
+        each later pass would only repeat the decision at the cost of a second core run."""
+        use = holds
+        opts = dict(options)
+        if "hold" in decided:
+            use = (decided["hold"],)
+            opts["input_hold_rule"] = decided["rule"]
         lags = {
             k: hermite_lag(b.derivative_matrix("square"), a, beta, gamma)[0]
             for k, b in bases.items()
@@ -320,17 +364,32 @@ def identify_hermite(
             p_max = st.p if st.p is not None else P_DEFAULT_RANGE[1]
             Psi = reference_instruments(R, lag, p_max * (m + Yc.shape[0]))
         out, hold, hold_crit = best_hold(
-            holds, Us, Yc, P, lag, instruments=Psi, **st.core_options(order)
+            use,
+            [Us[holds.index(h)] for h in use],
+            Yc,
+            P,
+            lag,
+            instruments=Psi,
+            **st.core_options(order),
         )
+        if "hold" not in decided and len(holds) > 1:
+            decided.update(
+                hold=hold,
+                criterion=hold_crit,
+                rule=(
+                    f"auto: zoh and foh fitted at alpha = {a:.4g} (the first pass), smaller "
+                    "innovation log-det kept for every pass"
+                ),
+            )
         return integrator_model(
             out,
             a,
             beta,
             gamma,
-            dict(options),
+            opts,
             settings=st,
             hold=hold,
-            hold_criterion=hold_crit,
+            hold_criterion=decided.get("criterion", hold_crit),
             order=order,
         )
 
@@ -368,6 +427,8 @@ def identify_hermite(
                 estimator=estimator,
                 reference=None if ref is None else ref[: t_.shape[0]],
                 settings=st,
+                # the hold the whole record's first pass chose (see _fit)
+                input_hold=model.options["input_hold"],
             ),
             rec.t,
             rec.u,

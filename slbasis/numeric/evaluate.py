@@ -80,16 +80,23 @@ class Recurrence:
             g = np.log2(
                 np.maximum(1.0, (dist + self.abs_A_prev[:nsteps]) * self.abs_inv_A[:nsteps])
             )
+        # a block of steps start..n is closed *before* step n when its growth g[start..n]
+        # exceeds the budget or it reaches _MAX_STEPS steps; the next block starts at n.
+        # Found block by block from the cumulative growth (a search per block, not a
+        # Python step per row); the values do not depend on where the blocks end
+        # (renormalisation by powers of two is exact), only the growth bound does
+        G = np.concatenate(([0.0], np.cumsum(g)))  # G[n + 1] = g[0] + ... + g[n]
         points = []
-        acc = 0.0
-        last = 0
-        for n in range(nsteps):
-            acc += g[n]
-            if acc > _GROWTH_BUDGET or n + 1 - last >= _MAX_STEPS:
-                points.append(n)  # renormalise *before* step n (after rows up to n)
-                acc = g[n]
-                last = n
-        return points
+        start = 0
+        while True:
+            # first n >= start with G[n + 1] - G[start] > budget (n = start is never closed
+            # by the budget alone: a block always takes its first step)
+            n_budget = int(np.searchsorted(G, G[start] + _GROWTH_BUDGET, side="right")) - 1
+            n = min(max(n_budget, start + 1), start + _MAX_STEPS - 1)
+            if n >= nsteps:
+                return points
+            points.append(n)  # renormalise *before* step n (after rows up to n)
+            start = n
 
     def renorm_mask(self, x: np.ndarray, nrows: int) -> np.ndarray:
         """``mask[n]``: renormalise the pair ``(n - 1, n)`` before row ``n`` (``n >= 1``),
@@ -241,7 +248,7 @@ def evaluate(
         raise ValueError(f"out: expected shape {(N, xa.size)}, got {out.shape}")
     if xa.size == 0:
         return out
-    use = _engine.resolve(engine, N * xa.size)
+    use = _engine.resolve(engine, _engine.work(N, xa.size))
     logabs, sign = kernel.log_phi0(xa)
     m0, e0 = _split_log(np.asarray(logabs, dtype=float), np.asarray(sign, dtype=float))
     if use == "numba":

@@ -128,7 +128,7 @@ def project(
     y2 = ya.reshape(ta.size, -1)
     vy = (v * root)[:, None] * y2
     rec = Recurrence(kernel, N)
-    use = _engine.resolve(engine, N * ta.size)
+    use = _engine.resolve(engine, _engine.work(N, ta.size))
     if use == "numba" and method == "quadrature" and 1 <= y2.shape[1] <= _FUSED_MAX_SIGNALS:
         c = _project_fused(kernel, rec, N, x, vy)
         return c.reshape((N,) + ya.shape[1:])
@@ -206,7 +206,7 @@ def reconstruct(
     c2 = ca.reshape(N, -1) * np.sqrt(tmap.scale)
     out = np.empty((ta.size, c2.shape[1]))
     rec = Recurrence(kernel, N)
-    use = _engine.resolve(engine, N * ta.size)
+    use = _engine.resolve(engine, _engine.work(N, ta.size))
     for s in range(0, ta.size, chunk):
         sl = slice(s, min(s + chunk, ta.size))
         out[sl] = evaluate(kernel, N, x[sl], rec=rec, engine=use).T @ c2
