@@ -392,10 +392,17 @@ def _residuals(
 
 
 def _cr(M: NDArray, X: Array) -> NDArray:
-    """``M @ X`` for a complex ``M`` and a real ``X`` as two real products."""
+    """``M @ X`` for a complex ``M`` as two products; for a real ``X`` written into
+    the real and imaginary parts of the result (the same numbers as ``M.real @ X + 1j *
+    (M.imag @ X)`` without its two complex temporaries)."""
     if not np.iscomplexobj(M):
         return M @ X
-    return M.real @ X + 1j * (M.imag @ X)
+    if np.iscomplexobj(X):
+        return M.real @ X + 1j * (M.imag @ X)
+    Z = np.empty((M.shape[0], X.shape[1]), dtype=complex)
+    Z.real = M.real @ X
+    Z.imag = M.imag @ X
+    return Z
 
 
 def refine_pem(
