@@ -148,3 +148,50 @@ def test_bad_arguments() -> None:
         refine_pem(model, t, np.c_[u, u], y)
     with pytest.raises(ValueError, match="hold must be"):
         refine_pem(model, t, u, y, hold="cubic")
+
+
+def _predictor_spectral_radius(model: StateSpaceModel, h: float) -> float:
+    """Spectral radius of ``Phi - Kd C`` of the model sampled with step ``h``, from
+    scipy's matrix exponential (``[[A h, K h], [0, 0]]`` gives ``Phi`` and ``Kd``)."""
+    from scipy.linalg import expm
+
+    n, l = model.n, model.l
+    M = np.zeros((n + l, n + l))
+    M[:n, :n], M[:n, n:] = model.A * h, model.K * h
+    E = expm(M)
+    return float(np.max(np.abs(np.linalg.eigvals(E[:n, :n] - E[:n, n:] @ model.C))))
+
+
+def test_a_fit_pressed_against_the_predictor_stability_boundary_stops_early() -> None:
+    """Closed-loop quadrotor, 20 dB: from the CT-PBSID (Laguerre filter) model with its
+    Laguerre-domain ``D`` made a free parameter (``feedthrough=True``: a structure this
+    loop, whose controller reacts within the sample, cannot identify) the fit runs into
+    the boundary of the stable predictors (spectral radius 1) and must stop there,
+    unconverged, well before its evaluation budget (it used all 150 before the stop
+    rule); from the HD-PBSID model on the same record it converges inside."""
+    from hdpbsid.methods.refine import DEFAULT_MAX_NFEV
+    from hdpbsid.studies.data import quadrotor_record
+
+    d = quadrotor_record(
+        np.random.default_rng([7, 0]), snr_db=20.0, excitation="hermite-sweep", n_max_u=300
+    )
+    h = float(d.t[1] - d.t[0])
+    kw = {"detrend": None, "refine": None}
+    ct = identify(d.t, d.u, d.y, 3, method="laguerre", variant="filter", **kw)
+    ct.options["feedthrough"] = True
+    hd = identify(d.t, d.u, d.y, 3, method="hermite", **kw)
+    stopped = refine_pem(ct, d.t, d.u, d.y)
+    refined = refine_pem(hd, d.t, d.u, d.y)
+    assert not stopped.options["refine_converged"]
+    assert "stability boundary" in stopped.options["refine_status"]
+    # measured 36-48 of 150: the rule must save most of the budget, not the last run
+    assert stopped.options["refine_nfev"] < DEFAULT_MAX_NFEV / 2, stopped.options
+    # the stop is at the boundary (measured radius 0.99998-1.0 on such stops), while the
+    # converged predictors of this loop have radius 0.988-0.995 (the plant's poles
+    # -2.9 +- 3.2i and the mirrored -3.08 sampled at 4 ms give 0.988)
+    assert _predictor_spectral_radius(stopped, h) > 0.999
+    assert refined.options["refine_converged"]
+    assert _predictor_spectral_radius(refined, h) < 0.999
+    err = eigenvalue_errors(refined.eigenvalues, d.true_eigenvalues)
+    # HD-PBSID refined at 20 dB: within 5 % (as test_quadrotor_20db_hermite_refined...)
+    assert err.max() < 0.05, err

@@ -212,9 +212,33 @@ def _joblib(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task], jobs: 
     except ImportError as exc:  # pragma: no cover - joblib is in the studies extra
         raise ImportError("jobs > 1 needs joblib: pip install 'slbasis-hdpbsid[studies]'") from exc
     par = Parallel(n_jobs=jobs, backend="loky", return_as="generator_unordered")
-    # the task travels with its record so that unordered results can be matched
-    results = par(delayed(_execute_with_task)(func, study, seed, task) for task in tasks)
-    yield from results
+    # one job per record: the tasks sharing a record run in one worker, which simulates it
+    # once (studies.data caches it); task by task, joblib spread them over the workers
+    # and each worker simulated the record again.  The tasks travel with their records
+    # so that unordered results can be matched.
+    results = par(delayed(_execute_group)(func, study, seed, group) for group in _groups(tasks))
+    for done in results:
+        yield from done
+
+
+def _groups(tasks: Sequence[Task]) -> list[list[Task]]:
+    """Consecutive tasks with the same record (``data_id`` of the case and run) grouped."""
+    groups: list[list[Task]] = []
+    last = None
+    for task in tasks:
+        key = (data_id(task.case), task.run)
+        if groups and key == last:
+            groups[-1].append(task)
+        else:
+            groups.append([task])
+        last = key
+    return groups
+
+
+def _execute_group(
+    func: TaskFunc, study: str, seed: int, group: Sequence[Task]
+) -> list[tuple[Task, dict]]:
+    return [_execute_with_task(func, study, seed, task) for task in group]
 
 
 def _execute_with_task(func: TaskFunc, study: str, seed: int, task: Task) -> tuple[Task, dict]:
