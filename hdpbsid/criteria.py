@@ -29,7 +29,13 @@ The same windows score the **one-step prediction error** of the model's innovati
 predictor (:func:`windowed_prediction_error`): the recursion runs on
 ``Phi - Gk C`` and is driven by the measured output as well, and the window's initial
 state enters through ``C (Phi - Gk C)^k`` instead of ``C Phi^k``.  With ``K = 0`` it is
-the simulation error.
+the simulation error.  Only a stable predictor (spectral radius of ``Phi - Gk C`` at
+most one) is scored: for an unstable one the fitted initial state cancels the growing
+modes with the window's *later* outputs, which turns the predictor into a two-sided
+smoother that sees ``y_k`` itself (:func:`predictor_is_stable`).  The innovation
+predictor of a model identified with its Kalman gain is stable (Ljung, *System
+Identification*, 2nd ed., sec. 4.3: ``A - K C`` stable is the condition for the
+predictor to exist), so only models whose estimated ``K`` is unusable lose this score.
 
 Simulation uses the exact sampled model for the hold of the input (``zoh``: held
 between samples, ``foh``: linear), as :meth:`hdpbsid.model.StateSpaceModel.simulate`.
@@ -51,6 +57,7 @@ __all__ = [
     "windowed_simulation_error",
     "windowed_prediction_error",
     "is_uniform_grid",
+    "predictor_is_stable",
     "default_windows",
     "choose_smallest_adequate",
     "SIGNIFICANCE_Z",
@@ -66,6 +73,10 @@ SIGNIFICANCE_Z = 1.0
 #: statistic on fewer than ~8 differences is too noisy to test anything)
 MAX_WINDOWS = 16
 MIN_WINDOWS = 4
+#: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
+#: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
+#: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
+PREDICTOR_STABILITY_TOL = 1e-8
 #: samples per window per fitted initial-state entry: the least-squares initial state of
 #: a window must be determined by many more samples than it has entries
 SAMPLES_PER_STATE = 3
@@ -164,11 +175,35 @@ def windowed_prediction_error(
 
     ``yhat_k = C x_{k|k-1} + D u_k``; the predictions are affine in the window's initial
     state through ``C (Phi - Gk C)^k``, which is fitted by least squares as in the
-    simulation error.  A model whose predictor ``Phi - Gk C`` is unstable scores
-    ``finite=False`` when its predictions overflow.  Non-uniform ``t`` raises
-    ``ValueError``.
+    simulation error.  A model whose sampled predictor ``Phi - Gk C`` is unstable
+    (:func:`predictor_is_stable`) scores ``finite=False``: with the window's initial
+    state fitted it would not be a predictor (module docstring).  Non-uniform ``t``
+    raises ``ValueError``.
     """
     return _windowed_error(model, t, u, y, windows, hold, weights, predict=True)
+
+
+def predictor_is_stable(F: Array) -> bool:
+    """Whether the sampled predictor matrix ``F = Phi - Gk C`` is stable: spectral radius
+    at most ``1 + PREDICTOR_STABILITY_TOL``.
+
+    An unstable ``F`` makes the windowed prediction error meaningless.  The predictions
+    are affine in the window's initial state through ``C F^k``; the least-squares
+    initial state cancels the growing modes of the data-driven part, i.e. it subtracts
+    ``sum_j lambda^(k-1-j) ...`` over *all* samples ``j`` of the window, so what is left
+    of the prediction of ``y_k`` depends on ``y_k`` and later outputs through
+    ``lambda^-(j-k)``, a stable anti-causal filter: a smoother, not a predictor.  It can
+    score below the noise floor (a spurious order-8 model with ``rho(F) = 1.3`` did on
+    white output noise, where no predictor can).  A unit eigenvalue (an integrator the
+    gain leaves alone) is allowed: its free response is a constant, not a growing mode.
+    """
+    if F.size == 0:
+        return True
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(F)):
+            return False
+        rho = float(np.max(np.abs(np.linalg.eigvals(F))))
+    return rho <= 1.0 + PREDICTOR_STABILITY_TOL
 
 
 def _windowed_error(
@@ -204,6 +239,9 @@ def _windowed_error(
     Phi, G1, G2, Gk = _sampled(model, h, hold)
     C, D = model.C, model.D
     F = Phi - Gk @ C if predict else Phi
+    if predict and n and not predictor_is_stable(F):
+        # not a predictor on held-out data (module docstring): no score
+        return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
     # forced response in every window from a zero state, all windows at once
     X = np.zeros((windows, n))
     Yf = np.empty((windows, L, l))
