@@ -468,7 +468,11 @@ class Eliminator:
         for s in self.subs:
             K, nv = s.cols.shape
             k = s.k
-            C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
+            if K == 1 and nv and s.cols[0, -1] - s.cols[0, 0] == nv - 1:
+                # one block on consecutive columns (a sorted range): a slice, no gather
+                C = np.asfortranarray(W[:, s.cols[0, 0] : s.cols[0, -1] + 1].T)
+            else:
+                C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
             if k:
                 # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
                 # reflectors applied by LAPACK ormqr in one blocked call
