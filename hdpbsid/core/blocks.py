@@ -564,7 +564,9 @@ def select_past_window_blocks(
     As :func:`hdpbsid.core.varx.select_past_window` (``AIC = N log det Sigma_p + 2 l d_p``
     on unit-RMS outputs, ``Sigma_p`` floored at ``rel_floor``, all ``p`` on the columns
     valid for ``p_max``), with ``d_p`` counting the nuisance coefficients too (their
-    number, the rank eliminated, grows with ``p``).  Each ``p`` is one compressed fit.
+    number, the rank eliminated, grows with ``p``).  Each ``p`` is one compressed fit,
+    or, for one block whose nuisance rows have full rank, all ``p`` come from one QR
+    (:func:`_nested_window_residuals`).
     """
     m, l = U.shape[0], Y.shape[0]
     Z = np.vstack([U, Y])
@@ -586,12 +588,20 @@ def select_past_window_blocks(
         # reuses the chosen window's eliminator)
         return list(range(p, 0, -1)) + ([0] if d0 else [])
 
+    nested = _nested_window_residuals(pseudo, lags_of, lagged, d0, Ys, valid, p_max)
     for p in range(max(p_min, 1), p_max + 1):
+        q = d0 + p * (m + l)
+        if nested is not None:
+            rank, res = nested(p)
+            if N - rank <= q + l:
+                break
+            sigma = res.T @ res / N + rel_floor * np.eye(l)
+            crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + 2.0 * l * (q + rank)
+            continue
         reg = np.vstack(lagged[: (1 if d0 else 0) + p])
         cs = np.sqrt(np.mean(reg[:, valid] ** 2, axis=1))
         cs[cs == 0] = 1.0
         elim = _eliminator(pseudo, lags_of(p), valid)
-        q = d0 + p * (m + l)
         if elim.ncols <= q + l:
             break
         Rc = elim.compress(np.vstack([reg / cs[:, None], Ys]))
@@ -606,6 +616,74 @@ def select_past_window_blocks(
             f"pseudo-inputs eliminated"
         )
     return int(np.argmin(crit)) + 1, crit
+
+
+def _nested_window_residuals(
+    pseudo: BlockPseudo | None,
+    lags_of: Callable[[int], list[int]],
+    lagged: list[Array],
+    d0: int,
+    Ys: Array,
+    valid: Mask,
+    p_max: int,
+) -> Callable[[int], tuple[int, Array]] | None:
+    """All past windows' VARX residuals from one QR, when that is exact: one block (one
+    lag, one set of pseudo rows) whose nuisance rows for ``p_max`` have full rank.
+
+    Window ``p`` regresses ``Ys`` on the data lags ``1..p`` (and ``U`` with feedthrough)
+    and the nuisance rows of the same lags; these regressors are the leading columns of
+    ``[S_0, U, S_1, Z_1, ..., S_pmax, Z_pmax]`` (``S_j``, ``Z_j``: the pseudo rows and
+    the data lagged ``j`` times, transposed; ``S_0, U`` only with feedthrough).  With
+    the Householder QR of ``[that, Ys^T] = Q R``, the least-squares residual of ``Ys``
+    on the leading ``k`` columns has the Gram matrix ``R[k:, -l:]^T R[k:, -l:]``
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 5.3.3): the residual
+    covariance of every window from one factorisation instead of one eliminator,
+    compression and QR per window -- the same least-squares problems, so the same
+    criterion up to rounding.  Full rank of the ``p_max`` nuisance rows (by the
+    eliminator's own cut) implies it for every leading subset (the smallest singular
+    value of a column subset is at least that of the whole, the largest at most), so
+    the nuisance rank of window ``p`` is its row count.  Returns ``p -> (rank,
+    residual factor)``, or None when the per-window compressed fits are needed (several
+    blocks, rank-deficient rows, too few columns).
+    """
+    if pseudo is None or len(pseudo.lag.lags) != 1 or len(pseudo.groups) != 1:
+        return None
+    P = pseudo.groups[0][4]
+    q, Nv = P.shape[0], int(valid.sum())
+    if q == 0:
+        return None
+    js = lags_of(p_max)
+    S = pseudo.lagged(0, js)[:, valid]
+    _, sv, *_ = pseudo.row_space(0, js, valid, S)
+    if sv.size < S.shape[0]:
+        return None
+    cols = [pseudo.lagged(0, [0]), lagged[0]] if d0 else []
+    for j in range(1, p_max + 1):
+        cols += [pseudo.lagged(0, [j]), lagged[(1 if d0 else 0) + j - 1]]
+    l = Ys.shape[0]
+    width = [c.shape[0] for c in cols]
+    total = sum(width) + l
+    if Nv < total:
+        return None
+    use = slice(None) if Nv == valid.size else valid
+    # the regressors (rows scaled to unit RMS as in the per-window fits; scaling a column
+    # does not change the residual) and Ys, transposed into one Fortran-ordered array
+    MT = np.empty((Nv, total), order="F")
+    a = 0
+    for c in [*cols, Ys]:
+        b = a + c.shape[0]
+        MT[:, a:b] = c[:, use].T
+        a = b
+    cs = np.sqrt(np.mean(MT[:, : total - l] ** 2, axis=0))
+    cs[cs == 0] = 1.0
+    MT[:, : total - l] /= cs[None, :]
+    R = np.triu(_householder(MT)[0][:total])
+
+    def at(p: int) -> tuple[int, Array]:
+        k = sum(width[: (2 if d0 else 0) + 2 * p])
+        return q * len(lags_of(p)), R[k:, -l:]
+
+    return at
 
 
 def _gamma_l_rows(coef: Array, p: int, f: int, d: int, l: int) -> Array:
