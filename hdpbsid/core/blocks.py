@@ -55,7 +55,9 @@ reshaped to one ``(rows * K, N)`` array, so each step is one BLAS call, not ``K`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,6 +116,8 @@ class BlockLag(CachedPowers):
         self.groups = [
             (self.lags[bs[0]], self.sizes[bs[0]], bs, self.columns(bs)) for bs in groups.values()
         ]
+        # pseudo-row work shared by the BlockPseudo objects built on this lag (BlockPseudo)
+        self.pseudo_stores: OrderedDict[tuple[int, ...], _PseudoStore] = OrderedDict()
 
     def columns(self, blocks: Sequence[int]) -> NDArray[np.intp]:
         """``(len(blocks), N)`` column indices of blocks of equal size ``N``."""
@@ -161,28 +165,45 @@ class BlockPseudo:
     Rows are normalised to unit RMS after dropping those below :data:`PSEUDO_ROW_FLOOR`
     of the block's largest.  Blocks sharing the rows object (and lag object and size)
     are grouped like in :class:`BlockLag`.
+
+    The work that depends only on the lag and the rows -- the normalised rows, their lag
+    powers, the Householder factorisations of their row spaces and the finished
+    :class:`Eliminator` objects -- is kept in a store on the :class:`BlockLag`, keyed by
+    the identities of the row arrays and checked against their contents, so every
+    ``BlockPseudo`` built on the same lag and rows shares it: the core runs of one basis
+    and operator scale that differ only in the input projection (the two input holds)
+    eliminate the same nuisance rows, and the past-window search and the VARX of the
+    chosen window eliminate the same rows for the same window.
     """
 
     def __init__(self, lag: BlockLag, rows: Sequence[Array]) -> None:
         if len(rows) != len(lag.lags):
             raise ValueError(f"rows: one entry per block expected ({len(lag.lags)})")
         self.lag = lag
-        normed: dict[int, Array] = {}
-        groups: dict[tuple[int, int, int], list[int]] = {}
-        for b, P in enumerate(rows):
-            P = np.asarray(P, dtype=float)
-            if P.ndim != 2 or P.shape[1] != lag.sizes[b]:
-                raise ValueError(f"rows[{b}] must have {lag.sizes[b]} columns, got {P.shape}")
-            if id(rows[b]) not in normed:
-                normed[id(rows[b])] = _normalise_rows(P)
-            groups.setdefault((id(lag.lags[b]), lag.sizes[b], id(rows[b])), []).append(b)
-        self.groups = [
-            (lag.lags[bs[0]], lag.sizes[bs[0]], bs, lag.columns(bs), normed[key[2]])
-            for key, bs in groups.items()
-        ]
+        store = _PseudoStore.lookup(lag, rows)
+        if store is None:
+            normed: dict[int, Array] = {}
+            groups: dict[tuple[int, int, int], list[int]] = {}
+            for b, P in enumerate(rows):
+                P = np.asarray(P, dtype=float)
+                if P.ndim != 2 or P.shape[1] != lag.sizes[b]:
+                    raise ValueError(f"rows[{b}] must have {lag.sizes[b]} columns, got {P.shape}")
+                if id(rows[b]) not in normed:
+                    normed[id(rows[b])] = _normalise_rows(P)
+                groups.setdefault((id(lag.lags[b]), lag.sizes[b], id(rows[b])), []).append(b)
+            store = _PseudoStore.add(
+                lag,
+                rows,
+                [
+                    (lag.lags[bs[0]], lag.sizes[bs[0]], bs, lag.columns(bs), normed[key[2]])
+                    for key, bs in groups.items()
+                ],
+            )
+        self.groups = store.groups
         # lag powers of each group's rows, shared by every eliminator built on this object
         # (the AIC over p needs the powers 1..p for every p: p_max lags, not p_max^2 / 2)
-        self._powers: list[list[Array]] = [[P] for *_, P in self.groups]
+        self._powers = store.powers
+        self._store = store
 
     def lagged(self, g: int, js: Sequence[int]) -> Array:
         """``[lag^j P for j in js]`` stacked for group ``g`` (``lag^0`` = identity); the
@@ -195,10 +216,122 @@ class BlockPseudo:
             powers.append(lag.apply(powers[-1], 1))
         return np.vstack([powers[j] for j in js])
 
+    def row_space(self, g: int, js: Sequence[int], mk: Mask, S: Array) -> tuple:
+        """:func:`_row_space` of ``S`` = group ``g``'s rows lagged by ``js`` on the columns
+        ``mk``, as ``(basis, s, Vt, refl, tau)`` with ``basis()`` computing ``Q``.
+
+        Nested factorisation: when ``js`` is a run of consecutive lags ``lo..hi`` (in any
+        order), the rows are factored by *increasing* lag, one lag at a time, and the
+        factorisation is kept per ``(g, mk, lo)``: lag ``j``'s rows are mapped by the
+        reflectors of the lags before it (``Q^T``, LAPACK ormqr) and the part below the
+        rows already eliminated is factored by Householder QR.  This is the blocked
+        Householder QR of the whole stack (Golub & Van Loan, *Matrix Computations*, 4th
+        ed., sec. 5.2.3), and its leading ``r`` reflectors and ``r x r`` block of ``R``
+        are those of the leading ``r`` columns alone: the past windows ``p = 1..p_max``
+        share one factorisation, extended lag by lag, and a window's factors are computed
+        by the same operations whatever was asked for before (results do not depend on
+        the order of calls).  The span does not depend on the order of the rows; the
+        right singular vectors are returned in the order of ``js``
+        (``S_js^T = Q diag(s) Vt[:, perm]``).  Rank-deficient rows, or other sets of lags,
+        are factored directly (:func:`_row_space`).
+        """
+        P = self.groups[g][4]
+        q, r, Nv = P.shape[0], S.shape[0], S.shape[1]
+        lags = sorted(js)
+        lo, hi = (lags[0], lags[-1]) if lags else (0, -1)
+        if r == 0 or Nv < r or lags != list(range(lo, hi + 1)):
+            return _eager(*_row_space(S))
+        key = (g, mk.tobytes(), lo)
+        got = self._store.qr.get(key)
+        if got is None:
+            got = (lo - 1, np.zeros((Nv, 0), order="F"), np.zeros(0))
+        while got[0] < hi:
+            j, refl_all, tau_all = got
+            done = refl_all.shape[1]
+            C = self.lagged(g, [j + 1])[:, mk].T  # (Nv, q), lag j + 1
+            if done:
+                C = _apply_qt(refl_all, tau_all, C)
+            h, t = _householder(C[done:])
+            ext = np.empty((Nv, done + q), order="F")
+            ext[:, :done] = refl_all
+            ext[:done, done:] = C[:done]
+            ext[done:, done:] = h
+            got = (j + 1, ext, np.concatenate([tau_all, t]))
+            self._store.qr[key] = got
+        refl, tau = got[1][:, :r], got[2][:r]
+        Ur, s, Vt_asc = np.linalg.svd(np.triu(refl[:r]), full_matrices=False)
+        tol = max(S.shape) * np.finfo(float).eps * s[0]
+        if int(np.sum(s > tol)) < r:
+            return _eager(*_row_space(S))
+        perm = np.concatenate([np.arange((j - lo) * q, (j - lo + 1) * q) for j in js])
+
+        def basis() -> Array:
+            Q0, _, info = dorgqr(refl, tau, lwork=max(1, 64 * r))
+            if info != 0:  # pragma: no cover - argument errors only
+                raise ValueError(f"LAPACK orgqr failed (info = {info})")
+            return Q0 @ Ur
+
+        return basis, s, Vt_asc[:, perm], refl, tau
+
+    def eliminator(self, js: Sequence[int], mask: Mask) -> Eliminator:
+        """:class:`Eliminator` ``(self, js, mask)``, built once per lag, rows, ``js`` and
+        ``mask`` (an eliminator is not modified after construction)."""
+        key = (tuple(int(j) for j in js), mask.tobytes())
+        elim = self._store.eliminators.get(key)
+        if elim is None:
+            elim = Eliminator(self, js, mask)
+            self._store.eliminators[key] = elim
+        return elim
+
     @property
     def count(self) -> int:
         """Total number of (kept) pseudo rows over all blocks."""
         return sum(len(bs) * P.shape[0] for _, _, bs, _, P in self.groups)
+
+
+def _eager(Q: Array, s: Array, Vt: Array, refl: Array, tau: Array) -> tuple:
+    return (lambda: Q), s, Vt, refl, tau
+
+
+class _PseudoStore:
+    """What :class:`BlockPseudo` shares between objects on one lag and one set of rows."""
+
+    #: stores kept per lag (rows sets in use at once: the data's and a reference's)
+    PER_LAG = 4
+
+    def __init__(self, rows: Sequence[Array], groups: list) -> None:
+        self.rows = list(rows)  # keeps the ids in the key valid
+        self.copies = {id(r): np.array(r, dtype=float, copy=True) for r in rows}
+        self.groups = groups
+        self.powers: list[list[Array]] = [[P] for *_, P in groups]
+        self.qr: dict[tuple, tuple[int, Array, Array]] = {}
+        self.eliminators: dict[tuple, Eliminator] = {}
+
+    @staticmethod
+    def lookup(lag: BlockLag, rows: Sequence[Array]) -> _PseudoStore | None:
+        stores = getattr(lag, "pseudo_stores", None)
+        if stores is None:
+            return None
+        store = stores.get(tuple(id(r) for r in rows))
+        if store is None:
+            return None
+        for r in rows:  # same objects; unchanged contents
+            c = store.copies[id(r)]
+            a = np.asarray(r)
+            if a.shape != c.shape or not np.array_equal(a, c):
+                del stores[tuple(id(r) for r in rows)]
+                return None
+        return store
+
+    @staticmethod
+    def add(lag: BlockLag, rows: Sequence[Array], groups: list) -> _PseudoStore:
+        store = _PseudoStore(rows, groups)
+        stores = getattr(lag, "pseudo_stores", None)
+        if stores is not None:
+            stores[tuple(id(r) for r in rows)] = store
+            while len(stores) > _PseudoStore.PER_LAG:
+                stores.popitem(last=False)
+        return store
 
 
 def _normalise_rows(P: Array) -> Array:
@@ -218,11 +351,22 @@ class _Sub:
     blocks: list[int]
     cols: NDArray[np.intp]  # (K, Nv) global column indices used
     S: Array  # nuisance rows on the used columns (r_raw x Nv)
-    Q: Array  # orthonormal basis of their span (Nv x k)
+    basis: Callable[[], Array]  # computes Q, the orthonormal basis of their span (Nv x k)
     sv: Array  # singular values of S (k)
     Vt: Array  # right singular vectors (k x r_raw)
     refl: Array  # Householder vectors (Nv x k, LAPACK raw layout)
     tau: Array
+
+    @property
+    def k(self) -> int:
+        """Rank of the nuisance rows."""
+        return int(self.sv.size)
+
+    @functools.cached_property
+    def Q(self) -> Array:
+        """Orthonormal basis of the span (``Nv x k``), formed on first use: the plain
+        compression needs only the reflectors."""
+        return self.basis()
 
 
 def _householder(A: Array) -> tuple[Array, Array]:
@@ -298,20 +442,18 @@ class Eliminator:
             for rows_i in patterns.values():
                 mk = masks[rows_i[0]]
                 S = S_full[:, mk]
-                Q, s, Vt, refl, tau = _row_space(S)
-                k = Q.shape[1]
+                basis, s, Vt, refl, tau = pseudo.row_space(g, js, mk, S)
+                k = s.size
                 cols = idx[rows_i][:, mk]
                 has[idx[rows_i]] = True
-                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, Q, s, Vt, refl, tau))
+                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, basis, s, Vt, refl, tau))
                 self.rank += k * len(rows_i)
         self.plain = np.flatnonzero(mask & ~has)
 
     @property
     def ncols(self) -> int:
         """Columns of the compressed problem."""
-        return int(
-            self.plain.size + sum(s.cols.size - s.Q.shape[1] * len(s.blocks) for s in self.subs)
-        )
+        return int(self.plain.size + sum(s.cols.size - s.k * len(s.blocks) for s in self.subs))
 
     def compress(self, W: Array, lam: float = 0.0) -> Array:
         """``W`` (rows x all columns) -> its coordinates in the complement (rows x ncols).
@@ -325,8 +467,12 @@ class Eliminator:
         parts = [W[:, self.plain]]
         for s in self.subs:
             K, nv = s.cols.shape
-            k = s.Q.shape[1]
-            C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
+            k = s.k
+            if K == 1 and nv and s.cols[0, -1] - s.cols[0, 0] == nv - 1:
+                # one block on consecutive columns (a sorted range): a slice, no gather
+                C = np.asfortranarray(W[:, s.cols[0, 0] : s.cols[0, -1] + 1].T)
+            else:
+                C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
             if k:
                 # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
                 # reflectors applied by LAPACK ormqr in one blocked call
@@ -357,6 +503,11 @@ class Eliminator:
             out[:, s.cols] = (Rb - fit).reshape(rows, K, nv)
             coefs.append((s.blocks, G.reshape(rows, K, -1).transpose(1, 0, 2)))
         return out, coefs
+
+
+def _eliminator(pseudo: BlockPseudo | None, js: Sequence[int], mask: Mask) -> Eliminator:
+    """The (shared) :class:`Eliminator` of ``pseudo`` for the lags ``js`` on ``mask``."""
+    return pseudo.eliminator(js, mask) if pseudo is not None else Eliminator(None, js, mask)
 
 
 def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
@@ -413,7 +564,9 @@ def select_past_window_blocks(
     As :func:`hdpbsid.core.varx.select_past_window` (``AIC = N log det Sigma_p + 2 l d_p``
     on unit-RMS outputs, ``Sigma_p`` floored at ``rel_floor``, all ``p`` on the columns
     valid for ``p_max``), with ``d_p`` counting the nuisance coefficients too (their
-    number, the rank eliminated, grows with ``p``).  Each ``p`` is one compressed fit.
+    number, the rank eliminated, grows with ``p``).  Each ``p`` is one compressed fit,
+    or, for one block whose nuisance rows have full rank, all ``p`` come from one QR
+    (:func:`_nested_window_residuals`).
     """
     m, l = U.shape[0], Y.shape[0]
     Z = np.vstack([U, Y])
@@ -429,13 +582,26 @@ def select_past_window_blocks(
     lagged = [U] if d0 else []
     lagged += [lag.apply(Z, j) for j in range(1, p_max + 1)]
     crit = np.full(p_max, np.inf)
+
+    def lags_of(p: int) -> list[int]:
+        # the nuisance lags of window p, in the order of varx_stage_blocks (which then
+        # reuses the chosen window's eliminator)
+        return list(range(p, 0, -1)) + ([0] if d0 else [])
+
+    nested = _nested_window_residuals(pseudo, lags_of, lagged, d0, Ys, valid, p_max)
     for p in range(max(p_min, 1), p_max + 1):
+        q = d0 + p * (m + l)
+        if nested is not None:
+            rank, res = nested(p)
+            if N - rank <= q + l:
+                break
+            sigma = res.T @ res / N + rel_floor * np.eye(l)
+            crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + 2.0 * l * (q + rank)
+            continue
         reg = np.vstack(lagged[: (1 if d0 else 0) + p])
         cs = np.sqrt(np.mean(reg[:, valid] ** 2, axis=1))
         cs[cs == 0] = 1.0
-        js = ([0] if d0 else []) + list(range(1, p + 1))
-        elim = Eliminator(pseudo, js, valid)
-        q = d0 + p * (m + l)
+        elim = _eliminator(pseudo, lags_of(p), valid)
         if elim.ncols <= q + l:
             break
         Rc = elim.compress(np.vstack([reg / cs[:, None], Ys]))
@@ -450,6 +616,74 @@ def select_past_window_blocks(
             f"pseudo-inputs eliminated"
         )
     return int(np.argmin(crit)) + 1, crit
+
+
+def _nested_window_residuals(
+    pseudo: BlockPseudo | None,
+    lags_of: Callable[[int], list[int]],
+    lagged: list[Array],
+    d0: int,
+    Ys: Array,
+    valid: Mask,
+    p_max: int,
+) -> Callable[[int], tuple[int, Array]] | None:
+    """All past windows' VARX residuals from one QR, when that is exact: one block (one
+    lag, one set of pseudo rows) whose nuisance rows for ``p_max`` have full rank.
+
+    Window ``p`` regresses ``Ys`` on the data lags ``1..p`` (and ``U`` with feedthrough)
+    and the nuisance rows of the same lags; these regressors are the leading columns of
+    ``[S_0, U, S_1, Z_1, ..., S_pmax, Z_pmax]`` (``S_j``, ``Z_j``: the pseudo rows and
+    the data lagged ``j`` times, transposed; ``S_0, U`` only with feedthrough).  With
+    the Householder QR of ``[that, Ys^T] = Q R``, the least-squares residual of ``Ys``
+    on the leading ``k`` columns has the Gram matrix ``R[k:, -l:]^T R[k:, -l:]``
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 5.3.3): the residual
+    covariance of every window from one factorisation instead of one eliminator,
+    compression and QR per window -- the same least-squares problems, so the same
+    criterion up to rounding.  Full rank of the ``p_max`` nuisance rows (by the
+    eliminator's own cut) implies it for every leading subset (the smallest singular
+    value of a column subset is at least that of the whole, the largest at most), so
+    the nuisance rank of window ``p`` is its row count.  Returns ``p -> (rank,
+    residual factor)``, or None when the per-window compressed fits are needed (several
+    blocks, rank-deficient rows, too few columns).
+    """
+    if pseudo is None or len(pseudo.lag.lags) != 1 or len(pseudo.groups) != 1:
+        return None
+    P = pseudo.groups[0][4]
+    q, Nv = P.shape[0], int(valid.sum())
+    if q == 0:
+        return None
+    js = lags_of(p_max)
+    S = pseudo.lagged(0, js)[:, valid]
+    _, sv, *_ = pseudo.row_space(0, js, valid, S)
+    if sv.size < S.shape[0]:
+        return None
+    cols = [pseudo.lagged(0, [0]), lagged[0]] if d0 else []
+    for j in range(1, p_max + 1):
+        cols += [pseudo.lagged(0, [j]), lagged[(1 if d0 else 0) + j - 1]]
+    l = Ys.shape[0]
+    width = [c.shape[0] for c in cols]
+    total = sum(width) + l
+    if Nv < total:
+        return None
+    use = slice(None) if Nv == valid.size else valid
+    # the regressors (rows scaled to unit RMS as in the per-window fits; scaling a column
+    # does not change the residual) and Ys, transposed into one Fortran-ordered array
+    MT = np.empty((Nv, total), order="F")
+    a = 0
+    for c in [*cols, Ys]:
+        b = a + c.shape[0]
+        MT[:, a:b] = c[:, use].T
+        a = b
+    cs = np.sqrt(np.mean(MT[:, : total - l] ** 2, axis=0))
+    cs[cs == 0] = 1.0
+    MT[:, : total - l] /= cs[None, :]
+    R = np.triu(_householder(MT)[0][:total])
+
+    def at(p: int) -> tuple[int, Array]:
+        k = sum(width[: (2 if d0 else 0) + 2 * p])
+        return q * len(lags_of(p)), R[k:, -l:]
+
+    return at
 
 
 def _gamma_l_rows(coef: Array, p: int, f: int, d: int, l: int) -> Array:
@@ -507,7 +741,7 @@ def varx_stage_blocks(
     cols = np.flatnonzero(valid)
     Phi = np.vstack([Zp_all, U]) if ft else Zp_all
     js = list(range(p, 0, -1)) + ([0] if (feedthrough and pseudo is not None) else [])
-    elim = Eliminator(pseudo, js, valid)
+    elim = _eliminator(pseudo, js, valid)
     nreg = Phi.shape[0]
     if elim.ncols <= nreg:
         raise ValueError(
@@ -571,7 +805,7 @@ def varx_stage_blocks(
     Uu, s, Vt = np.linalg.svd(S[:, cols], full_matrices=False)
     LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
     use = valid & lag.valid_columns(valid, 1) & vu
-    e1 = Eliminator(pseudo, [1], use)
+    e1 = _eliminator(pseudo, [1], use)
     return VarxStage(cols, valid, vx, elim, Uu, s, Vt, LU, use, e1, extra_iv)
 
 
@@ -657,7 +891,7 @@ def pbsid_core_blocks(
         D = np.zeros((l, m))
         E = Y[:, cols] - C @ X
     elif feedthrough and pseudo is not None:
-        e0 = Eliminator(pseudo, [0], valid)
+        e0 = _eliminator(pseudo, [0], valid)
         Xf = np.zeros((n, ncols))
         Xf[:, cols] = X
         reg = np.vstack([Xf, U]) if ft else Xf

@@ -193,6 +193,20 @@ def _power_spectra(t: Array, x: Array) -> tuple[Array, Array]:
     return 2 * np.pi * np.fft.rfftfreq(ns, dt), P
 
 
+#: Periodograms kept by :func:`_record_spectra`: one identification asks for the
+#: spectra of a record's inputs and outputs several times (the data bandwidth, the
+#: default window, the band of the operator scale) and its held-out check those of
+#: the sub-record
+SPECTRA_CACHE_SIZE = 8
+
+
+@memoize(size=SPECTRA_CACHE_SIZE)
+def _record_spectra(t: Array, x: Array) -> tuple[Array, Array]:
+    """:func:`_power_spectra`, memoised by the contents of ``t`` and ``x``
+    (:mod:`hdpbsid.methods.memo`; the arrays returned are read-only)."""
+    return _power_spectra(t, x)
+
+
 def noise_floor(P: Array) -> tuple[float, float]:
     """White-noise floor of a periodogram and its share of the total power.
 
@@ -225,7 +239,7 @@ def bandwidth(
     no power above its floor keeps its raw spectrum.  The result is the largest value over
     the columns.
     """
-    return spectrum_bandwidth(*_power_spectra(t, x), fraction, subtract_floor)
+    return spectrum_bandwidth(*_record_spectra(t, x), fraction, subtract_floor)
 
 
 def spectrum_bandwidth(
@@ -288,8 +302,8 @@ def data_bandwidth(t: Array, u: Array, y: Array) -> float:
     plant, do.  The outputs get the lower fraction because their noise is never fully
     removed by a floor estimate.
     """
-    wu, Pu = _power_spectra(t, u)
-    return spectra_data_bandwidth(wu, Pu, *_power_spectra(t, y))
+    wu, Pu = _record_spectra(t, u)
+    return spectra_data_bandwidth(wu, Pu, *_record_spectra(t, y))
 
 
 def spectra_data_bandwidth(wu: Array, Pu: Array, wy: Array, Py: Array) -> float:

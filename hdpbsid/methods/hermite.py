@@ -126,6 +126,14 @@ def _boundary_rows(N: int, T: float, scale: float | None) -> Array:
     return P
 
 
+@functools.lru_cache(maxsize=16)
+def _derivative_matrix(N: int, T: float, scale: float | None) -> Any:
+    """The square d/dt matrix of :func:`_hermite_basis` (``N x N`` CSR), kept like the
+    basis: every operator-scale pass builds its lag from it (not modified by
+    :func:`hermite_lag`, which reads its diagonals)."""
+    return _hermite_basis(N, T, scale).derivative_matrix("square")
+
+
 def _diagonal(Dmat: Any, k: int) -> Array:
     return np.asarray(Dmat.diagonal(k), dtype=float)
 
@@ -355,7 +363,7 @@ def identify_hermite(
             use = (decided["hold"],)
             opts["input_hold_rule"] = decided["rule"]
         lags = {
-            k: hermite_lag(b.derivative_matrix("square"), a, beta, gamma)[0]
+            k: hermite_lag(_derivative_matrix(b.N, b.t_span[1], scale), a, beta, gamma)[0]
             for k, b in bases.items()
         }
         lag = BlockLag([lags[k] for k in keys], Ns_)
