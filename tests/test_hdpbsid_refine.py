@@ -150,48 +150,31 @@ def test_bad_arguments() -> None:
         refine_pem(model, t, u, y, hold="cubic")
 
 
-def _predictor_spectral_radius(model: StateSpaceModel, h: float) -> float:
-    """Spectral radius of ``Phi - Kd C`` of the model sampled with step ``h``, from
-    scipy's matrix exponential (``[[A h, K h], [0, 0]]`` gives ``Phi`` and ``Kd``)."""
-    from scipy.linalg import expm
-
-    n, l = model.n, model.l
-    M = np.zeros((n + l, n + l))
-    M[:n, :n], M[:n, n:] = model.A * h, model.K * h
-    E = expm(M)
-    return float(np.max(np.abs(np.linalg.eigvals(E[:n, :n] - E[:n, n:] @ model.C))))
-
-
-def test_a_fit_pressed_against_the_predictor_stability_boundary_stops_early() -> None:
-    """Closed-loop quadrotor, 20 dB: from the CT-PBSID (Laguerre filter) model with its
-    Laguerre-domain ``D`` made a free parameter (``feedthrough=True``: a structure this
-    loop, whose controller reacts within the sample, cannot identify) the fit runs into
-    the boundary of the stable predictors (spectral radius 1) and must stop there,
-    unconverged, well before its evaluation budget (it used all 150 before the stop
-    rule); from the HD-PBSID model on the same record it converges inside."""
-    from hdpbsid.methods.refine import DEFAULT_MAX_NFEV
-    from hdpbsid.studies.data import quadrotor_record
-
-    d = quadrotor_record(
-        np.random.default_rng([7, 0]), snr_db=20.0, excitation="hermite-sweep", n_max_u=300
+def test_fit_converges_at_the_statistical_resolution_on_a_two_time_scale_mimo_system() -> None:
+    """Open-loop 2x2 system of order 4, modes -2 +- 20i and -0.2 +- 2i, random steps,
+    20 dB.  Levenberg-Marquardt alone never declared convergence here (its tolerances
+    kept it stepping at the optimum until the budget ran out, and the unrefined model
+    was returned); with the statistical-resolution stop the fit converges, and a larger
+    budget does not move it by more than the resolution."""
+    A = np.array([[-2.0, 20.0, 0, 0], [-20.0, -2.0, 0, 0], [0, 0, -0.2, 2.0], [0, 0, -2.0, -0.2]])
+    B = np.array([[1.0, 0.0], [0.0, 5.0], [0.5, 0.0], [0.0, 0.5]])
+    C = np.array([[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0]])
+    truth = np.linalg.eigvals(A)
+    rng = np.random.default_rng(12)
+    t = np.arange(4001) * 0.01
+    u = random_steps(rng, t, 0.05, channels=2)
+    y = add_noise(simulate_zoh(A, B, C, None, t, u), 20.0, rng)[0]
+    start = identify(t, u, y, 4, method="dt", refine=None)
+    fit = refine_pem(start, t, u, y)
+    longer = refine_pem(start, t, u, y, max_nfev=600)
+    assert fit.options["refine_converged"], fit.options["refine_status"]
+    # better than the subspace start (measured 0.1-0.5 % against 2-4 % on such records)
+    assert (
+        eigenvalue_errors(fit.eigenvalues, truth).max()
+        < eigenvalue_errors(start.eigenvalues, truth).max()
     )
-    h = float(d.t[1] - d.t[0])
-    kw = {"detrend": None, "refine": None}
-    ct = identify(d.t, d.u, d.y, 3, method="laguerre", variant="filter", **kw)
-    ct.options["feedthrough"] = True
-    hd = identify(d.t, d.u, d.y, 3, method="hermite", **kw)
-    stopped = refine_pem(ct, d.t, d.u, d.y)
-    refined = refine_pem(hd, d.t, d.u, d.y)
-    assert not stopped.options["refine_converged"]
-    assert "stability boundary" in stopped.options["refine_status"]
-    # measured 36-48 of 150: the rule must save most of the budget, not the last run
-    assert stopped.options["refine_nfev"] < DEFAULT_MAX_NFEV / 2, stopped.options
-    # the stop is at the boundary (measured radius 0.99998-1.0 on such stops), while the
-    # converged predictors of this loop have radius 0.988-0.995 (the plant's poles
-    # -2.9 +- 3.2i and the mirrored -3.08 sampled at 4 ms give 0.988)
-    assert _predictor_spectral_radius(stopped, h) > 0.999
-    assert refined.options["refine_converged"]
-    assert _predictor_spectral_radius(refined, h) < 0.999
-    err = eigenvalue_errors(refined.eigenvalues, d.true_eigenvalues)
-    # HD-PBSID refined at 20 dB: within 5 % (as test_quadrotor_20db_hermite_refined...)
-    assert err.max() < 0.05, err
+    # each stop is within STALL_SD = 0.1 standard deviation of the optimum: the two end
+    # points agree within 0.2 of the reported standard deviation
+    std = np.max(fit.options["eigenvalue_std"])
+    gap = eigenvalue_errors(longer.eigenvalues, fit.eigenvalues) * np.abs(fit.eigenvalues)
+    assert np.max(gap) <= 0.2 * std, (gap, std)
