@@ -595,8 +595,7 @@ def select_past_window_blocks(
             rank, res = nested(p)
             if N - rank <= q + l:
                 break
-            sigma = res.T @ res / N + rel_floor * np.eye(l)
-            crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + 2.0 * l * (q + rank)
+            crit[p - 1] = window_aic(res, N, q + rank, rel_floor)
             continue
         reg = np.vstack(lagged[: (1 if d0 else 0) + p])
         cs = np.sqrt(np.mean(reg[:, valid] ** 2, axis=1))
@@ -606,16 +605,29 @@ def select_past_window_blocks(
             break
         Rc = elim.compress(np.vstack([reg / cs[:, None], Ys]))
         R = r_factor(Rc[:q], Rc[q:])
-        res = R[q:, q:]
-        sigma = res.T @ res / N + rel_floor * np.eye(l)
-        logdet = np.linalg.slogdet(sigma)[1]
-        crit[p - 1] = N * logdet + 2.0 * l * (q + elim.rank)
+        crit[p - 1] = window_aic(R[q:, q:], N, q + elim.rank, rel_floor)
+    return best_window(crit, p_min, p_max, N), crit
+
+
+def window_aic(res: Array, N: int, coefficients: int, rel_floor: float) -> float:
+    """``AIC = N log det Sigma + 2 l d`` of a VARX whose residual covariance is
+    ``Sigma = res^T res / N`` (``res``: the ``(., l)`` residual block of an R factor, on
+    unit-RMS outputs, floored at ``rel_floor``) and which has ``d = coefficients``
+    coefficients per output (the nuisance ones included)."""
+    l = res.shape[1]
+    sigma = res.T @ res / N + rel_floor * np.eye(l)
+    return float(N * np.linalg.slogdet(sigma)[1] + 2.0 * l * coefficients)
+
+
+def best_window(crit: Array, p_min: int, p_max: int, N: int) -> int:
+    """The past window ``p`` of the smallest criterion ``crit[p - 1]``; ``ValueError`` when
+    no window in ``[p_min, p_max]`` could be fitted."""
     if not np.isfinite(crit).any():
         raise ValueError(
             f"p in [{p_min}, {p_max}]: too few columns ({N}) for the VARX with the "
             f"pseudo-inputs eliminated"
         )
-    return int(np.argmin(crit)) + 1, crit
+    return int(np.argmin(crit)) + 1
 
 
 def _nested_window_residuals(

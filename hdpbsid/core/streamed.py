@@ -44,7 +44,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .blocks import BlockLag, BlockPseudo, Eliminator, _gamma_l_rows
+from .blocks import (
+    BlockLag,
+    BlockPseudo,
+    Eliminator,
+    _gamma_l_rows,
+    best_window,
+    window_aic,
+)
 from .pbsid import CoreResult, core_options, select_order, stable_gain
 from .varx import VarxResult, parse_regularize, past_blocks, ridge_gcv_r
 
@@ -316,14 +323,8 @@ def select_p(
         cs[cs == 0] = 1.0
         d = np.concatenate([(1.0 / (sz[None, :] * cs)).ravel(), 1.0 / (sy * ys)])
         res = (vf.hard[p] * d[None, :])[q:, q:]
-        sigma = res.T @ res / N + rel_floor * np.eye(l)
-        crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + 2.0 * l * (q + vf.rank[p])
-    if not np.isfinite(crit).any():
-        raise ValueError(
-            f"p in [{p_min}, {p_max}]: too few columns ({N}) for the VARX with the "
-            f"pseudo-inputs eliminated"
-        )
-    return int(np.argmin(crit)) + 1, crit
+        crit[p - 1] = window_aic(res, N, q + vf.rank[p], rel_floor)
+    return best_window(crit, p_min, p_max, N), crit
 
 
 def solve_varx(
