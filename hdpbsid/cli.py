@@ -636,8 +636,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("none", "pem", "auto"),
         default="auto",
         help="prediction-error refinement of the subspace model "
-        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto' (default): only "
-        "where the residuals show feedback and noise, hdpbsid.feedback)",
+        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto' (default): every "
+        "single uniformly sampled record, kept when it converges; hdpbsid.feedback)",
     )
     p.add_argument(
         "--option",

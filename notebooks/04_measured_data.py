@@ -190,12 +190,14 @@ if importlib.util.find_spec("sippy_unipi") is None:
 else:
     from sippy_unipi import system_identification
 
-    u0, y0 = est[1].mean(), est[2].mean()
+    # one channel each: SIPPY takes (channels, samples) arrays
+    ue, ye, uv, yv = est[1].ravel(), est[2].ravel(), val[1].ravel(), val[2].ravel()
+    u0, y0 = ue.mean(), ye.mean()
     for order in ORDERS:
         with contextlib.redirect_stdout(io.StringIO()):  # SIPPY prints to stdout
             sm = system_identification(
-                (est[2] - y0)[None, :],
-                (est[1] - u0)[None, :],
+                (ye - y0)[None, :],
+                (ue - u0)[None, :],
                 "PARSIM-K",
                 SS_fixed_order=order,
                 tsample=0.1,
@@ -203,10 +205,10 @@ else:
         dm = hdpbsid.DiscreteModel(
             sm.A, sm.B, sm.C, sm.D, np.zeros((order, 1)), dt=0.1, u0=[u0], y0=[y0]
         )
-        y_zero = dm.simulate(val[1][:, None])
+        y_zero = dm.simulate(uv[:, None])
         dev = hdpbsid.DiscreteModel(sm.A, sm.B, sm.C, sm.D, None, dt=0.1)
-        zero_u = np.zeros((val[0].size, 1))
+        zero_u = np.zeros((uv.size, 1))
         free = np.stack([dev.simulate(zero_u, x0=e)[:, 0] for e in np.eye(order)], axis=1)
-        x0 = np.linalg.lstsq(free, val[2] - y_zero[:, 0], rcond=None)[0]
-        f = fit_percent(val[2][:, None], y_zero + (free @ x0)[:, None])[0]
+        x0 = np.linalg.lstsq(free, yv - y_zero[:, 0], rcond=None)[0]
+        f = fit_percent(yv[:, None], y_zero + (free @ x0)[:, None])[0]
         print(f"SIPPY PARSIM-K order {order}: validation fit {f:6.2f} %")
