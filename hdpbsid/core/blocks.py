@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
 
-from .pbsid import CoreResult, core_options, estimate_cd, select_order, stable_gain
+from .pbsid import CoreResult, core_options, estimate_cd, resolve_order, stable_gain
 from .varx import (
     CachedPowers,
     LagOperator,
@@ -886,16 +886,7 @@ def pbsid_core_blocks(
     ft = feedthrough and m > 0
     Uu, s, Vt = stage.Uu, stage.s, stage.Vt
     extra_iv = stage.extra_iv
-    info: dict = {}
-    if order is None:
-        n, info = select_order(s, max_order)
-    else:
-        n = order
-    if n > s.size:
-        raise ValueError(
-            f"order={n} exceeds the rank available ({s.size} singular values); "
-            f"increase f or supply more data"
-        )
+    n, info = resolve_order(s, order, max_order)
     X = np.sqrt(s[:n])[:, None] * Vt[:n]
     # -- 3a. C, D (pseudo-inputs enter the output equation only with feedthrough) -------
     if instruments is not None:

@@ -26,6 +26,7 @@ __all__ = [
     "gamma_l",
     "state_sequence",
     "select_order",
+    "resolve_order",
     "estimate_cd",
     "estimate_abk",
     "riccati_gain",
@@ -86,6 +87,22 @@ def select_order(s: Array, max_order: int | None = None) -> tuple[int, dict]:
     gaps = ls[:kmax] - ls[1 : kmax + 1]
     n = int(np.argmax(gaps)) + 1
     return n, {"criterion": "largest log gap of singular values", "log_gaps": gaps}
+
+
+def resolve_order(
+    s: Array, order: int | None, max_order: int | None, rank: int | None = None
+) -> tuple[int, dict]:
+    """The order: ``order`` as given, or :func:`select_order` on the singular values
+    ``s``; ``ValueError`` when it exceeds the ``rank`` available (default ``s.size``).
+    Returns ``(n, info)`` (``info`` empty for a given order)."""
+    rank = s.size if rank is None else rank
+    n, info = select_order(s, max_order) if order is None else (order, {})
+    if n > rank:
+        raise ValueError(
+            f"order={n} exceeds the rank available ({rank} singular values); "
+            f"increase f or supply more data"
+        )
+    return n, info
 
 
 def estimate_cd(X: Array, U: Array, Y: Array, feedthrough: bool) -> tuple[Array, Array, Array]:
@@ -317,16 +334,7 @@ def pbsid_core(
     )
     LK = gamma_l(vx.coef, p, f, m, l)
     Xall, s, Ug = state_sequence(LK, vx.Zp, None)
-    info: dict = {}
-    if order is None:
-        n, info = select_order(s, max_order)
-    else:
-        n = order
-    if n > Xall.shape[0]:
-        raise ValueError(
-            f"order={n} exceeds the rank available ({Xall.shape[0]} singular values); "
-            f"increase f or supply more data"
-        )
+    n, info = resolve_order(s, order, max_order, Xall.shape[0])
     X = Xall[:n]
     cols = vx.columns
     if instruments is None:

@@ -52,7 +52,7 @@ from .blocks import (
     best_window,
     window_aic,
 )
-from .pbsid import CoreResult, core_options, select_order, stable_gain
+from .pbsid import CoreResult, core_options, resolve_order, stable_gain
 from .varx import VarxResult, parse_regularize, past_blocks, ridge_gcv_r
 
 __all__ = [
@@ -407,16 +407,7 @@ def solve_model(
     p, f = vs.p, vs.f
     fl = f * l
     Uu, s = state_map(sf, fl)
-    info: dict = {}
-    if order is None:
-        n, info = select_order(s, max_order)
-    else:
-        n = order
-    if n > s.size:
-        raise ValueError(
-            f"order={n} exceeds the rank available ({s.size} singular values); "
-            f"increase f or supply more data"
-        )
+    n, info = resolve_order(s, order, max_order)
     T = Uu[:, :n].T / np.sqrt(s[:n])[:, None]  # X = T S
     eps = np.finfo(float).eps
     # C: Y = C X + E on all columns; the factor of [X; Y] is that of [S; Y] mapped
