@@ -51,6 +51,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from .model import StateSpaceModel
+from .recursion import forced_responses, matrix_powers
 
 __all__ = [
     "WindowedError",
@@ -242,22 +243,17 @@ def _windowed_error(
     if predict and n and not predictor_is_stable(F):
         # not a predictor on held-out data (module docstring): no score
         return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
-    # forced response in every window from a zero state, all windows at once
-    X = np.zeros((windows, n))
-    Yf = np.empty((windows, L, l))
-    O = np.empty((L, l, n))
-    P = np.eye(n)
+    # forced response in every window from a zero state, all windows at once, and the
+    # free response C F^k of the window's initial state (hdpbsid.recursion)
     with np.errstate(over="ignore", invalid="ignore"):
-        for k in range(L):
-            Yf[:, k] = X @ C.T + uw[:, k] @ D.T
-            O[k] = C @ P
-            if k + 1 < L:
-                du = (uw[:, k + 1] - uw[:, k]) @ G2.T if G2 is not None else 0.0
-                drive = uw[:, k] @ G1.T + du
-                if predict:
-                    drive = drive + (yw[:, k] - uw[:, k] @ D.T) @ Gk.T
-                X = X @ F.T + drive
-                P = F @ P
+        drive = uw[:, :-1] @ G1.T
+        if G2 is not None:
+            drive += np.diff(uw, axis=1) @ G2.T
+        if predict:
+            drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
+        X = forced_responses(F, drive)  # (W, L, n)
+        Yf = X @ C.T + uw @ D.T
+        O = C @ matrix_powers(F, L)  # (L, l, n)
         R = (yw - Yf) * sw  # (W, L, l)
         Ow = (O * sw[None, :, None]).reshape(L * l, n)
         finite = bool(np.all(np.isfinite(R)) and np.all(np.isfinite(Ow)))

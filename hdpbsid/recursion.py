@@ -16,7 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import lfilter
 
-__all__ = ["modal_filter", "linear_recursion", "MAX_MODAL_CONDITION"]
+__all__ = [
+    "modal_filter",
+    "linear_recursion",
+    "forced_responses",
+    "matrix_powers",
+    "MAX_MODAL_CONDITION",
+]
 
 Array = NDArray[np.float64]
 
@@ -40,6 +46,65 @@ def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
         else:
             Z[..., a, 1:] = lfilter([1.0], [1.0, -lam[a]], ra, axis=-1)
     return Z
+
+
+def _modal_form(F: Array) -> tuple[NDArray, NDArray, NDArray] | None:
+    """``(lam, V, V^{-1})`` with ``F = V diag(lam) V^{-1}`` when the eigenvectors are
+    finite with ``cond(V) <= MAX_MODAL_CONDITION`` (module docstring), else None."""
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(F)):
+            return None
+        lam, V = np.linalg.eig(F)
+        if not (np.all(np.isfinite(V)) and np.linalg.cond(V) <= MAX_MODAL_CONDITION):
+            return None
+    return lam, V, np.linalg.inv(V)
+
+
+def forced_responses(F: Array, W: Array) -> Array:
+    """A batch of recursions from a zero state: ``X[b, 0] = 0``,
+    ``X[b, k + 1] = F X[b, k] + W[b, k]``.
+
+    ``F (n, n)`` real, ``W (B, K, n)``; returns ``X (B, K + 1, n)``.  Modal filters over
+    the whole batch at once (module docstring) when ``F`` is well diagonalisable, else
+    the plain loop over ``k`` (vectorised over the batch).  Growing modes may overflow to
+    ``inf``, as they would in the loop.
+    """
+    F = np.asarray(F, dtype=float)
+    W = np.asarray(W, dtype=float)
+    B, K, n = W.shape
+    modal = _modal_form(F) if n else None
+    if modal is not None:
+        lam, V, Vi = modal
+        R = np.zeros((B, n, K + 1), dtype=complex)
+        R[:, :, :K] = np.einsum("ij,bkj->bik", Vi, W)
+        with np.errstate(over="ignore", invalid="ignore"):
+            Z = modal_filter(lam, R)
+            return np.real(np.einsum("ij,bjk->bki", V, Z))
+    X = np.zeros((B, K + 1, n))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(K):
+            X[:, k + 1] = X[:, k] @ F.T + W[:, k]
+    return X
+
+
+def matrix_powers(F: Array, K: int) -> Array:
+    """``P[k] = F^k`` for ``k = 0 .. K - 1``, shape ``(K, n, n)``: ``V diag(lam^k) V^{-1}``
+    when ``F`` is well diagonalisable (module docstring), else repeated products."""
+    F = np.asarray(F, dtype=float)
+    n = F.shape[0]
+    modal = _modal_form(F) if n else None
+    if modal is not None:
+        lam, V, Vi = modal
+        with np.errstate(over="ignore", invalid="ignore"):
+            powers = lam[None, :] ** np.arange(K)[:, None]  # (K, n)
+            return np.real(np.einsum("ia,ka,aj->kij", V, powers, Vi))
+    P = np.empty((K, n, n))
+    Pk = np.eye(n)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(K):
+            P[k] = Pk
+            Pk = F @ Pk
+    return P
 
 
 def linear_recursion(F: Array, W: Array, x0: Array) -> Array:

@@ -6,7 +6,12 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdpbsid.recursion import MAX_MODAL_CONDITION, linear_recursion
+from hdpbsid.recursion import (
+    MAX_MODAL_CONDITION,
+    forced_responses,
+    linear_recursion,
+    matrix_powers,
+)
 
 
 def loop(F: np.ndarray, W: np.ndarray, x0: np.ndarray) -> np.ndarray:
@@ -42,3 +47,39 @@ def test_defective_matrix_falls_back_to_the_loop() -> None:
     x0 = np.array([1.0, -1.0])
     # the loop itself is the result: identical to the last bit
     np.testing.assert_array_equal(linear_recursion(F, W, x0), loop(F, W, x0))
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    n=st.integers(1, 5),
+    seed=st.integers(0, 2**31 - 1),
+    batch=st.integers(1, 6),
+    steps=st.integers(1, 200),
+    radius=st.sampled_from([0.5, 0.98, 1.02]),
+)
+def test_batched_forced_responses_and_powers_match_the_loop(
+    n: int, seed: int, batch: int, steps: int, radius: float
+) -> None:
+    rng = np.random.default_rng(seed)
+    F = rng.standard_normal((n, n))
+    F *= radius / max(1e-12, np.max(np.abs(np.linalg.eigvals(F))))  # unstable ones too
+    W = rng.standard_normal((batch, steps, n))
+    X = forced_responses(F, W)
+    ref = np.stack([loop(F, W[b], np.zeros(n)) for b in range(batch)])
+    cond = min(np.linalg.cond(np.linalg.eig(F)[1]), MAX_MODAL_CONDITION)
+    # rounding of the change of coordinates, ~cond(V) eps per step, accumulated over at
+    # most 200 steps whose terms grow by at most 1.02^200 ~ 52 (relative to the largest)
+    tol = 1e-13 * cond * steps
+    assert np.max(np.abs(X - ref)) <= tol * (np.max(np.abs(ref)) + 1.0)
+    P = matrix_powers(F, steps)
+    Pref = np.stack([np.linalg.matrix_power(F, k) for k in range(steps)])
+    assert np.max(np.abs(P - Pref)) <= tol * (np.max(np.abs(Pref)) + 1.0)
+
+
+def test_batched_recursion_of_a_defective_matrix_is_the_loop() -> None:
+    F = np.array([[0.5, 1.0], [0.0, 0.5]])  # a Jordan block: no eigenvector basis
+    W = np.ones((3, 40, 2))
+    ref = np.stack([loop(F, W[b], np.zeros(2)) for b in range(3)])
+    # the fallback loop is the same arithmetic in the same order as the reference
+    np.testing.assert_allclose(forced_responses(F, W), ref, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(matrix_powers(F, 5)[4], np.linalg.matrix_power(F, 4))

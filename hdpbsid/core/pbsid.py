@@ -32,6 +32,8 @@ __all__ = [
     "riccati_gain",
     "stable_gain",
     "CoreResult",
+    "SubspaceStage",
+    "subspace_stage",
     "pbsid_core",
 ]
 
@@ -264,6 +266,48 @@ class CoreResult:
         return np.linalg.eigvals(self.A)
 
 
+@dataclass
+class SubspaceStage:
+    """Steps 1-2 of :func:`pbsid_core`, which do not depend on the order: the VARX fit
+    ``varx``, the SVD ``Gamma_f L_p Z_p = U S V^T`` (``left = U``, ``singular_values =
+    S``) and every state row ``states = S^{1/2} V^T``.  An order only truncates them, so
+    the orders of an order selection can share one stage (``pbsid_core(..., stage=)``)."""
+
+    varx: VarxResult
+    states: Array
+    singular_values: Array
+    left: Array
+
+
+def subspace_stage(
+    U: Array,
+    Y: Array,
+    p: int,
+    f: int,
+    lag: LagOperator,
+    feedthrough: bool,
+    regularize: bool | str | float | None,
+    ridge_floor: float = 0.0,
+    instruments: Array | None = None,
+    exogenous: tuple[int, ...] = (),
+) -> SubspaceStage:
+    """The order-independent steps 1-2 of :func:`pbsid_core` (:class:`SubspaceStage`)."""
+    vx = varx(
+        U,
+        Y,
+        p,
+        lag=lag,
+        feedthrough=feedthrough,
+        regularize=regularize,
+        ridge_floor=ridge_floor,
+        instruments=instruments,
+        exogenous=exogenous,
+    )
+    LK = gamma_l(vx.coef, p, f, U.shape[0], Y.shape[0])
+    Xall, s, Ug = state_sequence(LK, vx.Zp, None)
+    return SubspaceStage(vx, Xall, s, Ug)
+
+
 def pbsid_core(
     U: Array,
     Y: Array,
@@ -278,6 +322,7 @@ def pbsid_core(
     max_order: int | None = None,
     instruments: Array | None = None,
     exogenous: tuple[int, ...] = (),
+    stage: SubspaceStage | None = None,
 ) -> CoreResult:
     """Identify ``(A, B, C, D, K)`` of the innovation model in the lag-operator domain.
 
@@ -310,9 +355,12 @@ def pbsid_core(
        ``X = At lag(X) + Bt lag(Z)``, which the state ``X = L Zp`` satisfies up to the
        truncation ``At^p`` without any noise term, so least squares is consistent there.
        ``D`` (with ``feedthrough``) is the VARX's.
+
+    ``stage``: steps 1-2 computed before by :func:`subspace_stage` with the same
+    arguments (the caller's responsibility), e.g. shared by the orders of a selection.
     """
     lag = SampleShift() if lag is None else lag
-    m, l = U.shape[0], Y.shape[0]
+    l = Y.shape[0]
     f = p if f is None else f
     if f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
@@ -321,19 +369,11 @@ def pbsid_core(
             f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
             f"increase f (and p) or reduce the order"
         )
-    vx = varx(
-        U,
-        Y,
-        p,
-        lag=lag,
-        feedthrough=feedthrough,
-        regularize=regularize,
-        ridge_floor=ridge_floor,
-        instruments=instruments,
-        exogenous=exogenous,
-    )
-    LK = gamma_l(vx.coef, p, f, m, l)
-    Xall, s, Ug = state_sequence(LK, vx.Zp, None)
+    if stage is None:
+        stage = subspace_stage(
+            U, Y, p, f, lag, feedthrough, regularize, ridge_floor, instruments, exogenous
+        )
+    vx, Xall, s, Ug = stage.varx, stage.states, stage.singular_values, stage.left
     n, info = resolve_order(s, order, max_order, Xall.shape[0])
     X = Xall[:n]
     cols = vx.columns

@@ -41,7 +41,7 @@ from ..checks import (
     check_uniform,
 )
 from ..core.blocks import BlockLag
-from ..core.pbsid import pbsid_core
+from ..core.pbsid import SubspaceStage, pbsid_core, subspace_stage
 from ..core.varx import LagOperator, SampleShift, select_past_window
 from ..model import DiscreteModel, StateSpaceModel
 from ..records import as_records
@@ -125,6 +125,16 @@ def _past_window_criteria(
     return select_past_window(U, Y, p_max, p_min=1, feedthrough=feedthrough, criterion=criterion)[1]
 
 
+@memoize
+def _shared_subspace_stage(
+    U: Array, Y: Array, p: int, f: int, feedthrough: bool, regularize: Any
+) -> SubspaceStage:
+    """:func:`hdpbsid.core.pbsid.subspace_stage` with the sample shift, memoised: the
+    VARX fit and the SVD do not depend on the order, so the orders of an order selection
+    (which all choose the same ``p`` from the same criterion) compute them once."""
+    return subspace_stage(U, Y, p, f, SampleShift(), feedthrough, regularize)
+
+
 def identify_discrete(
     u: Any,
     y: Any,
@@ -197,6 +207,7 @@ def identify_discrete(
         )
     f_rule = "given" if f is not None else "f = p"
     f = p if f is None else f
+    shared = lag is None or type(lag) is SampleShift
     core = pbsid_core(
         U,
         Y,
@@ -208,6 +219,7 @@ def identify_discrete(
         regularize=regularize,
         stable_k=stable_k,
         max_order=mo if order is None else None,
+        stage=_shared_subspace_stage(U, Y, p, f, feedthrough, regularize) if shared else None,
     )
     # undo the normalisation: u = su * us, y = sy * ys
     A = core.A
