@@ -124,6 +124,20 @@ def _fit_one(
     return row
 
 
+def _sweep_method(
+    get_method: Any,
+    method: str,
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+) -> list[dict[str, Any]]:
+    """Every order of one method, upwards (the orders share the method's memoised
+    order-independent steps, :mod:`hdpbsid.methods.memo`)."""
+    return [_fit_one(get_method, method, n, est, val, windows, options) for n in orders]
+
+
 def _sweep(
     get_method: Any,
     methods: Sequence[str],
@@ -134,31 +148,27 @@ def _sweep(
     options: dict,
     n_jobs: int | None,
 ) -> list[dict[str, Any]]:
-    """Every ``(method, order)`` candidate, orders upwards.  With ``n_jobs`` the methods
-    of one order are fitted in parallel (joblib); the candidates, and so the result, are
-    those of the serial run.
+    """Every ``(method, order)`` candidate, listed orders upwards and, within an order, in
+    the order of ``methods``.  With ``n_jobs`` the methods are swept in parallel
+    (joblib), each method's orders in one worker, where they share its memoised
+    projection and operators; the candidates, and so the result, are those of the
+    serial run.
 
     Every order is fitted: a larger order that does not beat the best by a standard
     error cannot be chosen, but it can become the best and so move the reference of the
     one-standard-error rule (the closed-loop quadrotor's order 3 against 2 depends on
     its order 7), so stopping the sweep early would change the choice.
     """
-    rows: list[dict[str, Any]] = []
-    parallel = None
-    if n_jobs is not None and n_jobs != 1:
+    args = (orders, est, val, windows, options)
+    if n_jobs is not None and n_jobs != 1 and len(methods) > 1:
         from joblib import Parallel, delayed
 
-        parallel = Parallel(n_jobs=n_jobs)
-    for n in orders:
-        if parallel is not None:
-            rows.extend(
-                parallel(
-                    delayed(_fit_one)(get_method, m, n, est, val, windows, options) for m in methods
-                )
-            )
-        else:
-            rows.extend(_fit_one(get_method, m, n, est, val, windows, options) for m in methods)
-    return rows
+        per_method = Parallel(n_jobs=n_jobs)(
+            delayed(_sweep_method)(get_method, m, *args) for m in methods
+        )
+    else:
+        per_method = [_sweep_method(get_method, m, *args) for m in methods]
+    return [rows[i] for i in range(len(orders)) for rows in per_method]
 
 
 def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
@@ -318,7 +328,7 @@ def identify_auto(
 
     ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
     non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
-    end of the record (``0 < holdout < 1``); ``n_jobs``: fit the methods of each order in parallel
+    end of the record (``0 < holdout < 1``); ``n_jobs``: sweep the methods in parallel
     with joblib (results are identical to the serial run); ``method_options``: extra
     options per method, e.g. ``{"hermite": {"N": 400}}``.  ``model.options["selection"]``
     lists every candidate, ``options["order_selection"]`` the chosen method's.

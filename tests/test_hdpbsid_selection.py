@@ -77,6 +77,18 @@ def test_auto_is_deterministic_and_reports_every_candidate():
     assert np.max(err) < 0.05  # 30 dB: measured < 1 %; 5 % flags a wrong model
 
 
+def test_auto_in_parallel_is_the_serial_run():
+    t, u, y, _ = _record(2)
+    kw = {"method": "auto", "methods": ("hermite", "dt"), "max_order": 3, "refine": None}
+    serial = hdpbsid.identify(t, u, y, **kw)
+    parallel = hdpbsid.identify(t, u, y, n_jobs=2, **kw)
+    # the same candidates in the same order, with the same held-out errors and model:
+    # the workers run the same arithmetic on the same data
+    key = [(r["method"], r["order"], r["error"]) for r in serial.options["selection"]]
+    assert key == [(r["method"], r["order"], r["error"]) for r in parallel.options["selection"]]
+    np.testing.assert_array_equal(serial.A, parallel.A)
+
+
 def test_auto_refuses_a_record_too_short_to_score():
     t, u, y, _ = _record(3, T=0.5)
     with pytest.raises(ValueError, match="longer record"):

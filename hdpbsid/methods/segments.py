@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from ..checks import is_uniform
 from ..records import Record, split_windows
 from .basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from .memo import memoize
 from .settings import check_window
 
 __all__ = [
@@ -190,6 +191,22 @@ def _maps(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Ar
     return out, foh
 
 
+#: projection maps at most this large (bytes, all holds) are memoised: an order or method
+#: selection projects the same windows once per candidate, and the map (a basis
+#: evaluation at every quadrature node) is most of that cost; the cache keeps
+#: :data:`MAP_CACHE_SIZE` of them, so it holds at most 4 x 64 MB
+MAP_CACHE_BYTES = 64 * 2**20
+#: projection maps kept (estimation part and whole record, each with both holds' maps)
+MAP_CACHE_SIZE = 4
+
+
+@memoize(size=MAP_CACHE_SIZE)
+def _maps_memoised(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
+    """:func:`_maps`, memoised by the basis and the contents of ``t``
+    (:mod:`hdpbsid.methods.memo`; the arrays returned are read-only)."""
+    return _maps(basis, t, holds)
+
+
 def project_blocks(
     bases: Sequence[Any],
     segs: Sequence[Record],
@@ -223,7 +240,8 @@ def project_blocks(
             single.extend(idx)
             continue
         single.extend(i for i in idx if i not in same)
-        Gu, Gy = _maps(b, t0, holds)
+        small = b.N * t0.size * 8 * (len(holds) + 1) <= MAP_CACHE_BYTES
+        Gu, Gy = (_maps_memoised if small else _maps)(b, t0, tuple(holds))
         if m:
             u_all = np.hstack([segs[i].u for i in same])  # (Ns, K m)
             for h, G in enumerate(Gu):
