@@ -20,6 +20,7 @@ order=None, **options) -> StateSpaceModel``).
 from __future__ import annotations
 
 import importlib
+import time
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -225,7 +226,8 @@ def identify(
     prediction-error model the answer (efficient in open loop, consistent in closed loop
     where the basis-domain least squares is biased).  A chi-square feedback test of the
     first-pass residuals against the prewhitened input is reported with the rule in
-    ``options["refine_rule"]`` and ``options["refine_statistics"]``.  A refinement
+    ``options["refine_rule"]`` and ``options["refine_statistics"]``, the seconds the
+    decision and the refinement took in ``options["refine_time"]``.  A refinement
     that does not converge within its evaluation budget is dropped (the unrefined model
     is returned, the rule says so): the prediction-error estimate is consistent at a
     minimum of the cost, and an iterate cut off on its way is neither that nor the
@@ -292,6 +294,7 @@ def identify(
         raise TypeError(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
         )
+    t_refine = time.perf_counter()
     if refine == "pem":
         model = refine_pem(model, tm, um, ym)
     elif refine == "auto":
@@ -313,6 +316,8 @@ def identify(
                 )
         model.options["refine_rule"] = rule
         model.options["refine_statistics"] = stats
+    if refine is not None:
+        model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)
     model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
