@@ -73,7 +73,14 @@ from .criteria import (
 )
 from .model import StateSpaceModel
 
-__all__ = ["identify_auto", "select_order", "select_model", "AUTO_METHODS", "HOLDOUT"]
+__all__ = [
+    "identify_auto",
+    "select_order",
+    "select_model",
+    "refit_holds",
+    "AUTO_METHODS",
+    "HOLDOUT",
+]
 
 #: methods tried by ``method="auto"`` (in this order; ``dt`` only on uniform samples)
 AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
@@ -202,6 +209,36 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     return sorted(tied, key=lambda r: r["whole_simulation"])
 
 
+def refit_holds(
+    model: StateSpaceModel, held_out: WindowedError, val: tuple, windows: int
+) -> tuple[bool, str]:
+    """Whether ``model``, a candidate identified again on the whole record, is as good on
+    the held-out part ``val`` as the candidate was, and why not.
+
+    The refit has seen the held-out samples, so its error there (the same criterion,
+    :func:`score_model`) is an in-sample error, and a correct refit of the same model
+    structure scores no worse than the candidate did out of sample, up to the noise of
+    the criterion.  More than one standard error of the candidate's held-out windows
+    worse (the one-standard-error rule of :func:`~hdpbsid.criteria.choose_smallest_adequate`
+    with the refit listed first) means the refit is not the model that was chosen: the
+    method's data-driven settings (operator scale, past window, basis size, input hold)
+    are chosen again on the whole record and can change with it.  Such a refit is not
+    returned; the next candidate is tried, as when the refit raises.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        refit, _ = score_model(model, val, windows)
+    if not refit.finite:
+        return False, "the refit on the whole record cannot be simulated on the held-out part"
+    k, stats = choose_smallest_adequate([refit, held_out])
+    if k == 0:
+        return True, ""
+    return False, (
+        f"the refit on the whole record scores {stats[0]:.1f} standard errors worse on the "
+        f"held-out part than the candidate did without seeing it"
+    )
+
+
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     table = []
     for r in rows:
@@ -291,12 +328,17 @@ def select_model(
     failures = []
     for chosen in queue + rest:
         try:
-            model = get_method(chosen["method"])(
-                t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
-            )
-            break
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                model = get_method(chosen["method"])(
+                    t, u, y, order=chosen["order"], **opts.get(chosen["method"], {})
+                )
+                holds, how = refit_holds(model, chosen["criterion"], val, windows)
         except (ValueError, np.linalg.LinAlgError) as exc:
-            failures.append(f"{chosen['method']} order {chosen['order']}: {exc}")
+            holds, how = False, str(exc)
+        if holds:
+            break
+        failures.append(f"{chosen['method']} order {chosen['order']}: {how}")
     else:
         raise ValueError(
             "no scored candidate could be identified on the whole record: " + "; ".join(failures)
@@ -308,6 +350,8 @@ def select_model(
         f"error (one-standard-error rule); among that order's candidates within it, the "
         f"smallest simulation error over the whole held-out part"
     )
+    if failures:
+        rule += "; not kept after the refit on the whole record: " + "; ".join(failures)
     return model, _rows_table(rows), rule
 
 

@@ -89,6 +89,39 @@ def test_auto_in_parallel_is_the_serial_run():
     np.testing.assert_array_equal(serial.A, parallel.A)
 
 
+def test_a_refit_worse_than_its_candidate_is_not_returned(monkeypatch):
+    from hdpbsid.identify import METHODS
+
+    t, u, y, true = _record(3)
+    n_whole = t.size
+
+    def drifting(t_, u_, y_, order=None, **_):
+        # the true model on the estimation part; on the whole record a model whose gain
+        # is three times too large, as a method whose settings changed with the record
+        scale = 3.0 if np.asarray(t_).size == n_whole else 1.0
+        return StateSpaceModel(true.A, scale * true.B, true.C, true.D, np.zeros((2, 1)))
+
+    monkeypatch.setitem(METHODS, "drifting", drifting)
+    kw = {"method": "auto", "methods": ("drifting", "dt"), "order": 2, "refine": None}
+    model = hdpbsid.identify(t, u, y, detrend=None, **kw)
+    assert model.options["method"] == "dt"
+    assert (
+        "drifting order 2: the refit on the whole record scores"
+        in (model.options["selection_rule"])
+    )
+    # the same record with a method that stays itself: its refit is kept
+    monkeypatch.setitem(
+        METHODS,
+        "steady",
+        lambda t_, u_, y_, order=None, **_: StateSpaceModel(
+            true.A, true.B, true.C, true.D, np.zeros((2, 1))
+        ),
+    )
+    kw["methods"] = ("steady", "dt")
+    kept = hdpbsid.identify(t, u, y, detrend=None, **kw)
+    assert "not kept" not in kept.options["selection_rule"]
+
+
 def test_auto_refuses_a_record_too_short_to_score():
     t, u, y, _ = _record(3, T=0.5)
     with pytest.raises(ValueError, match="longer record"):
