@@ -32,11 +32,14 @@ convolution with ``alpha gamma e^{-alpha beta t}``, whose L^1 norm is ``gamma / 
 
 The initial-state term and the truncation of the cut ``J`` (Legendre: the last column,
 ``X_N J[N, N-1]``) are pseudo-inputs ``w`` with ``w M = v``, i.e. ``w = v J^{-1}``
-(``v = 1`` coefficients, resp. ``e_{N-1}``).  ``J`` is exact for Legendre (from the exact
-derivative matrix); for other families (Chebyshev, Gegenbauer, Jacobi functions in
-``L^2(dt)``, custom problems) it is computed by quadrature in ``x = -cos(theta)``, and the
-truncation is then only approximately confined to the last column (accurate when the
-coefficients decay, i.e. for smooth signals and ``N`` above the bandwidth).
+(``v = 1`` coefficients, resp. ``e_{N-1}``).  ``J`` is exact for Legendre, in closed form
+and tridiagonal (:func:`slbasis.numeric.operators.integration_matrix`), so ``W -> W M`` and
+``w J = v`` are banded solves, ``O(N)`` per row; for a family whose derivatives stay in
+the span it comes from the exact derivative matrix; for other families (Chebyshev,
+Gegenbauer, Jacobi functions in ``L^2(dt)``, custom problems) it is computed by quadrature
+in ``x = -cos(theta)``, and the truncation is then only approximately confined to the
+last column (accurate when the coefficients decay, i.e. for smooth signals and ``N``
+above the bandwidth).
 """
 
 from __future__ import annotations
