@@ -32,23 +32,29 @@ convolution with ``alpha gamma e^{-alpha beta t}``, whose L^1 norm is ``gamma / 
 
 The initial-state term and the truncation of the cut ``J`` (Legendre: the last column,
 ``X_N J[N, N-1]``) are pseudo-inputs ``w`` with ``w M = v``, i.e. ``w = v J^{-1}``
-(``v = 1`` coefficients, resp. ``e_{N-1}``).  ``J`` is exact for Legendre (from the exact
-derivative matrix); for other families (Chebyshev, Gegenbauer, Jacobi functions in
-``L^2(dt)``, custom problems) it is computed by quadrature in ``x = -cos(theta)``, and the
-truncation is then only approximately confined to the last column (accurate when the
-coefficients decay, i.e. for smooth signals and ``N`` above the bandwidth).
+(``v = 1`` coefficients, resp. ``e_{N-1}``).  ``J`` is exact for Legendre, in closed form
+and tridiagonal (:func:`slbasis.numeric.operators.integration_matrix`), so ``W -> W M`` and
+``w J = v`` are banded solves, ``O(N)`` per row; for a family whose derivatives stay in
+the span it comes from the exact derivative matrix; for other families (Chebyshev,
+Gegenbauer, Jacobi functions in ``L^2(dt)``, custom problems) it is computed by quadrature
+in ``x = -cos(theta)``, and the truncation is then only approximately confined to the
+last column (accurate when the coefficients decay, i.e. for smooth signals and ``N``
+above the bandwidth).
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import slbasis
+from slbasis.numeric import operators
 
 from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
@@ -89,6 +95,33 @@ PAD = 1e-3
 #: one-step lag results kept by the (memoised) integrator lag: the data and pseudo-input
 #: rows of both input holds at up to 8 powers, plus the order-dependent states
 LAG_STEPS_KEPT = 64
+#: an integration matrix with at most this many off-diagonals is solved in band form (the
+#: Legendre closed form from the window start has 2); a wider one is factored densely
+MAX_BANDS = 8
+
+
+def _legendre_integration(basis: Any, N: int, t0: float) -> sp.csr_matrix | None:
+    """``J`` in closed form (:func:`slbasis.numeric.operators.integration_matrix`) in time
+    units, ``(N + 1) x N`` and sparse, or None when the functions are not Legendre's.
+
+    ``phi_n(t) = sqrt(s) phi_n(x(t))`` and ``dt = dx / s`` (``s`` = scale) give the time
+    matrix as the ``x`` matrix divided by ``s``.  A ``t0`` that maps within rounding of an
+    end of the interval (the window start maps to ``a`` by construction, up to the
+    rounding of ``(t0 - centre) * scale``) is that end, as :meth:`slbasis.Basis.eval`
+    treats times outside by rounding.
+    """
+    kernel = basis.kernel
+    if not operators.is_legendre(kernel, N):
+        return None
+    a, b = basis.interval
+    x0 = float(basis.tmap.to_x(np.float64(t0)))
+    tol = 16 * np.finfo(float).eps * max(1.0, abs(a), abs(b))
+    for end in (a, b):
+        if abs(x0 - end) <= tol:
+            x0 = end
+    if not a <= x0 <= b:
+        raise ValueError(f"t0: {t0} lies outside the basis window {basis.t_span}")
+    return (operators.integration_matrix(kernel, N, x0) / basis.scale).tocsr()
 
 
 def _integration_exact(basis: Any, N: int, t0: float) -> Array | None:
@@ -138,10 +171,12 @@ def _integration_quadrature(basis: Any, N: int, K: int) -> Array:
 
 
 @memoize
-def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Array, str]:
-    """The ``N x N`` causal integration matrix ``G`` (column ``j`` = ``int_{t0} phi_j``
-    projected on ``phi_0..phi_{N-1}``) and how it was computed."""
+def _integration(basis: Any, t0: float, K: int | None = None) -> tuple[Any, str]:
+    """:func:`integration_matrix` with the closed form kept sparse (``N x N`` CSR)."""
     N = basis.N
+    G = _legendre_integration(basis, N, t0)
+    if G is not None:
+        return G[:N].tocsr(), "exact (closed form: int P_n = (P_{n+1} - P_{n-1}) / (2n + 1))"
     G = _integration_exact(basis, N, t0)
     if G is not None:
         return G[:N], "exact (from the derivative matrix on N+1 functions)"
@@ -149,27 +184,86 @@ def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Arr
     return _integration_quadrature(basis, N, K), f"quadrature in x = -cos(theta), {K} points"
 
 
+def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Array, str]:
+    """The ``N x N`` causal integration matrix ``G`` (column ``j`` = ``int_{t0} phi_j``
+    projected on ``phi_0..phi_{N-1}``) and how it was computed: in closed form for
+    Legendre functions, else from the exact derivative matrix when the derivatives stay
+    in the span, else by quadrature with ``K`` points (default ``20 N``)."""
+    G, how = _integration(basis, t0, K)
+    return (G.toarray() if sp.issparse(G) else np.array(G)), how
+
+
+def _band_storage(G: sp.csr_matrix, lower: int, upper: int) -> Array:
+    """LAPACK band storage of ``G`` (``ab[upper + i - j, j] = G[i, j]``), as
+    :func:`scipy.linalg.solve_banded` takes it."""
+    C = G.tocoo()
+    ab = np.zeros((lower + upper + 1, G.shape[1]))
+    ab[upper + C.row - C.col, C.col] = C.data
+    return ab
+
+
 @memoize
 def _integrator_lag(
-    G: Array, alpha: float, beta: float, gamma: float, j_how: str
-) -> tuple[SolveLag, Any]:
+    basis: Any, t0: float, alpha: float, beta: float, gamma: float
+) -> tuple[SolveLag, Callable[[Array], Array], str]:
     """``W -> W M``, ``M = alpha gamma J (I + alpha beta J)^{-1}`` (module docstring), with
-    ``J = G^T``; also the LU factors of ``J^T`` (pseudo-input rows ``w J = v``)."""
-    J = G.T  # row form: (X J)_k = sum_j X_j G[k, j]
-    S = np.eye(J.shape[0]) + alpha * beta * J  # X M = alpha gamma (X J) S^{-1}
-    lu = sla.lu_factor(S.T)
+    ``J = G^T``; also ``v -> w`` solving ``w J = v`` (pseudo-input rows) and how ``G`` was
+    computed.
 
-    def solve(W: Array) -> Array:
-        return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
+    ``(W M)^T = alpha gamma S^{-T} G W^T`` with ``S^T = I + alpha beta G``: a banded ``G``
+    (the Legendre closed form, tridiagonal) gives banded solves, ``O(N)`` per row of ``W``
+    (LAPACK ``gbsv``, LU with partial pivoting as the dense ``getrf`` but inside the band);
+    a dense ``G`` is LU-factored once.  Memoised by the basis (its kernel, ``N`` and time
+    map), not by the contents of ``G``.
+    """
+    G, how = _integration(basis, t0)
+    N = G.shape[0]
+    ab_ = alpha * beta
+    lower = upper = N
+    if sp.issparse(G):
+        C = G.tocoo()
+        lower = int(np.max(C.row - C.col, initial=0))
+        upper = int(np.max(C.col - C.row, initial=0))
+        if lower + upper > MAX_BANDS:
+            G = G.toarray()  # a lower limit inside the window fills row 0 of G
+    if sp.issparse(G):
+        ab_G = _band_storage(G, lower, upper)
+        ab_S = ab_ * ab_G
+        ab_S[upper] += 1.0  # S^T = I + alpha beta G
+        bands = (lower, upper)
 
-    # memoised, so the orders of a sweep share this object: it remembers its dense steps
+        def solve(W: Array) -> Array:
+            rhs = np.asarray(G @ W.T)
+            return alpha * gamma * sla.solve_banded(bands, ab_S, rhs, overwrite_b=True).T
+
+        def solve_rows(v: Array) -> Array:
+            return sla.solve_banded(bands, ab_G, v)
+
+        key: Any = ("banded", lower, upper, ab_G, alpha, beta, gamma)
+        remember = 0  # a banded step costs about what hashing W for a lookup would
+    else:
+        J = G.T  # row form: (X J)_k = sum_j X_j G[k, j]
+        lu = sla.lu_factor(np.eye(N) + ab_ * G)  # S^T
+
+        def solve(W: Array) -> Array:
+            return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
+
+        lu_G = sla.lu_factor(G)
+
+        def solve_rows(v: Array) -> Array:
+            return sla.lu_solve(lu_G, v)
+
+        key = (J, alpha, beta, gamma)
+        remember = LAG_STEPS_KEPT
+    # memoised, so the orders of a sweep share this object (and, for a dense M, its
+    # remembered steps)
     lag = SolveLag(
         solve,
-        f"alpha gamma J (I + alpha beta J)^-1 [{j_how}]",
-        key=(J, alpha, beta, gamma),
-        remember=LAG_STEPS_KEPT,
+        f"alpha gamma J (I + alpha beta J)^-1 [{how}]",
+        key=key,
+        remember=remember,
     )
-    return lag, sla.lu_factor(J.T)
+    return lag, solve_rows, how
 
 
 def identify_sl(
@@ -293,9 +387,8 @@ def identify_sl(
     jinv: dict[int, Any] = {}
     j_hows = []
     for k, basis in bases.items():
-        G, j_how = integration_matrix(basis, 0.0)
+        lags[k], jinv[k], j_how = _integrator_lag(basis, 0.0, alpha, beta, gamma)
         j_hows.append(j_how)
-        lags[k], jinv[k] = _integrator_lag(G, alpha, beta, gamma, j_how)
     seg_bases = [bases[k] for k in keys]
     holds = resolve_holds(st.input_hold, m)
     Us, Yc, ones = project_blocks(
@@ -306,9 +399,9 @@ def identify_sl(
         if k in rows:
             continue
         Nb = bases[k].N
-        r = [sla.lu_solve(jinv[k], np.eye(Nb)[Nb - 1])]  # truncation: w J = e_{N-1}
+        r = [jinv[k](np.eye(Nb)[Nb - 1])]  # truncation: w J = e_{N-1}
         if st.boundary:
-            r.append(sla.lu_solve(jinv[k], ones[i]))  # initial state: w J = coefficients of 1
+            r.append(jinv[k](ones[i]))  # initial state: w J = coefficients of 1
         rows[k] = np.array(r)
     lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
     P = [rows[k] for k in keys]

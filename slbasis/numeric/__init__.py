@@ -5,7 +5,8 @@ Modules (one job each): :mod:`.kernel` (the interface a generated kernel impleme
 numba kernels, fused with projection sums; optional), :mod:`.engine` (numpy or compiled,
 threads), :mod:`.quadrature` (Gauss rules),
 :mod:`.projection` (streaming projection / reconstruction), :mod:`.operators`
-(multiplication and derivative matrices), :mod:`.timemap` (affine time map),
+(multiplication, derivative and, for Legendre functions, integration matrices),
+:mod:`.timemap` (affine time map),
 :mod:`.basis` (the :class:`Basis` object).
 """
 
@@ -15,6 +16,8 @@ from .kernel import Kernel, KernelSpec, check_kernel
 from .operators import (
     derivative_matrix,
     derivative_operator,
+    integration_matrix,
+    is_legendre,
     multiplication_matrix,
 )
 from .projection import project, reconstruct, sample_weights
@@ -33,6 +36,8 @@ __all__ = [
     "evaluate",
     "evaluate_derivative",
     "gauss",
+    "integration_matrix",
+    "is_legendre",
     "multiplication_matrix",
     "project",
     "reconstruct",
