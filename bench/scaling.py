@@ -12,8 +12,8 @@ Rows (``sweep`` column):
   ``binary 10^4``: the second-order system of :mod:`hdpbsid.systems` (``dt = 0.01``),
   random binary input held 5 samples, 20 dB, order 2: HD-PBSID with every default
   (``identify(..., method="hermite", order=2)``) against SIPPY N4SID (``f = p = 60``),
-  alternating on ``--seeds`` seeds in one process (median times, their ratio, median and
-  worst eigenvalue errors);
+  alternating on ``--seeds`` seeds in one process (median wall and CPU times, their
+  ratios, median and worst eigenvalue errors);
   ``resonance70``: a lightly damped 70 Hz resonance sampled at 610 Hz, 86 000 samples,
   multisine to 200 Hz, 20 dB (:func:`segments.resonance70_record`);
   ``projection``: 10^6 uniform samples onto 2000 Hermite functions
@@ -206,17 +206,20 @@ def measure_point(spec: dict) -> dict:
 
 def _binary_target(ns: int, seeds: int) -> dict:
     out: dict[str, list] = {"hermite": [], "n4sid": []}
+    cpu: dict[str, list] = {"hermite": [], "n4sid": []}
     err: dict[str, list] = {"hermite": [], "n4sid": []}
     _fit("hermite", binary_record(ns, 99)[0])
     _fit("n4sid", binary_record(ns, 99)[0])
     for s in range(seeds):
         data, true = binary_record(ns, s)
         for method in ("hermite", "n4sid"):
-            (eig, _), wall, _ = _timed(lambda m=method, d=data: _fit(m, d), 1)
+            (eig, _), wall, c = _timed(lambda m=method, d=data: _fit(m, d), 1)
             out[method].append(wall)
+            cpu[method].append(c)
             err[method].append(_errors(eig, true))
     return {
         "time": {k: float(np.median(v)) for k, v in out.items()},
+        "cpu": {k: float(np.median(v)) for k, v in cpu.items()},
         "error_median": {k: float(np.median(v)) for k, v in err.items()},
         "error_max": {k: float(np.max(v)) for k, v in err.items()},
         "wins": int(sum(a <= b for a, b in zip(err["hermite"], err["n4sid"], strict=True))),
@@ -337,9 +340,11 @@ def _target_row(spec: dict, r: dict) -> str:
     if r["status"] != "ok":
         return f"{head} {r['status']} | | | | | |"
     th, tn = r["time"]["hermite"], r["time"]["n4sid"]
+    ch, cn = r["cpu"]["hermite"], r["cpu"]["n4sid"]
     em, ex = r["error_median"], r["error_max"]
     return (
-        f"{head} {_ms(th)} vs {_ms(tn)} (ratio {th / tn:.2f}) | | | | "
+        f"{head} {_ms(th)} vs {_ms(tn)} (ratio {th / tn:.2f}) | "
+        f"{_ms(ch)} vs {_ms(cn)} (ratio {ch / cn:.2f}) | | | "
         f"median {100 * em['hermite']:.3g} % vs {100 * em['n4sid']:.3g} %; worst "
         f"{100 * ex['hermite']:.3g} % vs {100 * ex['n4sid']:.3g} % | HD-PBSID error <= N4SID's "
         f"on {r['wins']} of {r['seeds']} seeds |"

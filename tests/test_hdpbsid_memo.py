@@ -53,3 +53,21 @@ def test_bases_are_keyed_on_family_and_exact_mapping():
     h(slbasis.basis("hermite", 20, (0.0, 1.0), scale=2.0 + 1e-9))
     h(slbasis.basis("laguerre", 20, (0.0, 1.0), scale=2.0))
     assert len(calls) == 3
+
+
+def test_digest_is_the_contents_shape_and_dtype():
+    """Arrays are hashed by their bytes without a copy: a strided view and its contiguous
+    copy share a key; the same bytes under another shape or dtype, or one element
+    changed, do not."""
+    from hdpbsid.methods.memo import digest
+
+    a = np.arange(24.0).reshape(4, 6)
+    view = a[:, ::2]
+    assert not view.flags.c_contiguous
+    assert digest(view) == digest(np.ascontiguousarray(view))
+    assert digest(a) != digest(a.reshape(6, 4))  # same bytes, another shape
+    assert digest(a) != digest(a.view(np.int64))  # same bytes, another dtype
+    b = a.copy()
+    b[3, 5] = np.nextafter(b[3, 5], np.inf)  # one ulp in the last element
+    assert digest(a) != digest(b)
+    assert digest(np.zeros(0)) == digest(np.zeros(0)) != digest(np.zeros((0, 1)))

@@ -408,7 +408,8 @@ def _project_nodes(basis: Any, tn: Array, wn: Array, S: Array) -> Array:
     nodes with twice the signals: measured 1.4-1.6 times faster on 3 * 10^4 nodes and
     ``N = 4000``.  The pair is evaluated at the mean of the two distances from the
     centre, i.e. each node moves by at most the pairing tolerance, the size of the
-    rounding already in the nodes.
+    rounding already in the nodes.  Each row sums only the combination its parity needs
+    (``Basis.project_alternating``): half the multiply-adds of projecting both.
     """
     k = S.shape[1]
     n = tn.size
@@ -420,6 +421,7 @@ def _project_nodes(basis: Any, tn: Array, wn: Array, S: Array) -> Array:
     lo, hi = tau[:half][::-1], tau[n - half :]  # mirror partners, closest to the centre first
     paired = (
         half > 0
+        and hasattr(basis, "project_alternating")
         and _has_parity(basis)
         and bool(np.all(np.abs(hi + lo) <= tol))
         and (n % 2 == 0 or abs(tau[half]) <= tol)
@@ -435,11 +437,8 @@ def _project_nodes(basis: Any, tn: Array, wn: Array, S: Array) -> Array:
         t_pair = np.concatenate([[c0], t_pair])
         plus = np.vstack([wS[half : half + 1], plus])
         minus = np.vstack([np.zeros((1, k)), minus])
-    c = basis.project(t_pair, np.hstack([plus, minus]), weights=np.ones(t_pair.size))
-    c = c.reshape(c.shape[0], -1)
-    out = c[:, :k].copy()
-    out[1::2] = c[1::2, k:]
-    return out.T
+    c = basis.project_alternating(t_pair, plus, minus, weights=np.ones(t_pair.size))
+    return c.reshape(c.shape[0], -1).T
 
 
 def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:

@@ -197,6 +197,23 @@ class Basis:
             engine=engine,
         )
 
+    def project_alternating(
+        self,
+        t: np.ndarray,
+        y_even: np.ndarray,
+        y_odd: np.ndarray,
+        *,
+        weights: str | np.ndarray = "trapezoid",
+        engine: str = "auto",
+    ) -> np.ndarray:
+        """Even rows ``c_n = int y_even phi_n dt``, odd rows ``int y_odd phi_n dt`` (the
+        projection of mirrored sample pairs on a basis with parity;
+        :func:`slbasis.numeric.projection.project_alternating`)."""
+        ta = self._times_in_window(t, "t")
+        return projection.project_alternating(
+            self.kernel, self.N, self.tmap, ta, y_even, y_odd, weights=weights, engine=engine
+        )
+
     def reconstruct(self, c: np.ndarray, t: np.ndarray, *, engine: str = "auto") -> np.ndarray:
         """``sum_n c_n phi_n(t)``: ``(len(t),)`` or ``(len(t), k)``."""
         ta = self._times_in_interval(t, "t")

@@ -154,16 +154,23 @@ def project_compiled(
     e0: np.ndarray,
     wy: np.ndarray,
     renorm: np.ndarray,
+    columns: int | None = None,
 ) -> tuple[np.ndarray, int]:
     """``(c, bad)``: ``c[n, j] = sum_i phi_n(x_i) wy[j, i]`` (``(N, k)``, compiled, fused)
-    and the number of samples where ``phi_{N-1}`` is not finite. ``wy``: ``(k, len(x))``."""
+    and the number of samples where ``phi_{N-1}`` is not finite. ``wy``: ``(k, len(x))``.
+
+    ``columns = k / 2`` (``wy`` of ``k`` rows): even rows ``n`` sum the first ``k / 2``
+    signals and odd rows the last (:func:`slbasis.numeric.compiled.project_range`)."""
     kernels = _compiled()
     b, a_prev, a_next = _coefficients(rec)
     wy = np.ascontiguousarray(wy)
+    k = wy.shape[0] if columns is None else int(columns)
+    if k < 1 or wy.shape[0] % k or wy.shape[0] // k > 2:
+        raise ValueError(f"columns: expected {wy.shape[0]} or half of it, got {columns}")
 
     def task(lo: int, hi: int):
         def run():
-            c = np.zeros((N, wy.shape[0]))
+            c = np.zeros((N, k))
             bad = kernels.project_range(
                 x[lo:hi], m0[lo:hi], e0[lo:hi], wy[:, lo:hi], b, a_prev, a_next, renorm, c
             )

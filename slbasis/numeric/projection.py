@@ -35,7 +35,7 @@ from .kernel import Kernel
 from .timemap import TimeMap
 from .validate import as_int_at_least, as_signal, as_times
 
-__all__ = ["sample_weights", "project", "reconstruct", "default_chunk"]
+__all__ = ["sample_weights", "project", "project_alternating", "reconstruct", "default_chunk"]
 
 _MEMORY = 64 * 2**20
 _FUSED_MAX_SIGNALS = 8  # more signals: blocks of function values times BLAS are faster
@@ -150,15 +150,74 @@ def project(
     return c.reshape((N,) + ya.shape[1:])
 
 
-def _project_fused(kernel: Kernel, rec: Recurrence, N: int, x: np.ndarray, vy: np.ndarray):
-    """``Phi(x) @ vy`` by the compiled fused kernel (same checks as the blocked loop)."""
+def project_alternating(
+    kernel: Kernel,
+    N: int,
+    tmap: TimeMap,
+    t: np.ndarray,
+    y_even: np.ndarray,
+    y_odd: np.ndarray,
+    *,
+    weights: str | np.ndarray = "trapezoid",
+    engine: str = "auto",
+) -> np.ndarray:
+    """Coefficients of the even functions on ``y_even`` and of the odd ones on ``y_odd``:
+
+        c_n = sum_j v_j phi_n(t_j) y_even(t_j)   (n even),
+        c_n = sum_j v_j phi_n(t_j) y_odd(t_j)    (n odd),                             (2)
+
+    shape ``(N, k)`` for ``y_even``, ``y_odd`` of shape ``(Ns, k)`` (``(N,)`` for
+    ``(Ns,)``); weights and ``engine`` as in :func:`project`.
+
+    This is the projection of a record sampled symmetrically about the centre of a basis
+    with parity, ``phi_n(-x) = (-1)^n phi_n(x)`` (Hermite functions, Legendre
+    polynomials): each mirrored pair of samples ``x, -x`` contributes
+    ``phi_n(x) (y(x) + (-1)^n y(-x))``, so (1) over all samples is (2) over the samples
+    with ``x >= 0``, ``y_even = y(x) + y(-x)``, ``y_odd = y(x) - y(-x)``: half the
+    samples.  :func:`project` of ``[y_even, y_odd]`` gives the same numbers and discards
+    half of them; the compiled engine (``k <= 8``) sums each row against the signals it
+    needs only (:func:`slbasis.numeric.compiled.project_range`), the numpy engine
+    projects both and selects.
+    """
+    ta = as_times(t, "t", min_len=2)
+    ye = as_signal(y_even, ta.size, "y_even")
+    yo = as_signal(y_odd, ta.size, "y_odd")
+    if ye.shape != yo.shape:
+        raise ValueError(f"y_odd: expected the shape of y_even {ye.shape}, got {yo.shape}")
+    N = as_int_at_least(N, "N")
+    k = ye.reshape(ta.size, -1).shape[1]
+    both = np.hstack([ye.reshape(ta.size, -1), yo.reshape(ta.size, -1)])
+    use = _engine.resolve(engine, _engine.work(N, ta.size))
+    if use == "numba" and 1 <= k <= _FUSED_MAX_SIGNALS:
+        v = _resolve_weights(ta, weights)
+        vy = (v * np.sqrt(tmap.scale))[:, None] * both
+        c = _project_fused(kernel, Recurrence(kernel, N), N, tmap.to_x(ta), vy, columns=k)
+    else:
+        full = project(kernel, N, tmap, ta, both, weights=weights, engine=use).reshape(N, -1)
+        c = full[:, :k].copy()
+        c[1::2] = full[1::2, k:]
+    return c.reshape((N,) + ye.shape[1:])
+
+
+def _project_fused(
+    kernel: Kernel,
+    rec: Recurrence,
+    N: int,
+    x: np.ndarray,
+    vy: np.ndarray,
+    columns: int | None = None,
+):
+    """``Phi(x) @ vy`` by the compiled fused kernel (same checks as the blocked loop);
+    ``columns``: as in :func:`slbasis.numeric.engine.project_compiled`."""
     x = np.ascontiguousarray(x)
     logabs, sign = kernel.log_phi0(x)
     m0, e0 = _split_log(np.asarray(logabs, dtype=float), np.asarray(sign, dtype=float))
     with np.errstate(over="ignore"):
         row0_finite = bool(np.all(np.isfinite(np.ldexp(m0, e0))))
     with np.errstate(invalid="ignore", over="ignore"):
-        c, bad = _engine.project_compiled(rec, N, x, m0, e0, vy.T, rec.renorm_mask(x, N))
+        c, bad = _engine.project_compiled(
+            rec, N, x, m0, e0, vy.T, rec.renorm_mask(x, N), columns=columns
+        )
     if bad or not row0_finite:
         raise ValueError(_SINGULAR)
     return c
