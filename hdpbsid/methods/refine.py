@@ -71,6 +71,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from functools import partial
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -80,6 +81,8 @@ from scipy.optimize import least_squares
 
 from ..checks import check_data
 from ..checks import is_uniform as checks_is_uniform
+from slbasis.numeric.engine import numba_available
+
 from ..model import StateSpaceModel
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
@@ -89,6 +92,10 @@ Array = NDArray[np.float64]
 
 #: accepted values of the ``refine`` option of :func:`hdpbsid.identify`
 REFINE_CHOICES = ("auto", "pem", None)
+#: evaluations of the prediction errors (:func:`_residuals`)
+ENGINES = ("auto", "numpy", "numba")
+#: evaluations of the prediction errors a :class:`_Record` remembers
+RECORD_MEMORY = 4
 #: relative spread of the sample spacing below which a grid counts as uniform
 UNIFORM_RTOL = 1e-6
 #: residual returned (per entry, in units of the weighted innovation) for an unstable
@@ -168,6 +175,45 @@ class _Layout:
         D = theta[s[3] : s[4]].reshape(l, m) if self.feedthrough else np.zeros((l, m))
         K = theta[s[4] : s[5]].reshape(n, l)
         return A, B, C, D, K
+
+
+class _Record:
+    """:func:`_residuals` of one record for one input hold, ``(theta, W, jac=False,
+    directions=None)``, remembering the last :data:`RECORD_MEMORY` evaluations.
+
+    An evaluation is a pure function of its arguments, and the fit asks for the same
+    point again: every re-centred Levenberg-Marquardt run starts where the previous one
+    ended, :func:`scipy.optimize.least_squares` evaluates the Jacobian once more at a
+    run's end point, and :func:`_lm_fit` the cost there (closed-loop quadrotor, 7500
+    samples: 9 of 32 residual and 4 of 23 Jacobian evaluations were repeats).  A
+    remembered result is returned read-only, so no caller can alter it.
+    """
+
+    def __init__(self, lay: _Layout, u: Array, y: Array, h: float, hold: str) -> None:
+        self.lay, self.h, self.hold = lay, h, hold
+        self.u = np.ascontiguousarray(u, dtype=float)
+        self.y = np.ascontiguousarray(y, dtype=float)
+        self._memory: dict[tuple[Any, ...], Any] = {}
+
+    def __call__(
+        self, theta: Array, W: Array, jac: bool = False, directions: Array | None = None
+    ) -> Array | tuple[Array, Array]:
+        theta = np.asarray(theta, dtype=float)
+        key = (
+            theta.tobytes(),
+            np.asarray(W, dtype=float).tobytes(),
+            bool(jac),
+            None if directions is None else np.asarray(directions, dtype=float).tobytes(),
+        )
+        if key in self._memory:
+            return self._memory[key]
+        out = _residuals(theta, self.lay, self.u, self.y, self.h, self.hold, W, jac, directions)
+        for a in out if isinstance(out, tuple) else (out,):
+            a.setflags(write=False)
+        if len(self._memory) >= RECORD_MEMORY:
+            del self._memory[next(iter(self._memory))]  # the oldest
+        self._memory[key] = out
+        return out
 
 
 def _is_stable(lam: NDArray[np.complex128]) -> bool:
@@ -315,6 +361,44 @@ def _residuals(
     W: Array,
     jac: bool = False,
     directions: Array | None = None,
+    engine: str = "auto",
+) -> Array | tuple[Array, Array]:
+    """Weighted one-step prediction errors, initial state eliminated (module docstring),
+    and with ``jac=True`` their Jacobian (:func:`_residuals_numpy`).
+
+    ``engine``: ``"numba"`` runs the passes over the samples compiled
+    (:mod:`hdpbsid.methods.pem_kernels`, :func:`_residuals_compiled`), ``"numpy"`` with
+    :func:`scipy.signal.lfilter` (:func:`_residuals_numpy`); ``"auto"`` is ``"numba"``
+    when numba is installed and not switched off (``SLBASIS_NO_NUMBA``).  The two agree
+    to rounding.
+    """
+    kernels = _kernels(engine)
+    if kernels is None:
+        return _residuals_numpy(theta, lay, u, y, h, hold, W, jac, directions)
+    return _residuals_compiled(theta, lay, u, y, h, hold, W, jac, directions, kernels)
+
+
+def _kernels(engine: str) -> ModuleType | None:
+    """The compiled-kernel module for ``engine`` (``None``: the numpy evaluation)."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    if engine == "numpy" or (engine == "auto" and not numba_available()):
+        return None
+    from . import pem_kernels  # ImportError for engine="numba" without numba
+
+    return pem_kernels
+
+
+def _residuals_numpy(
+    theta: Array,
+    lay: _Layout,
+    u: Array,
+    y: Array,
+    h: float,
+    hold: str,
+    W: Array,
+    jac: bool = False,
+    directions: Array | None = None,
 ) -> Array | tuple[Array, Array]:
     """Weighted one-step prediction errors, initial state eliminated (module docstring).
 
@@ -393,6 +477,85 @@ def _cr(M: NDArray, X: Array) -> NDArray:
     return Z
 
 
+def _residuals_compiled(
+    theta: Array,
+    lay: _Layout,
+    u: Array,
+    y: Array,
+    h: float,
+    hold: str,
+    W: Array,
+    jac: bool,
+    directions: Array | None,
+    kernels: ModuleType,
+) -> Array | tuple[Array, Array]:
+    """:func:`_residuals_numpy` with the passes over the samples compiled
+    (:mod:`hdpbsid.methods.pem_kernels`): the same predictor, the same stability rule,
+    the same variable projection; the sensitivities of all directions from the ``n p``
+    modal filters of ``w = [xi; u; y]`` and one ``(Ns, n p + p) x (n p + p, q)`` product
+    per output (the factorisation in :mod:`hdpbsid.methods.pem_kernels`)."""
+    A, B, C, D, K = lay.unpack(theta)
+    pr = sampled_predictor(A, B, C, D, K, h, hold, lay.feedthrough, derivatives=jac)
+    ns, n, l = y.shape[0], lay.n, lay.l
+    lam, V = np.linalg.eig(pr.F)
+    if not _is_stable(lam) or np.linalg.cond(V) > 1.0 / np.finfo(float).eps:
+        r = np.full(ns * l, UNSTABLE_PENALTY)
+        q = theta.size if directions is None else directions.shape[1]
+        return (r, np.zeros((r.size, q))) if jac else r
+    F, G, Kd, Du = (np.ascontiguousarray(a, dtype=float) for a in (pr.F, pr.G, pr.Kd, pr.Du))
+    u = np.ascontiguousarray(u, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    C = np.ascontiguousarray(C, dtype=float)
+    Ew, Fr3 = kernels.weighted_errors(F, G, Kd, C, Du, np.ascontiguousarray(W, dtype=float), u, y)
+    Fr = Fr3.reshape(-1, n)  # (l Ns, n), rows ordered like Ew.ravel()
+    FtF = Fr.T @ Fr
+    x0 = np.linalg.solve(FtF, Fr.T @ Ew.ravel())
+    r = Ew.ravel() - Fr @ x0
+    if not jac:
+        return r
+    assert pr.dF is not None and pr.dG is not None and pr.dKd is not None
+    assert pr.dC is not None and pr.dDu is not None
+    keep, fac = conjugate_representatives(lam)
+    lk = lam[keep]
+    cplx = lk.imag != 0  # modes whose imaginary part is stored
+    # columns: modal filters of w, w itself, then the weighted free response of each output
+    Z = kernels.sensitivity_regressors(
+        F, G, Kd, u, y, x0, np.ascontiguousarray(lk.real), np.ascontiguousarray(lk.imag), cplx, Fr3
+    )
+    nz = Z.shape[1] - l * n
+    P = pr.dF.shape[0]
+    Dm = np.concatenate([pr.dF, pr.dG, pr.dKd], axis=2)  # (P, n, p): drive of s
+    Dd = np.concatenate([pr.dC, pr.dDu, np.zeros((P, l, l))], axis=2)  # (P, l, p): direct
+    if directions is not None:
+        Dm = np.tensordot(directions.T, Dm, axes=1)
+        Dd = np.tensordot(directions.T, Dd, axes=1)
+    q = Dm.shape[0]
+    CVf = (C @ V[:, keep]) * fac[None, :]  # (l, nk)
+    VD = np.matmul(np.linalg.inv(V)[keep], Dm)  # (q, nk, p)
+    # coefficient of column (a, b) of Z for output c and direction i:
+    # fac_a (C V)[c, a] (V^-1 D_i)[a, b]; real part on Re z, minus imaginary on Im z
+    T = CVf[None, :, :, None] * VD[:, None, :, :]  # (q, l, nk, p)
+    blocks = []
+    for a in range(lk.size):
+        blocks.append(T[:, :, a, :].real)
+        if cplx[a]:
+            blocks.append(-T[:, :, a, :].imag)
+    blocks.append(Dd)
+    # J = -W (Dd w + C s): weighted and negated coefficients, (l, nz, q)
+    Tw = -np.einsum("cd,qdj->cjq", W, np.concatenate(blocks, axis=2))
+    # projection on the complement of the free response, J_c - Fr_c M with
+    # M = FtF^-1 sum_c Fr_c^T J_c, folded into the coefficients of the Fr_c columns
+    FZ = (Z[:, nz:].T @ Z[:, :nz]).reshape(l, n, nz)
+    M = np.linalg.solve(FtF, np.einsum("cjz,czq->jq", FZ, Tw))
+    coef = np.zeros((l, Z.shape[1], q))
+    coef[:, :nz] = Tw
+    J = np.empty((l * ns, q))
+    for c in range(l):
+        coef[c, nz + c * n : nz + (c + 1) * n] = -M
+        np.matmul(Z, coef[c], out=J[c * ns : (c + 1) * ns])
+    return r, J
+
+
 def refine_pem(
     model: StateSpaceModel,
     t: Any,
@@ -465,7 +628,7 @@ def refine_pem(
         return model
     # residuals of this record for parameters theta and output weighting W, per hold;
     # one W for both holds, so that their costs compare
-    record = {hd: partial(_residuals, lay=lay, u=un, y=yn, h=h, hold=hd) for hd in holds}
+    record = {hd: _Record(lay, un, yn, h, hd) for hd in holds}
     E0 = record[hold](next(iter(starts.values())), W=np.eye(model.l)).reshape(model.l, -1)
     W = np.linalg.inv(np.linalg.cholesky(E0 @ E0.T / E0.shape[1]))
     weighted = {hd: partial(record[hd], W=W) for hd in holds}
