@@ -47,7 +47,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["weighted_errors", "sensitivity_regressors", "regressor_columns"]
+__all__ = ["weighted_errors", "sensitivity_regressors"]
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -62,13 +62,13 @@ def weighted_errors(
     W: np.ndarray,
     u: np.ndarray,
     y: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(Ew, Fr)``: the weighted one-step errors ``Ew[c, k] = (W (y_k - C xi_k - Du
-    u_k))_c`` of the predictor run from ``xi_0 = 0`` (``(l, Ns)``) and the weighted free
-    response ``Fr[c, k, :] = (W C F^k)_c`` (``(l, Ns, n)``)."""
+    Ew: np.ndarray,
+    Fr: np.ndarray,
+) -> None:
+    """Write into ``Ew (l, Ns)`` the weighted one-step errors ``Ew[c, k] = (W (y_k - C
+    xi_k - Du u_k))_c`` of the predictor run from ``xi_0 = 0``, and into ``Fr (l, Ns,
+    n)`` the weighted free response ``Fr[c, k, :] = (W C F^k)_c``."""
     ns, m, l, n = u.shape[0], u.shape[1], y.shape[1], F.shape[0]
-    Ew = np.empty((l, ns))
-    Fr = np.empty((l, ns, n))
     WC = np.zeros((l, n))
     WDu = np.zeros((l, m))
     for c in range(l):
@@ -113,13 +113,6 @@ def weighted_errors(
             xn[i] = s
         for i in range(n):
             xi[i] = xn[i]
-    return Ew, Fr
-
-
-def regressor_columns(pair: np.ndarray, p: int) -> int:
-    """Number of modal columns of :func:`sensitivity_regressors` (without the ``p``
-    columns of ``w``): ``2 p`` per conjugate pair, ``p`` per real mode."""
-    return int(p * np.sum(np.where(pair, 2, 1)))
 
 
 @_jit
@@ -134,8 +127,9 @@ def sensitivity_regressors(
     lam_im: np.ndarray,
     pair: np.ndarray,
     Fr: np.ndarray,
-) -> np.ndarray:
-    """``Z (Ns, ncols + p)``: row ``k`` holds, for each kept mode ``a`` in order, the
+    Z: np.ndarray,
+) -> None:
+    """Write into ``Z (Ns, n p + p + l n)``: row ``k`` holds, for each kept mode ``a`` in order, the
     ``p`` real parts of ``z^{(b)}_{a, k}`` (module docstring) and, for a conjugate pair
     (``pair[a]``), their ``p`` imaginary parts; then the ``p`` entries of ``w_k = [xi_k;
     u_k; y_k]``, with ``xi`` run from ``xi_0 = x0``; then the ``l n`` entries ``Fr[c, k,
@@ -147,7 +141,6 @@ def sensitivity_regressors(
     ncols = 0
     for a in range(nk):
         ncols += 2 * p if pair[a] else p
-    Z = np.empty((ns, ncols + p + l * n))
     zr = np.zeros((nk, p))
     zi = np.zeros((nk, p))
     xi = x0.copy()
@@ -195,4 +188,3 @@ def sensitivity_regressors(
             xn[i] = s
         for i in range(n):
             xi[i] = xn[i]
-    return Z
