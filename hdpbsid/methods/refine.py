@@ -16,7 +16,8 @@ which gives the feedthrough ``C G2 + D``).  The predictor
 
     xi_{k+1} = (Phi - Kd C) xi_k + (Gu - Kd Du) u_k + Kd y_k,   yhat_k = C xi_k + Du u_k,
 
-is run in its modal coordinates with :func:`scipy.signal.lfilter` (one first-order
+is run by the compiled passes of :mod:`hdpbsid.methods.pem_kernels` (numba), or without
+numba in its modal coordinates with :func:`scipy.signal.lfilter` (one first-order
 recursion per eigenvalue); the unknown initial state enters linearly and is eliminated by
 least squares at every evaluation (variable projection).  Residuals are weighted by the
 inverse Cholesky factor of the innovation covariance of the initial model, re-estimated
@@ -52,8 +53,13 @@ the plant's eigenvalues were within 0.2 %), so it dropped good fits.  The fits i
 built for (closed-loop CT-PBSID starts pressed against the boundary) came from a free
 ``D`` (:func:`_fits_feedthrough`) and now converge.
 
-Cost (closed-loop quadrotor, 7500 samples, SNR 10 dB, seeds 0-3, on a shared machine
-with load ~9 on 2 cores): 1.1-1.7 s per refinement, 15-22 cost evaluations; with
+Cost (closed-loop quadrotor, 7500 samples, HD-PBSID start, SNR 20 and 10 dB, seeds
+0-1, shared machine with load ~2 on 2 cores): 24-32 cost evaluations; one residual
+evaluation 2.2 ms and one Jacobian (15 directions) 12-25 ms with the numpy evaluation,
+about 1 and 3-4 ms compiled, ``identify(..., method="hermite", refine="pem")``
+430-500 ms -> 210-240 ms with the same evaluations and end points (eigenvalues equal to
+1e-13 relative); the rest is mostly Levenberg-Marquardt's own QR of the ``15000 x 15``
+Jacobian.  Earlier (SNR 10 dB, seeds 0-3, load ~9): 1.1-1.7 s per refinement; with
 finite-difference Jacobians and both starts run to convergence it took 26-70 s (89-186
 evaluations plus 15 more per Jacobian) and reached the same end points (eigenvalue
 errors identical to the printed digits).
