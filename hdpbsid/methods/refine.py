@@ -53,14 +53,14 @@ the plant's eigenvalues were within 0.2 %), so it dropped good fits.  The fits i
 built for (closed-loop CT-PBSID starts pressed against the boundary) came from a free
 ``D`` (:func:`_fits_feedthrough`) and now converge.
 
-Cost (closed-loop quadrotor, 7500 samples, HD-PBSID start, SNR 20 and 10 dB, seeds
-0-1, shared machine with load ~2 on 2 cores): 24-32 cost evaluations; one residual
-evaluation 2.2 ms and one Jacobian (15 directions) 12-25 ms with the numpy evaluation,
-about 1 and 3-4 ms compiled, ``identify(..., method="hermite", refine="pem")``
-430-500 ms -> 210-240 ms with the same evaluations and end points (eigenvalues equal to
-1e-13 relative); the rest is mostly Levenberg-Marquardt's own QR of the ``15000 x 15``
-Jacobian.  Earlier (SNR 10 dB, seeds 0-3, load ~9): 1.1-1.7 s per refinement; with
-finite-difference Jacobians and both starts run to convergence it took 26-70 s (89-186
+Cost (closed-loop quadrotor, 7500 samples, HD-PBSID start, SNR 20 dB, seed 0, load ~1
+on 2 cores): one residual evaluation 3.0 ms with the numpy evaluation, 1.1 ms compiled;
+one Jacobian (15 directions) 21 ms and 2.2-3.1 ms.  ``identify(..., method="hermite",
+refine="pem")`` on that record and three others (SNR 20/10 dB, seeds 0-1): 510-650 ms ->
+220-290 ms, with the same 24-32 evaluations and the same end points (eigenvalues equal
+to 1e-13 relative); most of what remains is Levenberg-Marquardt's own QR of the
+``15000 x 15`` Jacobian.  Earlier (SNR 10 dB, seeds 0-3, load ~9): 1.1-1.7 s per
+refinement; with finite-difference Jacobians and both starts run to convergence it took 26-70 s (89-186
 evaluations plus 15 more per Jacobian) and reached the same end points (eigenvalue
 errors identical to the printed digits).
 
