@@ -60,9 +60,9 @@ refine="pem")`` on that record and three others (SNR 20/10 dB, seeds 0-1): 510-6
 220-290 ms, with the same 24-32 evaluations and the same end points (eigenvalues equal
 to 1e-13 relative); most of what remains is Levenberg-Marquardt's own QR of the
 ``15000 x 15`` Jacobian.  Earlier (SNR 10 dB, seeds 0-3, load ~9): 1.1-1.7 s per
-refinement; with finite-difference Jacobians and both starts run to convergence it took 26-70 s (89-186
-evaluations plus 15 more per Jacobian) and reached the same end points (eigenvalue
-errors identical to the printed digits).
+refinement; with finite-difference Jacobians and both starts run to convergence it took
+26-70 s (89-186 evaluations plus 15 more per Jacobian) and reached the same end points
+(eigenvalue errors identical to the printed digits).
 
 Measured on the closed-loop quadrotor at SNR 20 dB (seeds 0-11, order 3, from the
 HD-PBSID model): largest eigenvalue error 0.2-5.9 % (median 1.7 %, 11 of 12 within 5 %)
