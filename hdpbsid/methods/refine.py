@@ -100,7 +100,7 @@ Array = NDArray[np.float64]
 REFINE_CHOICES = ("auto", "pem", None)
 #: evaluations of the prediction errors (:func:`_residuals`)
 ENGINES = ("auto", "numpy", "numba")
-#: evaluations of the prediction errors a :class:`_Record` remembers
+#: residual vectors a :class:`_Record` remembers
 RECORD_MEMORY = 4
 #: relative spread of the sample spacing below which a grid counts as uniform
 UNIFORM_RTOL = 1e-6
@@ -185,14 +185,15 @@ class _Layout:
 
 class _Record:
     """:func:`_residuals` of one record for one input hold, ``(theta, W, jac=False,
-    directions=None)``, remembering the last :data:`RECORD_MEMORY` evaluations.
+    directions=None)``, remembering the last :data:`RECORD_MEMORY` residual vectors, and
+    the buffers of the compiled evaluation (:class:`_Workspace`).
 
     An evaluation is a pure function of its arguments, and the fit asks for the same
-    point again: every re-centred Levenberg-Marquardt run starts where the previous one
-    ended, :func:`scipy.optimize.least_squares` evaluates the Jacobian once more at a
-    run's end point, and :func:`_lm_fit` the cost there (closed-loop quadrotor, 7500
-    samples: 9 of 32 residual and 4 of 23 Jacobian evaluations were repeats).  A
-    remembered result is returned read-only, so no caller can alter it.
+    residuals again: every re-centred Levenberg-Marquardt run starts where the previous
+    one ended, and :func:`_lm_fit` evaluates the cost at a run's end point (closed-loop
+    quadrotor, 7500 samples: 7 of 32 residual evaluations were repeats; Jacobians are
+    not asked twice, :func:`scipy.optimize.least_squares` keeps its last one).  A
+    remembered vector is returned read-only, so no caller can alter it.
     """
 
     def __init__(self, lay: _Layout, u: Array, y: Array, h: float, hold: str) -> None:
@@ -206,14 +207,22 @@ class _Record:
         self, theta: Array, W: Array, jac: bool = False, directions: Array | None = None
     ) -> Array | tuple[Array, Array]:
         theta = np.asarray(theta, dtype=float)
-        key = (
-            theta.tobytes(),
-            np.asarray(W, dtype=float).tobytes(),
-            bool(jac),
-            None if directions is None else np.asarray(directions, dtype=float).tobytes(),
-        )
-        if key in self._memory:
+        key = (theta.tobytes(), np.asarray(W, dtype=float).tobytes())
+        if not jac and key in self._memory:
             return self._memory[key]
+        if jac:
+            return _residuals(
+                theta,
+                self.lay,
+                self.u,
+                self.y,
+                self.h,
+                self.hold,
+                W,
+                jac,
+                directions,
+                workspace=self._workspace,
+            )
         out = _residuals(
             theta,
             self.lay,
@@ -226,8 +235,7 @@ class _Record:
             directions,
             workspace=self._workspace,
         )
-        for a in out if isinstance(out, tuple) else (out,):
-            a.setflags(write=False)
+        out.setflags(write=False)
         if len(self._memory) >= RECORD_MEMORY:
             del self._memory[next(iter(self._memory))]  # the oldest
         self._memory[key] = out
@@ -404,9 +412,8 @@ class _Workspace:
 
     The passes write ``(Ns, n p + p + l n)`` and ``(l, Ns, n)`` arrays (about 2 MB at
     7500 samples); allocated afresh at every evaluation, they are returned to the
-    operating system and faulted in again, which measured as long as the passes
-    themselves (Table-1 record: 5.2 ms a Jacobian with fresh buffers, 2.8 ms with
-    reused memory)."""
+    operating system and faulted in again (Table-1 record, fastest of 100 calls: 3.9 ms
+    a Jacobian with fresh buffers, 3.1 ms with these)."""
 
     def __init__(self) -> None:
         self._buffers: dict[str, Array] = {}
