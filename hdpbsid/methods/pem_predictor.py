@@ -25,7 +25,10 @@ derivative matrices,
 sensitivities run through the same ``n`` modal first-order recursions as the predictor
 (:func:`scipy.signal.lfilter` on a ``P x Ns`` block per eigenvalue): the cost of the
 exact Jacobian is that of ``P`` filtered signals, not ``P`` extra evaluations of the
-cost as with finite differences.
+cost as with finite differences.  The compiled evaluation
+(:mod:`hdpbsid.methods.pem_kernels`) goes further: ``s`` is linear in the drive matrix
+``[dF, dG, dKd]``, so the ``n (n + m + l)`` modal filters of ``[xi; u; y]`` carry the
+sensitivities of every direction, which enter only through one matrix product.
 """
 
 from __future__ import annotations

@@ -16,7 +16,8 @@ which gives the feedthrough ``C G2 + D``).  The predictor
 
     xi_{k+1} = (Phi - Kd C) xi_k + (Gu - Kd Du) u_k + Kd y_k,   yhat_k = C xi_k + Du u_k,
 
-is run in its modal coordinates with :func:`scipy.signal.lfilter` (one first-order
+is run by the compiled passes of :mod:`hdpbsid.methods.pem_kernels` (numba), or without
+numba in its modal coordinates with :func:`scipy.signal.lfilter` (one first-order
 recursion per eigenvalue); the unknown initial state enters linearly and is eliminated by
 least squares at every evaluation (variable projection).  Residuals are weighted by the
 inverse Cholesky factor of the innovation covariance of the initial model, re-estimated
@@ -52,11 +53,16 @@ the plant's eigenvalues were within 0.2 %), so it dropped good fits.  The fits i
 built for (closed-loop CT-PBSID starts pressed against the boundary) came from a free
 ``D`` (:func:`_fits_feedthrough`) and now converge.
 
-Cost (closed-loop quadrotor, 7500 samples, SNR 10 dB, seeds 0-3, on a shared machine
-with load ~9 on 2 cores): 1.1-1.7 s per refinement, 15-22 cost evaluations; with
-finite-difference Jacobians and both starts run to convergence it took 26-70 s (89-186
-evaluations plus 15 more per Jacobian) and reached the same end points (eigenvalue
-errors identical to the printed digits).
+Cost (closed-loop quadrotor, 7500 samples, HD-PBSID start, SNR 20 dB, seed 0, load ~1
+on 2 cores): one residual evaluation 3.0 ms with the numpy evaluation, 1.1 ms compiled;
+one Jacobian (15 directions) 21 ms and 2.2-3.1 ms.  ``identify(..., method="hermite",
+refine="pem")`` on that record and three others (SNR 20/10 dB, seeds 0-1): 510-650 ms ->
+220-290 ms, with the same 24-32 evaluations and the same end points (eigenvalues equal
+to 1e-13 relative); most of what remains is Levenberg-Marquardt's own QR of the
+``15000 x 15`` Jacobian.  Earlier (SNR 10 dB, seeds 0-3, load ~9): 1.1-1.7 s per
+refinement; with finite-difference Jacobians and both starts run to convergence it took
+26-70 s (89-186 evaluations plus 15 more per Jacobian) and reached the same end points
+(eigenvalue errors identical to the printed digits).
 
 Measured on the closed-loop quadrotor at SNR 20 dB (seeds 0-11, order 3, from the
 HD-PBSID model): largest eigenvalue error 0.2-5.9 % (median 1.7 %, 11 of 12 within 5 %)
@@ -71,12 +77,15 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from functools import partial
+from types import ModuleType
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 from scipy.optimize import least_squares
+
+from slbasis.numeric.engine import numba_available
 
 from ..checks import check_data
 from ..checks import is_uniform as checks_is_uniform
@@ -89,6 +98,10 @@ Array = NDArray[np.float64]
 
 #: accepted values of the ``refine`` option of :func:`hdpbsid.identify`
 REFINE_CHOICES = ("auto", "pem", None)
+#: evaluations of the prediction errors (:func:`_residuals`)
+ENGINES = ("auto", "numpy", "numba")
+#: residual vectors a :class:`_Record` remembers
+RECORD_MEMORY = 4
 #: relative spread of the sample spacing below which a grid counts as uniform
 UNIFORM_RTOL = 1e-6
 #: residual returned (per entry, in units of the weighted innovation) for an unstable
@@ -168,6 +181,65 @@ class _Layout:
         D = theta[s[3] : s[4]].reshape(l, m) if self.feedthrough else np.zeros((l, m))
         K = theta[s[4] : s[5]].reshape(n, l)
         return A, B, C, D, K
+
+
+class _Record:
+    """:func:`_residuals` of one record for one input hold, ``(theta, W, jac=False,
+    directions=None)``, remembering the last :data:`RECORD_MEMORY` residual vectors, and
+    the buffers of the compiled evaluation (:class:`_Workspace`).
+
+    An evaluation is a pure function of its arguments, and the fit asks for the same
+    residuals again: every re-centred Levenberg-Marquardt run starts where the previous
+    one ended, and :func:`_lm_fit` evaluates the cost at a run's end point (closed-loop
+    quadrotor, 7500 samples: 7 of 32 residual evaluations were repeats; Jacobians are
+    not asked twice, :func:`scipy.optimize.least_squares` keeps its last one).  A
+    remembered vector is returned read-only, so no caller can alter it.
+    """
+
+    def __init__(self, lay: _Layout, u: Array, y: Array, h: float, hold: str) -> None:
+        self.lay, self.h, self.hold = lay, h, hold
+        self.u = np.ascontiguousarray(u, dtype=float)
+        self.y = np.ascontiguousarray(y, dtype=float)
+        self._memory: dict[tuple[Any, ...], Any] = {}
+        self._workspace = _Workspace()
+
+    def __call__(
+        self, theta: Array, W: Array, jac: bool = False, directions: Array | None = None
+    ) -> Array | tuple[Array, Array]:
+        theta = np.asarray(theta, dtype=float)
+        key = (theta.tobytes(), np.asarray(W, dtype=float).tobytes())
+        if not jac and key in self._memory:
+            return self._memory[key]
+        if jac:
+            return _residuals(
+                theta,
+                self.lay,
+                self.u,
+                self.y,
+                self.h,
+                self.hold,
+                W,
+                jac,
+                directions,
+                workspace=self._workspace,
+            )
+        out = _residuals(
+            theta,
+            self.lay,
+            self.u,
+            self.y,
+            self.h,
+            self.hold,
+            W,
+            jac,
+            directions,
+            workspace=self._workspace,
+        )
+        out.setflags(write=False)
+        if len(self._memory) >= RECORD_MEMORY:
+            del self._memory[next(iter(self._memory))]  # the oldest
+        self._memory[key] = out
+        return out
 
 
 def _is_stable(lam: NDArray[np.complex128]) -> bool:
@@ -315,6 +387,73 @@ def _residuals(
     W: Array,
     jac: bool = False,
     directions: Array | None = None,
+    engine: str = "auto",
+    workspace: _Workspace | None = None,
+) -> Array | tuple[Array, Array]:
+    """Weighted one-step prediction errors, initial state eliminated (module docstring),
+    and with ``jac=True`` their Jacobian (:func:`_residuals_numpy`).
+
+    ``engine``: ``"numba"`` runs the passes over the samples compiled
+    (:mod:`hdpbsid.methods.pem_kernels`, :func:`_residuals_compiled`), ``"numpy"`` with
+    :func:`scipy.signal.lfilter` (:func:`_residuals_numpy`); ``"auto"`` is ``"numba"``
+    when numba is installed and not switched off (``SLBASIS_NO_NUMBA``).  The two agree
+    to rounding.  ``workspace``: buffers the compiled evaluation reuses between calls
+    (:class:`_Workspace`; default: new ones).
+    """
+    kernels = _kernels(engine)
+    if kernels is None:
+        return _residuals_numpy(theta, lay, u, y, h, hold, W, jac, directions)
+    ws = _Workspace() if workspace is None else workspace
+    return _residuals_compiled(theta, lay, u, y, h, hold, W, jac, directions, kernels, ws)
+
+
+class _Workspace:
+    """Buffers of the compiled evaluation kept between calls, one per name and shape.
+
+    The passes write ``(Ns, n p + p + l n)`` and ``(l, Ns, n)`` arrays (about 2 MB at
+    7500 samples); allocated afresh at every evaluation, they are returned to the
+    operating system and faulted in again (Table-1 record, fastest of 100 calls: 3.9 ms
+    a Jacobian with fresh buffers, 3.1 ms with these)."""
+
+    def __init__(self) -> None:
+        self._buffers: dict[str, Array] = {}
+        #: ``(key, results)`` of the last error pass, whose free response the buffers
+        #: hold: a Jacobian at the point of the last residual evaluation (each one
+        #: Levenberg-Marquardt asks for) starts from it instead of repeating the pass
+        self.error_pass: tuple[tuple[Any, ...], tuple[Any, ...]] | None = None
+
+    def get(self, name: str, shape: tuple[int, ...]) -> Array:
+        """An uninitialised float array of ``shape`` owned by this workspace."""
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape != shape:
+            buf = np.empty(shape)
+            self._buffers[name] = buf
+            if name == "free response":
+                self.error_pass = None  # it was in the old buffer
+        return buf
+
+
+def _kernels(engine: str) -> ModuleType | None:
+    """The compiled-kernel module for ``engine`` (``None``: the numpy evaluation)."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    if engine == "numpy" or (engine == "auto" and not numba_available()):
+        return None
+    from . import pem_kernels  # ImportError for engine="numba" without numba
+
+    return pem_kernels
+
+
+def _residuals_numpy(
+    theta: Array,
+    lay: _Layout,
+    u: Array,
+    y: Array,
+    h: float,
+    hold: str,
+    W: Array,
+    jac: bool = False,
+    directions: Array | None = None,
 ) -> Array | tuple[Array, Array]:
     """Weighted one-step prediction errors, initial state eliminated (module docstring).
 
@@ -393,6 +532,111 @@ def _cr(M: NDArray, X: Array) -> NDArray:
     return Z
 
 
+def _residuals_compiled(
+    theta: Array,
+    lay: _Layout,
+    u: Array,
+    y: Array,
+    h: float,
+    hold: str,
+    W: Array,
+    jac: bool,
+    directions: Array | None,
+    kernels: ModuleType,
+    ws: _Workspace,
+) -> Array | tuple[Array, Array]:
+    """:func:`_residuals_numpy` with the passes over the samples compiled
+    (:mod:`hdpbsid.methods.pem_kernels`): the same predictor, the same stability rule,
+    the same variable projection; the sensitivities of all directions from the ``n p``
+    modal filters of ``w = [xi; u; y]`` and one ``(Ns, n p + p) x (n p + p, q)`` product
+    per output (the factorisation in :mod:`hdpbsid.methods.pem_kernels`)."""
+    A, B, C, D, K = lay.unpack(theta)
+    ns, n, l = y.shape[0], lay.n, lay.l
+    u = np.ascontiguousarray(u, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    C = np.ascontiguousarray(C, dtype=float)
+    W = np.ascontiguousarray(W, dtype=float)
+    # the error pass of this point, when the workspace's buffers still hold it
+    key = (theta.tobytes(), W.tobytes(), hold, h, u.ctypes.data, y.ctypes.data, u.shape, y.shape)
+    done = ws.error_pass[1] if ws.error_pass is not None and ws.error_pass[0] == key else None
+    if done is not None and not jac:
+        return done[0]
+    pr = sampled_predictor(A, B, C, D, K, h, hold, lay.feedthrough, derivatives=jac)
+    if done is None:
+        lam, V = np.linalg.eig(pr.F)
+        if not _is_stable(lam) or np.linalg.cond(V) > 1.0 / np.finfo(float).eps:
+            r = np.full(ns * l, UNSTABLE_PENALTY)
+            q = theta.size if directions is None else directions.shape[1]
+            return (r, np.zeros((r.size, q))) if jac else r
+        F, G, Kd, Du = (np.ascontiguousarray(a, dtype=float) for a in (pr.F, pr.G, pr.Kd, pr.Du))
+        Ew, Fr3 = ws.get("errors", (l, ns)), ws.get("free response", (l, ns, n))
+        kernels.weighted_errors(F, G, Kd, C, Du, W, u, y, Ew, Fr3)
+        Fr = Fr3.reshape(-1, n)  # (l Ns, n), rows ordered like Ew.ravel()
+        FtF = Fr.T @ Fr
+        x0 = np.linalg.solve(FtF, Fr.T @ Ew.ravel())
+        r = Ew.ravel() - Fr @ x0
+        ws.error_pass = (key, (r, F, G, Kd, lam, V, FtF, x0))
+    else:
+        r, F, G, Kd, lam, V, FtF, x0 = done
+        Fr3 = ws.get("free response", (l, ns, n))
+    if not jac:
+        return r
+    assert pr.dF is not None and pr.dG is not None and pr.dKd is not None
+    assert pr.dC is not None and pr.dDu is not None
+    keep, fac = conjugate_representatives(lam)
+    lk = lam[keep]
+    cplx = lk.imag != 0  # modes whose imaginary part is stored
+    # columns: modal filters of w (2 p per pair, p per real mode), w itself (p), then the
+    # weighted free response of each output (l n)
+    p = n + lay.m + l
+    nz = p * int(np.sum(np.where(cplx, 2, 1))) + p
+    Z = ws.get("regressors", (ns, nz + l * n))
+    kernels.sensitivity_regressors(
+        F,
+        G,
+        Kd,
+        u,
+        y,
+        x0,
+        np.ascontiguousarray(lk.real),
+        np.ascontiguousarray(lk.imag),
+        cplx,
+        Fr3,
+        Z,
+    )
+    P = pr.dF.shape[0]
+    Dm = np.concatenate([pr.dF, pr.dG, pr.dKd], axis=2)  # (P, n, p): drive of s
+    Dd = np.concatenate([pr.dC, pr.dDu, np.zeros((P, l, l))], axis=2)  # (P, l, p): direct
+    if directions is not None:
+        Dm = np.tensordot(directions.T, Dm, axes=1)
+        Dd = np.tensordot(directions.T, Dd, axes=1)
+    q = Dm.shape[0]
+    CVf = (C @ V[:, keep]) * fac[None, :]  # (l, nk)
+    VD = np.matmul(np.linalg.inv(V)[keep], Dm)  # (q, nk, p)
+    # coefficient of column (a, b) of Z for output c and direction i:
+    # fac_a (C V)[c, a] (V^-1 D_i)[a, b]; real part on Re z, minus imaginary on Im z
+    T = CVf[None, :, :, None] * VD[:, None, :, :]  # (q, l, nk, p)
+    blocks = []
+    for a in range(lk.size):
+        blocks.append(T[:, :, a, :].real)
+        if cplx[a]:
+            blocks.append(-T[:, :, a, :].imag)
+    blocks.append(Dd)
+    # J = -W (Dd w + C s): weighted and negated coefficients, (l, nz, q)
+    Tw = -np.einsum("cd,qdj->cjq", W, np.concatenate(blocks, axis=2))
+    # projection on the complement of the free response, J_c - Fr_c M with
+    # M = FtF^-1 sum_c Fr_c^T J_c, folded into the coefficients of the Fr_c columns
+    FZ = (Z[:, nz:].T @ Z[:, :nz]).reshape(l, n, nz)
+    M = np.linalg.solve(FtF, np.einsum("cjz,czq->jq", FZ, Tw))
+    coef = np.zeros((l, Z.shape[1], q))
+    coef[:, :nz] = Tw
+    J = np.empty((l * ns, q))
+    for c in range(l):
+        coef[c, nz + c * n : nz + (c + 1) * n] = -M
+        np.matmul(Z, coef[c], out=J[c * ns : (c + 1) * ns])
+    return r, J
+
+
 def refine_pem(
     model: StateSpaceModel,
     t: Any,
@@ -465,7 +709,7 @@ def refine_pem(
         return model
     # residuals of this record for parameters theta and output weighting W, per hold;
     # one W for both holds, so that their costs compare
-    record = {hd: partial(_residuals, lay=lay, u=un, y=yn, h=h, hold=hd) for hd in holds}
+    record = {hd: _Record(lay, un, yn, h, hd) for hd in holds}
     E0 = record[hold](next(iter(starts.values())), W=np.eye(model.l)).reshape(model.l, -1)
     W = np.linalg.inv(np.linalg.cholesky(E0 @ E0.T / E0.shape[1]))
     weighted = {hd: partial(record[hd], W=W) for hd in holds}
