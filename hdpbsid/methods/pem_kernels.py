@@ -53,6 +53,32 @@ _jit = numba.njit(cache=True, nogil=True)
 
 
 @_jit
+def _predictor_step(
+    F: np.ndarray,
+    G: np.ndarray,
+    Kd: np.ndarray,
+    xi: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    k: int,
+    xn: np.ndarray,
+) -> None:
+    """One predictor step in place, ``xi <- F xi + G u_k + Kd y_k`` (``xn``: scratch)."""
+    n, m, l = xi.shape[0], G.shape[1], Kd.shape[1]
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += F[i, j] * xi[j]
+        for j in range(m):
+            s += G[i, j] * u[k, j]
+        for j in range(l):
+            s += Kd[i, j] * y[k, j]
+        xn[i] = s
+    for i in range(n):
+        xi[i] = xn[i]
+
+
+@_jit
 def weighted_errors(
     F: np.ndarray,
     G: np.ndarray,
@@ -102,17 +128,7 @@ def weighted_errors(
         for c in range(l):
             for j in range(n):
                 P[c, j] = Pn[c, j]
-        for i in range(n):
-            s = 0.0
-            for j in range(n):
-                s += F[i, j] * xi[j]
-            for j in range(m):
-                s += G[i, j] * u[k, j]
-            for j in range(l):
-                s += Kd[i, j] * y[k, j]
-            xn[i] = s
-        for i in range(n):
-            xi[i] = xn[i]
+        _predictor_step(F, G, Kd, xi, u, y, k, xn)
 
 
 @_jit
@@ -177,14 +193,4 @@ def sensitivity_regressors(
             else:
                 for b in range(p):
                     zr[a, b] = lr * zr[a, b] + w[b]
-        for i in range(n):
-            s = 0.0
-            for j in range(n):
-                s += F[i, j] * xi[j]
-            for j in range(m):
-                s += G[i, j] * u[k, j]
-            for j in range(l):
-                s += Kd[i, j] * y[k, j]
-            xn[i] = s
-        for i in range(n):
-            xi[i] = xn[i]
+        _predictor_step(F, G, Kd, xi, u, y, k, xn)

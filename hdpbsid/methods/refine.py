@@ -210,19 +210,6 @@ class _Record:
         key = (theta.tobytes(), np.asarray(W, dtype=float).tobytes())
         if not jac and key in self._memory:
             return self._memory[key]
-        if jac:
-            return _residuals(
-                theta,
-                self.lay,
-                self.u,
-                self.y,
-                self.h,
-                self.hold,
-                W,
-                jac,
-                directions,
-                workspace=self._workspace,
-            )
         out = _residuals(
             theta,
             self.lay,
@@ -235,6 +222,8 @@ class _Record:
             directions,
             workspace=self._workspace,
         )
+        if jac:
+            return out
         out.setflags(write=False)
         if len(self._memory) >= RECORD_MEMORY:
             del self._memory[next(iter(self._memory))]  # the oldest
