@@ -189,7 +189,9 @@ def identify(
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
     ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (see :func:`available_methods`).
     ``options`` go to the method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for
-    ``"dt"``).
+    ``"dt"``); with ``"auto"`` they go to every method tried (e.g. ``feedthrough=True``),
+    besides ``methods=``, ``max_order=``, ``n_jobs=`` (the methods swept in parallel) and
+    ``method_options=`` (per method) of :func:`~hdpbsid.selection.identify_auto`.
 
     ``order=None`` chooses the order from the identified *models*
     (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are

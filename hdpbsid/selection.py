@@ -400,6 +400,7 @@ def identify_auto(
     holdout: float = HOLDOUT,
     n_jobs: int | None = None,
     method_options: dict[str, dict[str, Any]] | None = None,
+    **shared: Any,
 ) -> StateSpaceModel:
     """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
     given ``order``), the best by held-out prediction error (module docstring).
@@ -408,8 +409,11 @@ def identify_auto(
     non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
     end of the record (``0 < holdout < 1``); ``n_jobs``: sweep the methods in parallel
     with joblib (results are identical to the serial run); ``method_options``: extra
-    options per method, e.g. ``{"hermite": {"N": 400}}``.  ``model.options["selection"]``
-    lists every candidate, ``options["order_selection"]`` the chosen method's.
+    options per method, e.g. ``{"hermite": {"N": 400}}``; any other keyword (``shared``)
+    is a setting every method is given, e.g. ``feedthrough=True`` for an output with a
+    direct term (``method_options`` override it per method; a method that does not take
+    it raises ``TypeError``).  ``model.options["selection"]`` lists every candidate,
+    ``options["order_selection"]`` the chosen method's.
     """
     from .identify import get_method, is_available
     from .methods.refine import is_uniform
@@ -427,8 +431,9 @@ def identify_auto(
         methods = list(methods)
         for m in methods:
             get_method(m)  # raises for unknown names
+    per_method = {m: {**shared, **(method_options or {}).get(m, {})} for m in methods}
     model, table, rule = select_model(
-        t, u, y, methods, orders, holdout=holdout, n_jobs=n_jobs, method_options=method_options
+        t, u, y, methods, orders, holdout=holdout, n_jobs=n_jobs, method_options=per_method
     )
     chosen = model.options.get("method")
     model.options["selection"] = table

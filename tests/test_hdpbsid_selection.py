@@ -156,6 +156,19 @@ def test_hermite_defaults_on_the_robot_arm_record_validate():
     assert err.finite and err.total < 1.0
 
 
+def test_auto_gives_shared_settings_to_every_method():
+    t, u, y, _ = _record(5)
+    kw = {"method": "auto", "methods": ("hermite", "dt"), "order": 2, "refine": None}
+    model = hdpbsid.identify(t, u, y, feedthrough=True, **kw)
+    assert model.options["feedthrough"] is True
+    # a per-method option overrides the shared one for that method only
+    per = {"hermite": {"feedthrough": False}, "dt": {"feedthrough": False}}
+    model = hdpbsid.identify(t, u, y, feedthrough=True, method_options=per, **kw)
+    assert model.options["feedthrough"] is False
+    with pytest.raises(TypeError):
+        hdpbsid.identify(t, u, y, no_such_setting=1, **kw)
+
+
 def test_auto_refuses_a_record_too_short_to_score():
     t, u, y, _ = _record(3, T=0.5)
     with pytest.raises(ValueError, match="longer record"):
