@@ -77,6 +77,7 @@ __all__ = [
     "identify_auto",
     "select_order",
     "select_model",
+    "score_model",
     "refit_holds",
     "beats_the_mean",
     "AUTO_METHODS",
