@@ -169,6 +169,24 @@ def test_auto_gives_shared_settings_to_every_method():
         hdpbsid.identify(t, u, y, no_such_setting=1, **kw)
 
 
+def test_when_no_candidate_beats_the_mean_the_windowed_ranking_stands(monkeypatch):
+    from hdpbsid.identify import METHODS
+
+    t, u, y, true = _record(6)
+    # the truth plus a mode growing by e^150 over the held-out 10 s: no candidate can be
+    # run over the whole held-out part, the windows (a few seconds each) still rank them
+    A = np.block([[true.A, np.zeros((2, 1))], [np.zeros((1, 2)), np.array([[15.0]])]])
+    grown = StateSpaceModel(
+        A, np.vstack([true.B, [[1.0]]]), np.hstack([true.C, [[1.0]]]), true.D, np.zeros((3, 1))
+    )
+    monkeypatch.setitem(METHODS, "grown", lambda *a, order=None, **k: grown)
+    model = hdpbsid.identify(
+        t, u, y, method="auto", methods=("grown",), order=3, refine=None, detrend=None
+    )
+    np.testing.assert_array_equal(model.A, A)
+    assert "floor not applied" in model.options["selection_rule"]
+
+
 def test_auto_refuses_a_record_too_short_to_score():
     t, u, y, _ = _record(3, T=0.5)
     with pytest.raises(ValueError, match="longer record"):
