@@ -139,6 +139,15 @@ def test_project_threads(monkeypatch):
     assert np.all(np.abs(fast - ref) <= tol)
 
 
+@given(st.integers(1, 3000), st.integers(2, 4))
+def test_interleaved_split_is_a_round_robin_permutation(n, parts):
+    """Each thread's contiguous range of the permuted samples holds every parts-th block."""
+    order = engine._interleaved(n, parts)
+    block = engine._compiled().BLOCK
+    expected = [i for g in range(parts) for i in range(n) if (i // block) % parts == g]
+    assert np.array_equal(order, expected)
+
+
 def _gaussian_coefficients(N, a):
     """``c_n`` of ``exp(-(x - a)^2 / 2)`` in Hermite functions, from the generating
     function ``exp(2xs - s^2) = sum_n H_n(x) s^n / n!`` at ``s = a / 2`` (DLMF 18.12.15):
