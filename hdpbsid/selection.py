@@ -42,6 +42,13 @@ of the candidate (:func:`refit_holds`).  Held-out data judge the
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 
+A method that judges a data-driven setting of its own on held-out data (HD-PBSID's
+operator scale ``alpha``; :func:`accepts_held_out`) is given the held-out part for it,
+and the refit of the chosen candidate is given the settings the candidate took
+(``options["refit_settings"]``), as it is given its order: one judge for the order, the
+method and those settings, instead of a second split of the estimation part inside the
+method.
+
 The expensive order-independent steps of the methods (projection of the record, basis
 operators, the past-window criterion of ``dt``) are memoised
 (:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
@@ -56,6 +63,7 @@ variance), ``fit`` (percent), ``z`` (statistic against the best), ``whole_simula
 
 from __future__ import annotations
 
+import inspect
 import time
 import warnings
 from collections.abc import Sequence
@@ -111,6 +119,19 @@ def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[Windo
     return sim, False
 
 
+def accepts_held_out(func: Any) -> bool:
+    """Whether the method ``func`` takes ``held_out=(t, u, y)``: data kept out of its
+    record on which it judges its own data-driven settings (HD-PBSID's operator scale),
+    reporting what it chose in ``options["refit_settings"]``.  The candidates of
+    :func:`select_model` get the held-out part, and the refit of the chosen one gets
+    its ``refit_settings``: one judge for the order, the method and those settings, and
+    no second split of the estimation part inside a method."""
+    try:
+        return "held_out" in inspect.signature(func).parameters
+    except (TypeError, ValueError):
+        return False
+
+
 def _fit_one(
     get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
 ) -> dict[str, Any]:
@@ -119,7 +140,9 @@ def _fit_one(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = get_method(method)(*est, order=order, **options.get(method, {}))
+            func = get_method(method)
+            extra = {"held_out": val} if accepts_held_out(func) else {}
+            model = func(*est, order=order, **options.get(method, {}), **extra)
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -297,13 +320,23 @@ def _first_that_holds(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                model = get_method(chosen["method"])(
-                    *whole, order=chosen["order"], **opts.get(chosen["method"], {})
-                )
+                settings = {
+                    **opts.get(chosen["method"], {}),
+                    **chosen["model"].options.get("refit_settings", {}),
+                }
+                model = get_method(chosen["method"])(*whole, order=chosen["order"], **settings)
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
         except (ValueError, np.linalg.LinAlgError) as exc:
             holds, how = False, str(exc)
         if holds:
+            carried = chosen["model"].options.get("refit_settings")
+            if carried:
+                model.options["refit_settings"] = carried
+                model.options["refit_settings_rule"] = (
+                    "chosen with the candidate on the held-out part (its options "
+                    f"{sorted(carried)}: {chosen['model'].options.get('alpha_rule', '')}); "
+                    "given to the refit on the whole record"
+                )
             return model, failures
         failures.append(("refit", f"{name}: {how}"))
     return None, failures

@@ -166,3 +166,53 @@ def test_held_out_check_takes_only_a_better_alpha() -> None:
     assert take, how
     take, how = opscale.held_out_check(fit, t, u, y, 2.0, 3.0, 2)
     assert not take, how
+
+
+def test_held_out_comparison_judges_models_fitted_without_the_held_out_part() -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    t, u, y = make_data(4, snr=20)
+    split = int(round(t.size * 2 / 3))
+    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    bad, good, other = (identify_hermite(*est, order=2, alpha=a) for a in (0.05, 3.0, 2.0))
+    # the same three cases as the refitting check above, on the models fitted on the
+    # first two thirds: alpha = 0.05 is far outside the band (tens of SE worse), 2 and 3
+    # fit to the noise and the burden of proof keeps the old one
+    assert not opscale.held_out_comparison(good, bad, val, 2, (3.0, 0.05))[0]
+    assert opscale.held_out_comparison(bad, good, val, 2, (0.05, 3.0))[0]
+    assert not opscale.held_out_comparison(good, other, val, 2, (3.0, 2.0))[0]
+    # a failed fit scores infinity: a change to it is refused, away from it taken
+    assert not opscale.held_out_comparison(good, None, val, 2, (3.0, 1.0))[0]
+    assert opscale.held_out_comparison(None, good, val, 2, (1.0, 3.0))[0]
+
+
+def test_hermite_with_held_out_data_returns_the_whole_record_fit_at_its_alpha() -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    t, u, y = make_data(5, snr=20)
+    split = int(round(t.size * 2 / 3))
+    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    m = identify_hermite(*est, order=2, held_out=val)
+    kept = m.options["alpha"] == m.options["alpha_passes"][0]
+    assert m.options["refit_settings"] == {"alpha": "basis" if kept else "dynamics"}
+    # no split of est inside: the model is the fit of all of est at the alpha it reports
+    again = identify_hermite(
+        *est, order=2, alpha=m.options["alpha"], input_hold=m.options["input_hold"]
+    )
+    np.testing.assert_allclose(m.A, again.A, rtol=0, atol=0)
+    assert len(m.options["alpha_passes"]) > 1  # this record asks for a change (3.7 -> 2.0)
+    assert f"held-out fit ({t.size - split} samples" in m.options["alpha_check"]
+
+
+def test_named_alpha_rules() -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    t, u, y = make_data(5, snr=20)
+    basis = identify_hermite(t, u, y, order=2, alpha="basis")
+    dyn = identify_hermite(t, u, y, order=2, alpha="dynamics")
+    # "basis": one pass at 4 * scale; "dynamics": the modes' alpha (|lambda| = 2 here,
+    # within the 1 % grid step and the 2 % slack of the minimax rule), unchecked
+    assert basis.options["alpha"] == pytest.approx(4 * basis.options["scale"], rel=1e-12)
+    assert dyn.options["alpha"] == pytest.approx(2.0, rel=0.05)
+    with pytest.raises(ValueError, match="alpha must be"):
+        identify_hermite(t, u, y, order=2, alpha="fast")

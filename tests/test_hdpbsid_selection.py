@@ -348,3 +348,13 @@ def test_tie_is_broken_by_the_whole_held_out_simulation():
     ranked = break_tie(rows, (t, u, y))
     assert ranked[0]["model"] is true
     assert ranked[0]["whole_simulation"] < ranked[1]["whole_simulation"]
+
+
+def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data():
+    t, u, y, _ = _record(2)
+    m = hdpbsid.identify(t, u, y, method="auto", methods=("hermite",), max_order=3, refine=None)
+    carried = m.options["refit_settings"]["alpha"]
+    # the refit on the whole record is given the rule the candidate took, as its order
+    assert carried in ("basis", "dynamics")
+    assert f"alpha='{carried}'" in m.options["alpha_rule"]
+    assert "held-out part" in m.options["refit_settings_rule"]

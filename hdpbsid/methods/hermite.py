@@ -37,7 +37,7 @@ from scipy.linalg.lapack import dgttrf, dgttrs
 
 import slbasis
 
-from ..checks import check_order, check_positive_int
+from ..checks import check_data, check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
@@ -51,7 +51,13 @@ from .basis_domain import (
     resolve_holds,
 )
 from .hermite_iv import reference_instruments, with_reference
-from .operator_scale import MODE_ENERGY_FRACTION, alpha_from_dynamics, held_out_check
+from .operator_scale import (
+    MODE_ENERGY_FRACTION,
+    alpha_from_dynamics,
+    held_out_check,
+    held_out_comparison,
+    in_sample_screen,
+)
 from .segments import (
     default_window,
     make_segments,
@@ -74,6 +80,10 @@ BAND_MARGIN = 2.0
 #: rounding at N = 5000, bench/basis.py): it binds on records longer than ~10^3 bandwidth
 #: periods, with a warning
 N_MIN, N_MAX = 100, 4000
+
+
+#: the named rules ``alpha`` accepts besides a number (:func:`identify_hermite`)
+ALPHA_RULES = ("basis", "dynamics")
 
 
 def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
@@ -192,12 +202,13 @@ def identify_hermite(
     order: int | None = None,
     *,
     N: int | None = None,
-    alpha: float | None = None,
+    alpha: float | str | None = None,
     beta: float = 1.0,
     gamma: float = 1.0,
     scale: float | None = None,
     estimator: str = "ls",
     reference: Any = None,
+    held_out: tuple | None = None,
     settings: BasisSettings | None = None,
     **shared: Any,
 ) -> StateSpaceModel:
@@ -231,19 +242,30 @@ def identify_hermite(
     * ``alpha``: from the identified modes (:mod:`~hdpbsid.methods.operator_scale`): a
       first pass at ``4 * scale`` (the median over the blocks: ``A'`` is shared, so
       ``alpha`` must be), then the smallest ``alpha`` that minimises, within 2 %, the
-      largest truncation factor
-      ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the identified modes (unstable
-      ones by their mirror images), re-identified until it settles; taken only when it
-      simulates the held-out last third of a single record better than the first pass's
-      by more than one standard error (the burden of proof on the change:
-      :func:`~hdpbsid.methods.operator_scale.held_out_check`; several records keep
-      ``4 * scale``);
+      largest truncation factor ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the
+      identified modes (unstable ones by their mirror images), re-identified until it
+      settles; taken only when it simulates a single record better than the first
+      pass's model by more than one standard error, first on the record itself
+      (:func:`~hdpbsid.methods.operator_scale.in_sample_screen`), then on its last third
+      held out from fits on the rest (the burden of proof on the change:
+      :func:`~hdpbsid.methods.operator_scale.held_out_check`); several records keep
+      ``4 * scale``.  ``4 * scale`` alone follows ``sqrt(N) / T``, not the dynamics
+      (stiff system ``-50, -0.5 +- 2i`` at 40 dB: slow pair 17 % off).
       ``options["alpha_rule"]``, ``["alpha_passes"]``, ``["alpha_check"]`` say what was
-      done.  ``4 * scale`` alone follows ``sqrt(N) / T``, not the dynamics (stiff
-      system ``-50, -0.5 +- 2i`` at 40 dB: slow pair 17 % off).  An explicit ``alpha``
-      is used as given, in one pass.  ``beta = gamma = 1``: an eigenvalue ``lambda``
-      maps to ``(lambda/alpha + beta)/gamma``, inside the unit disc iff
+      done.  An explicit number is used as given, in one pass; ``alpha="basis"``:
+      ``4 * scale`` in one pass (HD-PBSID as published); ``alpha="dynamics"``: from the
+      modes, without the checks.  ``beta = gamma = 1``: an eigenvalue ``lambda`` maps to
+      ``(lambda/alpha + beta)/gamma``, inside the unit disc iff
       ``|lambda + alpha beta| < alpha gamma``;
+    * ``held_out = (t, u, y)``: data of the same experiment kept out of this record
+      (``method="auto"`` passes its held-out part): the two models of ``alpha`` fitted on
+      the whole record are compared on it instead, by the same rule
+      (:func:`~hdpbsid.methods.operator_scale.held_out_comparison`), so the operator
+      scale is judged by the same data as the order and the method, on all of them
+      rather than on a third of a second split, and without refits; the model then
+      carries the rule taken (``"basis"`` or ``"dynamics"``) in
+      ``options["refit_settings"]``, which ``method="auto"`` passes to the refit on the
+      whole record, as it passes the order;
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
       an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` within
@@ -306,6 +328,13 @@ def identify_hermite(
         bases[keys[i]] = _hermite_basis(int(Nb), float(T), scale)
     scales = np.array([b.scale for b in bases.values()])
     s_ref = float(np.median(scales))
+    alpha_rule = alpha if isinstance(alpha, str) else None
+    if alpha_rule is not None:
+        if alpha_rule not in ALPHA_RULES:
+            raise ValueError(
+                f"alpha must be a positive number, None or one of {ALPHA_RULES}, got {alpha!r}"
+            )
+        alpha = None
     alpha_given = alpha is not None
     alpha0 = 4.0 * s_ref if alpha is None else _real(alpha, "alpha")
     rows: dict[int, Array] = {}
@@ -403,11 +432,14 @@ def identify_hermite(
 
     if alpha_given:
         return fit(alpha0)
-    if len(records) > 1:
-        # no single record to hold a part out of: a change of alpha could not be checked
+    if alpha_rule == "basis" or len(records) > 1:
+        # asked for; or no single record to hold a part out of: a change of alpha could
+        # not be checked
         model = fit(alpha0)
-        model.options["alpha_rule"] = (
-            "4 * scale (median over blocks); several records: no held-out check of a change"
+        model.options["alpha_rule"] = "4 * scale (median over blocks); " + (
+            "asked for (alpha='basis')"
+            if alpha_rule == "basis"
+            else "several records: no held-out check of a change"
         )
         return model
     # modes the data resolve: from the frequency below which MODE_ENERGY_FRACTION of the
@@ -418,33 +450,49 @@ def identify_hermite(
     )
     a_new, model, info = alpha_from_dynamics(fit, alpha0, band)
     info["alpha_rule"] += " (4 * scale, median over blocks)"
-    if a_new != alpha0:
+    if alpha_rule == "dynamics":
+        info["alpha_rule"] += "; taken without a held-out check (alpha='dynamics')"
+    elif a_new != alpha0 and held_out is not None:
+        keep, how = held_out_comparison(
+            fit(alpha0), model, check_data(*held_out), model.n, (alpha0, a_new)
+        )
+        info["alpha_check"] = how
+        if not keep:
+            model = fit(alpha0)
+            info["alpha_rule"] += (
+                "; not better on the held-out data by more than one SE: the first pass's alpha kept"
+            )
+    elif a_new != alpha0:
         rec = records[0]
         ref = proj_records[0].u[:, m:] if m_r else None
-        keep, how = held_out_check(
-            lambda t_, u_, y_, a: identify_hermite(
-                t_,
-                u_,
-                y_,
-                order=model.n,
-                alpha=a,
-                N=N,
-                beta=beta,
-                gamma=gamma,
-                scale=scale,
-                estimator=estimator,
-                reference=None if ref is None else ref[: t_.shape[0]],
-                settings=st,
-                # the hold the whole record's first pass chose (see _fit)
-                input_hold=model.options["input_hold"],
-            ),
-            rec.t,
-            rec.u,
-            rec.y,
-            a_new,
-            alpha0,
-            model.n,
-        )
+        # the necessary condition first: no refits when the change does not even fit the
+        # record better (operator_scale.in_sample_screen)
+        keep, how = in_sample_screen(fit(alpha0), model, (rec.t, rec.u, rec.y), (alpha0, a_new))
+        if keep:
+            keep, how = held_out_check(
+                lambda t_, u_, y_, a: identify_hermite(
+                    t_,
+                    u_,
+                    y_,
+                    order=model.n,
+                    alpha=a,
+                    N=N,
+                    beta=beta,
+                    gamma=gamma,
+                    scale=scale,
+                    estimator=estimator,
+                    reference=None if ref is None else ref[: t_.shape[0]],
+                    settings=st,
+                    # the hold the whole record's first pass chose (see _fit)
+                    input_hold=model.options["input_hold"],
+                ),
+                rec.t,
+                rec.u,
+                rec.y,
+                a_new,
+                alpha0,
+                model.n,
+            )
         info["alpha_check"] = how
         if not keep:
             model = fit(alpha0)
@@ -453,4 +501,9 @@ def identify_hermite(
             )
 
     model.options.update(info)
+    if held_out is not None:
+        # the rule the held-out data chose, for the refit on a longer record (whose basis
+        # rule gives another 4 * scale and whose modes ask for their own alpha)
+        kept = model.options["alpha"] == alpha0
+        model.options["refit_settings"] = {"alpha": "basis" if kept else "dynamics"}
     return model
