@@ -101,6 +101,8 @@ def test_stiff_system_alpha_from_the_modes() -> None:
     assert new < 0.04
     assert m.options["alpha"] < old_alpha
     assert m.options["alpha_rule"].startswith("minimax contraction")
+    # the change passed the in-sample screen, and the held-out refits took it
+    assert m.options["alpha_check"].startswith("held-out fit"), m.options["alpha_check"]
     assert m_old.options["alpha_rule"] == "given" and "alpha_passes" not in m_old.options
 
 
@@ -216,3 +218,31 @@ def test_named_alpha_rules() -> None:
     assert dyn.options["alpha"] == pytest.approx(2.0, rel=0.05)
     with pytest.raises(ValueError, match="alpha must be"):
         identify_hermite(t, u, y, order=2, alpha="fast")
+
+
+def test_in_sample_screen_refuses_an_equal_change_without_refits(monkeypatch) -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    import hdpbsid.methods.hermite as hermite
+
+    def no_refits(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the held-out refits ran")
+
+    monkeypatch.setattr(hermite, "held_out_check", no_refits)
+    t, u, y = make_data(5, snr=20)
+    m = identify_hermite(t, u, y, order=2)
+    # |lambda| = 2 asks for alpha 2.0 against the basis rule's 3.7; both fit the record to
+    # the noise (equal in-sample fits), so the change cannot prove itself and is refused
+    assert len(m.options["alpha_passes"]) > 1
+    assert m.options["alpha"] == m.options["alpha_passes"][0]
+    assert m.options["alpha_check"].startswith("in-sample fit"), m.options["alpha_check"]
+
+
+def test_in_sample_screen_is_skipped_on_non_uniform_samples() -> None:
+    from test_hdpbsid_basis_common import make_data
+
+    t, u, y = make_data(5, snr=20, jitter=0.3)
+    m = identify_hermite(t, u, y, order=2)
+    assert len(m.options["alpha_passes"]) > 1
+    # no in-sample simulation (one matrix exponential per interval): the refits decide
+    assert m.options["alpha_check"].startswith("held-out fit"), m.options["alpha_check"]

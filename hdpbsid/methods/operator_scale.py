@@ -62,6 +62,7 @@ from ..criteria import (
     WindowedError,
     choose_smallest_adequate,
     default_windows,
+    is_uniform_grid,
     windowed_simulation_error,
 )
 
@@ -294,7 +295,13 @@ def in_sample_screen(
     of the samples, is larger.  A change that does not beat the old ``alpha`` by one
     standard error here is kept from the refits (measured on the random-binary
     second-order record of ``bench/scaling.py``: the held-out check, 40 % of a fit, had
-    refused every change that this screen refuses).  Returns ``(pass, how)``.
+    refused every change that this screen refuses).  On a non-uniform time grid the
+    screen passes without scoring: simulating there takes one matrix exponential per
+    sample interval, and the two simulations of the whole record cost more than the
+    refits they would save (measured 0.13 s each on 4001 random times, against 0.12 s
+    for the whole fit with the held-out check).  Returns ``(pass, how)``.
     """
+    if not is_uniform_grid(np.asarray(record[0], dtype=float)):
+        return True, "in-sample screen skipped (non-uniform samples)"
     order = int(np.asarray(old.A).shape[0])
     return held_out_comparison(old, new, record, order, alphas, label="in-sample")
