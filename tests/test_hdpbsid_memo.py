@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hdpbsid.methods.memo import memoize
+from hdpbsid.methods.memo import clear_caches, memoize
 
 
 def test_cache_is_keyed_on_contents_not_identity():
@@ -71,3 +71,24 @@ def test_digest_is_the_contents_shape_and_dtype():
     b[3, 5] = np.nextafter(b[3, 5], np.inf)  # one ulp in the last element
     assert digest(a) != digest(b)
     assert digest(np.zeros(0)) == digest(np.zeros(0)) != digest(np.zeros((0, 1)))
+
+
+def test_clear_caches_empties_every_memoised_function():
+    calls = []
+
+    @memoize
+    def f(a):
+        calls.append("f")
+        return a + 1
+
+    @memoize(size=3)
+    def g(a):
+        calls.append("g")
+        return a - 1
+
+    a = np.arange(3.0)
+    f(a), g(a), f(a), g(a)
+    assert calls == ["f", "g"]
+    clear_caches()
+    f(a), g(a)
+    assert calls == ["f", "g", "f", "g"]  # both computed again

@@ -34,7 +34,15 @@ import numpy as np
 from ..core.blocks import BlockPseudo, VarxStage, select_past_window_blocks, varx_stage_blocks
 from ..core.varx import LagOperator
 
-__all__ = ["memoize", "digest", "CACHE_SIZE", "STAGE_CACHE_SIZE", "past_window_aic", "varx_stage"]
+__all__ = [
+    "memoize",
+    "clear_caches",
+    "digest",
+    "CACHE_SIZE",
+    "STAGE_CACHE_SIZE",
+    "past_window_aic",
+    "varx_stage",
+]
 
 #: results kept per memoised function: one order/method selection touches two records
 #: (the estimation part and the whole record) with up to two input holds
@@ -118,12 +126,26 @@ def _read_only(x: Any) -> Any:
     return x
 
 
+#: the caches of every memoised function, for :func:`clear_caches`
+_CACHES: list[OrderedDict] = []
+
+
+def clear_caches() -> None:
+    """Empty the caches of every memoised function: the memory they hold is released,
+    and the next call on the same data computes everything again (benchmarks timing
+    several methods on one record clear them between the methods, so that none is
+    timed on another's projection)."""
+    for cache in _CACHES:
+        cache.clear()
+
+
 def memoize(func: F | None = None, *, size: int = CACHE_SIZE) -> Any:
     """Cache ``func`` by the contents of its arguments (module docstring), keeping the
     ``size`` most recent results; ``@memoize`` or ``@memoize(size=...)``."""
     if func is None:
         return functools.partial(memoize, size=size)
     cache: OrderedDict[bytes, tuple[Any, Any]] = OrderedDict()
+    _CACHES.append(cache)
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
