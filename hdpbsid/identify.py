@@ -288,7 +288,7 @@ def identify(
             tm, um, ym = t, u, y  # unchanged: exactly what the method got before
         else:
             tm, um, ym = tt, None if u is None else ud, yd
-        model = _run(method, func, tm, um, ym, order, options)
+        model = _run(method, func, tm, um, ym, order, options, refined=refine is not None)
         u0, y0 = lv.u0, lv.y0
         trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
         op_info = lv.as_dict()
@@ -368,17 +368,28 @@ def _warn_not_exciting(u: Any) -> None:
 
 
 def _run(
-    method: str, func: IdentifyFunc, t: Any, u: Any, y: Any, order: Any, options: dict
+    method: str,
+    func: IdentifyFunc,
+    t: Any,
+    u: Any,
+    y: Any,
+    order: Any,
+    options: dict,
+    refined: bool = False,
 ) -> StateSpaceModel:
     """Run ``method`` on one record; ``order=None`` goes through the held-out order choice
-    (:func:`hdpbsid.selection.select_order`) unless ``order_rule="svd"``."""
+    (:func:`hdpbsid.selection.select_order`) unless ``order_rule="svd"``.  ``refined``:
+    the result will be refined, so the held-out choice is told (it then decides close
+    orders between refined candidates, :func:`hdpbsid.selection.rejudge_refined`)."""
     rule = options.pop("order_rule", "held-out")
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
     if order is None and method != "auto" and rule == "held-out":
         from .selection import select_order
 
-        return select_order(method, t, u, y, **options)
+        return select_order(method, t, u, y, refined=refined, **options)
+    if method == "auto":
+        return func(t, u, y, order=order, refined=refined, **options)
     return func(t, u, y, order=order, **options)
 
 

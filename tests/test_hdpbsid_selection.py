@@ -358,3 +358,51 @@ def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data(
     assert carried in ("basis", "dynamics")
     assert f"alpha='{carried}'" in m.options["alpha_rule"]
     assert "held-out part" in m.options["refit_settings_rule"]
+
+
+def _rejudge_rows(t, u, y, true):
+    """Two candidates on the first two thirds: order 2, the truth with a 10 % error in
+    its dynamics (a biased estimate), and order 3, a fitted model; their held-out scores."""
+    from hdpbsid.criteria import default_windows
+    from hdpbsid.selection import score_model
+
+    split = int(round(t.size * 2 / 3))
+    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    windows = default_windows(t.size - split, 3)
+    biased = StateSpaceModel(1.1 * true.A, true.B, true.C, true.D, np.zeros((2, 1)))
+    fitted = hdpbsid.identify(*est, 3, method="dt", refine=None, detrend=None)
+    rows = []
+    for n, m in ((2, biased), (3, fitted)):
+        err, _ = score_model(m, val, windows)
+        rows.append({"method": "x", "order": n, "criterion": err, "model": m})
+    return rows, est, val, windows
+
+
+def test_rejudge_refined_lowers_the_order_a_biased_candidate_lost():
+    from hdpbsid.selection import REJUDGE_Z, rejudge_refined
+
+    t, u, y, true = _record(3, snr=20.0)
+    rows, est, val, windows = _rejudge_rows(t, u, y, true)
+    # the biased order-2 candidate scores worse than order 3 on held-out data
+    assert rows[0]["criterion"].total > rows[1]["criterion"].total
+    # within REJUDGE_Z of the best: refined (to the truth's neighbourhood) it is as good as
+    # order 3 within one standard error, and the smaller order is taken
+    k, rule = rejudge_refined(rows, [2.0, 0.0], 1, est, val, windows)
+    assert k == 0, rule
+    assert rows[0]["refined_criterion"].total < rows[0]["criterion"].total
+    assert "order decided again" in rule
+    # beyond REJUDGE_Z nothing is refined and the choice stands
+    rows, est, val, windows = _rejudge_rows(t, u, y, true)
+    assert rejudge_refined(rows, [REJUDGE_Z + 1.0, 0.0], 1, est, val, windows) == (1, "")
+    assert "refined_criterion" not in rows[0]
+
+
+def test_rejudge_refined_needs_uniform_samples():
+    from hdpbsid.selection import rejudge_refined
+
+    t, u, y, true = _record(3, snr=20.0)
+    rows, est, val, windows = _rejudge_rows(t, u, y, true)
+    shift = np.random.default_rng(0).uniform(-0.2, 0.2, est[0].size) * (t[1] - t[0])
+    jittered = (est[0] + shift, est[1], est[2])  # +-20 % of the step: not uniform
+    # no prediction-error refinement without a uniform grid: nothing to decide again
+    assert rejudge_refined(rows, [2.0, 0.0], 1, jittered, val, windows) == (1, "")
