@@ -113,9 +113,11 @@ def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:
 
 
 def _interleaved(n_samples: int, parts: int) -> np.ndarray:
-    """A permutation of the samples whose ``parts`` contiguous ranges of :func:`_ranges`
-    hold every ``parts``-th block of ``BLOCK`` samples (round robin), so that a cost that
-    varies along the record is shared evenly between the threads."""
+    """A permutation of the samples that lists the blocks of ``BLOCK`` samples group by
+    group, group ``i`` holding every ``parts``-th block from block ``i`` (round robin):
+    the contiguous ranges of :func:`_ranges` over it then take blocks from all along the
+    record, so that a cost that varies along the record is shared about evenly between
+    the threads (exactly when the number of blocks is a multiple of ``parts``)."""
     block = _compiled().BLOCK
     starts = np.arange(0, n_samples, block)
     groups = [starts[i::parts] for i in range(parts)]
