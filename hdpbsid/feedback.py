@@ -54,7 +54,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
+from scipy.linalg import cho_factor, cho_solve
 from scipy.stats import chi2
 
 from .assessment import correlation
@@ -79,11 +81,24 @@ AR_ORDER = 40
 FEEDBACK_LAGS = 20
 #: false-alarm probability of the chi-square test in open loop
 FEEDBACK_LEVEL = 1e-3
+#: smallest squared Cholesky pivot of the prewhitening Gram matrix, relative to its largest
+#: diagonal entry, at which the normal equations are solved (:func:`_prewhiten`): about
+#: ``1 / cond(X^T X)``; at ``1e-8`` the normal-equation coefficients keep ~8 of the 16
+#: digits, far more than a residual used in a correlation test needs
+GRAM_RCOND = 1e-8
 
 
 def _prewhiten(u: Array, order: int) -> Array:
     """Least-squares AR(``order``) residuals of each column of ``u`` (mean removed);
-    the first ``order`` samples are zero."""
+    the first ``order`` samples are zero.
+
+    The coefficients solve the normal equations ``X^T X a = X^T x`` by Cholesky (one
+    ``order x order`` Gram matrix: 10^4 samples, order 40, 1.5 ms against 7 ms for the
+    SVD-based ``lstsq``); when the Gram matrix is too ill-conditioned for that
+    (:data:`GRAM_RCOND`: squaring the condition number of ``X`` then costs more digits
+    than the residuals need, e.g. a smooth input whose lags are nearly collinear) the
+    SVD solution is used.  Both are the least-squares AR fit the module docstring needs
+    (``w`` orthogonal to the ``order`` lags in the sample)."""
     ns, m = u.shape
     w = np.zeros_like(u)
     for j in range(m):
@@ -91,9 +106,22 @@ def _prewhiten(u: Array, order: int) -> Array:
         if ns <= 2 * order + 1:
             w[:, j] = x
             continue
-        X = np.column_stack([x[order - i : ns - i] for i in range(1, order + 1)])
-        a = np.linalg.lstsq(X, x[order:], rcond=None)[0]
-        w[order:, j] = x[order:] - X @ a
+        # X[k, i] = x[order - 1 + k - i]: lags 1..order of x[order:], newest first
+        X = sliding_window_view(x[:-1], order)[:, ::-1]
+        target = x[order:]
+        G = X.T @ X
+        d = np.diag(G)
+        a = None
+        if np.all(d > 0):
+            try:
+                c = cho_factor(G, check_finite=False)
+                if np.min(np.abs(np.diag(c[0]))) ** 2 > GRAM_RCOND * np.max(d):
+                    a = cho_solve(c, X.T @ target, check_finite=False)
+            except np.linalg.LinAlgError:
+                a = None
+        if a is None:
+            a = np.linalg.lstsq(X, target, rcond=None)[0]
+        w[order:, j] = target - X @ a
     return w
 
 

@@ -212,3 +212,31 @@ def test_auto_does_not_refine_a_model_whose_predictor_diverges() -> None:
     u, y = rng.standard_normal((1000, 1)), rng.standard_normal((1000, 1))
     do, rule, stats = refine_decision(model, t, u, y, True)
     assert not do and "diverges" in rule and stats is None
+
+
+@pytest.mark.parametrize("kind", ["binary", "smooth", "two inputs"])
+def test_prewhitening_is_the_least_squares_ar_fit(kind: str) -> None:
+    """The normal-equation (or SVD fallback) solution against ``numpy.linalg.lstsq`` on
+    the explicitly built lag matrix, and the defining property: ``w`` orthogonal to the
+    ``order`` lags in the sample."""
+    from scipy.signal import butter, lfilter
+
+    from hdpbsid.feedback import _prewhiten
+
+    rng = np.random.default_rng(5)
+    ns, order = 4000, 40
+    binary = np.repeat(np.sign(rng.standard_normal(ns // 5 + 1)), 5)[:ns]
+    smooth = lfilter(*butter(4, 0.02), rng.standard_normal(ns))  # nearly collinear lags
+    u = {"binary": binary[:, None], "smooth": smooth[:, None]}.get(
+        kind, np.column_stack([binary, smooth])
+    )
+    w = _prewhiten(u, order)
+    for j in range(u.shape[1]):
+        x = u[:, j] - u[:, j].mean()
+        X = np.column_stack([x[order - i : ns - i] for i in range(1, order + 1)])
+        ref = x[order:] - X @ np.linalg.lstsq(X, x[order:], rcond=None)[0]
+        # the smooth input's residual is ~1e-6 of the signal: the normal equations keep
+        # ~8 digits of the coefficients (GRAM_RCOND), 1e-4 of the residual is ample
+        np.testing.assert_allclose(w[order:, j], ref, atol=1e-4 * np.abs(ref).max())
+        # orthogonal to every lag, relative to the sizes of the two factors
+        assert np.abs(X.T @ w[order:, j]).max() < 1e-6 * np.linalg.norm(X) * np.linalg.norm(ref)
