@@ -60,6 +60,7 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.stats import chi2
 
 from .assessment import correlation
+from .methods.refine import is_uniform, one_step_errors
 from .model import StateSpaceModel
 
 __all__ = [
@@ -151,7 +152,12 @@ def feedback_statistics(
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
     u_arr = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
-    e = y - model.predict(t, u_arr, y, k=1, method=hold)
+    # uniform samples: the compiled one-step predictor of the refinement (the same
+    # numbers, 10^4 samples 0.6 instead of 4.4 ms); otherwise, or when the sampled
+    # predictor is unstable, the model's own (whose overflow the caller reports)
+    e = one_step_errors(model, t, u_arr, y, hold) if is_uniform(t) else None
+    if e is None:
+        e = y - model.predict(t, u_arr, y, k=1, method=hold)
     yc = y - y.mean(axis=0)
     py = np.sum(yc**2, axis=0)
     rho = float(np.mean(np.sum(e**2, axis=0) / np.where(py > 0, py, np.inf)))

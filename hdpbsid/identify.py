@@ -229,10 +229,7 @@ def identify(
     where the basis-domain least squares is biased).  A chi-square feedback test of the
     first-pass residuals against the prewhitened input is reported with the rule in
     ``options["refine_rule"]`` and ``options["refine_statistics"]``, the seconds the
-    decision and the refinement took in ``options["refine_time"]``.  A basis method
-    whose model will be refined and that was not given ``input_hold`` projects the
-    held input only: the refinement compares the two holds by the likelihood
-    (:func:`_hold_for_refinement`).  A refinement
+    decision and the refinement took in ``options["refine_time"]``.  A refinement
     that does not converge within its evaluation budget is dropped (the unrefined model
     is returned, the rule says so): the prediction-error estimate is consistent at a
     minimum of the cost, and an iterate cut off on its way is neither that nor the
@@ -291,10 +288,7 @@ def identify(
             tm, um, ym = t, u, y  # unchanged: exactly what the method got before
         else:
             tm, um, ym = tt, None if u is None else ud, yd
-        run_options, hold_rule = _hold_for_refinement(method, options, refine, tm, um)
-        model = _run(method, func, tm, um, ym, order, run_options, refined=refine is not None)
-        if hold_rule is not None:
-            model.options["input_hold_rule"] = hold_rule
+        model = _run(method, func, tm, um, ym, order, options, refined=refine is not None)
         u0, y0 = lv.u0, lv.y0
         trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
         op_info = lv.as_dict()
@@ -335,42 +329,6 @@ def identify(
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
     return model
-
-
-#: methods whose basis-domain projection takes the ``input_hold`` setting
-HOLD_METHODS = ("hermite", "laguerre", "legendre", "chebyshev", "sl")
-
-
-def _hold_for_refinement(
-    method: str, options: dict, refine: str | None, t: Any, u: Any
-) -> tuple[dict, str | None]:
-    """The options the method runs with, and the input-hold rule to report.
-
-    With ``input_hold="auto"`` a basis method fits the input held (``zoh``) and linear
-    between samples (``foh``) and keeps the smaller innovation variance of its least
-    squares fit.  When the model will be refined, that comparison is made again, and
-    better, by :func:`~hdpbsid.methods.refine.refine_pem`: by the prediction-error cost
-    of the two sampled predictors under one weighting (a likelihood ratio, consistent in
-    closed loop where the least-squares residuals are biased and chose the wrong hold on
-    a Table-2-like loop).  So a method whose model will be refined (``refine="pem"``,
-    or ``"auto"`` on a uniformly sampled record) and was not told its hold projects the
-    input held only, the start of the refinement, which then fits the other hold from
-    its optimum when one Gauss-Newton step gives evidence for it; this halves the
-    method's core runs (10^4-sample binary record: 12 ms of 77)."""
-    if (
-        refine is None
-        or method not in HOLD_METHODS
-        or u is None
-        or "input_hold" in options
-        or "settings" in options
-        or (refine == "auto" and not is_uniform(check_time(t, "t", min_samples=2)))
-    ):
-        return options, None
-    rule = (
-        "zoh, the start of the prediction-error refinement, which compares both holds "
-        "(the method's own comparison is skipped when its model is refined)"
-    )
-    return {**options, "input_hold": "zoh"}, rule
 
 
 def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:

@@ -247,22 +247,3 @@ def test_start_screen_reaches_the_best_minimum_of_all_starts(case: str) -> None:
     n_r = y.size
     screened = min(costs.values())
     assert screened <= min(full.values()) * (1.0 + 1.0 / n_r)
-
-
-def test_a_refined_basis_method_leaves_the_hold_to_the_refinement() -> None:
-    """With the model refined, the method projects the held input only and the
-    refinement compares the holds; without refinement, or with the hold given, the
-    method's own rule is kept."""
-    rng = np.random.default_rng(4)
-    t = np.arange(0.0, 30.0, 0.01)
-    u = random_steps(rng, t, hold=0.05)
-    y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 20.0, rng)
-    refined = identify(t, u, y, 2, method="hermite")
-    assert refined.options["refine"] == "pem"
-    assert refined.options["input_hold_before_refine"] == "zoh"
-    assert refined.options["input_hold_rule"].startswith("zoh, the start")
-    assert refined.options["refine_holds_tried"] == ("zoh", "foh")
-    plain = identify(t, u, y, 2, method="hermite", refine=None)
-    assert plain.options["input_hold_rule"].startswith("auto")
-    given = identify(t, u, y, 2, method="hermite", input_hold="foh")
-    assert given.options["refine_holds_tried"] == ("foh",)

@@ -97,7 +97,7 @@ from ..checks import is_uniform as checks_is_uniform
 from ..model import StateSpaceModel
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
-__all__ = ["refine_pem", "is_uniform", "REFINE_CHOICES"]
+__all__ = ["refine_pem", "one_step_errors", "is_uniform", "REFINE_CHOICES"]
 
 Array = NDArray[np.float64]
 
@@ -107,6 +107,8 @@ REFINE_CHOICES = ("auto", "pem", None)
 ENGINES = ("auto", "numpy", "numba")
 #: residual vectors a :class:`_Record` remembers
 RECORD_MEMORY = 4
+#: Jacobians a :class:`_Record` remembers: one per starting point of :func:`_fit_starts`
+JACOBIAN_MEMORY = 2
 #: relative spread of the sample spacing below which a grid counts as uniform
 UNIFORM_RTOL = 1e-6
 #: residual returned (per entry, in units of the weighted innovation) for an unstable
@@ -204,9 +206,9 @@ class _Record:
     quadrotor, 7500 samples: 7 of 32 residual evaluations were repeats; Jacobians are
     not asked twice by :func:`scipy.optimize.least_squares`, which keeps its last one,
     but the Gauss-Newton screens, :func:`_fit_starts` and :func:`_other_hold`, ask for
-    the Jacobian at the point and in the directions the next run starts from, so the
-    last one is remembered too).  A remembered result is returned read-only, so no
-    caller can alter it.
+    the Jacobian at the point and in the directions a run then starts from, so the last
+    :data:`JACOBIAN_MEMORY` are remembered too: one per starting point).  A remembered
+    result is returned read-only, so no caller can alter it.
     """
 
     def __init__(self, lay: _Layout, u: Array, y: Array, h: float, hold: str) -> None:
@@ -214,7 +216,7 @@ class _Record:
         self.u = np.ascontiguousarray(u, dtype=float)
         self.y = np.ascontiguousarray(y, dtype=float)
         self._memory: dict[tuple[Any, ...], Any] = {}
-        self._last_jacobian: tuple[tuple[Any, ...], Any] | None = None
+        self._jacobians: list[tuple[tuple[Any, ...], Any]] = []
         self._workspace = _Workspace()
 
     def __call__(
@@ -226,8 +228,9 @@ class _Record:
             return self._memory[key]
         if jac:
             jkey = (*key, None if directions is None else np.asarray(directions).tobytes())
-            if self._last_jacobian is not None and self._last_jacobian[0] == jkey:
-                return self._last_jacobian[1]
+            for k, out in self._jacobians:
+                if k == jkey:
+                    return out
         out = _residuals(
             theta,
             self.lay,
@@ -248,7 +251,7 @@ class _Record:
             self._memory[key] = r
         if jac:
             out[1].setflags(write=False)
-            self._last_jacobian = (jkey, out)
+            self._jacobians = [*self._jacobians[-(JACOBIAN_MEMORY - 1) :], (jkey, out)]
         return out
 
 
@@ -860,6 +863,29 @@ def refine_pem(
         options=options,
         noise_covariance=noise_cov,
     )
+
+
+def one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str) -> Array | None:
+    """One-step prediction errors ``y_k - yhat(t_k | t_{k-1})`` of ``model`` on a uniformly
+    sampled record, ``(Ns, l)``, the initial state fitted by least squares: the numbers
+    of :meth:`~hdpbsid.model.StateSpaceModel.predict` (``k=1``, ``x0="estimate"``,
+    ``method=hold``), computed by the compiled passes of the refinement
+    (:func:`_residuals`).  ``None`` when the sampled predictor is unstable (its errors
+    grow without bound; ``predict`` overflows there)."""
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float).reshape(t.size, -1)
+    u = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
+    U0, Y0 = model.operating_point(t)  # absolute signals, as predict takes them
+    u, y = u - U0, y - Y0
+    feedthrough = bool(np.any(model.D != 0)) and model.m > 0
+    lay = _Layout(model.n, model.m, model.l, feedthrough)
+    theta = lay.pack(model.A, model.B, model.C, model.D, model.K)
+    h = float((t[-1] - t[0]) / (t.size - 1))
+    pr = sampled_predictor(model.A, model.B, model.C, model.D, model.K, h, hold, feedthrough)
+    if not _is_stable(np.linalg.eigvals(pr.F)):
+        return None
+    r = _residuals(theta, lay, u, y, h, hold, np.eye(model.l))
+    return np.asarray(r).reshape(model.l, -1).T
 
 
 def _fits_feedthrough(model: StateSpaceModel) -> bool:
