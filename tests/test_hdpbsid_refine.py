@@ -247,3 +247,24 @@ def test_start_screen_reaches_the_best_minimum_of_all_starts(case: str) -> None:
     n_r = y.size
     screened = min(costs.values())
     assert screened <= min(full.values()) * (1.0 + 1.0 / n_r)
+
+
+@pytest.mark.parametrize("hold", ["zoh", "foh"])
+def test_one_step_errors_are_the_model_predictions(hold: str) -> None:
+    """The compiled one-step errors against ``StateSpaceModel.predict`` (the numpy
+    predictor, initial state fitted), with a direct term, a gain and an operating point;
+    an unstable predictor gives None."""
+    from hdpbsid.methods.refine import one_step_errors
+
+    rng = np.random.default_rng(9)
+    t = np.arange(0.0, 20.0, 0.01)
+    u = random_steps(rng, t, hold=0.2)
+    y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 20.0, rng)
+    model = StateSpaceModel(A2, B2, C2, np.array([[0.3]]), np.array([[0.5], [-0.2]]))
+    model.u0, model.y0 = np.array([0.1]), np.array([-0.4])
+    e = one_step_errors(model, t, u + 0.1, y - 0.4, hold)
+    ref = (y - 0.4) - model.predict(t, u + 0.1, y - 0.4, k=1, method=hold)
+    # the same predictor, two implementations: rounding of 2000 steps of a 2-state filter
+    np.testing.assert_allclose(e, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    unstable = StateSpaceModel(-A2, B2, C2, D2, np.zeros((2, 1)))
+    assert one_step_errors(unstable, t, u, y, hold) is None
