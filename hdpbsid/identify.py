@@ -220,7 +220,7 @@ def identify(
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
     model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
-    reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, about 0.5 s
+    reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, about 0.1 s
     on 7500 samples; one record only); ``None`` returns the subspace model as the method
     produced it; ``"auto"`` (default) refines every single uniformly sampled record
     whose first-pass one-step predictor does not diverge
