@@ -60,7 +60,6 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.stats import chi2
 
 from .assessment import correlation
-from .methods.refine import is_uniform, one_step_errors
 from .model import StateSpaceModel
 
 __all__ = [
@@ -134,8 +133,14 @@ def feedback_statistics(
     *,
     lags: int = FEEDBACK_LAGS,
     ar_order: int = AR_ORDER,
+    errors: Any = None,
 ) -> dict[str, Any]:
     """The closed-loop test and the residual-to-output ratio of ``model`` on ``t, u, y``.
+
+    ``errors``: the model's one-step prediction errors on the record, ``(Ns, l)``, when
+    the caller has them (the front end computes them with the refinement's compiled
+    predictor, :func:`hdpbsid.methods.refine.one_step_errors`); default: from
+    :meth:`~hdpbsid.model.StateSpaceModel.predict`.
 
     Returns ``{"statistic": S, "threshold": chi2 quantile, "dof": lags m l,
     "feedback": S > threshold, "residual_ratio": rho, "residual_ratio_x_samples":
@@ -152,11 +157,9 @@ def feedback_statistics(
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
     u_arr = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
-    # uniform samples: the compiled one-step predictor of the refinement (the same
-    # numbers, 10^4 samples 0.6 instead of 4.4 ms); otherwise, or when the sampled
-    # predictor is unstable, the model's own (whose overflow the caller reports)
-    e = one_step_errors(model, t, u_arr, y, hold) if is_uniform(t) else None
-    if e is None:
+    if errors is not None:
+        e = np.asarray(errors, dtype=float).reshape(y.shape)
+    else:
         e = y - model.predict(t, u_arr, y, k=1, method=hold)
     yc = y - y.mean(axis=0)
     py = np.sum(yc**2, axis=0)
@@ -189,16 +192,17 @@ def feedback_statistics(
 
 
 def refine_decision(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool
+    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool, errors: Any = None
 ) -> tuple[bool, str, dict[str, Any] | None]:
     """Whether ``refine="auto"`` refines ``model`` identified from the single record
-    ``t, u, y`` (module docstring; ``uniform``: whether ``t`` is uniformly sampled):
+    ``t, u, y`` (module docstring; ``uniform``: whether ``t`` is uniformly sampled;
+    ``errors``: its one-step prediction errors, as in :func:`feedback_statistics`):
     ``(refine, rule text, statistics or None)``."""
     if not uniform:
         return False, "auto: t is not uniformly sampled, no refinement", None
     try:
         with np.errstate(over="ignore", invalid="ignore"):
-            st = feedback_statistics(model, t, u, y)
+            st = feedback_statistics(model, t, u, y, errors=errors)
     except np.linalg.LinAlgError:
         # the model's one-step predictor diverges on the record (its residuals overflow):
         # the test cannot be computed, and a refinement started there is not a PEM start

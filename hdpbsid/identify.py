@@ -31,7 +31,7 @@ from .checks import check_data, check_time
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, is_uniform, refine_pem
+from .methods.refine import REFINE_CHOICES, is_uniform, one_step_errors, refine_pem
 from .model import LinearTrend, StateSpaceModel
 
 __all__ = [
@@ -304,7 +304,8 @@ def identify(
             do, rule, stats = False, "auto: several records, no refinement", None
         else:
             uniform = is_uniform(check_time(tm, "t", min_samples=2))
-            do, rule, stats = refine_decision(model, tm, um, ym, uniform)
+            errors = _one_step_errors(model, tm, um, ym) if uniform else None
+            do, rule, stats = refine_decision(model, tm, um, ym, uniform, errors=errors)
         if do:
             refined = refine_pem(model, tm, um, ym)
             if refined.options.get("refine_converged", True):
@@ -329,6 +330,17 @@ def identify(
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
     return model
+
+
+def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
+    """The model's one-step prediction errors on a uniformly sampled record for the
+    feedback test, by the refinement's compiled predictor
+    (:func:`~hdpbsid.methods.refine.one_step_errors`: the numbers of ``model.predict``,
+    10^4 samples 0.6 instead of 4.4 ms), with the model's input hold; None when its
+    sampled predictor is unstable (the test then takes ``predict``'s, whose overflow
+    it reports)."""
+    hold = model.options.get("input_hold", "zoh")
+    return one_step_errors(model, t, u, y, hold if hold in ("zoh", "foh") else "zoh")
 
 
 def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:
