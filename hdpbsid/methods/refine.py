@@ -301,20 +301,24 @@ def _other_hold(
     residuals: Callable[..., Any],
     kw: dict,
     budget: int,
-    h: float,
+    starts: dict[str, Array],
 ) -> tuple[Array, float, int, str, bool]:
-    """Levenberg-Marquardt with the other hold's ``residuals`` from ``theta``, the end
-    point of the first hold (cost ``cost``), to convergence -- when one Gauss-Newton step
-    from there gives evidence for it (:func:`_gauss_newton_cost`): a predicted drop below
-    ``cost`` by at least :data:`EVIDENCE` (in units of ``-2 log`` likelihood ratio).
-    Otherwise the data give no evidence for the other hold and it is dropped after one
-    evaluation (returned with an infinite cost).
+    """The other input hold's fit, given the first hold's end point ``theta`` (cost
+    ``cost``) and the refinement's starting points ``starts``.
 
-    Why to convergence once the screen passes: from the first hold's optimum the other
-    hold's cost can fall slowly at first (Table-2-like loop, rate output, seed 5: after
-    the 12 evaluations of the former probe the zoh cost was still above the foh optimum,
-    and dropping it there left the real poles 22 and 32 % off; fitted to its end it goes
-    below, and all four eigenvalues are within 2 %)."""
+    One Gauss-Newton step from ``theta`` screens it (:func:`_gauss_newton_cost`): without
+    a predicted drop below ``cost`` by at least :data:`EVIDENCE` (in units of ``-2 log``
+    likelihood ratio) the data give no evidence for the other hold, and it is dropped
+    after that one evaluation (returned with an infinite cost).  With evidence, the
+    structure the first hold was fitted in is in question, and so is the path it took:
+    the other hold is fitted to convergence from ``theta`` *and* from every starting
+    point, and the lowest cost among the converged fits is returned (random third-order
+    system, input linear between samples fitted first with a hold: from the zoh optimum
+    the foh fit stopped at a cost of 0.226 and a 9.6 % pair; from the subspace start it
+    reached 0.12 and 0.66 %).  The starting points go first, and the fits share the
+    evaluation ``budget``.  Records whose
+    holds the data cannot tell apart (the common case: modes slow against the sampling)
+    pay only the screen."""
     _, predicted = _gauss_newton_cost(theta, lay, residuals)
     n_r = residuals(theta).size
     if not predicted < cost * (1.0 - EVIDENCE / n_r):
@@ -323,7 +327,18 @@ def _other_hold(
             f"{cost:.6g} by {EVIDENCE:g}/{n_r} of it (no evidence for this hold)"
         )
         return theta, float("inf"), 1, message, True
-    return _lm_fit(theta, lay, residuals, kw, budget)
+    spent = 1
+    best: tuple[Array, float, int, str, bool] | None = None
+    for th in (*starts.values(), theta):
+        if spent >= budget:
+            break
+        fit = _lm_fit(th, lay, residuals, kw, budget - spent)
+        spent += fit[2]
+        # a converged fit beats an unconverged one; then the lower cost wins
+        if best is None or (fit[4], -fit[1]) > (best[4], -best[1]):
+            best = fit
+    assert best is not None
+    return best[0], best[1], spent, best[3], best[4]
 
 
 def _fit_starts(
@@ -340,17 +355,26 @@ def _fit_starts(
     (:func:`_gauss_newton_cost`) and fitted to convergence in that order; a later start
     is fitted only when its prediction is below the best converged cost so far by
     :data:`EVIDENCE` (``-2 log`` likelihood-ratio units), i.e. when its own local model
-    says it may reach a better minimum.  Returns ``(fits by start, predictions, extra
-    start costs, predictions, extra evaluations)`` with the skipped starts left out of the fits
-    (the screen costs one evaluation per start, counted in the extra evaluations).
+    says it may reach a better minimum.  Returns ``(fits by start, start costs,
+    predictions, extra evaluations)`` with the skipped starts left out of the fits (the
+    screen costs one evaluation per start, counted in the extra evaluations).
 
-    Why a prediction and not a probe of a few iterations from every start: the start
-    nearer a minimum is in the region where the Gauss-Newton model is accurate, and its
-    prediction is then close to where it converges (10^4-sample binary record, the
-    measurement-noise gain: predicted 0.9229, reached 0.92295); a start far from any
-    minimum predicts lower than it reaches (the subspace ``K`` on that record: 0.941
-    predicted, 0.962 after six evaluations), so a start is skipped only when even its
-    optimistic prediction cannot beat a minimum already found."""
+    Why a prediction and not a probe of a few iterations from every start (the former
+    rule: six evaluations each, the better one continued): the start nearer a minimum is
+    in the region where the Gauss-Newton model is accurate, and its prediction is then
+    close to where it converges (10^4-sample binary record, the measurement-noise gain:
+    predicted 0.9229, reached 0.92295), while the probe of the other start is spent for
+    nothing (the subspace gain there: 0.941 predicted, 0.962 after six evaluations).  The
+    prediction is not a bound: from a start far from the minimum the fit can also go
+    lower than one step predicts.  Measured on 118 refinements of records of random
+    stable systems of order 1-4 (open and closed loop, binary and smooth inputs, 20 dB;
+    HD-PBSID and ``dt`` starts), this module against its former rules (probes of the
+    starts, a 12-evaluation probe of the other hold from the first hold's end point):
+    the same cost on 102, a lower one on 13 (eigenvalue errors 130 -> 0.19 %, 68 000 ->
+    4.4 %, 2.2 -> 0.81 %, ...), a higher one on 3 (the worst: a fourth-order system's
+    real pole 9.6 -> 16.7 %, 3.6 likelihood units, where the skipped gain predicted
+    0.530 and would have reached 0.523); 1.5 times less CPU time in all.
+    """
     screen = {name: _gauss_newton_cost(th, lay, residuals) for name, th in starts.items()}
     predicted = {name: sc[1] for name, sc in screen.items()}
     fits: dict[str, tuple] = {}
@@ -743,8 +767,8 @@ def refine_pem(
     ``ValueError``).  ``hold``: how ``u`` behaves between samples, ``"zoh"`` or ``"foh"``;
     default (``None``): both are fitted and the smaller prediction-error cost decides,
     unless the method was given its hold (:func:`_candidate_holds`).  ``max_nfev``
-    bounds the cost evaluations of Levenberg-Marquardt over all starts together
-    (default :data:`DEFAULT_MAX_NFEV`).
+    bounds the cost evaluations of Levenberg-Marquardt over all starts of one input hold
+    together (default :data:`DEFAULT_MAX_NFEV`; the other hold, when fitted, has its own).
 
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``input_hold`` (the refined hold;
@@ -824,7 +848,7 @@ def refine_pem(
     for other in holds[1:] if converged else ():
         # the other hold from the converged model: kept when it reaches a lower cost
         # with every mode resolved by the sampling (_other_hold)
-        fit = _other_hold(theta, cost, lay, weighted[other], kw, budget - nfev, h)
+        fit = _other_hold(theta, cost, lay, weighted[other], kw, budget, starts)
         nfev += fit[2]
         hold_costs[other] = fit[1] if np.isfinite(fit[1]) else fit[3]
         if fit[1] < cost and _modes_resolved(lay, fit[0], h):
