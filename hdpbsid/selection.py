@@ -205,7 +205,7 @@ def _sweep(
     the order of ``methods``.  With ``n_jobs`` the methods are swept in parallel
     (joblib), each method's orders in one worker, where they share its memoised
     projection and operators; the candidates, and so the result, are those of the
-    serial run.
+    serial run (bit for bit when that runs with one BLAS thread, as the workers do).
 
     Every order is fitted: a larger order that does not beat the best by a standard
     error cannot be chosen, but it can become the best and so move the reference of the
@@ -216,7 +216,11 @@ def _sweep(
     if n_jobs is not None and n_jobs != 1 and len(methods) > 1:
         from joblib import Parallel, delayed
 
-        per_method = Parallel(n_jobs=n_jobs)(
+        # one BLAS thread per worker: the candidates are small problems (threads only
+        # oversubscribe the cores), and the workers' arithmetic is then that of a serial
+        # run with one BLAS thread, bit for bit (with several, BLAS sums split
+        # differently and the last digits differ)
+        per_method = Parallel(n_jobs=n_jobs, inner_max_num_threads=1)(
             delayed(_sweep_method)(get_method, m, *args) for m in methods
         )
     else:
