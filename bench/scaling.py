@@ -13,7 +13,10 @@ Rows (``sweep`` column):
   random binary input held 5 samples, 20 dB, order 2: HD-PBSID with every default
   (``identify(..., method="hermite", order=2)``) against SIPPY N4SID (``f = p = 60``),
   alternating on ``--seeds`` seeds in one process (median wall and CPU times, their
-  ratios, median and worst eigenvalue errors);
+  ratios, median, RMS and worst eigenvalue errors).  Each runs as it runs by default
+  on this machine: N4SID on one BLAS thread (its fastest here; two are slower), HD-PBSID
+  with its projection on the numba threads (one per core); the wall-time ratio is the
+  target's, the CPU-time ratio (and ``NUMBA_NUM_THREADS=1``) tells what the cores add;
   ``resonance70``: a lightly damped 70 Hz resonance sampled at 610 Hz, 86 000 samples,
   multisine to 200 Hz, 20 dB (:func:`segments.resonance70_record`);
   ``projection``: 10^6 uniform samples onto 2000 Hermite functions
