@@ -154,9 +154,9 @@ DDLC_CONVERGED_NFEV = 3
 #: together span the parameter space, so a minimum along ``Q`` is one of the full
 #: parametrisation.  The re-centred run that confirms it otherwise cost two evaluations
 #: and ended where it started (10^4-sample binary record and closed-loop quadrotor: every
-#: fit, status 2 after 5-9 evaluations, then 2 more).  Without the prediction test a
-#: start far from the optimum (CT-PBSID by projection, closed-loop quadrotor) ended in a
-#: distorted chart: Table 1 study, 7-14 instead of 0-6 divergent runs below 50 dB
+#: fit, status 2 after 5-9 evaluations, then 2 more).  The prediction test keeps the
+#: argument where it holds: far from a minimum the chart can be distorted (the reason
+#: the local coordinates are re-centred at all, :data:`DDLC_RUN_NFEV`)
 FTOL_STATUS = (2, 4)
 #: input holds the sampled predictor handles (module docstring)
 HOLDS = ("zoh", "foh")
@@ -316,9 +316,8 @@ def _other_hold(
     system, input linear between samples fitted first with a hold: from the zoh optimum
     the foh fit stopped at a cost of 0.226 and a 9.6 % pair; from the subspace start it
     reached 0.12 and 0.66 %).  The starting points go first, and the fits share the
-    evaluation ``budget``.  Records whose
-    holds the data cannot tell apart (the common case: modes slow against the sampling)
-    pay only the screen."""
+    evaluation ``budget``.  Records whose holds the data cannot tell apart (the common
+    case: modes slow against the sampling) pay only the screen."""
     _, predicted = _gauss_newton_cost(theta, lay, residuals)
     n_r = residuals(theta).size
     if not predicted < cost * (1.0 - EVIDENCE / n_r):
