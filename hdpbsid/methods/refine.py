@@ -389,15 +389,16 @@ def _fit_starts(
 
 
 def _gauss_newton_cost(
-    theta: Array, lay: _Layout, residuals: Callable[..., Any]
+    theta: Array, lay: _Layout, residuals: Callable[..., Any], Q: Array | None = None
 ) -> tuple[float, float]:
     """Mean squared residual at ``theta`` and at the minimum of the Gauss-Newton model
     of ``residuals`` around ``theta`` (in the local coordinates of :func:`_ddlc_basis`):
     ``(||r||^2 - ||P_J r||^2) / n_r`` with ``P_J`` the projection on the Jacobian's
     columns (Nocedal and Wright, *Numerical Optimization*, 2nd ed., sec. 10.3).  Near a
     minimum with noise-like residuals the neglected second-order term of the Hessian is
-    small and this is the cost one step reaches."""
-    Q = _ddlc_basis(lay, theta)
+    small and this is the cost one step reaches.  ``Q``: the local coordinates at
+    ``theta`` when the caller has them already."""
+    Q = _ddlc_basis(lay, theta) if Q is None else Q
     r, J = residuals(theta, jac=True, directions=Q)
     cost = float(np.mean(r**2))
     if not np.all(np.isfinite(J)):
@@ -455,7 +456,7 @@ def _lm_fit(
         Q = _ddlc_basis(lay, theta)
         centre = theta
         # the Gauss-Newton prediction at the centre (its Jacobian is the run's first one)
-        _, predicted = _gauss_newton_cost(theta, lay, residuals)
+        _, predicted = _gauss_newton_cost(theta, lay, residuals, Q)
         trace: list[float] = []  # cost of every evaluation of this run, in order
 
         def fun(
