@@ -49,11 +49,13 @@ refined candidates where the subspace candidates' bias could have decided it
 predicts the held-out part at least as well.
 
 A method that judges a data-driven setting of its own on held-out data (HD-PBSID's
-operator scale ``alpha``; :func:`accepts_held_out`) is given the held-out part for it,
-and the refit of the chosen candidate is given the settings the candidate took
-(``options["refit_settings"]``), as it is given its order: one judge for the order, the
-method and those settings, instead of a second split of the estimation part inside the
-method.
+operator scale ``alpha``; :func:`accepts_held_out`) has its candidates fitted with the
+first-pass settings it declares (:func:`sweep_settings`), and the setting is judged for
+the candidate that is about to be chosen only (:func:`settle_candidate`): that candidate
+is fitted again with the held-out part given, and the refit on the whole record is given
+the settings it took (``options["refit_settings"]``), as it is given its order -- one
+judge for the order, the method and those settings, instead of a second split of the
+estimation part inside the method, and one judgement instead of one per order.
 
 The expensive order-independent steps of the methods (projection of the record, basis
 operators, the past-window criterion of ``dt``) are memoised
@@ -63,8 +65,10 @@ The comparison is reported in ``model.options["selection"]``: one row per candid
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
 variance), ``fit`` (percent), ``z`` (statistic against the best), ``whole_simulation``
 (the tie-break's error, for the tied candidates only, else ``None``), ``predictor``
-(``"innovation (K)"`` or ``"output error (K = 0)"``), ``time`` (seconds) and ``status``
-(``"ok"`` or the error message).
+(``"innovation (K)"`` or ``"output error (K = 0)"``), ``first_pass_error`` (for a
+candidate whose held-out-judged settings were settled, :func:`settle_candidate`, the
+error of its sweep fit; ``error`` is then the settled fit's), ``time`` (seconds of the
+sweep fit) and ``status`` (``"ok"`` or the error message).
 """
 
 from __future__ import annotations
@@ -100,6 +104,8 @@ __all__ = [
     "beats_the_mean",
     "rejudge_refined",
     "accepts_held_out",
+    "sweep_settings",
+    "settle_candidate",
     "REJUDGE_Z",
     "AUTO_METHODS",
     "HOLDOUT",
@@ -149,6 +155,59 @@ def accepts_held_out(func: Any) -> bool:
         return False
 
 
+def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
+    """The settings the candidates of method ``func`` are fitted with in a sweep: the
+    ``given`` ones (the user's), and for a method that judges a setting of its own on
+    held-out data (:func:`accepts_held_out`), the first-pass values it declares in its
+    ``sweep_settings`` attribute for every such setting the user did not give.
+
+    Why: such a judgement fits the candidate again at the setting the data ask for
+    (HD-PBSID: one to two more fits at an operator scale of their own per order, which
+    no other order shares), and only the chosen candidate's setting reaches the result;
+    it is judged for that candidate by :func:`settle_candidate`.  Measured on 80 records
+    of random stable systems (orders 1-4, open and closed loop, 20 dB): the true order
+    picked on 58 against 57 with the judgement in every candidate, in 14 % less CPU time.
+    """
+    first = getattr(func, "sweep_settings", None) if accepts_held_out(func) else None
+    return {**(first or {}), **given}
+
+
+def settle_candidate(
+    get_method: Any, row: dict[str, Any], est: tuple, val: tuple, windows: int, options: dict
+) -> dict[str, Any]:
+    """The candidate ``row`` with the settings its method judges on held-out data
+    (:func:`sweep_settings`) judged: fitted again on ``est`` with the user's settings
+    and ``held_out=val``, scored (:func:`score_model`), and that fit replaces the row's
+    model and score (``row["settled"] = True``; the sweep's first-pass fit is kept in
+    ``row["first_pass"]``).  A candidate whose method declares no such settings, whose
+    settings the user gave, or whose second fit fails or cannot be scored is returned as
+    it is, its refit then given the first-pass settings it was fitted with.  Idempotent."""
+    func = get_method(row["method"])
+    given = options.get(row["method"], {})
+    first = sweep_settings(func, given)
+    if row.get("settled") or first == given:
+        return row
+    row["settled"] = True
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = func(*est, order=row["order"], **given, held_out=val)
+            err, use_k = score_model(model, val, windows)
+    except (ValueError, np.linalg.LinAlgError):
+        err = None
+    if err is None or not err.finite:
+        # the first-pass fit stands; its refit on the whole record gets its settings
+        row["model"].options["refit_settings"] = {k: v for k, v in first.items() if k not in given}
+        return row
+    row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
+    row.update(
+        model=model,
+        criterion=err,
+        predictor="innovation (K)" if use_k else "output error (K = 0)",
+    )
+    return row
+
+
 def _fit_one(
     get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
 ) -> dict[str, Any]:
@@ -158,8 +217,7 @@ def _fit_one(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             func = get_method(method)
-            extra = {"held_out": val} if accepts_held_out(func) else {}
-            model = func(*est, order=order, **options.get(method, {}), **extra)
+            model = func(*est, order=order, **sweep_settings(func, options.get(method, {})))
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -393,17 +451,21 @@ def refit_holds(
 def _first_that_holds(
     get_method: Any,
     candidates: list[dict[str, Any]],
+    est: tuple,
     whole: tuple,
     val: tuple,
     windows: int,
     opts: dict,
     floor: bool = True,
 ) -> tuple[StateSpaceModel | None, list[tuple[str, str]]]:
-    """The first of ``candidates`` that passes :func:`beats_the_mean` (unless ``floor`` is
-    False) and whose refit on the ``whole`` record passes :func:`refit_holds`, refitted;
-    or None.  Also every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``."""
+    """The first of ``candidates`` that, with its held-out-judged settings settled
+    (:func:`settle_candidate`, fitted on ``est``), passes :func:`beats_the_mean` (unless
+    ``floor`` is False) and whose refit on the ``whole`` record passes
+    :func:`refit_holds`, refitted; or None.  Also every failure as ``(kind, text)``,
+    kind ``"floor"`` or ``"refit"``."""
     failures: list[tuple[str, str]] = []
     for chosen in candidates:
+        settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
             useful, how = beats_the_mean(chosen["model"], val)
@@ -454,6 +516,9 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 if r.get("refined_criterion") is not None
                 else None,
                 "predictor": r.get("predictor"),
+                "first_pass_error": r["first_pass"]["criterion"].total
+                if r.get("first_pass") is not None
+                else None,
                 "time": r["time"],
                 "status": r["status"],
             }
@@ -537,7 +602,7 @@ def select_model(
         k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows)
         if k2 != k:
             candidates = [ok[k2]] + [r for r in candidates if r is not ok[k2]]
-    model, failures = _first_that_holds(get_method, candidates, (t, u, y), val, windows, opts)
+    model, failures = _first_that_holds(get_method, candidates, est, (t, u, y), val, windows, opts)
     floor_note = ""
     if model is None:
         below = [r for r, why in zip(candidates, failures, strict=True) if why[0] == "floor"]
@@ -546,7 +611,7 @@ def select_model(
             # plant sampled non-uniformly has no stable predictor to run over the whole
             # part): the floor cannot judge these models, the windowed ranking stands
             model, more = _first_that_holds(
-                get_method, below, (t, u, y), val, windows, opts, floor=False
+                get_method, below, est, (t, u, y), val, windows, opts, floor=False
             )
             failures += more
             floor_note = (

@@ -414,3 +414,32 @@ def test_rejudge_refined_needs_uniform_samples():
     jittered = (est[0] + shift, est[1], est[2])  # +-20 % of the step: not uniform
     # no prediction-error refinement without a uniform grid: nothing to decide again
     assert rejudge_refined(rows, [2.0, 0.0], 1, jittered, val, windows) == (1, "")
+
+
+def test_sweep_settings_are_the_first_pass_of_a_held_out_judgement_unless_given():
+    from hdpbsid.methods.dt import identify_dt
+    from hdpbsid.methods.hermite import SWEEP_SETTINGS, identify_hermite
+    from hdpbsid.selection import sweep_settings
+
+    # HD-PBSID judges its operator scale on held-out data: its candidates take the first pass
+    assert sweep_settings(identify_hermite, {}) == SWEEP_SETTINGS == {"alpha": "basis"}
+    # a setting the user gave is never replaced
+    assert sweep_settings(identify_hermite, {"alpha": 3.0, "N": 200}) == {"alpha": 3.0, "N": 200}
+    # a method without a held-out judgement is fitted as given
+    assert sweep_settings(identify_dt, {"p": 5}) == {"p": 5}
+
+
+def test_auto_judges_the_operator_scale_of_the_candidate_it_chooses_only():
+    t, u, y, _ = _record(2)
+    kw = {"method": "auto", "methods": ("hermite",), "max_order": 3, "refine": None}
+    m = hdpbsid.identify(t, u, y, **kw)
+    settled = [r for r in m.options["selection"] if r["first_pass_error"] is not None]
+    # the chosen candidate was fitted again with the held-out part (the candidates tried
+    # before it, if any, too); the other orders kept their sweep fit at the basis rule
+    assert ("hermite", m.n) in [(r["method"], r["order"]) for r in settled]
+    assert len(settled) < len(m.options["selection"])
+    assert m.options["refit_settings"]["alpha"] in ("basis", "dynamics")
+    # with the operator scale given nothing is judged, and the given value is used
+    m2 = hdpbsid.identify(t, u, y, method_options={"hermite": {"alpha": 3.0}}, **kw)
+    assert all(r["first_pass_error"] is None for r in m2.options["selection"])
+    assert m2.options["alpha"] == 3.0
