@@ -20,6 +20,21 @@ exists as a real matrix only when ``Ad`` has no eigenvalue on the closed negativ
 axis (zero included), and it returns the sampled continuous model only when every
 continuous eigenvalue satisfies ``|Im(lambda)| T < pi`` (no aliasing: the Nyquist
 condition).
+
+The augmented matrix is block triangular with an identity block, so its logarithm needs
+only functions of ``Ad``: with ``L = [[X, Y], [0, 0]]``, ``expm(L) = [[e^X, psi(X) Y],
+[0, I]]``, ``psi(X) = (e^X - I) X^{-1} = sum_k X^k / (k + 1)!``, hence
+
+    logm([[Ad, G], [0, I]]) = [[log(Ad), phi(Ad) G], [0, 0]],   phi(x) = log(x) / (x - 1)
+
+(``phi(1) = 1``; ``phi(Ad) = psi(log Ad)^{-1}``, which exists because ``psi`` has no zero
+on the principal strip ``|Im| < pi``).  :func:`d2c` evaluates ``log`` and ``phi`` on the
+eigenvalues of ``Ad``, ``f(Ad) = V f(Lambda) V^{-1}``, when its eigenvector matrix has
+``cond(V) <= MAX_LOG_CONDITION`` (rounding ``cond(V) eps``, Higham, *Functions of
+Matrices*, 2008, sec. 4.5), and with :func:`scipy.linalg.logm` of the whole augmented
+matrix otherwise (nearly defective ``Ad``): the generic algorithm (inverse scaling and
+squaring with norm estimates) costs about 5 ms for a 6 x 6 matrix, the eigenvalue route
+20 us, and an order sweep of ``method="dt"`` converts one model per order.
 """
 
 from __future__ import annotations
@@ -32,9 +47,33 @@ from scipy.linalg import expm, logm
 
 from .checks import check_state_space
 
-__all__ = ["c2d", "d2c", "check_log_exists"]
+__all__ = ["c2d", "d2c", "check_log_exists", "MAX_LOG_CONDITION"]
 
 Array = NDArray[np.float64]
+
+#: largest eigenvector condition number of ``Ad`` for the eigenvalue route of
+#: :func:`d2c` (module docstring): its rounding, about ``cond(V) eps``, then stays below
+#: 1e-12 relative, within a factor 100 of the generic logarithm's
+MAX_LOG_CONDITION = 1e4
+#: ``|x - 1|`` below which ``phi(x) = log(x) / (x - 1)`` is summed as its series
+#: ``1 - d/2 + d^2/3 - d^3/4`` (``d = x - 1``; truncation ``d^4 / 5 < 1e-17``)
+PHI_SERIES_RADIUS = 1e-4
+
+
+def _log_and_phi(Ad: Array) -> tuple[Array, Array] | None:
+    """``(log(Ad), phi(Ad))`` on the eigenvalues of ``Ad`` (module docstring), or None when
+    ``cond(V) > MAX_LOG_CONDITION`` (or the decomposition is not finite)."""
+    with np.errstate(all="ignore"):
+        lam, V = np.linalg.eig(Ad)
+        if not (np.all(np.isfinite(V)) and np.linalg.cond(V) <= MAX_LOG_CONDITION):
+            return None
+        Vi = np.linalg.inv(V)
+    lam = lam.astype(complex)
+    log_lam = np.log(lam)  # principal branch; no eigenvalue on (-inf, 0] (checked)
+    d = lam - 1.0
+    near = np.abs(d) < PHI_SERIES_RADIUS
+    phi = np.where(near, 1.0 - d / 2 + d**2 / 3 - d**3 / 4, log_lam / np.where(near, 1.0, d))
+    return (V * log_lam) @ Vi, (V * phi) @ Vi
 
 
 def _check_dt(dt: float) -> float:
@@ -103,15 +142,19 @@ def d2c(
     dt = _check_dt(dt)
     check_log_exists(Ad)
     n, m, l = Ad.shape[0], Bd.shape[1], C.shape[0]
-    M = np.eye(n + m + l)
-    M[:n, :n] = Ad
-    M[:n, n : n + m] = Bd
-    M[:n, n + m :] = Kd
-    with warnings.catch_warnings():
-        # logm warns about its own accuracy estimate; accuracy is checked below instead
-        warnings.simplefilter("ignore", RuntimeWarning)
-        L = logm(M)
-    L = np.asarray(L)
+    by_eig = _log_and_phi(Ad) if n else None
+    if by_eig is not None:
+        log_ad, phi_ad = by_eig
+        L = np.hstack([log_ad, phi_ad @ np.hstack([Bd, Kd])])
+    else:
+        M = np.eye(n + m + l)
+        M[:n, :n] = Ad
+        M[:n, n : n + m] = Bd
+        M[:n, n + m :] = Kd
+        with warnings.catch_warnings():
+            # logm warns about its own accuracy estimate; accuracy is checked below instead
+            warnings.simplefilter("ignore", RuntimeWarning)
+            L = np.asarray(logm(M))[:n]
     if np.iscomplexobj(L):
         imag = float(np.max(np.abs(L.imag))) if L.size else 0.0
         if imag > 1e-8 * max(1.0, float(np.max(np.abs(L.real)))):
@@ -124,4 +167,4 @@ def d2c(
             )
         L = L.real
     L = L / dt
-    return L[:n, :n], L[:n, n : n + m], C.copy(), D.copy(), L[:n, n + m :]
+    return L[:, :n], L[:, n : n + m], C.copy(), D.copy(), L[:, n + m :]

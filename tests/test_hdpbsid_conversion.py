@@ -90,3 +90,58 @@ def test_negative_real_eigenvalue_has_no_continuous_model():
     np.testing.assert_allclose(
         np.sort_complex(np.linalg.eigvals(A)), [np.log(r) - 3j, np.log(r) + 3j], atol=1e-12
     )
+
+
+def _logm_oracle(Ad, G):
+    """The first block row of scipy's generic logm of the augmented matrix."""
+    from scipy.linalg import logm
+
+    n, k = Ad.shape[0], G.shape[1]
+    M = np.eye(n + k)
+    M[:n, :n], M[:n, n:] = Ad, G
+    return np.real(logm(M))[:n]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(1, 6),
+    k=st.integers(1, 4),
+    integrator=st.booleans(),
+)
+def test_logarithm_by_eigenvalues_is_the_generic_logm(seed, n, k, integrator):
+    """d2c's eigenvalue route (log and phi(x) = log(x)/(x - 1) of Ad) against scipy's
+    logm of the whole augmented matrix, an independent algorithm; an integrator (a unit
+    eigenvalue of Ad, where phi is summed as its series) included."""
+    rng = np.random.default_rng(seed)
+    dt = 0.1
+    A = random_system(rng, n, 1, 1, dt)[0]
+    if integrator:
+        A[:, 0] = 0.0  # a zero eigenvalue of A: Ad has the eigenvalue 1 exactly
+    Ad = expm(A * dt)
+    G = rng.standard_normal((n, k))
+    from hdpbsid.conversion import MAX_LOG_CONDITION
+
+    cond = np.linalg.cond(np.linalg.eig(Ad)[1])
+    Ab, Gb = (d2c(Ad, G, np.ones((1, n)), None, None, dt)[i] * dt for i in (0, 1))
+    ref = _logm_oracle(Ad, G)
+    scale = max(1.0, np.abs(ref).max())
+    # both are exact up to rounding: the eigenvalue route's ~cond(V) eps (at most
+    # MAX_LOG_CONDITION eps = 2e-12 when taken), logm's ~1e-14; 1e-11 covers both
+    tol = 1e-11 if cond <= MAX_LOG_CONDITION else 1e-12
+    np.testing.assert_allclose(Ab, ref[:, :n], atol=tol * scale)
+    np.testing.assert_allclose(Gb, ref[:, n:], atol=tol * scale)
+
+
+def test_nearly_defective_ad_takes_the_generic_logarithm():
+    # a Jordan block perturbed by 1e-14: eigenvectors nearly parallel, cond(V) ~ 1e7
+    Ad = np.array([[0.9, 1.0], [1e-14, 0.9]])
+    from hdpbsid.conversion import MAX_LOG_CONDITION
+
+    assert np.linalg.cond(np.linalg.eig(Ad)[1]) > MAX_LOG_CONDITION  # the premise
+    G = np.array([[0.0], [1.0]])
+    A, B = d2c(Ad, G, np.ones((1, 2)), None, None, 1.0)[:2]
+    ref = _logm_oracle(Ad, G)
+    # the generic logm's own rounding on O(1) entries
+    np.testing.assert_allclose(np.hstack([A, B]), ref, atol=1e-13)
+    np.testing.assert_allclose(expm(A), Ad, atol=1e-12)  # and it inverts the exponential

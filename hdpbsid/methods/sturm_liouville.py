@@ -399,7 +399,9 @@ def identify_sl(
         if k in rows:
             continue
         Nb = bases[k].N
-        r = [jinv[k](np.eye(Nb)[Nb - 1])]  # truncation: w J = e_{N-1}
+        last = np.zeros(Nb)
+        last[-1] = 1.0
+        r = [jinv[k](last)]  # truncation: w J = e_{N-1}
         if st.boundary:
             r.append(jinv[k](ones[i]))  # initial state: w J = coefficients of 1
         rows[k] = np.array(r)
