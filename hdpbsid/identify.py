@@ -31,7 +31,7 @@ from .checks import check_data, check_time
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, is_uniform, one_step_errors, refine_pem
+from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
 from .model import LinearTrend, StateSpaceModel
 
 __all__ = [
@@ -319,6 +319,8 @@ def identify(
                 )
         model.options["refine_rule"] = rule
         model.options["refine_statistics"] = stats
+    # a starting point offered to the refinement (method="auto"), not part of the result
+    model.options.pop(WARM_START, None)
     if refine is not None:
         model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)

@@ -51,9 +51,9 @@ def _kernels(engine: str) -> Any:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if engine == "numpy" or (engine == "auto" and not numba_available()):
         return None
-    from . import recursion_kernels  # ImportError for engine="numba" without numba
+    import hdpbsid.recursion_kernels as kernels  # ImportError: engine="numba" without numba
 
-    return recursion_kernels
+    return kernels
 
 
 def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:

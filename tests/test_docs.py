@@ -133,6 +133,7 @@ _LAYER_OF = {
     "detrend": "foundations",
     "records": "foundations",
     "recursion": "foundations",
+    "recursion_kernels": "foundations",
     "feedback": "foundations",
     "systems": "systems",
 }

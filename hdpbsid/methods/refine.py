@@ -160,6 +160,10 @@ DDLC_CONVERGED_NFEV = 3
 FTOL_STATUS = (2, 4)
 #: input holds the sampled predictor handles (module docstring)
 HOLDS = ("zoh", "foh")
+#: the option of the initial model that carries a further starting point
+#: (:func:`refine_pem`), and that start's name in ``options["refine_start"]``
+WARM_START = "refine_warm_start"
+WARM_START_NAME = "prediction-error fit on part of the record"
 #: a second starting point or the other input hold is fitted only when one Gauss-Newton
 #: step predicts a drop of the ``-2 log`` likelihood ratio (``n_r`` times the relative
 #: cost drop, whitened residuals) of at least this much below the best minimum found:
@@ -770,6 +774,16 @@ def refine_pem(
     bounds the cost evaluations of Levenberg-Marquardt over all starts of one input hold
     together (default :data:`DEFAULT_MAX_NFEV`; the other hold, when fitted, has its own).
 
+    Starting points: the model, and the model with the gain of a measurement-noise
+    Kalman predictor; and, when ``model.options["refine_warm_start"]`` holds the
+    matrices ``{"A", "B", "C", "D", "K"}`` of a model of the same dimensions (and its
+    ``"input_hold"``, then the hold fitted first: a prediction-error fit chose it), that model
+    (:data:`WARM_START`; ``method="auto"`` passes its chosen candidate refined on the
+    estimation part, :func:`hdpbsid.selection.rejudge_refined`): a prediction-error fit
+    on part of the record is a consistent estimate close to the fit on all of it, where
+    one Gauss-Newton step is already efficient, and the screen of :func:`_fit_starts`
+    fits the most promising start first.  The option is not carried to the result.
+
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``input_hold`` (the refined hold;
     the method's in ``input_hold_before_refine``), ``refine_cost`` (initial and final
@@ -794,6 +808,10 @@ def refine_pem(
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be 'zoh' or 'foh', got {hold!r}")
     holds = _candidate_holds(model, hold)
+    warm_hold = (model.options.get(WARM_START) or {}).get("input_hold")
+    if warm_hold in holds[1:]:
+        # the warm start's hold was chosen by a prediction-error fit: tried first
+        holds = (warm_hold, *[hd for hd in holds if hd != warm_hold])
     h = float((t[-1] - t[0]) / (t.size - 1))
     feedthrough = _fits_feedthrough(model)
     lay = _Layout(model.n, model.m, model.l, feedthrough)
@@ -814,6 +832,11 @@ def refine_pem(
         starts["model K"] = lay.pack(A0, B0, C0, D0, K0)
     if K_oe is not None:
         starts["Kalman gain, measurement noise only"] = lay.pack(A0, B0, C0, D0, K_oe)
+    warm = _warm_start(model, ys, us)
+    if warm is not None:
+        pr_w = sampled_predictor(*warm, h, hold, feedthrough)
+        if _is_stable(np.linalg.eigvals(pr_w.F)):
+            starts[WARM_START_NAME] = lay.pack(*warm)
     if not starts:
         warnings.warn(
             "refine='pem': the initial model's sampled predictor is unstable and no "
@@ -868,6 +891,7 @@ def refine_pem(
     eig_std = _eigenvalue_std(lay, theta, Q, weighted_fit(theta, jac=True, directions=Q)[1], cost)
     noise_cov = (ys[:, None] * (E @ E.T / E.shape[1])) * ys[None, :]
     options = dict(model.options)
+    options.pop(WARM_START, None)
     options.update(
         input_hold=hold,
         input_hold_before_refine=model.options.get("input_hold"),
@@ -987,6 +1011,21 @@ def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float)
         G[:, k] = (evp[idx] - ev0) / step
     var = np.einsum("ik,kl,il->i", G.real, P, G.real) + np.einsum("ik,kl,il->i", G.imag, P, G.imag)
     return np.sqrt(np.maximum(var, 0.0))
+
+
+def _warm_start(model: StateSpaceModel, ys: Array, us: Array) -> tuple[Array, ...] | None:
+    """The scaled ``(A, B, C, D, K)`` of ``model.options[WARM_START]`` (:func:`refine_pem`),
+    or None when there is none or its shapes are not the model's."""
+    warm = model.options.get(WARM_START)
+    if not isinstance(warm, dict):
+        return None
+    try:
+        wm = StateSpaceModel(*(np.asarray(warm[k], dtype=float) for k in "ABCDK"))
+    except (KeyError, ValueError, TypeError):
+        return None
+    if (wm.n, wm.m, wm.l) != (model.n, model.m, model.l):
+        return None
+    return _scale(wm, ys, us)
 
 
 def _scale(model: StateSpaceModel, ys: Array, us: Array) -> tuple[Array, ...]:
