@@ -287,26 +287,57 @@ def _sweep(
     return [rows[i] for i in range(len(orders)) for rows in per_method]
 
 
-def _refined_error(r: dict[str, Any], est: tuple, val: tuple, windows: int) -> WindowedError:
-    """The held-out score (:func:`score_model`) of candidate ``r``'s model refined on
-    ``est`` (:func:`hdpbsid.methods.refine.refine_pem`; an unconverged or failed
-    refinement leaves the model as it was), kept in ``r["refined_criterion"]``."""
+def _refine_and_score(
+    model: StateSpaceModel, est: tuple, val: tuple, windows: int
+) -> tuple[StateSpaceModel | None, WindowedError]:
+    """``model`` refined on ``est`` (:func:`hdpbsid.methods.refine.refine_pem`; None when
+    the refinement fails or does not converge) and the held-out score
+    (:func:`score_model`) of the refined model, or of ``model`` itself without one."""
     from .methods.refine import refine_pem
 
-    if r.get("refined_criterion") is not None:
-        return r["refined_criterion"]
-    model = r["model"]
+    refined = None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            refined = refine_pem(model, *est)
-            if refined.options.get("refine_converged", True):
-                model = r["refined_model"] = refined
+            fit = refine_pem(model, *est)
+            if fit.options.get("refine_converged", True):
+                refined = fit
         except (ValueError, np.linalg.LinAlgError):
             pass
-        err, _ = score_model(model, val, windows)
-    r["refined_criterion"] = err
-    return err
+        err, _ = score_model(model if refined is None else refined, val, windows)
+    return refined, err
+
+
+def _refined_error(
+    r: dict[str, Any], est: tuple, val: tuple, windows: int, n_jobs: int | None = None
+) -> WindowedError:
+    """The held-out score of candidate ``r``'s model refined on ``est``
+    (:func:`_refine_and_score`), kept in ``r["refined_criterion"]`` (and the refined
+    model in ``r["refined_model"]``)."""
+    if r.get("refined_criterion") is None:
+        _refine_rows([r], est, val, windows, n_jobs)
+    return r["refined_criterion"]
+
+
+def _refine_rows(
+    rows: list[dict[str, Any]], est: tuple, val: tuple, windows: int, n_jobs: int | None
+) -> None:
+    """:func:`_refined_error` of every row of ``rows`` not refined yet, in parallel with
+    joblib when ``n_jobs`` is given (one BLAS thread per worker, as in :func:`_sweep`: the
+    same numbers as the serial run)."""
+    todo = list({id(r): r for r in rows if r.get("refined_criterion") is None}.values())
+    if n_jobs is not None and n_jobs != 1 and len(todo) > 1:
+        from joblib import Parallel, delayed
+
+        out = Parallel(n_jobs=n_jobs, inner_max_num_threads=1)(
+            delayed(_refine_and_score)(r["model"], est, val, windows) for r in todo
+        )
+    else:
+        out = [_refine_and_score(r["model"], est, val, windows) for r in todo]
+    for r, (refined, err) in zip(todo, out, strict=True):
+        if refined is not None:
+            r["refined_model"] = refined
+        r["refined_criterion"] = err
 
 
 def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
@@ -329,7 +360,13 @@ def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
 
 
 def rejudge_refined(
-    ok: list[dict[str, Any]], stats: list[float], k: int, est: tuple, val: tuple, windows: int
+    ok: list[dict[str, Any]],
+    stats: list[float],
+    k: int,
+    est: tuple,
+    val: tuple,
+    windows: int,
+    n_jobs: int | None = None,
 ) -> tuple[int, str]:
     """The order decided again between refined candidates; returns ``(index into ok,
     rule text)`` (``k`` and ``""`` when there is nothing to decide).
@@ -371,7 +408,9 @@ def rejudge_refined(
     would only add a refinement.
 
     Each refined candidate's score is added to its row (``refined_error``,
-    ``refined_fit``).
+    ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the
+    orders down, and the first order up in closed loop) run in parallel (joblib); the
+    decision is that of the serial run.
     """
     from .methods.refine import is_uniform
 
@@ -386,6 +425,10 @@ def rejudge_refined(
                 best_of[n] = r
     chosen, rule = ok[k], ""
     lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
+    n_up = n_star + 1
+    upward = n_up in best_of and looks_closed_loop(ok[k]["model"], est)
+    needed = (lower if len(lower) >= 2 else []) + ([ok[k], best_of[n_up]] if upward else [])
+    _refine_rows(needed, est, val, windows, n_jobs)
     if len(lower) >= 2:
         errors = [_refined_error(r, est, val, windows) for r in lower]
         finite = [i for i, e in enumerate(errors) if e.finite]
@@ -398,8 +441,7 @@ def rejudge_refined(
                 f"{REJUDGE_Z:g} SE of the best), the smallest refined error: "
                 f"{chosen['method']} order {chosen['order']}"
             )
-    n_up = n_star + 1
-    if n_up in best_of and looks_closed_loop(ok[k]["model"], est):
+    if upward:
         while n_up in best_of:
             e_now = _refined_error(chosen, est, val, windows)
             e_up = _refined_error(best_of[n_up], est, val, windows)
@@ -668,7 +710,7 @@ def select_model(
     candidates = queue + rest
     rejudged = ""
     if refined:
-        k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows)
+        k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows, n_jobs)
         if k2 != k:
             candidates = [ok[k2]] + [r for r in candidates if r is not ok[k2]]
     model, failures = _first_that_holds(get_method, candidates, est, (t, u, y), val, windows, opts)
