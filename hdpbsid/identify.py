@@ -341,10 +341,9 @@ def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
     10^4 samples 0.6 instead of 4.4 ms), with the model's input hold; None when its
     sampled predictor is unstable (the test then takes ``predict``'s, whose overflow
     it reports)."""
-    hold = model.options.get("input_hold", "zoh")
     try:
         with np.errstate(over="ignore", invalid="ignore"):
-            return one_step_errors(model, t, u, y, hold if hold in ("zoh", "foh") else "zoh")
+            return one_step_errors(model, t, u, y)
     except (np.linalg.LinAlgError, ValueError):
         return None  # the test falls back to predict, whose failure it reports
 

@@ -308,14 +308,12 @@ def _refine_and_score(
     return refined, err
 
 
-def _refined_error(
-    r: dict[str, Any], est: tuple, val: tuple, windows: int, n_jobs: int | None = None
-) -> WindowedError:
+def _refined_error(r: dict[str, Any], est: tuple, val: tuple, windows: int) -> WindowedError:
     """The held-out score of candidate ``r``'s model refined on ``est``
     (:func:`_refine_and_score`), kept in ``r["refined_criterion"]`` (and the refined
     model in ``r["refined_model"]``)."""
     if r.get("refined_criterion") is None:
-        _refine_rows([r], est, val, windows, n_jobs)
+        _refine_rows([r], est, val, windows, None)
     return r["refined_criterion"]
 
 
@@ -349,11 +347,10 @@ def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
     from .methods.refine import one_step_errors
 
     t, u, y = rec
-    hold = model.options.get("input_hold", "zoh")
     try:
         with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):
             warnings.simplefilter("ignore")
-            errors = one_step_errors(model, t, u, y, hold if hold in ("zoh", "foh") else "zoh")
+            errors = one_step_errors(model, t, u, y)
             return bool(feedback_statistics(model, t, u, y, errors=errors)["feedback"])
     except (ValueError, np.linalg.LinAlgError):
         return False

@@ -922,13 +922,19 @@ def refine_pem(
     )
 
 
-def one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str) -> Array | None:
+def one_step_errors(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str | None = None
+) -> Array | None:
     """One-step prediction errors ``y_k - yhat(t_k | t_{k-1})`` of ``model`` on a uniformly
     sampled record, ``(Ns, l)``, the initial state fitted by least squares: the numbers
     of :meth:`~hdpbsid.model.StateSpaceModel.predict` (``k=1``, ``x0="estimate"``,
     ``method=hold``), computed by the compiled passes of the refinement
-    (:func:`_residuals`).  ``None`` when the sampled predictor is unstable (its errors
-    grow without bound; ``predict`` overflows there)."""
+    (:func:`_residuals`).  ``hold``: default the model's ``options["input_hold"]``
+    (``"zoh"`` when it has none of :data:`HOLDS`).  ``None`` when the sampled predictor
+    is unstable (its errors grow without bound; ``predict`` overflows there)."""
+    if hold is None:
+        hold = model.options.get("input_hold", "zoh")
+        hold = hold if hold in HOLDS else "zoh"
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
     u = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
