@@ -92,3 +92,21 @@ def test_clear_caches_empties_every_memoised_function():
     clear_caches()
     f(a), g(a)
     assert calls == ["f", "g", "f", "g"]  # both computed again
+
+
+def test_shared_basis_is_one_object_per_arguments_and_its_values_are_read_only():
+    import numpy as np
+    import pytest
+
+    import slbasis
+    from hdpbsid.methods.basis_domain import basis_values, shared_basis
+
+    a = shared_basis("laguerre", 40, (0.0, 10.0), scale=2.0)
+    assert shared_basis("laguerre", 40, (0.0, 10.0), scale=2.0) is a
+    assert shared_basis("laguerre", 40, (0.0, 10.0), scale=3.0) is not a
+    # the same functions as a basis built afresh, to the last bit
+    fresh = slbasis.basis("laguerre", 40, (0.0, 10.0), scale=2.0)
+    v = basis_values(a, (0.0, 10.0))
+    np.testing.assert_array_equal(v, fresh.eval(np.array([0.0, 10.0])))
+    with pytest.raises(ValueError):
+        v[0, 0] = 1.0  # shared between the orders of a sweep: never modified

@@ -35,8 +35,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgttrf, dgttrs
 
-import slbasis
-
 from ..checks import check_data, check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
@@ -45,10 +43,12 @@ from .basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
+    basis_values,
     best_hold,
     clip_basis_size,
     integrator_model,
     resolve_holds,
+    shared_basis,
 )
 from .hermite_iv import reference_instruments, with_reference
 from .operator_scale import (
@@ -126,21 +126,15 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     )
 
 
-@functools.lru_cache(maxsize=16)
 def _hermite_basis(N: int, T: float, scale: float | None) -> Any:
-    """``slbasis.basis("hermite", N, (0, T), scale=scale)``, kept for the next call with the
-    same arguments: the held-out check identifies one sub-record at two operator scales,
-    and the default scale needs the extreme zeros of ``phi_N`` (an eigenvalue problem of
-    size ``N``).  A basis is not modified after construction."""
-    return slbasis.basis("hermite", N, (0.0, T), scale=scale)
+    """``slbasis.basis("hermite", N, (0, T), scale=scale)``, the same object for the same
+    arguments (:func:`~hdpbsid.methods.basis_domain.shared_basis`)."""
+    return shared_basis("hermite", N, (0.0, T), scale=scale)
 
 
-@functools.lru_cache(maxsize=16)
 def _boundary_rows(N: int, T: float, scale: float | None) -> Array:
-    """``phi_n(0)``, ``phi_n(T)`` of :func:`_hermite_basis` (``2 x N``, read-only)."""
-    P = _hermite_basis(N, T, scale).eval(np.array([0.0, T]))
-    P.flags.writeable = False
-    return P
+    """``phi_n(0)``, ``phi_n(T)`` of :func:`_hermite_basis` (``N x 2``, read-only)."""
+    return basis_values(_hermite_basis(N, T, scale), (0.0, T))
 
 
 @functools.lru_cache(maxsize=16)

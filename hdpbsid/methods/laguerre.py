@@ -38,8 +38,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-import slbasis
-
 from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..core.varx import SampleShift
@@ -48,9 +46,11 @@ from ..records import as_records
 from .basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
+    basis_values,
     best_hold,
     clip_basis_size,
     resolve_holds,
+    shared_basis,
 )
 from .hermite import _real
 from .segments import (
@@ -215,9 +215,9 @@ def identify_laguerre(
                 if N > ns:
                     raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
             n_rules.append(n_rule)
-            b = slbasis.basis("laguerre", Nb, (0.0, T), scale=2 * a)
+            b = shared_basis("laguerre", Nb, (0.0, T), scale=2 * a)
             bases[keys[i]] = b
-            rows[keys[i]] = b.eval(np.array([0.0, T])).T if st.boundary else np.zeros((0, Nb))
+            rows[keys[i]] = basis_values(b, (0.0, T)).T if st.boundary else np.zeros((0, Nb))
         seg_bases = [bases[k] for k in keys]
         holds = resolve_holds(st.input_hold, m)
         Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)

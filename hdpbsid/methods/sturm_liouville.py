@@ -63,10 +63,12 @@ from ..records import as_records
 from .basis_domain import (
     SolveLag,
     bandwidth,
+    basis_values,
     best_hold,
     clip_basis_size,
     integrator_model,
     resolve_holds,
+    shared_basis,
 )
 from .hermite import _real
 from .memo import memoize
@@ -366,15 +368,15 @@ def identify_sl(
         n_rules.append(n_rule)
         span = (0.0, T)
         try:
-            basis = slbasis.basis(family, Nb, span, **(family_params or {}))
+            basis = shared_basis(family, Nb, span, **(family_params or {}))
         except TypeError as exc:
             raise TypeError(f"family/family_params: {exc}") from exc
         pad = 0.0
-        if not np.all(np.isfinite(basis.eval(np.array(span)))):
+        if not np.all(np.isfinite(basis_values(basis, span))):
             # functions singular at the interval ends (Chebyshev-T, ...): the basis window
             # is padded by PAD * T on both sides; the record is the windowed signal in it
             pad = PAD * T
-            basis = slbasis.basis(family, Nb, (-pad, T + pad), **(family_params or {}))
+            basis = shared_basis(family, Nb, (-pad, T + pad), **(family_params or {}))
         a_, b_ = basis.interval
         if not (np.isfinite(a_) and np.isfinite(b_)):
             raise ValueError(
