@@ -808,7 +808,8 @@ def refine_pem(
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be 'zoh' or 'foh', got {hold!r}")
     holds = _candidate_holds(model, hold)
-    warm_hold = (model.options.get(WARM_START) or {}).get("input_hold")
+    warm = model.options.get(WARM_START)
+    warm_hold = warm.get("input_hold") if isinstance(warm, dict) else None
     if warm_hold in holds[1:]:
         # the warm start's hold was chosen by a prediction-error fit: tried first
         holds = (warm_hold, *[hd for hd in holds if hd != warm_hold])
