@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm, logm
 
 from .checks import check_state_space
+from .recursion import modal_form
 
 __all__ = ["c2d", "d2c", "check_log_exists", "MAX_LOG_CONDITION"]
 
@@ -63,11 +64,10 @@ PHI_SERIES_RADIUS = 1e-4
 def _log_and_phi(Ad: Array) -> tuple[Array, Array] | None:
     """``(log(Ad), phi(Ad))`` on the eigenvalues of ``Ad`` (module docstring), or None when
     ``cond(V) > MAX_LOG_CONDITION`` (or the decomposition is not finite)."""
-    with np.errstate(all="ignore"):
-        lam, V = np.linalg.eig(Ad)
-        if not (np.all(np.isfinite(V)) and np.linalg.cond(V) <= MAX_LOG_CONDITION):
-            return None
-        Vi = np.linalg.inv(V)
+    modal = modal_form(Ad, MAX_LOG_CONDITION)
+    if modal is None:
+        return None
+    lam, V, Vi = modal
     lam = lam.astype(complex)
     log_lam = np.log(lam)  # principal branch; no eigenvalue on (-inf, 0] (checked)
     d = lam - 1.0

@@ -17,6 +17,7 @@ modal filters are then the fallback (``engine="numpy"``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,8 @@ __all__ = [
     "linear_recursion",
     "forced_responses",
     "matrix_powers",
+    "modal_form",
+    "select_kernels",
     "MAX_MODAL_CONDITION",
     "ENGINES",
 ]
@@ -39,21 +42,33 @@ Array = NDArray[np.float64]
 #: largest eigenvector condition number for the modal form: rounding errors of order
 #: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
 MAX_MODAL_CONDITION = 1e6
-#: the evaluations of the recursions: ``"numba"`` the compiled loop, ``"numpy"`` the modal
-#: filters (or the loop in numpy when ``F`` is nearly defective), ``"auto"`` the first
-#: when numba can be used
-ENGINES = ("auto", "numba", "numpy")
+#: the evaluations of hdpbsid's passes over the samples (these recursions, the
+#: refinement's predictor): ``"numba"`` compiled, ``"numpy"`` without numba (here the
+#: modal filters, or the loop in numpy when ``F`` is nearly defective), ``"auto"`` the
+#: first when numba can be used
+ENGINES = ("auto", "numpy", "numba")
 
 
-def _kernels(engine: str) -> Any:
-    """The compiled-kernel module for ``engine`` (None: the numpy evaluation)."""
+def select_kernels(engine: str, load: Callable[[], Any]) -> Any:
+    """The compiled-kernel module ``load()`` returns, for ``engine`` (:data:`ENGINES`), or
+    None for the numpy evaluation; ``load`` raises ``ImportError`` for
+    ``engine="numba"`` without numba."""
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if engine == "numpy" or (engine == "auto" and not numba_available()):
         return None
-    import hdpbsid.recursion_kernels as kernels  # ImportError: engine="numba" without numba
+    return load()
+
+
+def _load_kernels() -> Any:
+    import hdpbsid.recursion_kernels as kernels
 
     return kernels
+
+
+def _kernels(engine: str) -> Any:
+    """The recursions' compiled kernels for ``engine`` (None: the numpy evaluation)."""
+    return select_kernels(engine, _load_kernels)
 
 
 def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
@@ -73,16 +88,18 @@ def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
     return Z
 
 
-def _modal_form(F: Array) -> tuple[NDArray, NDArray, NDArray] | None:
+def modal_form(
+    F: Array, max_condition: float = MAX_MODAL_CONDITION
+) -> tuple[NDArray, NDArray, NDArray] | None:
     """``(lam, V, V^{-1})`` with ``F = V diag(lam) V^{-1}`` when the eigenvectors are
-    finite with ``cond(V) <= MAX_MODAL_CONDITION`` (module docstring), else None."""
+    finite with ``cond(V) <= max_condition`` (module docstring), else None."""
     with np.errstate(all="ignore"):
         if not np.all(np.isfinite(F)):
             return None
         lam, V = np.linalg.eig(F)
-        if not (np.all(np.isfinite(V)) and np.linalg.cond(V) <= MAX_MODAL_CONDITION):
+        if not (np.all(np.isfinite(V)) and np.linalg.cond(V) <= max_condition):
             return None
-    return lam, V, np.linalg.inv(V)
+        return lam, V, np.linalg.inv(V)
 
 
 def forced_responses(F: Array, W: Array, engine: str = "auto") -> Array:
@@ -102,7 +119,7 @@ def forced_responses(F: Array, W: Array, engine: str = "auto") -> Array:
         X = np.empty((B, K + 1, n))
         kernels.recursions(np.ascontiguousarray(F), np.ascontiguousarray(W), np.zeros((B, n)), X)
         return X
-    modal = _modal_form(F) if n else None
+    modal = modal_form(F) if n else None
     if modal is not None:
         lam, V, Vi = modal
         R = np.zeros((B, n, K + 1), dtype=complex)
@@ -128,7 +145,7 @@ def matrix_powers(F: Array, K: int, engine: str = "auto") -> Array:
         P = np.empty((K, n, n))
         kernels.powers(np.ascontiguousarray(F), P)
         return P
-    modal = _modal_form(F) if n else None
+    modal = modal_form(F) if n else None
     if modal is not None:
         lam, V, Vi = modal
         with np.errstate(over="ignore", invalid="ignore"):

@@ -593,14 +593,11 @@ def _first_that_holds(
         if holds:
             warm = chosen.get("refined_model")
             if warm is not None:
-                from .methods.refine import WARM_START
+                from .methods.refine import WARM_START, warm_start_option
 
                 # the candidate refined on the estimation part: a starting point of the
                 # refinement of the refit (hdpbsid.methods.refine.refine_pem)
-                model.options[WARM_START] = {
-                    **{k: getattr(warm, k) for k in "ABCDK"},
-                    "input_hold": warm.options.get("input_hold"),
-                }
+                model.options[WARM_START] = warm_start_option(warm)
             carried = chosen["model"].options.get("refit_settings")
             if carried:
                 model.options["refit_settings"] = carried

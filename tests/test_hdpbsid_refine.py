@@ -298,7 +298,7 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     on the estimation part): the screen ranks it with the method's own starts, the fit
     reaches the same minimum as without it, and the option is not carried to the
     result; a start of other dimensions is ignored."""
-    from hdpbsid.methods.refine import WARM_START, WARM_START_NAME
+    from hdpbsid.methods.refine import WARM_START, WARM_START_NAME, warm_start_option
 
     rng = np.random.default_rng(3)
     t = np.arange(0.0, 40.0, 0.01)
@@ -310,10 +310,7 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     warm_model = StateSpaceModel(
         model.A, model.B, model.C, model.D, model.K, options=dict(model.options)
     )
-    warm_model.options[WARM_START] = {
-        **{k: getattr(part, k) for k in "ABCDK"},
-        "input_hold": part.options["input_hold"],
-    }
+    warm_model.options[WARM_START] = warm_start_option(part)
     warm = refine_pem(warm_model, t, u, y)
     assert WARM_START_NAME in warm.options["refine_start_predicted"]
     assert WARM_START not in warm.options

@@ -90,21 +90,24 @@ from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 from scipy.optimize import least_squares
 
-from slbasis.numeric.engine import numba_available
-
 from ..checks import check_data
 from ..checks import is_uniform as checks_is_uniform
 from ..model import StateSpaceModel
+from ..recursion import select_kernels
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
-__all__ = ["refine_pem", "one_step_errors", "is_uniform", "REFINE_CHOICES"]
+__all__ = [
+    "refine_pem",
+    "one_step_errors",
+    "warm_start_option",
+    "is_uniform",
+    "REFINE_CHOICES",
+]
 
 Array = NDArray[np.float64]
 
 #: accepted values of the ``refine`` option of :func:`hdpbsid.identify`
 REFINE_CHOICES = ("auto", "pem", None)
-#: evaluations of the prediction errors (:func:`_residuals`)
-ENGINES = ("auto", "numpy", "numba")
 #: residual vectors a :class:`_Record` remembers
 RECORD_MEMORY = 4
 #: Jacobians a :class:`_Record` remembers: one per starting point of :func:`_fit_starts`
@@ -552,15 +555,15 @@ class _Workspace:
         return buf
 
 
-def _kernels(engine: str) -> ModuleType | None:
-    """The compiled-kernel module for ``engine`` (``None``: the numpy evaluation)."""
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    if engine == "numpy" or (engine == "auto" and not numba_available()):
-        return None
-    from . import pem_kernels  # ImportError for engine="numba" without numba
+def _load_kernels() -> ModuleType:
+    from . import pem_kernels
 
     return pem_kernels
+
+
+def _kernels(engine: str) -> ModuleType | None:
+    """The refinement's compiled kernels for ``engine`` (``None``: the numpy evaluation)."""
+    return select_kernels(engine, _load_kernels)
 
 
 def _residuals_numpy(
@@ -808,8 +811,8 @@ def refine_pem(
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be 'zoh' or 'foh', got {hold!r}")
     holds = _candidate_holds(model, hold)
-    warm = model.options.get(WARM_START)
-    warm_hold = warm.get("input_hold") if isinstance(warm, dict) else None
+    warm_option = model.options.get(WARM_START)
+    warm_hold = warm_option.get("input_hold") if isinstance(warm_option, dict) else None
     if warm_hold in holds[1:]:
         # the warm start's hold was chosen by a prediction-error fit: tried first
         holds = (warm_hold, *[hd for hd in holds if hd != warm_hold])
@@ -827,17 +830,19 @@ def refine_pem(
         K_oe = None
     # starting points: the method's hold with its K and with the measurement-noise gain
     hold = holds[0]
+
+    def predicts(p: tuple[Array, ...]) -> bool:
+        """Whether the sampled predictor of the parameters ``p`` is stable (a start)."""
+        return _is_stable(np.linalg.eigvals(sampled_predictor(*p, h, hold, feedthrough).F))
+
     starts: dict[str, Array] = {}
-    pr0 = sampled_predictor(A0, B0, C0, D0, K0, h, hold, feedthrough)
-    if _is_stable(np.linalg.eigvals(pr0.F)):
+    if predicts((A0, B0, C0, D0, K0)):
         starts["model K"] = lay.pack(A0, B0, C0, D0, K0)
-    if K_oe is not None:
+    if K_oe is not None:  # stable by construction (the Kalman predictor)
         starts["Kalman gain, measurement noise only"] = lay.pack(A0, B0, C0, D0, K_oe)
     warm = _warm_start(model, ys, us)
-    if warm is not None:
-        pr_w = sampled_predictor(*warm, h, hold, feedthrough)
-        if _is_stable(np.linalg.eigvals(pr_w.F)):
-            starts[WARM_START_NAME] = lay.pack(*warm)
+    if warm is not None and predicts(warm):
+        starts[WARM_START_NAME] = lay.pack(*warm)
     if not starts:
         warnings.warn(
             "refine='pem': the initial model's sampled predictor is unstable and no "
@@ -1018,6 +1023,16 @@ def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float)
         G[:, k] = (evp[idx] - ev0) / step
     var = np.einsum("ik,kl,il->i", G.real, P, G.real) + np.einsum("ik,kl,il->i", G.imag, P, G.imag)
     return np.sqrt(np.maximum(var, 0.0))
+
+
+def warm_start_option(model: StateSpaceModel) -> dict[str, Any]:
+    """The value of ``options["refine_warm_start"]`` (:func:`refine_pem`) that offers
+    ``model`` (a prediction-error fit on part of the record) as a starting point: its
+    matrices and its input hold."""
+    return {
+        **{k: getattr(model, k) for k in "ABCDK"},
+        "input_hold": model.options.get("input_hold"),
+    }
 
 
 def _warm_start(model: StateSpaceModel, ys: Array, us: Array) -> tuple[Array, ...] | None:
