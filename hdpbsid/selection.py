@@ -107,6 +107,7 @@ __all__ = [
     "accepts_held_out",
     "sweep_settings",
     "settle_candidate",
+    "refit_keeps",
     "REJUDGE_Z",
     "AUTO_METHODS",
     "HOLDOUT",
@@ -171,6 +172,22 @@ def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
     """
     first = getattr(func, "sweep_settings", None) if accepts_held_out(func) else None
     return {**(first or {}), **given}
+
+
+def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dict[str, Any]:
+    """The data-driven settings of candidate ``model`` that its refit on the whole
+    record keeps: those the method ``func`` lists in its ``refit_keeps`` attribute
+    (``dt``: the past and future windows), with the values the candidate used, except
+    the ones the user gave (``given``, passed as they are).
+
+    Why: the held-out part judged the candidate's predictor as it was built, windows
+    included; the refit re-estimates that structure on more data (as it keeps the
+    order), instead of asking the data again for a setting the judgement did not test.
+    A method lists a setting here when choosing it again would be costly (``dt``'s
+    past-window criterion: a QR over up to 200 lags, most of a refit's time).
+    """
+    keys = getattr(func, "refit_keeps", ())
+    return {k: model.options[k] for k in keys if k not in given and k in model.options}
 
 
 def settle_candidate(
@@ -582,11 +599,15 @@ def _first_that_holds(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
+                func = get_method(chosen["method"])
+                given = opts.get(chosen["method"], {})
+                kept = refit_keeps(func, chosen["model"], given)
                 settings = {
-                    **opts.get(chosen["method"], {}),
+                    **given,
+                    **kept,
                     **chosen["model"].options.get("refit_settings", {}),
                 }
-                model = get_method(chosen["method"])(*whole, order=chosen["order"], **settings)
+                model = func(*whole, order=chosen["order"], **settings)
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
         except (ValueError, np.linalg.LinAlgError) as exc:
             holds, how = False, str(exc)
@@ -605,6 +626,12 @@ def _first_that_holds(
                     "chosen with the candidate on the held-out part (its options "
                     f"{sorted(carried)}: {chosen['model'].options.get('alpha_rule', '')}); "
                     "given to the refit on the whole record"
+                )
+            if kept:
+                model.options["refit_kept"] = kept
+                model.options["refit_kept_rule"] = (
+                    "the candidate's own values, judged with it on the held-out part "
+                    "(hdpbsid.selection.refit_keeps)"
                 )
             return model, failures
         failures.append(("refit", f"{name}: {how}"))

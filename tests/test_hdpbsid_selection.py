@@ -368,6 +368,31 @@ def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data(
     assert "held-out part" in m.options["refit_settings_rule"]
 
 
+def test_auto_refits_a_dt_candidate_with_the_windows_it_was_judged_with(monkeypatch):
+    import hdpbsid.methods.dt as dtm
+    from hdpbsid.identify import METHODS
+    from hdpbsid.selection import refit_keeps
+
+    t, u, y, _ = _record(2)
+    calls = []
+
+    def recording(*args, **kw):
+        calls.append(kw)
+        return dtm.identify_dt(*args, **kw)
+
+    recording.refit_keeps = dtm.identify_dt.refit_keeps
+    monkeypatch.setitem(METHODS, "dt", recording)
+    m = hdpbsid.identify(t, u, y, method="auto", methods=("dt",), order=2, refine=None)
+    # the candidate chose its windows on the estimation part; the refit on the whole
+    # record (the last call) is given them instead of running the criterion again
+    assert "p" not in calls[0] and calls[-1]["p"] == m.options["p"] == m.options["refit_kept"]["p"]
+    assert calls[-1]["f"] == m.options["f"]
+    # a window the user gave is passed as given, not as the candidate's
+    assert refit_keeps(dtm.identify_dt, m, {"p": 7}) == {"f": m.options["f"]}
+    # a method that declares nothing keeps nothing
+    assert refit_keeps(lambda *a, **k: None, m, {}) == {}
+
+
 def _rejudge_rows(t, u, y, true):
     """Two candidates on the first two thirds: order 2, the truth with a 10 % error in
     its dynamics (a biased estimate), and order 3, a fitted model; their held-out scores."""
