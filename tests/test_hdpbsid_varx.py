@@ -116,7 +116,7 @@ def test_nested_qr_aic_equals_direct_least_squares(seed, pmax):
     N, m, l = 200, 1, 2
     U, Y = rng.standard_normal((m, N)), rng.standard_normal((l, N))
     Y[1] += 0.5 * np.r_[0.0, U[0, :-1]]
-    p_best, crit = select_past_window(U, Y, pmax, rel_floor=0.0)
+    p_best, crit = select_past_window(U, Y, pmax, rel_floor=0.0, growth=None)
     cols = np.arange(pmax, N)
     Ys = Y / np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))[:, None]
     Z = np.vstack([U, Ys])
@@ -128,6 +128,59 @@ def test_nested_qr_aic_equals_direct_least_squares(seed, pmax):
         # same least-squares problem, QR vs lstsq: rounding on O(N) criterion values
         assert crit[p - 1] == pytest.approx(aic, rel=1e-9, abs=1e-7)
     assert p_best == int(np.argmin(crit)) + 1
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), widths=st.lists(st.integers(1, 7), min_size=1, max_size=4))
+def test_growing_qr_residuals_equal_direct_least_squares(seed, widths):
+    """The QR grown block by block gives the residual of every leading column set."""
+    from hdpbsid.core.varx import _GrowingQR
+
+    rng = np.random.default_rng(seed)
+    N, l = 120, 2
+    A, Y = rng.standard_normal((N, sum(widths))), rng.standard_normal((N, l))
+    qr, c = _GrowingQR(Y), 0
+    for w in widths:
+        qr.add(A[:, c : c + w])
+        c += w
+    for k in range(c + 1):
+        theta = np.linalg.lstsq(A[:, :k], Y, rcond=None)[0] if k else np.zeros((0, l))
+        R = Y - A[:, :k] @ theta
+        # the same least-squares problem by QR and by lstsq: rounding of O(N) entries
+        np.testing.assert_allclose(qr.residual_gram(k), R.T @ R, rtol=1e-9, atol=1e-9)
+
+
+def _long_memory_record(lag_peak: int, dead_time: bool, N: int = 3000, seed: int = 0):
+    """An ARX output with a strong output coefficient at ``lag_peak``, or with the input
+    acting ``lag_peak`` samples late (a dead time): AIC wants p >= lag_peak."""
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal(N)
+    y = np.zeros(N)
+    e = 0.1 * rng.standard_normal(N)
+    for k in range(lag_peak, N):
+        if dead_time:
+            y[k] = 0.5 * y[k - 1] + u[k - lag_peak] + e[k]
+        else:
+            y[k] = 0.5 * y[k - 1] - 0.3 * y[k - lag_peak] + u[k - 1] + e[k]
+    return u[None, :], y[None, :]
+
+
+@pytest.mark.parametrize("lag_peak, dead_time", [(3, False), (30, False), (30, True)])
+def test_growing_window_search_settles_where_the_full_search_does(lag_peak, dead_time):
+    from hdpbsid.core.varx import WINDOW_SEARCH_GROWTH, search_is_complete
+
+    U, Y = _long_memory_record(lag_peak, dead_time)
+    p_max = 120
+    p_full, full = select_past_window(U, Y, p_max, growth=None)
+    p, crit = select_past_window(U, Y, p_max)
+    # the first block (p_max / 3 = 40 lags) holds every peak; 3 x 30 = 90 needs a second
+    assert p == p_full == lag_peak
+    searched = np.isfinite(crit)
+    assert searched.sum() >= WINDOW_SEARCH_GROWTH * p and search_is_complete(crit, p_max)
+    assert searched.sum() < p_max  # the short-memory record did not need every lag
+    # the values searched are the full search's: the same reflectors, rounding only
+    np.testing.assert_allclose(crit[searched], full[searched], rtol=1e-10)
+    assert not search_is_complete(np.r_[crit[:p], np.full(p_max - p, np.inf)], p_max)
 
 
 def test_ridge_gcv_keeps_exact_data_exact():

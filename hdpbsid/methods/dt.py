@@ -13,7 +13,8 @@ Defaults (all reported in ``model.options``):
 * ``p=None``: the past window minimising AIC of the VARX fit over ``p_min..p_max``
   (:func:`hdpbsid.core.varx.select_past_window`), where ``p_max`` keeps
   ``p (m + l) <= Ns / 10`` and ``p <= 200``, and ``p_min`` makes ``f l`` exceed the order
-  (or ``max_order`` when the order is to be selected);
+  (or ``max_order`` when the order is to be selected); the search stops once it covers
+  three times the best window (:data:`hdpbsid.core.varx.WINDOW_SEARCH_GROWTH`, measured);
 * ``f=None``: ``f = p`` (as in the toolbox examples);
 * ``order=None``: the largest log-gap of the singular values
   (:func:`hdpbsid.core.pbsid.select_order`) among orders ``1..max_order`` (default 10);
@@ -42,7 +43,13 @@ from ..checks import (
 )
 from ..core.blocks import BlockLag
 from ..core.pbsid import SubspaceStage, pbsid_core, subspace_stage
-from ..core.varx import LagOperator, SampleShift, select_past_window
+from ..core.varx import (
+    WINDOW_SEARCH_GROWTH,
+    LagOperator,
+    SampleShift,
+    search_is_complete,
+    select_past_window,
+)
 from ..model import DiscreteModel, StateSpaceModel
 from ..records import as_records
 from .memo import memoize
@@ -202,14 +209,23 @@ def identify_discrete(
             # every order of an order selection asks the same question of the same data
             crit = _past_window_criteria(U, Y, p_max, feedthrough, p_criterion).copy()
             crit[: p_min - 1] = np.inf
-            p = int(np.argmin(crit)) + 1
+            if search_is_complete(crit, p_max):
+                p = int(np.argmin(crit)) + 1
+            else:
+                # the shared search stopped before it could settle windows >= p_min
+                p, crit = select_past_window(
+                    U, Y, p_max, p_min=p_min, feedthrough=feedthrough, criterion=p_criterion
+                )
         else:
             p, crit = select_past_window(
                 U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
             )
+        searched = int(np.flatnonzero(np.isfinite(crit))[-1]) + 1
         p_rule = (
             f"min {p_criterion.upper()} of the VARX fit over p in [{p_min}, {p_max}] "
-            f"(p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR}, p <= {P_CAP}, f*l >= required rows)"
+            f"(p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR}, p <= {P_CAP}, f*l >= required rows), "
+            f"searched up to p = {searched}"
+            + ("" if searched == p_max else f" ({WINDOW_SEARCH_GROWTH:g} x the best window)")
         )
     f_rule = "given" if f is not None else "f = p"
     f = p if f is None else f
