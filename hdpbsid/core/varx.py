@@ -493,10 +493,10 @@ def varx(
 #: or a long-period disturbance is no decaying tail, which is why the first block is a
 #: third of the cap (a dead time up to ``p_max / 3`` samples is seen).  It is a rule of
 #: thumb, not a bound (the AIC of a noisy record has local minima), so it was measured:
-#: on 169 records (the benchmark cases, 10 seeds each, and 80 random stable systems of
-#: orders 1-4, open and closed loop, 20 dB) the window chosen equals the full search's on
-#: every one; the largest factor any of them needed was 2.5 (with 2, three records stopped
-#: at a local minimum, e.g. p = 55 against 126).  A record whose best window is short
+#: on 169 records (10 benchmark cases, 10 seeds each, and 69 records of random stable
+#: systems of orders 1-4, open and closed loop, 20 dB) the window chosen equals the full
+#: search's on every one; the largest factor any of them needed was 2.5 (with 2, three
+#: records stopped at a local minimum, e.g. p = 55 against 126).  A record whose best window is short
 #: needs a fraction of the factorisation, whose cost grows with the square of the window
 #: searched (the closed-loop quadrotor at 250 Hz: 12-17 of 166 lags, 11 % of it).
 WINDOW_SEARCH_GROWTH = 3.0
