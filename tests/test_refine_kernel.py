@@ -83,11 +83,19 @@ def test_compiled_and_numpy_evaluations_agree_to_rounding(
     # random models: differences below 14 eps cond(Fr)^2 + 1.3 eps cond(V) cond(Fr) /
     # (1 - rho), relative to the largest entry
     tol = 1e2 * EPS * cond_fr**2 + 1e2 * EPS * cond * cond_fr / (1.0 - rho)
+    # a Jacobian column is a sum of terms as large as |r| / |theta_i|, which cancel when
+    # theta_i is small (the fitted initial state scales inversely with the output matrix:
+    # C -> c C, x0 -> x0 / c; measured: dr/dC with C = -0.009, n = l = 1, differed by
+    # 2300 eps of its largest entry, 1.1 x the bound relative to the largest entry of J):
+    # its rounding is relative to the larger of that size and the largest entry of J
+    r_np, J_np = _residuals(theta, lay, u, y, h, hold, W, True, None, engine="numpy")
+    terms = np.maximum(np.abs(J_np).max(), np.abs(r_np).max() / np.abs(theta))
     for directions in (None, Q):
         r_np, J_np = _residuals(theta, lay, u, y, h, hold, W, True, directions, engine="numpy")
         r_nb, J_nb = _residuals(theta, lay, u, y, h, hold, W, True, directions, engine="numba")
+        size = terms if directions is None else np.abs(directions).T @ terms
         assert np.abs(r_nb - r_np).max() <= tol * np.abs(r_np).max(), (cond, rho, cond_fr)
-        assert np.abs(J_nb - J_np).max() <= tol * np.abs(J_np).max(), (cond, rho, cond_fr)
+        assert (np.abs(J_nb - J_np).max(axis=0) <= tol * size).all(), (cond, rho, cond_fr)
     # the residuals alone (the predictor from a smaller matrix exponential)
     r_only = _residuals(theta, lay, u, y, h, hold, W, engine="numba")
     assert np.abs(r_only - r_np).max() <= tol * np.abs(r_np).max()
