@@ -57,6 +57,10 @@ the settings it took (``options["refit_settings"]``), as it is given its order -
 judge for the order, the method and those settings, instead of a second split of the
 estimation part inside the method, and one judgement instead of one per order.
 
+A method may also list data-driven settings that the refit keeps from the candidate
+(:func:`refit_keeps`; ``dt``: its past and future windows, whose criterion is most of a
+refit's cost): the held-out part judged the candidate's predictor with them.
+
 The expensive order-independent steps of the methods (projection of the record, basis
 operators, the past-window criterion of ``dt``) are memoised
 (:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
