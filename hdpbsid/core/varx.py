@@ -632,4 +632,4 @@ def select_past_window(
         best = int(np.argmin(crit)) + 1
         if done >= p_max or growth is None or done >= growth * best:
             return best, crit
-        target = min(p_max, max(int(np.ceil(growth * best)), done + step))
+        target = min(p_max, max(int(np.ceil(growth * best)), done + 1))
