@@ -145,3 +145,29 @@ def test_nearly_defective_ad_takes_the_generic_logarithm():
     # the generic logm's own rounding on O(1) entries
     np.testing.assert_allclose(np.hstack([A, B]), ref, atol=1e-13)
     np.testing.assert_allclose(expm(A), Ad, atol=1e-12)  # and it inverts the exponential
+
+
+def test_checked_eigenvalue_route_beyond_the_a_priori_bound(monkeypatch):
+    """A nearly defective Ad whose eigenvalue route is still exact (cond(V) ~ 1e5): kept by
+    the backward check without the generic logarithm, and equal to it; a Jordan-like Ad
+    (cond(V) ~ 1e7) fails the check and still gets the generic one."""
+    import hdpbsid.conversion as cv
+
+    # two eigenvalues 0.9 and 0.9 + 2e-5: eigenvectors nearly parallel, cond(V) ~ 1e5
+    Ad = np.array([[0.9, 1.0], [0.0, 0.90002]])
+    cond = np.linalg.cond(np.linalg.eig(Ad)[1])
+    assert cv.MAX_LOG_CONDITION < cond < cv.CHECKED_LOG_CONDITION  # the premise
+    G = np.array([[0.3], [1.0]])
+    ref = _logm_oracle(Ad, G)
+
+    def no_logm(*_a, **_k):
+        raise AssertionError("the generic logarithm was not needed")
+
+    monkeypatch.setattr(cv, "logm", no_logm)
+    A, B = d2c(Ad, G, np.ones((1, 2)), None, None, 1.0)[:2]
+    # the eigenvalue route's rounding ~cond(V) eps = 2e-11 on O(1) entries; logm's ~1e-14
+    np.testing.assert_allclose(np.hstack([A, B]), ref, atol=1e-9)
+    np.testing.assert_allclose(expm(A), Ad, atol=1e-11)  # what the check itself asks
+    # the perturbed Jordan block of the test above: the check fails, logm is asked for
+    with pytest.raises(AssertionError, match="not needed"):
+        d2c(np.array([[0.9, 1.0], [1e-14, 0.9]]), G, np.ones((1, 2)), None, None, 1.0)

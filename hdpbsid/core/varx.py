@@ -496,9 +496,9 @@ def varx(
 #: on 169 records (10 benchmark cases, 10 seeds each, and 69 records of random stable
 #: systems of orders 1-4, open and closed loop, 20 dB) the window chosen equals the full
 #: search's on every one; the largest factor any of them needed was 2.5 (with 2, three
-#: records stopped at a local minimum, e.g. p = 55 against 126).  A record whose best window is short
-#: needs a fraction of the factorisation, whose cost grows with the square of the window
-#: searched (the closed-loop quadrotor at 250 Hz: 12-17 of 166 lags, 11 % of it).
+#: records stopped at a local minimum, e.g. p = 55 against 126).  A record whose best
+#: window is short needs a fraction of the factorisation, whose cost grows with the square
+#: of the window searched (the closed-loop quadrotor at 250 Hz: 12-17 of 166 lags, 11 %).
 WINDOW_SEARCH_GROWTH = 3.0
 
 
