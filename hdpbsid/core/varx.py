@@ -531,10 +531,11 @@ class _GrowingQR:
         self.ncols = 0
 
     def add(self, cols: Array) -> None:
-        """Factor the next regressor columns ``cols`` (``N x k``)."""
+        """Factor the next regressor columns ``cols`` (``N x k``; overwritten when it is a
+        Fortran-ordered float array, as the blocks :func:`select_past_window` builds)."""
         from scipy.linalg.lapack import dgeqrf, dormqr
 
-        C = np.array(cols, dtype=float, order="F")
+        C = np.asfortranarray(cols, dtype=float)  # factored in place (a copy if not F)
         for c0, refl, tau in self.blocks:
             C[c0:] = dormqr("L", "T", refl, tau, C[c0:], max(1, 64 * C.shape[1]))[0]
         c0 = self.ncols
@@ -610,12 +611,17 @@ def select_past_window(
         # u_k (first block, with feedthrough), then z_{k-first} ... z_{k-last}: the models
         # for p = 1..p_max are nested; each column scaled to unit RMS (keeps the QR well
         # conditioned, does not change the fit)
-        parts = [U[:, cols]] if (d0 and first == 1) else []
-        parts += [lag.apply(Z, j)[:, cols] for j in range(first, last + 1)]
-        block = np.vstack(parts).T
+        lead = m if (d0 and first == 1) else 0
+        block = np.empty((N, lead + (last - first + 1) * (m + l)), order="F")
+        if lead:
+            block[:, :lead] = U[:, cols].T
+        for i, j in enumerate(range(first, last + 1)):
+            a = lead + i * (m + l)
+            block[:, a : a + m + l] = lag.apply(Z, j)[:, cols].T
         cs = np.sqrt(np.mean(block**2, axis=0))
         cs[cs == 0] = 1.0
-        return block / cs[None, :]
+        block /= cs[None, :]
+        return block
 
     crit = np.full(p_max, np.inf)
     pen = {"aic": 2.0, "bic": np.log(N)}
