@@ -20,6 +20,8 @@ __all__ = [
     "check_time",
     "check_signal",
     "check_data",
+    "check_varies",
+    "ENERGY_HEADROOM",
     "check_uniform",
     "is_uniform",
     "time_resolution",
@@ -71,10 +73,21 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
     return arr
 
 
+#: the share of the float64 range a signal channel's energy ``sum x_k^2`` may take.  A
+#: Gram entry of two channels is at most their energies (Cauchy-Schwarz), but the
+#: least-squares steps also take norms of stacks of up to ~10^4 regressors (a factor up to
+#: 10^4) and condition estimates square such norms again (10^8): the energy must stay
+#: 10^12 below overflow (values up to ~1e148 pass for 10^4 samples; no physical record
+#: comes near; 1e200 overflowed the squares themselves, a ZeroDivisionError deep inside)
+ENERGY_HEADROOM = 1e-12
+
+
 def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64]:
     """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
 
-    Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.
+    Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.  A
+    channel whose energy is not below :data:`ENERGY_HEADROOM` of the float64 range is
+    refused (the sums of the least-squares steps would overflow).
     """
     arr = as_float_array(x, name)
     if arr.ndim == 1:
@@ -84,6 +97,18 @@ def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64
             f"{name} must have shape (Ns,) or (Ns, channels) as in scipy.signal.lsim, "
             f"got shape {arr.shape}"
         )
+    if arr.size:
+        with np.errstate(over="ignore"):
+            energy = np.einsum("ij,ij->j", arr, arr)
+        limit = np.finfo(np.float64).max * ENERGY_HEADROOM
+        big = ~(energy <= limit)
+        if big.any():
+            k = int(np.argmax(big))
+            raise ValueError(
+                f"{name}[:, {k}] is too large to identify from: its largest magnitude is "
+                f"{np.abs(arr[:, k]).max():.3g} and its sum of squares is above {limit:.3g}, "
+                f"where the sums of the least-squares steps would overflow; rescale it"
+            )
     if ns is not None and arr.shape[0] != ns:
         hint = ""
         if arr.shape[1] == ns:
@@ -109,6 +134,19 @@ def check_data(
         raise ValueError("y must have at least one output channel, got shape (Ns, 0)")
     u = np.zeros((ns, 0)) if u is None else check_signal(u, "u", ns)
     return t, u, y
+
+
+def check_varies(y: NDArray[np.float64], name: str = "y") -> None:
+    """Raise ``ValueError`` when a channel of ``y`` (``(Ns, channels)``) is constant: a
+    constant output holds no dynamics to identify (every method would divide by its zero
+    variation somewhere), and the message names the channel to drop."""
+    flat = np.flatnonzero(np.ptp(y, axis=0) == 0) if y.shape[0] else np.zeros(0, dtype=int)
+    if flat.size:
+        k = int(flat[0])
+        raise ValueError(
+            f"{name}[:, {k}] is constant (every sample equals {float(y[0, k]):g}): it holds no "
+            f"dynamics to identify; leave that channel out"
+        )
 
 
 def time_resolution(t: NDArray[np.float64]) -> float:

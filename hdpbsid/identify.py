@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_data, check_time
+from .checks import check_data, check_time, check_varies
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
@@ -147,6 +147,7 @@ def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
             raise TypeError(f"t[{i}] must be a (t, u, y) tuple, got {type(rec).__name__}")
         try:
             tt, uu, yy = check_data(*rec)
+            check_varies(yy)
         except (ValueError, TypeError) as exc:
             raise type(exc)(f"record {i}: {exc}") from exc
         out.append((tt, None if rec[1] is None else uu, yy))
@@ -282,6 +283,7 @@ def identify(
         if y is None:
             raise ValueError("y is required: identify(t, u, y, ...) or a list of (t, u, y)")
         tt, ua, yy = check_data(t, u, y)
+        check_varies(yy)
         ud, yd, lv = detrend_record(tt, ua, yy, detrend)
         if detrend is None:
             warn_if_levels_dominate(ua, yy)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_data, time_resolution
+from .checks import check_data, check_varies, time_resolution
 
 __all__ = ["Record", "as_records", "split_windows", "is_record_list"]
 
@@ -63,15 +63,17 @@ def is_record_list(t: Any) -> bool:
 
 def _one(t: Any, u: Any, y: Any, min_samples: int) -> Record:
     t, u, y = check_data(t, u, y, min_samples=min_samples)
+    check_varies(y)
     return Record(t - t[0], u, y, float(t[0]), time_resolution(t))
 
 
 def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> list[Record]:
     """Normalise ``(t, u, y)`` or a list of ``(t_i, u_i, y_i)`` tuples to records.
 
-    Each record is checked with :func:`hdpbsid.checks.check_data`; errors name the record
-    index.  All records must have the same numbers of input and output channels.  With a
-    list, ``u`` and ``y`` must be ``None`` (``TypeError`` otherwise).
+    Each record is checked with :func:`hdpbsid.checks.check_data` and
+    :func:`hdpbsid.checks.check_varies`; errors name the record index.  All records must
+    have the same numbers of input and output channels.  With a list, ``u`` and ``y``
+    must be ``None`` (``TypeError`` otherwise).
     """
     if not is_record_list(t):
         if isinstance(t, list | tuple) and len(t) > 0 and isinstance(t[0], list | tuple):

@@ -79,6 +79,35 @@ def test_bad_data_errors_come_through(second_order_data) -> None:
         identify(t[::-1], u, y, method="dt")
 
 
+@pytest.mark.parametrize("method", ["auto", "hermite", "dt"])
+def test_a_constant_or_overflowing_channel_is_named(second_order_data, method) -> None:
+    t, u, y = second_order_data
+    two = np.column_stack([y, np.full_like(y, 3.0)])  # a stuck second sensor
+    with pytest.raises(ValueError, match=r"y\[:, 1\] is constant \(every sample equals 3\)"):
+        identify(t, u, two, method=method)
+    with pytest.raises(ValueError, match=r"y\[:, 0\] is constant"):
+        identify(t, u, np.zeros_like(y), method=method)
+    # squares of 1e200 overflow float64: refused before any least squares runs
+    with pytest.raises(ValueError, match=r"u\[:, 0\] is too large to identify from"):
+        identify(t, 1e200 * u, y, method=method)
+    with pytest.raises(ValueError, match=r"record 1: y\[:, 0\] is constant"):
+        identify([(t, u, y), (t, u, np.zeros_like(y))], order=2, method=method)
+    if method != "auto":  # the method itself, called directly, says the same
+        with pytest.raises(ValueError, match=r"y\[:, 0\] is constant"):
+            get_method(method)(t, u, np.zeros_like(y), 2)
+
+
+def test_a_large_but_representable_record_is_identified(second_order_data) -> None:
+    t, u, y = second_order_data
+    # 1e100 x the data: energies ~1e203, far inside ENERGY_HEADROOM, and dt divides every
+    # channel by its RMS, so the problem is the same one up to the rounding of that scaling
+    m = identify(t, u, 1e100 * y, order=2, method="dt", refine=None)
+    ref = identify(t, u, y, order=2, method="dt", refine=None)
+    got, want = np.sort_complex(m.eigenvalues), np.sort_complex(ref.eigenvalues)
+    # measured 5e-13: rounding of the scaled data carried through VARX, SVD and logm
+    np.testing.assert_allclose(got, want, rtol=1e-10)
+
+
 def test_register_custom_method(monkeypatch, second_order_data) -> None:
     monkeypatch.setattr(REG, "METHODS", dict(METHODS))
     calls = {}
