@@ -65,8 +65,9 @@ P_CAP = 200
 #: the data-driven settings a refit of this method on a longer record keeps from the
 #: candidate it reproduces (:func:`hdpbsid.selection.refit_keeps`): the past and future
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
-#: ``P_CAP`` lags -- the costliest step of a fit (measured: 0.08-0.15 s of the whole-record
-#: refit of ``method="auto"``, against 0.03 s for the rest of it) -- and the held-out
+#: ``P_CAP`` lags -- the costliest step of a fit (measured: 0.07-0.08 s of the 0.12-0.18 s
+#: that the whole-record refit of ``method="auto"`` took on the stiff and Rao-Garnier
+#: records) -- and the held-out
 #: judgement validated the candidate's predictor with its windows, not the criterion.
 REFIT_KEEPS = ("p", "f")
 
