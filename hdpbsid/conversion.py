@@ -93,10 +93,10 @@ def _reproduces(L: Array, M: Array) -> bool:
     return bool(err <= LOG_BACKWARD_TOL * np.abs(M).sum(axis=0).max())
 
 
-def _log_and_phi(Ad: Array) -> tuple[Array, Array, float] | None:
-    """``(log(Ad), phi(Ad), cond(V))`` on the eigenvalues of ``Ad`` (module docstring), or
-    None when ``cond(V) > CHECKED_LOG_CONDITION`` (or the decomposition is not finite)."""
-    modal = modal_form(Ad, CHECKED_LOG_CONDITION)
+def _log_and_phi(Ad: Array, max_condition: float) -> tuple[Array, Array] | None:
+    """``(log(Ad), phi(Ad))`` on the eigenvalues of ``Ad`` (module docstring), or None when
+    ``cond(V) > max_condition`` (or the decomposition is not finite)."""
+    modal = modal_form(Ad, max_condition)
     if modal is None:
         return None
     lam, V, Vi = modal
@@ -105,7 +105,7 @@ def _log_and_phi(Ad: Array) -> tuple[Array, Array, float] | None:
     d = lam - 1.0
     near = np.abs(d) < PHI_SERIES_RADIUS
     phi = np.where(near, 1.0 - d / 2 + d**2 / 3 - d**3 / 4, log_lam / np.where(near, 1.0, d))
-    return (V * log_lam) @ Vi, (V * phi) @ Vi, float(np.linalg.cond(V))
+    return (V * log_lam) @ Vi, (V * phi) @ Vi
 
 
 def _check_dt(dt: float) -> float:
@@ -179,12 +179,15 @@ def d2c(
     M[:n, n : n + m] = Bd
     M[:n, n + m :] = Kd
     L = None
-    by_eig = _log_and_phi(Ad) if n else None
+    by_eig = _log_and_phi(Ad, MAX_LOG_CONDITION) if n else None
+    checked = by_eig is None and n > 0
+    if checked:
+        # beyond the a priori bound: kept only when exact enough a posteriori
+        by_eig = _log_and_phi(Ad, CHECKED_LOG_CONDITION)
     if by_eig is not None:
-        log_ad, phi_ad, cond_v = by_eig
+        log_ad, phi_ad = by_eig
         L = np.hstack([log_ad, phi_ad @ np.hstack([Bd, Kd])])
-        if cond_v > MAX_LOG_CONDITION and not _reproduces(L.real, M):
-            # beyond the a priori bound and not exact enough a posteriori
+        if checked and not _reproduces(L.real, M):
             L = None
     if L is None:
         with warnings.catch_warnings():

@@ -44,6 +44,7 @@ __all__ = [
     "two_stage_ls",
     "select_past_window",
     "search_is_complete",
+    "windows_searched",
     "WINDOW_SEARCH_GROWTH",
 ]
 
@@ -502,16 +503,22 @@ def varx(
 WINDOW_SEARCH_GROWTH = 3.0
 
 
+def windows_searched(crit: Array) -> int:
+    """The largest past window whose criterion :func:`select_past_window` evaluated (the
+    last finite entry of ``crit``; 0 when none is)."""
+    finite = np.flatnonzero(np.isfinite(crit))
+    return int(finite[-1]) + 1 if finite.size else 0
+
+
 def search_is_complete(
     crit: Array, p_max: int, growth: float | None = WINDOW_SEARCH_GROWTH
 ) -> bool:
     """Whether the criterion values ``crit`` of :func:`select_past_window` (``inf`` where
     not evaluated) settle the window among the finite ones: the search reached ``p_max``
     or ``growth`` times the best window (:data:`WINDOW_SEARCH_GROWTH`)."""
-    finite = np.flatnonzero(np.isfinite(crit))
-    if finite.size == 0:
+    searched = windows_searched(crit)
+    if searched == 0:
         return False
-    searched = int(finite[-1]) + 1
     best = int(np.argmin(crit)) + 1
     return searched >= p_max or growth is None or searched >= growth * best
 

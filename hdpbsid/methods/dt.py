@@ -49,6 +49,7 @@ from ..core.varx import (
     SampleShift,
     search_is_complete,
     select_past_window,
+    windows_searched,
 )
 from ..model import DiscreteModel, StateSpaceModel
 from ..records import as_records
@@ -221,7 +222,7 @@ def identify_discrete(
             p, crit = select_past_window(
                 U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
             )
-        searched = int(np.flatnonzero(np.isfinite(crit))[-1]) + 1
+        searched = windows_searched(crit)
         p_rule = (
             f"min {p_criterion.upper()} of the VARX fit over p in [{p_min}, {p_max}] "
             f"(p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR}, p <= {P_CAP}, f*l >= required rows), "
