@@ -11,9 +11,12 @@ import os
 
 import numpy as np
 import pytest
+from scipy.signal import butter, lfilter
 from test_hdpbsid_basis_common import TRUE_EIGS, eig_error, make_data
 
+from hdpbsid import StateSpaceModel
 from hdpbsid.methods.hermite import identify_hermite
+from hdpbsid.systems.linear import second_order
 
 
 def test_noise_free_eigenvalues() -> None:
@@ -133,3 +136,23 @@ def test_mirrored_nodes_projected_once_same_coefficients(ns: int) -> None:
     # scale * sqrt(2 N) max|phi| that changes a coefficient by ~1e-12 of the largest, far
     # below 1e-9; summation order differs by rounding only
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("hold", ["zoh", "foh"])
+def test_auto_input_hold_is_the_simulated_one_for_every_order(hold: str) -> None:
+    """Second-order system (2 rad/s) sampled coarsely (0.25 s: the half-sample delay of
+    the wrong hold is 0.25 rad of phase there), smooth input, 20 dB: with the input held
+    between samples (``zoh``) or linear (``foh``), ``input_hold="auto"`` keeps the hold
+    the record was simulated with, and the decision (made on the order-free VARX fit)
+    is the same for every order."""
+    A, B, C, D = second_order()
+    t = np.arange(0.0, 100.0, 0.25)
+    rng = np.random.default_rng(0)
+    b, a = butter(2, 0.15)
+    u = lfilter(b, a, rng.standard_normal(t.size))
+    y = StateSpaceModel(A, B, C, D, None).simulate(t, u[:, None], method=hold)[:, 0]
+    y = y + 0.1 * y.std() * rng.standard_normal(y.shape)
+    models = [identify_hermite(t, u, y, n) for n in (1, 2, 3)]
+    for m in models:
+        assert m.options["input_hold"] == hold
+        assert m.options["input_hold_criterion"] == models[0].options["input_hold_criterion"]

@@ -95,6 +95,12 @@ def test_default_windows_match_in_memory(data, in_memory) -> None:
     assert m.options["n_segments"] == in_memory.options["n_segments"]
     assert m.options["chunked"]["batches"] > 1  # several reads
     assert max(_diff(m, in_memory).values()) < SAME, _diff(m, in_memory)
+    # the input hold by the same criterion (the VARX AIC, from the streamed factors)
+    assert m.options["input_hold"] == in_memory.options["input_hold"]
+    crit, ref = m.options["input_hold_criterion"], in_memory.options["input_hold_criterion"]
+    assert set(crit) == set(ref) == {"zoh", "foh"}
+    for h in ref:
+        assert abs(crit[h] - ref[h]) < SAME * abs(ref[h]), (crit, ref)
     # and both are the true system: 40 s of a 5 Hz resonance at 20 dB
     err = eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(_resonance())).max()
     assert err < 0.01  # 1 %: measured 0.05-0.2 % on such records; 5x margin

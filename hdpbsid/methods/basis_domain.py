@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 import slbasis
 
 from ..checks import check_positive_int
-from ..core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks
+from ..core.blocks import BlockLag, BlockPseudo, best_window, pbsid_core_blocks
 from ..core.pbsid import CoreResult
 from ..core.varx import CachedPowers
 from ..model import StateSpaceModel
@@ -56,6 +56,7 @@ __all__ = [
     "project_record",
     "resolve_holds",
     "best_hold",
+    "hold_criterion",
     "integrator_model",
     "shared_basis",
     "basis_values",
@@ -490,6 +491,62 @@ def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:
     return (input_hold,)
 
 
+def window_criteria(
+    sc: _Scaled,
+    lag: BlockLag,
+    P: Sequence[Array] | None,
+    feedthrough: bool,
+    p_range: tuple[int, int] | None,
+    hi: int,
+) -> Array:
+    """AIC of the VARX fit for every past window from the lower end of the preferred
+    range (``p_range``, default :data:`P_DEFAULT_RANGE`) to ``hi``, on the scaled rows
+    ``sc`` (:func:`hdpbsid.core.blocks.select_past_window_blocks`, memoised: one
+    computation for every order of a sweep and for the input-hold decision); ``inf``
+    below the range."""
+    lo = (p_range if p_range is not None else P_DEFAULT_RANGE)[0]
+    _, crit = past_window_aic(sc.Uz, sc.Yz, hi, min(lo, hi), lag, P, feedthrough)
+    return np.asarray(crit)
+
+
+def hold_criterion(
+    U: Array,
+    Y: Array,
+    P: Sequence[Array] | None,
+    lag: BlockLag,
+    *,
+    p: int | None = None,
+    p_range: tuple[int, int] | None = None,
+    feedthrough: bool = False,
+    normalize: bool = True,
+    **_: Any,
+) -> float:
+    """The input-hold criterion of the input rows ``U``: the smallest AIC of the VARX fit
+    of ``Y`` on the past of ``U, Y`` (pseudo-input rows ``P`` eliminated) over the past
+    windows of the default rule (:func:`run_core`: the preferred range capped at
+    ``p (m + q + l) <= N / 6``), or at the given ``p``; ``inf`` when no window fits.
+
+    ``AIC = N log det Sigma + 2 l d`` compares the holds directly: both projections
+    regress the same output rows with the same number of coefficients, so at each window
+    the AIC difference is ``N`` times the log-ratio of the innovation determinants, and
+    the minimum over the windows chooses the hold and the window jointly.  The VARX is
+    the order-free first step of the core, so the decision does not depend on the order
+    (the hold is a property of the record), and every order of a sweep shares it."""
+    sc = _scaled(U, Y, P, lag, normalize)
+    if p is not None:
+        lo = hi = p
+        if p * sc.d >= sc.nb - p:
+            return float("inf")
+    else:
+        lo, hi = p_range if p_range is not None else P_DEFAULT_RANGE
+        hi = min(hi, sc.p_cap)
+        if hi < max(lo, 1):
+            return float("inf")
+    _, crit = past_window_aic(sc.Uz, sc.Yz, hi, lo, lag, P, feedthrough)
+    crit = np.asarray(crit)[lo - 1 : hi]
+    return float(np.min(crit)) if crit.size else float("inf")
+
+
 def best_hold(
     holds: tuple[str, ...],
     Us: list[Array],
@@ -498,22 +555,19 @@ def best_hold(
     lag: BlockLag,
     **core_options: Any,
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """Run :func:`run_core` (``Y, P, lag, **core_options``) on every input projection in
-    ``Us`` (one per entry of ``holds``) and keep the one with the smallest innovation
-    log-determinant (the output coefficients are the same for all, so the residuals are
-    comparable).  The wrong hold leaves a deterministic misfit in the residual: on
-    noise-free data the right one wins by orders of magnitude."""
-    best: tuple[float, CoreOut, str] | None = None
+    """:func:`run_core` (``Y, P, lag, **core_options``) on the input projection in ``Us``
+    (one per entry of ``holds``) with the smallest :func:`hold_criterion`, the AIC of the
+    order-free VARX fit; returns ``(result, hold, criterion per hold)``.  The wrong hold
+    leaves a deterministic misfit in the innovations (on noise-free data the right one
+    wins by orders of magnitude); a tie keeps the first hold listed.  One core run per
+    call whatever the number of holds, and the criterion is shared by the orders."""
     crit: dict[str, float] = {}
-    for hold, U in zip(holds, Us, strict=True):
-        out = run_core(U, Y, P, lag, **core_options)
-        sign, ld = np.linalg.slogdet(np.atleast_2d(out.noise_covariance))
-        val = float(ld) if sign > 0 else -np.inf
-        crit[hold] = val
-        if best is None or val < best[0]:
-            best = (val, out, hold)
-    assert best is not None
-    return best[1], best[2], crit
+    if len(holds) > 1:
+        crit = {
+            h: hold_criterion(U, Y, P, lag, **core_options) for h, U in zip(holds, Us, strict=True)
+        }
+    hold = min(holds, key=lambda h: (crit.get(h, 0.0), holds.index(h)))
+    return run_core(Us[holds.index(hold)], Y, P, lag, **core_options), hold, crit
 
 
 def integrator_model(
@@ -546,7 +600,7 @@ def integrator_model(
             "input_hold_rule": (
                 "given"
                 if settings.input_hold != "auto"
-                else "auto: zoh and foh fitted, smaller innovation log-det kept"
+                else "auto: zoh and foh judged by the AIC of the VARX fit, the smaller kept"
             ),
             "input_hold_criterion": hold_criterion,
             "projection": "exact integral of the sample interpolants (Gauss nodes)",
@@ -604,6 +658,44 @@ def _largest_determined_p(nb: int, d: int, ncols: int, z: int) -> int:
     return int(max(0, min((nb - 1) // (d + 1), (ncols - 1) // (z + 1))))
 
 
+@dataclass
+class _Scaled:
+    """The core's rows scaled to unit RMS (``normalize``) and the sizes of the tightest
+    block: ``nb`` columns for ``d = m + q_b + l`` regressor rows per lag, ``p_cap`` the
+    largest past window of the default rule ``p d <= nb / 6`` (:func:`run_core`)."""
+
+    Uz: Array
+    Yz: Array
+    su: Array
+    sy: Array
+    pseudo: BlockPseudo | None
+    qs: list[int]
+    nb: int
+    d: int
+    worst: int
+    p_cap: int
+
+
+def _scaled(
+    U: Array, Y: Array, P: Sequence[Array] | None, lag: BlockLag, normalize: bool
+) -> _Scaled:
+    m, l = U.shape[0], Y.shape[0]
+    su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
+    sy = _rms_rows(Y, "y") if normalize else np.ones(l)
+    pseudo = BlockPseudo(lag, P) if P is not None else None
+    qs = [0] * len(lag.sizes)
+    if pseudo is not None:
+        for _, _, bs, _, Pn in pseudo.groups:
+            for b in bs:
+                qs[b] = Pn.shape[0]
+    # the tightest block: fewest columns per (m + q_b + l) regressor rows
+    worst = int(np.argmin([n / (m + q + l) for n, q in zip(lag.sizes, qs, strict=True)]))
+    nb, d = lag.sizes[worst], m + qs[worst] + l
+    ncols = Y.shape[1]
+    p_cap = min(nb // (COLS_PER_REGRESSOR * d), ncols // (COLS_PER_REGRESSOR * (m + l)))
+    return _Scaled(U / su[:, None], Y / sy[:, None], su, sy, pseudo, qs, nb, d, worst, p_cap)
+
+
 def run_core(
     U: Array,
     Y: Array,
@@ -651,20 +743,10 @@ def run_core(
     ncols = Y.shape[1]
     need = order if order is not None else 3
     f_min = -(-need // l)
-    su = _rms_rows(U, "u") if (normalize and m) else np.ones(m)
-    sy = _rms_rows(Y, "y") if normalize else np.ones(l)
-    Uz = U / su[:, None]
-    Yz = Y / sy[:, None]
-    pseudo = BlockPseudo(lag, P) if P is not None else None
-    qs = [0] * len(lag.sizes)
-    if pseudo is not None:
-        for _, _, bs, _, Pn in pseudo.groups:
-            for b in bs:
-                qs[b] = Pn.shape[0]
-    # the tightest block: fewest columns per (m + q_b + l) regressor rows
-    worst = int(np.argmin([n / (m + q + l) for n, q in zip(lag.sizes, qs, strict=True)]))
-    nb, d = lag.sizes[worst], m + qs[worst] + l
-    p_cap = min(nb // (COLS_PER_REGRESSOR * d), ncols // (COLS_PER_REGRESSOR * (m + l)))
+    sc = _scaled(U, Y, P, lag, normalize)
+    Uz, Yz, su, sy, pseudo = sc.Uz, sc.Yz, sc.su, sc.sy, sc.pseudo
+    nb, d, worst, p_cap = sc.nb, sc.d, sc.worst, sc.p_cap
+    qs = sc.qs
     crit = None
     if p is not None:
         if p * d >= nb - p:
@@ -704,7 +786,11 @@ def run_core(
             )
         else:
             if hi > lo:
-                p, crit = past_window_aic(Uz, Yz, hi, lo, lag, P, feedthrough)
+                # the criterion of every window of the range, shared by all orders and by
+                # the input-hold decision (hold_criterion); this order may use p >= lo
+                crit = window_criteria(sc, lag, P, feedthrough, p_range, hi)
+                crit = np.where(np.arange(1, hi + 1) >= lo, crit, np.inf)
+                p = best_window(crit, lo, hi, ncols)
             else:
                 p = lo
             p_rule = (

@@ -330,7 +330,24 @@ def _varx_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, ps: list[
 
 
 def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any, sizes):
-    return streamed.state_factors(U, Y, lag, pseudo, vs)
+    # None: a hold that was not chosen, nothing to gather (streamed.merge: the empty set)
+    return None if vs is None else streamed.state_factors(U, Y, lag, pseudo, vs)
+
+
+def _tightest(
+    kinds: dict[int, _Kind], sizes: Array, m: int, l: int
+) -> tuple[int, int, int, int, int]:
+    """The tightest window kind (fewest coefficients per ``m + q + l`` regressor rows; the
+    first such length in dict order), its ``N`` and ``d = m + q + l``, the default rule's
+    largest past window ``p_cap`` (``p d <= N / 6`` there and over all ``ncols``
+    columns), and ``ncols``: ``(worst, nb, d, p_cap, ncols)``."""
+    counts = {n: int(np.sum(sizes == n)) for n in kinds}
+    ncols = sum(kinds[n].N * counts[n] for n in kinds)
+    d = {n: m + _kept_rows(k) + l for n, k in kinds.items()}
+    worst = min(kinds, key=lambda n: kinds[n].N / d[n])
+    nb = kinds[worst].N
+    p_cap = min(nb // (COLS_PER_REGRESSOR * d[worst]), ncols // (COLS_PER_REGRESSOR * (m + l)))
+    return worst, nb, d[worst], p_cap, ncols
 
 
 def _p_plan(
@@ -340,19 +357,13 @@ def _p_plan(
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
     need = order if order is not None else 3
     f_min = -(-need // l)
-    counts = {n: int(np.sum(sizes == n)) for n in kinds}
-    ncols = sum(kinds[n].N * counts[n] for n in kinds)
-    qs = {n: _kept_rows(k) for n, k in kinds.items()}
-    ratio = {n: kinds[n].N / (m + qs[n] + l) for n in kinds}
-    worst = min(kinds, key=lambda n: ratio[n])  # first length of least ratio (dict order)
-    nb, d = kinds[worst].N, m + qs[worst] + l
-    p_cap = min(nb // (COLS_PER_REGRESSOR * d), ncols // (COLS_PER_REGRESSOR * (m + l)))
+    worst, nb, d, p_cap, ncols = _tightest(kinds, sizes, m, l)
     if st.p is not None:
         p = st.p
         if p * d >= nb - p:
             raise ValueError(
                 f"p={p} is too large for the basis: the VARX has p*(m+q+l) = {p}*{d} = "
-                f"{p * d} regressors per output (q = {qs[worst]} boundary/truncation rows) "
+                f"{p * d} regressors per output (q = {d - m - l} boundary/truncation rows) "
                 f"but only {nb} basis coefficients per window; reduce p or increase N"
             )
         if st.f is None and p * l < need:
@@ -387,30 +398,67 @@ def _kept_rows(kind: _Kind) -> int:
     return int(one.groups[0][4].shape[0])
 
 
+def _hold_windows(
+    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings
+) -> list[int]:
+    """The past windows the input-hold criterion compares the holds over, as
+    :func:`~hdpbsid.methods.basis_domain.hold_criterion` rules them: the given ``p``, or
+    the preferred range capped at ``p (m + q + l) <= N / 6`` (empty when nothing fits)."""
+    if st.p is not None:
+        return [st.p]
+    p_cap = _tightest(kinds, sizes, m, l)[3]
+    lo, hi = P_DEFAULT_RANGE
+    return list(range(max(lo, 1), min(hi, p_cap) + 1))
+
+
+def _streamed_hold_criterion(vf: Any, m: int, l: int, windows: list[int], normalize: bool) -> float:
+    """:func:`~hdpbsid.methods.basis_domain.hold_criterion` from first-pass factors: the
+    smallest VARX AIC over ``windows`` (``inf`` when none fits)."""
+    if not windows:
+        return float("inf")
+    try:
+        _, crit = streamed.select_p(vf, m, l, windows[0], windows[-1], normalize)
+    except ValueError:
+        return float("inf")
+    return float(np.min(crit[windows[0] - 1 : windows[-1]]))
+
+
 def _best_hold_streamed(
     ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[CoreOut, str, dict[str, float]]:
     """:func:`~hdpbsid.methods.basis_domain.best_hold` with
     :func:`~hdpbsid.methods.basis_domain.run_core` replaced by the streamed core
-    (:mod:`hdpbsid.core.streamed`): two passes over the batches, factors reduced."""
+    (:mod:`hdpbsid.core.streamed`): two passes over the batches, factors reduced; the
+    hold chosen from the first pass's factors by the same VARX criterion, and the second
+    pass made for that hold only."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     ps, p_fixed, lo, hi, p_rule = _p_plan(kinds, sizes, m, l, st, order)
-    first = ctx.reduce(_varx_step, [ps] * len(holds), streamed.merge)
+    hold_ps = _hold_windows(kinds, sizes, m, l, st) if len(holds) > 1 else []
+    first = ctx.reduce(_varx_step, [sorted(set(ps) | set(hold_ps))] * len(holds), streamed.merge)
+    hold_crit = {
+        h: _streamed_hold_criterion(vf, m, l, hold_ps, st.normalize)
+        for h, vf in zip(holds, first, strict=True)
+        if len(holds) > 1
+    }
+    hold = min(holds, key=lambda h: (hold_crit.get(h, 0.0), holds.index(h)))
+    k = holds.index(hold)
+    vf = first[k]
     need = order if order is not None else 3
-    sols, crits = [], []
-    for vf in first:
-        crit = None
-        p = p_fixed
-        if p is None:
-            p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
-        if st.f is not None and st.f > p:
-            raise ValueError(f"the future window f must satisfy f <= p, got f={st.f} > p={p}")
-        if st.f is not None and st.f * l < need:
-            raise ValueError(f"order needs f*l >= {need}, but f*l = {st.f * l}; increase f")
-        f = p if st.f is None else st.f
-        sols.append(streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize))
-        crits.append(crit)
-    second = ctx.reduce(_state_step, sols, streamed.merge)
+    crit = None
+    p = p_fixed
+    if p is None:
+        p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+    if st.f is not None and st.f > p:
+        raise ValueError(f"the future window f must satisfy f <= p, got f={st.f} > p={p}")
+    if st.f is not None and st.f * l < need:
+        raise ValueError(f"order needs f*l >= {need}, but f*l = {st.f * l}; increase f")
+    f = p if st.f is None else st.f
+    vs = streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize)
+    # the second pass for the chosen hold only (None: nothing to gather for the others)
+    second = ctx.reduce(
+        _state_step, [vs if i == k else None for i in range(len(holds))], streamed.merge
+    )
+    sf = second[k]
     n_blocks = int(sizes.size)
     n_pseudo = sum(
         _kept_rows(kinds[int(n)]) * int(c)
@@ -419,53 +467,44 @@ def _best_hold_streamed(
     lag_text = (
         f"BlockLag({n_blocks} blocks: {', '.join(sorted({repr(k.lag) for k in kinds.values()}))})"
     )
-    best: tuple[float, CoreOut, str] | None = None
-    hold_crit: dict[str, float] = {}
-    for hold, vs, sf, crit in zip(holds, sols, second, crits, strict=True):
-        f_used = vs.f
-        mo = min(st.max_order, f_used * l - 1) if order is None else None
-        if mo is not None and mo < 1:
-            raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
-        if order is not None and order > f_used * l:
-            raise ValueError(
-                f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
-                f"of Gamma L; increase f (and p) or reduce the order"
-            )
-        core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
-        core.options["lag"] = lag_text
-        su, sy = vs.su, vs.sy
-        ncov = sy[:, None] * core.noise_covariance * sy[None, :]
-        opts: dict[str, Any] = dict(core.options)
-        opts.update(
-            {
-                "normalize": st.normalize,
-                "input_scale": su,
-                "output_scale": sy,
-                "p_rule": p_rule,
-                "p_criterion_values": crit,
-                "f_rule": "given" if st.f is not None else "f = p",
-                "n_pseudo_inputs": n_pseudo,
-                "n_blocks": n_blocks,
-            }
+    f_used = vs.f
+    mo = min(st.max_order, f_used * l - 1) if order is None else None
+    if mo is not None and mo < 1:
+        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+    if order is not None and order > f_used * l:
+        raise ValueError(
+            f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
+            f"of Gamma L; increase f (and p) or reduce the order"
         )
-        out = CoreOut(
-            core.A,
-            core.B / su[None, :] if m else core.B[:, :0],
-            core.C * sy[:, None],
-            np.zeros((l, m)),
-            core.K / sy[None, :],
-            np.zeros((core.A.shape[0], 0)),
-            ncov,
-            core,
-            opts,
-        )
-        sign, ld = np.linalg.slogdet(np.atleast_2d(ncov))
-        val = float(ld) if sign > 0 else -np.inf
-        hold_crit[hold] = val
-        if best is None or val < best[0]:
-            best = (val, out, hold)
-    assert best is not None
-    return best[1], best[2], hold_crit
+    core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
+    core.options["lag"] = lag_text
+    su, sy = vs.su, vs.sy
+    ncov = sy[:, None] * core.noise_covariance * sy[None, :]
+    opts: dict[str, Any] = dict(core.options)
+    opts.update(
+        {
+            "normalize": st.normalize,
+            "input_scale": su,
+            "output_scale": sy,
+            "p_rule": p_rule,
+            "p_criterion_values": crit,
+            "f_rule": "given" if st.f is not None else "f = p",
+            "n_pseudo_inputs": n_pseudo,
+            "n_blocks": n_blocks,
+        }
+    )
+    out = CoreOut(
+        core.A,
+        core.B / su[None, :] if m else core.B[:, :0],
+        core.C * sy[:, None],
+        np.zeros((l, m)),
+        core.K / sy[None, :],
+        np.zeros((core.A.shape[0], 0)),
+        ncov,
+        core,
+        opts,
+    )
+    return out, hold, hold_crit
 
 
 def _best_hold_in_memory(

@@ -275,10 +275,12 @@ def identify_hermite(
       (``p (m + q + l) < N - p``; :func:`~hdpbsid.methods.basis_domain.run_core`);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
-      ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` fits both
-      ``zoh`` and ``foh`` and keeps the smaller innovation variance
-      (:func:`~hdpbsid.methods.basis_domain.project_record`), in the first
-      operator-scale pass; the later passes and the held-out fits keep its choice;
+      ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` projects both
+      ``zoh`` and ``foh`` (:func:`~hdpbsid.methods.basis_domain.project_record`) and keeps
+      the one whose order-free VARX fit has the smaller AIC
+      (:func:`~hdpbsid.methods.basis_domain.hold_criterion`: one decision for every
+      order), in the first operator-scale pass; the later passes and the held-out fits
+      keep its choice;
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;
     * ``regularize="gcv"``, ``feedthrough=False``, ``stable_k=False``, ``normalize=True``
       as in :func:`hdpbsid.methods.dt.identify_dt`;
@@ -386,8 +388,8 @@ def identify_hermite(
         both holds; the later passes (another ``alpha``) use the hold it chose.  The hold
         says how the input behaved between its samples, a property of the record that the
         operator scale does not change, and the first fit judges it on the same data and
-        with the same criterion (the innovation log-determinant) as a later pass would:
-        each later pass would only repeat the decision at the cost of a second core run."""
+        with the same criterion (the AIC of the VARX fit) as a later pass would: each
+        later pass would only repeat the decision at the cost of two more VARX fits."""
         use = holds
         opts = dict(options)
         if "hold" in decided:
@@ -416,8 +418,8 @@ def identify_hermite(
                 hold=hold,
                 criterion=hold_crit,
                 rule=(
-                    f"auto: zoh and foh fitted at alpha = {a:.4g} (the first pass), smaller "
-                    "innovation log-det kept for every pass"
+                    f"auto: zoh and foh judged at alpha = {a:.4g} (the first pass) by the "
+                    "AIC of the VARX fit, the smaller kept for every pass"
                 ),
             )
         return integrator_model(

@@ -156,7 +156,7 @@ def identify_laguerre(
     * filter variant: ``burn_in = min(T / 4, 10 / a)`` s skipped, ``n_times = 300``
       evenly spaced sample times after it;
     * ``input_hold="auto"`` (projection): the sample interpolants are projected exactly
-      and the hold (``zoh``/``foh``) with the smaller innovation variance is kept, as in
+      and the hold (``zoh``/``foh``) whose VARX fit has the smaller AIC is kept, as in
       HD-PBSID (:func:`~hdpbsid.methods.basis_domain.project_record`); before, the product
       quadrature of the samples shifted the closed-loop quadrotor's 250 Hz ZOH moment by
       half a sample;
@@ -260,7 +260,7 @@ def identify_laguerre(
         options.update(
             {
                 "input_hold": hold,
-                "input_hold_rule": "given" if st.input_hold != "auto" else "auto: smaller log-det",
+                "input_hold_rule": "given" if st.input_hold != "auto" else "auto: smaller VARX AIC",
                 "input_hold_criterion": hold_crit,
                 "projection": "exact integral of the sample interpolants (Gauss nodes)",
             }

@@ -281,8 +281,8 @@ def _candidate_holds(model: StateSpaceModel, hold: str | None) -> tuple[str, ...
     "given"``); with no input, one (the hold is then irrelevant); otherwise both, the
     model's first.
 
-    Why both: a subspace method's choice of hold (the smaller innovation variance of its
-    least-squares fit) is made on biased residuals in closed loop, and the wrong hold is
+    Why both: a subspace method's choice of hold (the smaller AIC of its least-squares VARX
+    fit) is made on biased residuals in closed loop, and the wrong hold is
     not a small error: it shifts the input by half a sample, which a model of fixed order
     absorbs by moving its fast modes (Table-2-like loop, rate output, 20 dB: HD-PBSID
     picked ``foh`` for data held by ``zoh`` on 5 of 5 seeds, and the ``foh``

@@ -96,8 +96,9 @@ class BasisSettings:
     normalize : bool
         Scale the input and output rows to unit RMS before the regression.
     input_hold : str
-        Inter-sample model of the input: ``"auto"`` (fit ``zoh`` and ``foh``, keep the
-        smaller innovation log-determinant), ``"zoh"``, ``"foh"``, ``"trapezoid"``.
+        Inter-sample model of the input: ``"auto"`` (project ``zoh`` and ``foh``, keep
+        the one whose VARX fit has the smaller AIC, one decision for every order),
+        ``"zoh"``, ``"foh"``, ``"trapezoid"``.
     window : float, "auto" or None
         Window length (s) for long records, ``"auto"`` from the band, ``None`` whole.
     n_jobs : int or None
