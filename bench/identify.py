@@ -8,14 +8,21 @@ busy machine (the refinement's small-matrix loops).
 
 ``--defaults`` measures ``hdpbsid.identify(t, u, y)`` with every default instead
 (``method="auto"``, held-out order choice, mean removal) on :data:`DEFAULTS_CASES`:
-per seed the order and method chosen, the worst relative eigenvalue error and the cost
+per seed the order and method chosen, the worst relative eigenvalue error, and the cost
 of the call (CPU time of the process, which a loaded machine disturbs less than wall
-time) relative to one HD-PBSID fit at the true order (``method="hermite"``,
-``refine=None``: the subspace method as the thesis describes it) and relative to one
-HD-PBSID fit with its defaults (``refine="auto"``, the refinement ``auto`` also applies
-to its choice), then a summary row per case (``--runs`` seeds, default 10 here).  The
-caches of :mod:`hdpbsid.methods.memo` are cleared before every timed call, so that no
-call is timed on another's projection.
+time) against one HD-PBSID fit at the true order on the same record, like for like:
+
+* both with their defaults (``refine="auto"``: each result refined by the
+  prediction-error method where the rule says so; what a user gets from
+  ``identify(t, u, y)`` against ``identify(t, u, y, n, method="hermite")``);
+* both with ``refine=None``: the selection of the method and order against the subspace
+  fit as the thesis describes it.
+
+With ``--n-jobs N`` each ``auto`` call is also timed with ``n_jobs=N`` by wall time,
+against the wall time of the same fit.  Then an accuracy table and a cost table, one
+row per case (``--runs`` seeds, default 10 here).  The caches of
+:mod:`hdpbsid.methods.memo` are cleared before every timed call, so that no call is
+timed on another's projection.
 
 Prints, per case (the generators of ``bench/cases.py``),
 SNR and method, over seeded Monte Carlo runs with the true order given:
@@ -173,39 +180,39 @@ def fit_time(N: int = 400, ns: int = 10_000) -> None:
         print(f"  {label:16s} {np.median(el) * 1e3:9.1f} ms")
 
 
+def _timed(f: Any, *args: Any, **kwargs: Any) -> tuple[Any, float, float]:
+    """``f(*args, **kwargs)`` from empty caches (none reuses another call's projection):
+    ``(result, CPU seconds of the process, wall seconds)``."""
+    clear_caches()
+    t0, w0 = time.process_time(), time.perf_counter()
+    out = f(*args, **kwargs)
+    return out, time.process_time() - t0, time.perf_counter() - w0
+
+
 def defaults_run(
     case_name: str, seed: int, snr: float | None, n_jobs: int | None = None
 ) -> dict[str, Any]:
     """One seed of ``--defaults``: ``identify(t, u, y)`` and one HD-PBSID fit at the true
-    order on the same record (module docstring).  A discrete case's model is compared
-    through ``exp(lambda dt)`` (its times are sample indices, ``dt = 1``).  With
-    ``n_jobs``, ``identify(t, u, y, n_jobs=n_jobs)`` is timed as well, by wall time
-    (the workers' CPU time is not the process's), against the wall time of the one fit,
-    with and without its refinement."""
+    order on the same record (module docstring), each with its default refinement and
+    with ``refine=None`` (the selection's own cost against the subspace fit's).  A
+    discrete case's model is compared through ``exp(lambda dt)`` (its times are sample
+    indices, ``dt = 1``).  With ``n_jobs``, both ``identify(t, u, y, n_jobs=n_jobs)``
+    calls are timed as well, by wall time (the workers' CPU time is not the process's),
+    against the wall time of the one fit."""
     case = make_case(case_name, seed, snr)
     rec = case.estimation
+    data = (rec.t, rec.u, rec.y)
     true = np.asarray(case.true_eigenvalues)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        # every timed call starts from empty caches: none reuses another's projection
-        clear_caches()
-        t0, w0 = time.process_time(), time.perf_counter()
-        identify(rec.t, rec.u, rec.y, case.order, method="hermite", refine=None)
-        t_one, w_one = time.process_time() - t0, time.perf_counter() - w0
-        clear_caches()
-        t0, w0 = time.process_time(), time.perf_counter()
-        identify(rec.t, rec.u, rec.y, case.order, method="hermite")
-        t_one_refined, w_one_refined = time.process_time() - t0, time.perf_counter() - w0
-        clear_caches()
-        t0 = time.process_time()
-        model = identify(rec.t, rec.u, rec.y)
-        t_auto = time.process_time() - t0
-        w_par = None
+        _, t_one, w_one = _timed(identify, *data, case.order, method="hermite", refine=None)
+        _, t_one_ref, w_one_ref = _timed(identify, *data, case.order, method="hermite")
+        model, t_auto, _ = _timed(identify, *data)
+        _, t_auto_sub, _ = _timed(identify, *data, refine=None)
+        w_par = w_par_sub = None
         if n_jobs is not None:
-            clear_caches()
-            w0 = time.perf_counter()
-            identify(rec.t, rec.u, rec.y, n_jobs=n_jobs)
-            w_par = time.perf_counter() - w0
+            w_par = _timed(identify, *data, n_jobs=n_jobs)[2]
+            w_par_sub = _timed(identify, *data, refine=None, n_jobs=n_jobs)[2]
     ev = model.eigenvalues
     if case.discrete:
         ev = np.exp(ev * float(rec.t[1] - rec.t[0]))
@@ -219,19 +226,34 @@ def defaults_run(
         "method": model.options.get("method"),
         "worst": worst,
         "t_auto": t_auto,
-        "t_refine": float(model.options.get("refine_time") or 0.0),
+        "t_auto_sub": t_auto_sub,
         "t_one": t_one,
-        "t_one_refined": t_one_refined,
+        "t_one_refined": t_one_ref,
         "w_one": w_one,
-        "w_one_refined": w_one_refined,
+        "w_one_refined": w_one_ref,
         "w_par": w_par,
+        "w_par_sub": w_par_sub,
     }
+
+
+#: ``--defaults`` cost ratios: (name, numerator, denominator); per seed, then median / max
+COST_RATIOS = (
+    ("cpu", "t_auto", "t_one_refined"),
+    ("wall", "w_par", "w_one_refined"),
+    ("cpu_sub", "t_auto_sub", "t_one"),
+    ("wall_sub", "w_par_sub", "w_one"),
+)
+
+
+def _median_max(values: list[float]) -> str:
+    return f"{np.median(values):.1f} / {np.max(values):.1f}" if values else "n/a"
 
 
 def defaults_table(
     runs: int, cases: Any = DEFAULTS_CASES, n_jobs: int | None = None
 ) -> list[dict[str, Any]]:
-    """``--defaults``: print one line per seed and return one summary row per case."""
+    """``--defaults``: print one line per seed, then an accuracy table and a cost table
+    (one row per case), and return the summary rows."""
     # one small fit first, so that no case pays for the first call's compilation, and with
     # n_jobs one parallel call, so that none pays for starting the workers (reported)
     warm = make_case("second-order", 0, 20.0).estimation
@@ -254,30 +276,29 @@ def defaults_table(
             r = defaults_run(case_name, seed, snr, n_jobs)
             rows.append(r)
             par = (
-                f", n_jobs={n_jobs}: {r['w_par']:.2f} s wall = {r['w_par'] / r['w_one']:.1f} x "
-                f"/ {r['w_par'] / r['w_one_refined']:.1f} x refined (wall)"
+                f"; n_jobs={n_jobs}: {r['w_par']:.2f} s wall = "
+                f"{r['w_par'] / r['w_one_refined']:.1f} x, refine=None "
+                f"{r['w_par_sub'] / r['w_one']:.1f} x (wall)"
                 if n_jobs is not None
                 else ""
             )
             print(
                 f"  {case_name:23s} {snr_txt:>6s} seed {seed:2d}: order {r['order']} "
                 f"(true {r['true_order']}) {r['method']:9s} worst {100 * r['worst']:7.3f} % "
-                f"auto {r['t_auto']:6.2f} s CPU = {r['t_auto'] / r['t_one']:5.1f} x one "
-                f"HD-PBSID fit ({r['t_one']:.3f} s), refinement {r['t_refine']:.2f} s, "
-                f"{r['t_auto'] / r['t_one_refined']:4.1f} x one refined HD-PBSID fit "
-                f"({r['t_one_refined']:.3f} s){par}",
+                f"auto {r['t_auto']:5.2f} s CPU = {r['t_auto'] / r['t_one_refined']:4.1f} x "
+                f"one HD-PBSID fit ({r['t_one_refined']:.3f} s); refine=None "
+                f"{r['t_auto_sub']:5.2f} s = {r['t_auto_sub'] / r['t_one']:4.1f} x "
+                f"({r['t_one']:.3f} s){par}",
                 flush=True,
             )
         hit = [r for r in rows if r["order"] == r["true_order"]]
         worst = [r["worst"] for r in hit]
-        ratio = [r["t_auto"] / r["t_one"] for r in rows]
-        ratio_sel = [(r["t_auto"] - r["t_refine"]) / r["t_one"] for r in rows]
-        ratio_ref = [r["t_auto"] / r["t_one_refined"] for r in rows]
-        ratio_par = [r["w_par"] / r["w_one"] for r in rows if r["w_par"] is not None]
-        ratio_par_ref = [r["w_par"] / r["w_one_refined"] for r in rows if r["w_par"] is not None]
         methods: dict[str, int] = {}
         for r in rows:
             methods[r["method"]] = methods.get(r["method"], 0) + 1
+        ratios = {
+            name: [r[a] / r[b] for r in rows if r[a] is not None] for name, a, b in COST_RATIOS
+        }
         summary.append(
             {
                 "case": case_name,
@@ -288,49 +309,35 @@ def defaults_table(
                 "worst_median": float(np.median(worst)) if worst else float("nan"),
                 "worst_max": float(np.max(worst)) if worst else float("nan"),
                 "t_auto_median": float(np.median([r["t_auto"] for r in rows])),
-                "ratio_median": float(np.median(ratio)),
-                "ratio_max": float(np.max(ratio)),
-                "ratio_selection_median": float(np.median(ratio_sel)),
-                "ratio_refined_median": float(np.median(ratio_ref)),
-                "ratio_refined_max": float(np.max(ratio_ref)),
-                "ratio_parallel_median": float(np.median(ratio_par)) if ratio_par else None,
-                "ratio_parallel_refined_median": float(np.median(ratio_par_ref))
-                if ratio_par_ref
-                else None,
-                "ratio_parallel_refined_max": float(np.max(ratio_par_ref))
-                if ratio_par_ref
-                else None,
+                "t_auto_sub_median": float(np.median([r["t_auto_sub"] for r in rows])),
+                "ratios": ratios,
                 "methods": methods,
             }
         )
-    par_head = (
-        f" n_jobs={n_jobs}: wall x one fit (median) | n_jobs={n_jobs}: wall x one fit with its "
-        "default refinement (median / max) |"
-        if n_jobs is not None
-        else ""
-    )
     print(
         "\n| case | SNR | true order | picked | worst eig. error (median / max) "
-        "| auto CPU time (median) | x one HD-PBSID fit (median / max) "
-        f"| without the refinement (median) | x one HD-PBSID fit with its default "
-        f"refinement (median / max) |{par_head} methods chosen |"
+        "| methods chosen |\n|---|---:|---:|---:|---:|---|"
     )
-    par_cols = "---:|---:|" if n_jobs else ""
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|" + par_cols + "---|")
     for s_ in summary:
         meth = ", ".join(f"{k} {v}" for k, v in sorted(s_["methods"].items()))
-        par = (
-            f" {s_['ratio_parallel_median']:.1f} | {s_['ratio_parallel_refined_median']:.1f} / "
-            f"{s_['ratio_parallel_refined_max']:.1f} |"
-            if n_jobs is not None
-            else ""
-        )
         print(
             f"| {s_['case']} | {s_['snr']} | {s_['true_order']} | {s_['picked']} | "
-            f"{100 * s_['worst_median']:.2f} / {100 * s_['worst_max']:.2f} % | "
-            f"{s_['t_auto_median']:.2f} s | {s_['ratio_median']:.0f} / {s_['ratio_max']:.0f} | "
-            f"{s_['ratio_selection_median']:.0f} | {s_['ratio_refined_median']:.1f} / "
-            f"{s_['ratio_refined_max']:.1f} |{par} {meth} |"
+            f"{100 * s_['worst_median']:.2f} / {100 * s_['worst_max']:.2f} % | {meth} |"
+        )
+    nj = f"n_jobs={n_jobs}" if n_jobs is not None else "n_jobs"
+    print(
+        "\nCost, median / max over the seeds: the call against one HD-PBSID fit at the true "
+        "order, both with the default refinement, then both with refine=None\n"
+        f"\n| case | SNR | auto CPU | CPU x | {nj}: wall x | auto, refine=None: CPU | "
+        f"CPU x | {nj}: wall x |\n|---|---:|---:|---:|---:|---:|---:|---:|"
+    )
+    for s_ in summary:
+        q = s_["ratios"]
+        print(
+            f"| {s_['case']} | {s_['snr']} | {s_['t_auto_median']:.2f} s | "
+            f"{_median_max(q['cpu'])} | {_median_max(q['wall'])} | "
+            f"{s_['t_auto_sub_median']:.2f} s | {_median_max(q['cpu_sub'])} | "
+            f"{_median_max(q['wall_sub'])} |"
         )
     return summary
 
@@ -360,7 +367,8 @@ def main() -> None:
         "--n-jobs",
         type=int,
         default=None,
-        help="with --defaults: also time identify(t, u, y, n_jobs=N) by wall time",
+        help="with --defaults: also time identify(t, u, y, n_jobs=N) by wall time "
+        "(with its default refinement and with refine=None)",
     )
     ap.add_argument(
         "--defaults-cases",

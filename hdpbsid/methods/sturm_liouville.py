@@ -61,6 +61,7 @@ from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
 from .basis_domain import (
+    P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
     basis_values,
@@ -304,6 +305,11 @@ def identify_sl(
       a possibly broadband input, show the system's dynamics); ``beta = gamma = 1``;
     * ``p = max(2, ceil(n / l))`` (``n`` = order, or 3 for order selection, which then
       considers orders ``1..min(max_order, f l - 1)``; pass ``p`` for more); ``f = p``;
+    * ``input_hold="auto"``: ``zoh`` or ``foh``, whichever VARX fit has the smaller AIC
+      over the past windows of HD-PBSID's preferred range
+      (:func:`~hdpbsid.methods.basis_domain.hold_criterion`; one decision for every
+      order): a test of the input's interpolant, for which a longer VARX approximates
+      the innovations better, not the variance choice of this method's own ``p``;
     * ``order``: largest log-gap of the singular values.
     """
     records = as_records(t, u, y)
@@ -411,7 +417,11 @@ def identify_sl(
     P = [rows[k] for k in keys]
 
     core_options = st.core_options(order)
-    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **core_options, p_range=(p_def, p_def))
+    # the hold is judged as in the other basis methods (the VARX over the preferred
+    # range of windows), not at this method's own small window: the same for every order
+    out, hold, hold_crit = best_hold(
+        holds, Us, Yc, P, lag, hold_range=P_DEFAULT_RANGE, **core_options, p_range=(p_def, p_def)
+    )
     Ns_ = [b.N for b in seg_bases]
     options = {
         "method": "legendre" if family == "legendre" else "sl",
