@@ -38,7 +38,7 @@ sees the slow errors that each window's fitted initial state hides).  That
 the choice to the next candidate when they fail: the candidate must predict the whole
 held-out part from one initial state better than its mean (:func:`beats_the_mean`), and
 its refit on the whole record must score on the held-out part within one standard error
-of the candidate (:func:`refit_holds`).  Held-out data judge the
+of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data judge the
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 
