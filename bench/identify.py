@@ -88,6 +88,7 @@ DEFAULTS_CASES: tuple[tuple[str, float | None], ...] = (
     ("pbsid-mimo", None),
     ("mimo-2x2", 20.0),
     ("table2-closed-loop-rate", 20.0),
+    ("nonuniform", 20.0),
 )
 
 

@@ -289,9 +289,16 @@ def _windowed_nonuniform(
     weights: Array | None,
 ) -> WindowedError:
     """:func:`windowed_simulation_error` for non-uniform times: each window is simulated
-    with :meth:`StateSpaceModel.fit` (exact steps for every spacing, fitted initial state)."""
+    with :meth:`StateSpaceModel.fit` (exact steps for every spacing, fitted initial state),
+    its residual energy divided by its degrees of freedom as on a uniform grid
+    (``L l - n``: the fitted initial state takes ``n``; without it a model with more
+    states fitted each held-out window's noise better, and order selection on jittered
+    records favoured extra states: a third-order system at 20 dB, 4000 random times,
+    chose order 5-6 on 3 of 3 seeds, the true model scoring 0.0245 against 0.0225 for
+    order 8)."""
     ns, l = y.shape
     L = ns // windows
+    dof = L * l / (L * l - min(model.n, L * l - 1))
     wgt = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny) if weights is None else weights
     per = np.empty(windows)
     dev = 0.0
@@ -299,7 +306,7 @@ def _windowed_nonuniform(
         for w in range(windows):
             s = slice(w * L, (w + 1) * L)
             res = model.fit(t[s], u[s], y[s], method=hold)
-            per[w] = float(np.sum((y[s] - res.y_sim) ** 2 * wgt))
+            per[w] = float(np.sum((y[s] - res.y_sim) ** 2 * wgt)) * dof
             dev += float(np.sum((y[s] - y[s].mean(axis=0)) ** 2 * wgt))
     if not np.all(np.isfinite(per)):
         return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
