@@ -53,6 +53,7 @@ from .recursion import modal_form
 __all__ = [
     "c2d",
     "d2c",
+    "sampled_steps",
     "check_log_exists",
     "MAX_LOG_CONDITION",
     "CHECKED_LOG_CONDITION",
@@ -79,6 +80,99 @@ LOG_BACKWARD_TOL = 1e-11
 #: ``|x - 1|`` below which ``phi(x) = log(x) / (x - 1)`` is summed as its series
 #: ``1 - d/2 + d^2/3 - d^3/4`` (``d = x - 1``; truncation ``d^4 / 5 < 1e-17``)
 PHI_SERIES_RADIUS = 1e-4
+#: :func:`sampled_steps` takes the eigenvalue route from this many distinct steps on
+#: (below, the batched ``expm`` costs about as little)
+STEPS_MODAL_MIN = 8
+#: ``|z|`` below which ``phi_2(z) = (e^z - 1 - z) / z^2`` is summed as its series (16
+#: terms: truncation below ``0.5^16 / 18! ~ 2e-21``); above, the closed form loses at
+#: most ``eps / |z| <= 2 eps`` to cancellation
+PHI2_SERIES_RADIUS = 0.5
+_PHI2_COEFFS = 1.0 / np.array([float(np.prod(np.arange(1, k + 3))) for k in range(16)])
+
+
+def _phi12(z: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
+    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` elementwise
+    (``phi_1(0) = 1``, ``phi_2(0) = 1/2``), both accurate to rounding for every ``z``."""
+    small = np.abs(z) < PHI2_SERIES_RADIUS
+    zs = np.where(small, z, 0.0)
+    series = np.zeros_like(z)
+    for c in _PHI2_COEFFS[::-1]:
+        series = series * zs + c
+    zl = np.where(small, 1.0, z)
+    em1 = np.expm1(zl)
+    phi2 = np.where(small, series, (em1 - zl) / zl**2)
+    phi1 = np.where(small, 1.0 + z * series, em1 / zl)
+    return phi1, phi2
+
+
+def _augmented_steps(
+    A: Array, B: Array, K: Array | None, h: Array, foh: bool
+) -> tuple[Array, Array, Array | None, Array | None]:
+    """:func:`sampled_steps` by the exponential of the augmented matrix of every step."""
+    n, m = B.shape
+    mu = 2 * m if foh else m
+    lk = 0 if K is None else K.shape[1]
+    size = n + mu + lk
+    M = np.zeros((h.size, size, size))
+    M[:, :n, :n] = A[None] * h[:, None, None]
+    M[:, :n, n : n + m] = B[None] * h[:, None, None]
+    if foh:
+        M[:, n : n + m, n + m : n + 2 * m] = np.eye(m)[None]
+    if K is not None:
+        M[:, :n, n + mu :] = K[None] * h[:, None, None]
+    E = expm(M)
+    G2 = E[:, :n, n + m : n + 2 * m] if foh else None
+    Gk = E[:, :n, n + mu :] if K is not None else None
+    return E[:, :n, :n], E[:, :n, n : n + m], G2, Gk
+
+
+def sampled_steps(
+    A: Array, B: Array, K: Array | None, h: Array, hold: str
+) -> tuple[Array, Array, Array | None, Array | None]:
+    """Exact one-step matrices of ``dx/dt = A x + B u (+ K e)`` for every step ``h``
+    (``(k,)``): ``(Phi, G1, G2, Gk)``, each ``(k, n, .)``.
+
+    From the augmented exponential ``expm([[A h, B h, 0, K h], [0, 0, I, 0], [0, 0, 0,
+    0], [0, 0, 0, 0]])`` (Franklin, Powell & Workman, *Digital Control*, sec. 6.3):
+    ``Phi = e^{A h}``, ``G1 = h phi_1(A h) B`` multiplies ``u_k``, ``G2 = h phi_2(A h) B``
+    (``hold="foh"`` only, else None) multiplies ``u_{k+1} - u_k``, ``Gk = h phi_1(A h) K``
+    (``K`` given only) the innovation held over the step (the module's convention), with
+    ``phi_1(z) = (e^z - 1) / z``, ``phi_2(z) = (e^z - 1 - z) / z^2`` (the series of the
+    augmented exponential's blocks).  With many distinct steps (non-uniform times) they
+    are evaluated on the eigenvalues of ``A``, ``f(A h) = V f(Lambda h) V^{-1}``, for all
+    steps at once, when ``cond(V) <= MAX_LOG_CONDITION`` (rounding ``~ cond(V) eps``) and
+    the longest step agrees with its augmented exponential to :data:`LOG_BACKWARD_TOL`
+    relative; otherwise (few steps, nearly defective ``A``) by the augmented exponential
+    of every step, one ``expm`` per step (about 10 us each: 80 000 of them were 70 % of an
+    order selection on a record of 4000 random times).
+    """
+    h = np.asarray(h, dtype=float)
+    foh = hold == "foh"
+    modal = modal_form(A, MAX_LOG_CONDITION) if h.size >= STEPS_MODAL_MIN else None
+    if modal is None:
+        return _augmented_steps(A, B, K, h, foh)
+    lam, V, Vi = modal
+    Z = h[:, None] * lam[None, :]
+    phi1, phi2 = _phi12(Z)
+
+    def through(f: NDArray, R: Array | None) -> Array:
+        # V diag(f_k) V^{-1} R for every step k, real (A is real)
+        right = Vi if R is None else Vi @ R
+        return np.einsum("ij,kj,jl->kil", V, f, right).real
+
+    hcol = h[:, None]
+    Phi = through(np.exp(Z), None)
+    G1 = through(hcol * phi1, B)
+    G2 = through(hcol * phi2, B) if foh else None
+    Gk = through(hcol * phi1, K) if K is not None else None
+    ref = _augmented_steps(A, B, K, h[[int(np.argmax(h))]], foh)
+    i = int(np.argmax(h))
+    got = [Phi[i], G1[i]] + ([G2[i]] if foh else []) + ([Gk[i]] if K is not None else [])
+    want = [M[0] for M in ref if M is not None]
+    scale = max(max(np.abs(W).max() for W in want), np.finfo(float).tiny)
+    if max(np.abs(g - w).max() for g, w in zip(got, want, strict=True)) > LOG_BACKWARD_TOL * scale:
+        return _augmented_steps(A, B, K, h, foh)
+    return Phi, G1, G2, Gk
 
 
 def _reproduces(L: Array, M: Array) -> bool:

@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm
 
 from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
 from .checks import (
@@ -39,7 +38,7 @@ from .checks import (
     check_uniform,
     is_uniform,
 )
-from .conversion import c2d, d2c
+from .conversion import c2d, d2c, sampled_steps
 from .recursion import linear_recursion
 
 __all__ = [
@@ -222,9 +221,8 @@ def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     if h.size > 1 and is_uniform(t):
         return h, np.array([check_uniform(t)]), np.zeros(h.size, dtype=np.intp)
     key = np.round(h / np.max(h), 12)
-    uniq, inv = np.unique(key, return_inverse=True)
-    first = np.array([np.flatnonzero(inv == i)[0] for i in range(uniq.size)])
-    return h, h[first], inv
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    return h, h[first], inv.reshape(-1)
 
 
 @dataclass(repr=False)
@@ -255,23 +253,9 @@ class StateSpaceModel(_ModelBase):
         ``expm([[A h, B h, 0, K h], [0, 0, I, 0], [0, 0, 0, 0], [0, 0, 0, 0]])``.  ``G1``
         multiplies ``u_k``; ``G2`` (FOH only, else ``None``) multiplies ``u_{k+1} - u_k``;
         ``Gk`` (``with_k`` only) multiplies the innovation held over the step, the hold
-        convention of :mod:`hdpbsid.conversion`.
+        convention of :mod:`hdpbsid.conversion` (:func:`~hdpbsid.conversion.sampled_steps`).
         """
-        n, m, l = self.n, self.m, self.l
-        mu = m if method == "zoh" else 2 * m
-        lk = l if with_k else 0
-        size = n + mu + lk
-        M = np.zeros((h.size, size, size))
-        M[:, :n, :n] = self.A[None] * h[:, None, None]
-        M[:, :n, n : n + m] = self.B[None] * h[:, None, None]
-        if method == "foh":
-            M[:, n : n + m, n + m : n + 2 * m] = np.eye(m)[None]
-        if with_k:
-            M[:, :n, n + mu :] = self.K[None] * h[:, None, None]
-        E = expm(M)
-        G2 = E[:, :n, n + m : n + 2 * m] if method == "foh" else None
-        Gk = E[:, :n, n + mu :] if with_k else None
-        return E[:, :n, :n], E[:, :n, n : n + m], G2, Gk
+        return sampled_steps(self.A, self.B, self.K if with_k else None, h, method)
 
     def simulate(
         self,

@@ -9,7 +9,7 @@ from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
 from hdpbsid import c2d, d2c
-from hdpbsid.conversion import check_log_exists
+from hdpbsid.conversion import check_log_exists, sampled_steps
 from hdpbsid.systems import second_order
 
 
@@ -171,3 +171,55 @@ def test_checked_eigenvalue_route_beyond_the_a_priori_bound(monkeypatch):
     # the perturbed Jordan block of the test above: the check fails, logm is asked for
     with pytest.raises(AssertionError, match="not needed"):
         d2c(np.array([[0.9, 1.0], [1e-14, 0.9]]), G, np.ones((1, 2)), None, None, 1.0)
+
+
+def _steps_by_expm(A, B, K, h, hold):
+    """The oracle: the augmented exponential of every step, one scipy ``expm`` each."""
+    n, m, lk = A.shape[0], B.shape[1], K.shape[1]
+    mu = 2 * m if hold == "foh" else m
+    out = []
+    for hk in h:
+        M = np.zeros((n + mu + lk, n + mu + lk))
+        M[:n, :n], M[:n, n : n + m], M[:n, n + mu :] = A * hk, B * hk, K * hk
+        if hold == "foh":
+            M[n : n + m, n + m : n + 2 * m] = np.eye(m)
+        E = expm(M)
+        out.append((E[:n, :n], E[:n, n : n + m], E[:n, n + m : n + 2 * m], E[:n, n + mu :]))
+    return [np.array(x) for x in zip(*out, strict=True)]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n=st.integers(1, 5),
+    hold=st.sampled_from(["zoh", "foh"]),
+    h_scale=st.sampled_from([1e-4, 1e-2, 1.0]),
+)
+def test_sampled_steps_match_the_augmented_exponential(seed, n, hold, h_scale):
+    """Many distinct steps (non-uniform times) take the eigenvalue route with the
+    ``phi`` functions; every block equals the augmented exponential of its step."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n)) * 3.0
+    B, K = rng.standard_normal((n, 2)), rng.standard_normal((n, 1))
+    h = h_scale * rng.uniform(0.2, 1.0, 30)
+    got = sampled_steps(A, B, K, h, hold)
+    want = _steps_by_expm(A, B, K, h, hold)
+    for g, w in zip(got, want, strict=True):
+        if hold == "zoh" and g is None:
+            continue
+        # the eigenvalue route's rounding ~ cond(V) eps (cond(V) <= 1e4 or the route is
+        # not taken), relative to the blocks' size: 1e-9 leaves a factor 10 over 1e4 eps
+        np.testing.assert_allclose(g, w, rtol=0, atol=1e-9 * max(1.0, np.abs(w).max()))
+
+
+def test_sampled_steps_of_a_defective_matrix_fall_back_to_the_exponential():
+    # a Jordan block has no eigenvector basis: the augmented exponential is taken, the
+    # same arithmetic as the oracle
+    A = np.array([[-1.0, 1.0], [0.0, -1.0]])
+    B, K = np.array([[0.0], [1.0]]), np.array([[1.0], [0.0]])
+    h = np.linspace(0.01, 0.3, 20)
+    got = sampled_steps(A, B, K, h, "foh")
+    want = _steps_by_expm(A, B, K, h, "foh")
+    for g, w in zip(got, want, strict=True):
+        # the batched and the per-step expm run the same algorithm: rounding only
+        np.testing.assert_allclose(g, w, rtol=1e-13, atol=1e-15)
