@@ -321,6 +321,29 @@ class StateSpaceModel(_ModelBase):
                     X[k + 1] = x
         return X @ self.C.T + u @ self.D.T, X
 
+    def _forced_and_free(self, t: Array, u: Array, method: str) -> tuple[Array, Array]:
+        """The response to the deviation input ``u`` from the zero state and the free
+        responses from each unit initial state, in one pass over the steps (the step
+        matrices of a non-uniform ``t`` are computed once for all of them):
+        ``(y (Ns, l), O (Ns l, n))``, ``y + (O x0).reshape(Ns, l)`` the response from
+        ``x0``."""
+        ns, n = t.shape[0], self.n
+        S = np.zeros((ns, n, n + 1))  # column 0: forced; columns 1..n: free from e_j
+        S[0, :, 1:] = np.eye(n)
+        if ns > 1:
+            _, hg, inv = _step_groups(t)
+            Phi, G1, G2, _ = self._step_matrices(hg, method)
+            Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
+            if G2 is not None:
+                Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
+            z = S[0]
+            for k in range(ns - 1):
+                z = Phi[inv[k]] @ z
+                z[:, 0] += Bu[k]
+                S[k + 1] = z
+        Y = np.einsum("li,kij->klj", self.C, S)
+        return Y[:, :, 0] + u @ self.D.T, Y[:, :, 1:].reshape(ns * self.l, n)
+
     def _check_output(self, t: Array, y: Any) -> Array:
         y = check_signal(y, "y", t.shape[0])
         if y.shape[1] != self.l:
@@ -344,6 +367,13 @@ class StateSpaceModel(_ModelBase):
             if x0 not in ("estimate", "zero"):
                 raise ValueError(f"x0 must be 'estimate', 'zero' or an array, got {x0!r}")
             x0v = np.zeros(self.n)
+            if x0 == "estimate" and self.n > 0 and not is_uniform(t):
+                # non-uniform steps: one pass for the forced and all free responses
+                y_sim, O = self._forced_and_free(t, ud, method)
+                x0v = np.linalg.lstsq(O, (y - Y0 - y_sim).ravel(), rcond=None)[0]
+                y_sim = y_sim + Y0 + (O @ x0v).reshape(y.shape)
+                vaf, nrmse = fit_statistics(y, y_sim)
+                return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
             y_sim = self._simulate_deviation(t, ud, x0v, method)[0] + Y0
             if x0 == "estimate" and self.n > 0:
                 ufree = np.zeros((t.shape[0], self.m))
