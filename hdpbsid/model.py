@@ -302,18 +302,26 @@ class StateSpaceModel(_ModelBase):
             )
         return x
 
+    def _input_steps(self, t: Array, u: Array, method: str) -> tuple[Array, Array, Array]:
+        """The sampled system over the steps of ``t`` (``Ns >= 2``): the distinct one-step
+        matrices ``Phi (g, n, n)``, the index ``inv (Ns - 1,)`` of each step's group, and
+        the input's contribution to each step, ``Bu[k] = G1 u_k (+ G2 (u_{k+1} - u_k))``
+        (``G2`` only with a first-order hold), so that ``x_{k+1} = Phi[inv[k]] x_k + Bu[k]``."""
+        _, hg, inv = _step_groups(t)
+        Phi, G1, G2, _ = self._step_matrices(hg, method)
+        Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
+        if G2 is not None:
+            Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
+        return Phi, inv, Bu
+
     def _simulate_deviation(self, t: Array, u: Array, x: Array, method: str) -> tuple[Array, Array]:
         """Response ``(y, X)`` of the matrices alone to the deviation input ``u``."""
         ns, n = t.shape[0], self.n
         X = np.empty((ns, n))
         X[0] = x
         if ns > 1:
-            _, hg, inv = _step_groups(t)
-            Phi, G1, G2, _ = self._step_matrices(hg, method)
-            Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
-            if G2 is not None:
-                Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
-            if hg.size == 1:  # uniform sampling: modal filters
+            Phi, inv, Bu = self._input_steps(t, u, method)
+            if Phi.shape[0] == 1:  # uniform sampling: modal filters
                 X = linear_recursion(Phi[0], Bu, x)
             else:
                 for k in range(ns - 1):
@@ -331,11 +339,7 @@ class StateSpaceModel(_ModelBase):
         S = np.zeros((ns, n, n + 1))  # column 0: forced; columns 1..n: free from e_j
         S[0, :, 1:] = np.eye(n)
         if ns > 1:
-            _, hg, inv = _step_groups(t)
-            Phi, G1, G2, _ = self._step_matrices(hg, method)
-            Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
-            if G2 is not None:
-                Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
+            Phi, inv, Bu = self._input_steps(t, u, method)
             z = S[0]
             for k in range(ns - 1):
                 z = Phi[inv[k]] @ z
