@@ -106,6 +106,7 @@ __all__ = [
     "refit_holds",
     "beats_the_mean",
     "stationarity_problem",
+    "instability_problem",
     "rejudge_refined",
     "looks_closed_loop",
     "accepts_held_out",
@@ -600,6 +601,51 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
     )
 
 
+def instability_problem(model: StateSpaceModel, rec: tuple) -> str:
+    """Why the record ``rec = (t, u, y)`` does not support the instability of ``model``,
+    or ``""`` (a stable model, or an instability the record supports).
+
+    An eigenvalue with ``Re lambda = sigma > 0`` makes the model's response grow as
+    ``e^(sigma t)``.  A record whose output stays bounded is consistent with that only
+    (a) when its input holds the growth back, i.e. the input depends on the output: a
+    feedback loop around an unstable plant, which the closed-loop test of
+    :func:`looks_closed_loop` detects from the model's one-step prediction errors
+    against the prewhitened input (in open loop the input cannot react to a growing
+    output), or (b) when the growth over the record is within what the data show: the
+    model's simulation (``K = 0``, from one least-squares initial state) over the whole
+    record predicts it better than its mean.  Neither: the instability is the model's,
+    not the record's (an open-loop record of a stable plant); such a model is rejected.
+    A time series has no input to hold anything back: :func:`stationarity_problem`.
+    Eigenvalues are compared with 0 exactly: a mode at ``Re lambda = +1e-12`` grows by
+    nothing over any record and passes (b).
+    """
+    if model.n == 0:
+        return ""
+    if model.m == 0:
+        return stationarity_problem(model)
+    lam = np.linalg.eigvals(model.A)
+    if np.all(lam.real <= 0.0):
+        return ""
+    t, u, y = check_data(*rec)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sim = windowed_simulation_error(model, t, u, y, 1)
+    except (ValueError, np.linalg.LinAlgError):
+        sim = WindowedError(np.full(1, np.inf), np.inf, -np.inf, False)
+    if sim.finite and sim.total < 1.0:
+        return ""
+    if looks_closed_loop(model, (t, u, y)):
+        return ""
+    worst = lam[np.argmax(lam.real)]
+    return (
+        f"unstable (eigenvalue {worst:.3g}) where the record does not support instability: "
+        f"its simulation from one initial state predicts the record worse than the mean "
+        f"(relative error {sim.total:.3g}) and the record shows no feedback that could hold "
+        f"an unstable plant bounded"
+    )
+
+
 def refit_holds(
     model: StateSpaceModel, held_out: WindowedError, val: tuple, windows: int
 ) -> tuple[bool, str]:
@@ -657,7 +703,8 @@ def _first_that_holds(
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
             useful, how = beats_the_mean(chosen["model"], val)
-            if not useful:
+            how = how or instability_problem(chosen["model"], val)
+            if how:
                 failures.append(("floor", f"{name}: {how}"))
                 continue
             chosen["passed_floor"] = True
@@ -678,6 +725,8 @@ def _first_that_holds(
                     # the floor the candidate passed, for the model returned: a refit
                     # whose windowed score holds can still diverge over the whole part
                     holds, how = beats_the_mean(model, val)
+                    how = how or instability_problem(model, val)
+                    holds = not how
                     how = f"the refit on the whole record: {how}" if how else how
                 why = stationarity_problem(model) if holds else ""
                 if why:
@@ -822,7 +871,7 @@ def select_model(
         if k2 != k:
             queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
     model, failures, note = _choose(
-        get_method, ok, queue, est, (t, u, y), val, windows, opts, where
+        get_method, ok, queue, est, (t, u, y), val, windows, opts, where, refined
     )
     rule = (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
@@ -865,6 +914,7 @@ def _choose(
     windows: int,
     opts: dict,
     where: str,
+    refined: bool = False,
 ) -> tuple[StateSpaceModel, list[tuple[str, str]], str]:
     """The model returned by :func:`select_model` from the scored candidates ``ok`` and
     the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
@@ -873,7 +923,9 @@ def _choose(
     1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`)
        and whose refit on the whole record holds (:func:`_first_that_holds`);
     2. else, if a candidate of ``queue`` passed the floor, that candidate's own model,
-       fitted on the estimation part, with a ``UserWarning``: the held-out part judged
+       fitted on the estimation part (:func:`_candidate_itself`; with ``refined`` the
+       start of the refinement on the whole record, the front end warns only if that
+       does not happen), with a ``UserWarning``: the held-out part judged
        exactly that model, while the refit is a different one (the method's data-driven
        settings, chosen again on the whole record, changed it), so the candidate is the
        model the evidence supports;
@@ -896,7 +948,7 @@ def _choose(
         sound = [r for r in queue if r.get("passed_floor")]
         if sound:
             return (
-                _candidate_itself(sound[0], where),
+                _candidate_itself(sound[0], where, warn=not refined),
                 failures,
                 (
                     f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
@@ -933,10 +985,11 @@ def _choose(
     )
 
 
-def _candidate_itself(row: dict[str, Any], where: str) -> StateSpaceModel:
+def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
     """The candidate ``row``'s own model (fitted on the estimation part), returned when
     no refit on the whole record holds (:func:`_choose`, step 2), with a ``UserWarning``
-    saying so and what would help."""
+    (if ``warn``) saying so and what would help; the text is also kept in
+    ``options["selection_fallback"]``."""
     model = row["model"]
     text = (
         f"{row['method']} order {row['order']}: the model fitted on the estimation part "
@@ -946,7 +999,8 @@ def _candidate_itself(row: dict[str, Any], where: str) -> StateSpaceModel:
         f"or giving those settings explicitly, lets the whole record be used"
     )
     model.options["selection_fallback"] = text
-    warnings.warn(text, UserWarning, stacklevel=5)
+    if warn:
+        warnings.warn(text, UserWarning, stacklevel=5)
     return model
 
 
