@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from .checks import is_uniform
 from .model import StateSpaceModel
 from .recursion import forced_responses, matrix_powers
 
@@ -57,7 +58,6 @@ __all__ = [
     "WindowedError",
     "windowed_simulation_error",
     "windowed_prediction_error",
-    "is_uniform_grid",
     "predictor_is_stable",
     "default_windows",
     "choose_smallest_adequate",
@@ -105,15 +105,6 @@ def default_windows(ns: int, max_states: int) -> int:
     ``SAMPLES_PER_STATE * max_states`` samples, fewer otherwise (at least 1)."""
     per = SAMPLES_PER_STATE * max(max_states, 1)
     return int(max(1, min(MAX_WINDOWS, ns // per)))
-
-
-def is_uniform_grid(t: Array) -> bool:
-    """Whether the criteria treat ``t`` as uniform: every step within ``1e-6`` of the mean
-    step (then one sampled model serves every step)."""
-    if t.size < 3:
-        return True
-    h = float((t[-1] - t[0]) / (t.size - 1))
-    return bool(np.max(np.abs(np.diff(t) - h)) <= 1e-6 * h)
 
 
 def _sampled(
@@ -252,7 +243,7 @@ def _windowed_error(
         hold = model.options.get("input_hold", "zoh")
         hold = hold if hold in ("zoh", "foh") else "zoh"
     h = float((t[-1] - t[0]) / (ns - 1))
-    if not is_uniform_grid(t):
+    if not is_uniform(t):
         if predict:
             raise ValueError("t: the windowed prediction error needs uniformly sampled times")
         return _windowed_nonuniform(model, t, u, y, windows, hold, weights)

@@ -27,11 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_data, check_time, check_varies
+from .checks import check_data, check_time, check_varies, is_uniform
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
+from .methods.refine import REFINE_CHOICES, WARM_START, one_step_errors, refine_pem
 from .model import LinearTrend, StateSpaceModel
 
 __all__ = [

@@ -484,8 +484,6 @@ def rejudge_refined(
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
     """
-    from .methods.refine import is_uniform
-
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
     n_star = ok[k]["order"]
@@ -1032,7 +1030,6 @@ def identify_auto(
     ``options["order_selection"]`` the chosen method's.
     """
     from .identify import get_method, is_available
-    from .methods.refine import is_uniform
     from .records import as_records
 
     recs = as_records(t, u, y)
