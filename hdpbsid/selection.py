@@ -42,6 +42,18 @@ of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data j
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 
+No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
+:func:`instability_problem`: an unstable model is kept only when its simulation over the
+held-out part beats the mean or the record shows a feedback loop that can hold an
+unstable plant bounded.  When no refit of an adequate candidate holds, the candidate
+itself (fitted on the estimation part, the model the held-out part judged) is returned
+with a warning, or is the start of the refinement on the whole record; candidates that
+fail the floor leave the ranking and the one-standard-error rule is applied again to the
+rest, so a candidate the rule rejected against a better one is never the fallback while
+that one stands.  A time series (no input) is scored by its one-step prediction error
+with one initial state for the whole held-out part, and only stationary models (stable
+``A``, :func:`stationarity_problem`) are candidates.
+
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
 refined candidates where the subspace candidates' bias could have decided it
