@@ -45,11 +45,15 @@ VARX regressor of up to 200 lags).  On a *long* record -- more samples than
    ``s`` exceeds the target, again on ``N s^2 / target^2`` samples (capped by
    :data:`MAX_REFINE_SAMPLES` and the record).  The whole-record model and the refined
    one are then scored on a segment of the record outside the refinement part
-   (:func:`hdpbsid.selection.score_model`); the refined model is returned unless the
-   whole-record model predicts that segment better by more than one standard error
-   (:func:`~hdpbsid.criteria.choose_smallest_adequate`, refined listed first).  The
-   whole-record model has seen that segment (an in-sample advantage of about
-   ``parameters / Ns`` of the error, negligible on a long record).
+   (:func:`hdpbsid.selection.score_model`); the whole-record model is returned unless the
+   refined one predicts that segment better by more than one standard error
+   (:func:`~hdpbsid.criteria.choose_smallest_adequate`, the whole-record model listed
+   first).  Why this way round: in open loop the subspace fit on all ``Ns`` samples is
+   consistent and its variance falls with ``Ns``, while the refinement saw a part; the
+   refinement earns its place where the subspace estimate is biased (closed loop), which
+   is what a better held-out prediction shows.  The whole-record model has seen that
+   segment (an in-sample advantage of about ``parameters / Ns`` of the error,
+   negligible on a long record).
 
 ``model.options["long_record"]`` holds the plan (:class:`LongRecordPlan` as a dict: the
 inputs, the choices and the skipped methods with their reasons), the selection table
@@ -781,12 +785,14 @@ def _refine(
             e_ref, _ = score_model(refined, val, windows)
             e_sub, _ = score_model(model, val, windows)
         if e_ref.finite or e_sub.finite:
-            k, z = choose_smallest_adequate([e_ref, e_sub])
-            choice = "refined" if k == 0 else "whole-record subspace"
+            # the whole-record model listed first: the refinement on a part replaces it
+            # only when it predicts the held-out segment better by one standard error
+            k, z = choose_smallest_adequate([e_sub, e_ref])
+            choice = "whole-record subspace" if k == 0 else "refined"
             info["refine_judgement"] = {
                 "samples": val_ab,
-                "refined_error": e_ref.total,
                 "subspace_error": e_sub.total,
+                "refined_error": e_ref.total,
                 "z": z,
             }
     out = refined if choice == "refined" else model
