@@ -181,10 +181,13 @@ def test_bounded_and_whole_record_paths_agree(record):
     assert np.max(np.abs(ev_b - ev_w)) < 9 * sigma
 
 
-def test_chunked_record_uses_the_streamed_core(record):
+def test_chunked_record_uses_the_streamed_core(record, capsys):
     t, u, y = record
     rec = ChunkedRecord.from_arrays(u - u.mean(), y - y.mean(), float(t[1] - t[0]))
-    m = _quiet(rec, max_order=4, long_record=POLICY, refine=None)
+    m = _quiet(rec, max_order=4, long_record=POLICY, refine=None, progress=True)
+    # the bar over the stages, and the passes over the record in samples
+    err = capsys.readouterr().err
+    assert "identify: done" in err and "sample" in err
     info = m.options["long_record"]
     assert info["chunked"] and info["methods"] == ("hermite",)
     assert {s["reason"] for s in info["skipped"]} == {"not streamed"}
@@ -199,3 +202,18 @@ def test_chunked_record_rejects_linear_detrend(record):
     rec = ChunkedRecord.from_arrays(u, y, float(t[1] - t[0]))
     with pytest.raises(ValueError, match="detrend='linear'"):
         identify(rec, detrend="linear")
+
+
+def test_cli_progress_is_automatic_for_long_records():
+    from hdpbsid.cli import _progress
+    from hdpbsid.io import Record
+    from hdpbsid.scaling import LONG_SAMPLES
+
+    def rec(ns):
+        return Record(np.arange(ns) * 1e-3, None, np.zeros((ns, 1)), [], ["y"], "t", "x")
+
+    # pytest captures stderr: not a terminal, so only the length decides "auto"
+    assert _progress("auto", [rec(LONG_SAMPLES + 1)])
+    assert not _progress("auto", [rec(100)])
+    assert not _progress("off", [rec(LONG_SAMPLES + 1)])
+    assert _progress("on", [rec(100)])
