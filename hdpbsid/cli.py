@@ -289,6 +289,15 @@ def _check_method(method: str) -> None:
         )
 
 
+def _progress(choice: str, records: list[Record]) -> bool:
+    """Progress bars (stderr): ``on``, ``off``, or ``auto``: when stderr is a terminal or
+    a record is long (:data:`hdpbsid.scaling.LONG_SAMPLES`)."""
+    from .scaling import LONG_SAMPLES
+
+    long = max(r.t.size for r in records) > LONG_SAMPLES
+    return choice == "on" or (choice == "auto" and (sys.stderr.isatty() or long))
+
+
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     inputs = _split_columns(args.inputs)
     outputs = _split_columns(args.outputs)
@@ -304,6 +313,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     records = _read_records(args, files, columns)
     detrend = None if args.detrend == "none" else args.detrend
     refine = None if args.refine == "none" else args.refine
+    options.setdefault("progress", _progress(args.progress, records))
     try:
         if len(records) == 1:
             t, u, y = records[0].as_tuple()
@@ -625,6 +635,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         help="model order (default: chosen by held-out simulation error)",
+    )
+    p.add_argument(
+        "--progress",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="progress bars on stderr (auto: when stderr is a terminal or the record is long)",
     )
     p.add_argument(
         "--method",

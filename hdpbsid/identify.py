@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from . import scaling
 from .checks import check_data, check_time, check_varies
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
@@ -244,6 +245,13 @@ def identify(
     HD-PBSID 24 % -> 3.6 % at SNR 10 dB and 41 % -> 4.7 % at 6 dB; on the open-loop stiff
     benchmark (``dt``, order 3) 1.5-8.3 % -> 0.34-0.65 % at 20 dB.
 
+    Long records (``method="auto"`` on more than 50 000 samples, or a
+    :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t``) take a bounded path
+    (:mod:`hdpbsid.scaling`): methods and orders chosen on a segment, the chosen one
+    fitted on the whole record, refined on a bounded part; ``long_record=`` a
+    :class:`~hdpbsid.scaling.LongRecordPolicy` (or False: off), ``progress=True`` shows
+    progress bars.
+
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
     arguments as passed here).
@@ -254,6 +262,10 @@ def identify(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
+    long_record, progress = options.pop("long_record", None), options.pop("progress", False)
+    if scaling.is_long(t, u, y, method, long_record):  # bounded work: hdpbsid.scaling
+        return scaling.identify_long(t, u, y, order, refine, detrend, long_record=long_record,
+                                     progress=progress, **options)  # fmt: skip
     func = get_method(method)
     _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
     several = isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple))

@@ -116,6 +116,7 @@ def test_architecture_tree_is_the_package_tree() -> None:
 _LAYER_OF = {
     "identify": "front",
     "selection": "front",
+    "scaling": "front",
     "io": "front",
     "cli": "front",
     "plots": "front",
