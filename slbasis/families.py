@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from .symbolic.expr import to_expression
 from .symbolic.parse import N, X
 from .symbolic.problem import SturmLiouville
 
@@ -67,19 +68,22 @@ class Family:
 
 
 def _parameter(name: str, value: Param) -> sp.Expr:
+    """A family parameter: symbolic if ``None`` (or its own name), else an exact value.
+
+    Strings go through the safe parser (numbers, constants, whitelisted functions; the
+    parameter's own name stands for the symbolic parameter), never through ``sympify``.
+    """
+    symbol = sp.Symbol(name, real=True)
     if value is None:
-        return sp.Symbol(name, real=True)
+        return symbol
     if isinstance(value, bool):
         raise TypeError(f"{name} must be a number or a sympy expression, got {value!r}")
-    if isinstance(value, float):
-        return sp.nsimplify(value, rational=True)
-    return sp.sympify(value, rational=True)
+    return to_expression(value, argument=name, symbols={name: symbol})
 
 
-def _require(condition: sp.Expr, message: str) -> None:
+def _require(condition: sp.Basic | bool, message: str) -> None:
     """Raise ``ValueError`` when a parameter condition is decidably false."""
-    truth = sp.sympify(condition)
-    if truth is sp.false or truth == sp.false:
+    if condition is sp.false or condition is False:
         raise ValueError(message)
 
 
