@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import json
 import sys
 from pathlib import Path
 from typing import Any, TextIO
@@ -45,7 +44,8 @@ import numpy as np
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
-from .model import LinearTrend, StateSpaceModel
+from .model import StateSpaceModel
+from .model_io import load_model, model_from_dict, model_to_dict, save_model
 
 __all__ = [
     "main",
@@ -86,117 +86,15 @@ class _HelpExit(Exception):
         self.status = status
 
 
-# -- JSON ---------------------------------------------------------------------------------
-def _jsonable(x: Any) -> Any:
-    """Convert numpy arrays/scalars, complex numbers and containers to JSON values.
-
-    Complex numbers become ``{"real": ..., "imag": ...}``; anything else unknown becomes
-    its ``repr`` (options may hold callables or objects; they are recorded, not lost).
-    """
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return _jsonable(x.item())
-    if isinstance(x, complex):
-        return {"real": x.real, "imag": x.imag}
-    if isinstance(x, float):
-        return x if np.isfinite(x) else repr(x)
-    if x is None or isinstance(x, bool | int | str):
-        return x
-    return repr(x)
-
-
-def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
-    """JSON-ready description of a model: ``A, B, C, D, K`` (nested lists),
-    ``eigenvalues`` (list of ``{"real", "imag"}``), ``singular_values``, ``options``,
-    ``n, m, l``, ``"time": "continuous"``, the operating point ``u0``, ``y0`` and
-    ``trend`` (``None`` or ``{"t_ref", "u_slope", "y_slope"}``) and
-    ``noise_covariance``: everything :func:`model_from_dict` needs to rebuild it."""
-    sv = model.singular_values
-    tr = model.trend
-    nc = model.noise_covariance
-    return {
-        "time": "continuous",
-        "n": model.n,
-        "m": model.m,
-        "l": model.l,
-        "A": model.A.tolist(),
-        "B": model.B.tolist(),
-        "C": model.C.tolist(),
-        "D": model.D.tolist(),
-        "K": model.K.tolist(),
-        "u0": model.u0.tolist(),
-        "y0": model.y0.tolist(),
-        "trend": None
-        if tr is None
-        else {"t_ref": tr.t_ref, "u_slope": tr.u_slope.tolist(), "y_slope": tr.y_slope.tolist()},
-        "noise_covariance": None if nc is None else np.asarray(nc, dtype=float).tolist(),
-        "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
-        "singular_values": None if sv is None else np.asarray(sv, dtype=float).tolist(),
-        "options": _jsonable(model.options),
-    }
-
-
-def model_from_dict(d: dict[str, Any]) -> StateSpaceModel:
-    """Inverse of :func:`model_to_dict` (options come back as plain JSON values).
-
-    Files written before the operating point was stored (no ``u0``/``y0``) load with
-    zero levels.  Raises ``ValueError`` naming a missing or misshapen entry.
-    """
-    if not isinstance(d, dict):
-        raise ValueError(f"a model description must be a JSON object, got {type(d).__name__}")
-    if d.get("time", "continuous") != "continuous":
-        raise ValueError(f"expected a continuous-time model, got time={d.get('time')!r}")
-    try:
-        n, m, l = int(d["n"]), int(d["m"]), int(d["l"])
-        mats = [np.array(d[k], dtype=float) for k in ("A", "B", "C", "D", "K")]
-    except KeyError as exc:
-        raise ValueError(f"model description lacks the entry {exc.args[0]!r}") from exc
-    shapes = [(n, n), (n, m), (l, n), (l, m), (n, l)]
-    for name, M, shape in zip("ABCDK", mats, shapes, strict=True):
-        if M.size != shape[0] * shape[1]:
-            raise ValueError(f"model entry {name!r} has {M.size} values, expected shape {shape}")
-    mats = [M.reshape(s) for M, s in zip(mats, shapes, strict=True)]
-    sv = d.get("singular_values")
-    tr = d.get("trend")
-    nc = d.get("noise_covariance")
-    return StateSpaceModel(
-        *mats,
-        singular_values=None if sv is None else np.asarray(sv, dtype=float),
-        options=dict(d.get("options") or {}),
-        noise_covariance=None if nc is None else np.asarray(nc, dtype=float).reshape(l, l),
-        u0=d.get("u0"),
-        y0=d.get("y0"),
-        trend=None if tr is None else LinearTrend(tr["t_ref"], tr["u_slope"], tr["y_slope"]),
-    )
-
-
+# -- JSON (hdpbsid.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
-    """Write :func:`model_to_dict` to ``path`` (indented JSON); returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(model_to_dict(model), indent=2) + "\n")
-    return path
+    """:func:`hdpbsid.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    return save_model(model, path)
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
-    """Read a model written by :func:`write_model_json` (``ValueError`` naming the file
-    when it is missing or not a model)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"model file not found: {path}")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not a JSON model file: {exc}") from exc
-    try:
-        return model_from_dict(d)
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"{path}: {exc}") from exc
+    """:func:`hdpbsid.load_model` (kept for callers of the earlier CLI helper)."""
+    return load_model(path)
 
 
 # -- data files -----------------------------------------------------------------------------
