@@ -35,16 +35,19 @@ from __future__ import annotations
 
 import argparse
 import ast
+import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 
+from .checks import check_label
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
-from .model import StateSpaceModel
+from .model import StateSpaceModel, TimeScaleWarning
 from .model_io import load_model, model_from_dict, model_to_dict, save_model
 
 __all__ = [
@@ -134,6 +137,62 @@ def _read_records(
     ]
 
 
+# -- checks made before any work ---------------------------------------------------------------
+def _check_out(out: str | Path, names: list[str]) -> Path:
+    """The output directory ``out``: an existing directory, or a path that can be created
+    as one, in which ``names`` can be written as files.  Checked before the data are read,
+    so a bad ``--out`` costs nothing (it is created only when something is written)."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise CLIError(f"--out {path}: exists and is not a directory; give a directory to write to")
+    parent = path
+    while not parent.exists():  # the nearest existing ancestor must be a writable directory
+        parent = parent.parent
+    if not parent.is_dir():
+        raise CLIError(f"--out {path}: cannot create it, because {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise CLIError(f"--out {path}: cannot write in {parent} (permission denied)")
+    for name in names:
+        if (path / name).is_dir():
+            raise CLIError(f"--out {path}: {path / name} is a directory; cannot write {name}")
+    return path
+
+
+def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
+    """The column names a model was identified from: ``options["columns"]`` (written by
+    ``hdpbsid identify``), else the model's channel names (a model saved from Python)."""
+    cols = model.options.get("columns")
+    if cols is None:
+        return {"time": None, "inputs": model.input_names, "outputs": model.output_names}
+    ok = isinstance(cols, dict) and isinstance(cols.get("time"), str | None)
+    for key in ("inputs", "outputs"):
+        names = cols.get(key) if isinstance(cols, dict) else None
+        ok = ok and isinstance(names, list) and all(isinstance(c, str) for c in names)
+    if not ok:
+        raise CLIError(
+            f"{path}: key 'options.columns' must be an object with 'time' (a name or null), "
+            f"'inputs' and 'outputs' (lists of names), got {cols!r:.200}"
+        )
+    return {"time": cols["time"], "inputs": list(cols["inputs"]), "outputs": list(cols["outputs"])}
+
+
+def _time_unit(unit: str) -> str:
+    try:
+        return check_label(unit, "--time-unit")
+    except (TypeError, ValueError) as exc:
+        raise CLIError(str(exc)) from exc
+
+
+def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> None:
+    """The record-against-model time scale check of :meth:`StateSpaceModel.check_record`,
+    printed once per record (the evaluations that follow would repeat it)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TimeScaleWarning)
+        model.check_record(rec.t, unit, name=rec.time or "t")
+    for w in caught:
+        print(f"warning: {rec.source}: {w.message}", file=sys.stderr)
+
+
 # -- commands -----------------------------------------------------------------------------
 def best_method() -> str:
     """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
@@ -164,7 +223,7 @@ def _print_model(model: StateSpaceModel, out: TextIO) -> None:
     print(repr(model), file=out)
     for name in ("A", "B", "C", "D", "K"):
         print(f"{name} =\n{getattr(model, name)}", file=out)
-    print("eigenvalues:", file=out)
+    print(f"eigenvalues (rad/{model.time_unit}):", file=out)
     for z in model.eigenvalues:
         print(f"  {_fmt_complex(complex(z))}", file=out)
 
@@ -198,15 +257,26 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     method = args.method
     _check_method(method)
     options = _parse_options(args.option)
+    unit = _time_unit(args.time_unit or "s")
+    outdir = _check_out(args.out, ["model.json"] + ([] if args.no_plot else ["identification.png"]))
     columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
     records = _read_records(args, files, columns)
     detrend = None if args.detrend == "none" else args.detrend
     refine = None if args.refine == "none" else args.refine
+    labels = {"input_names": inputs, "output_names": outputs, "time_unit": unit}
     try:
         if len(records) == 1:
             t, u, y = records[0].as_tuple()
             model = identify(
-                t, u, y, order=args.order, method=method, refine=refine, detrend=detrend, **options
+                t,
+                u,
+                y,
+                order=args.order,
+                method=method,
+                refine=refine,
+                detrend=detrend,
+                **labels,
+                **options,
             )
         else:
             model = identify(
@@ -215,6 +285,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
                 method=method,
                 refine=refine,
                 detrend=detrend,
+                **labels,
                 **options,
             )
     except (ValueError, TypeError) as exc:
@@ -237,8 +308,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
         if len(records) > 1:
             print(f"{rec.source}:", file=out)
         _print_fit(model, rec.t, uu, rec.y, outputs, out)
-    outdir = Path(args.out)
-    path = write_model_json(model, outdir / "model.json")
+    path = save_model(model, outdir / "model.json")
     print(f"wrote {path}", file=out)
     if not args.no_plot:
         from .plots import plot_identification, save_figure
@@ -253,10 +323,10 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
     """Fit and residual tests of a saved model on other records (:mod:`hdpbsid.assessment`)."""
-    model = read_model_json(args.model)
-    saved = model.options.get("columns") or {}
-    inputs = _split_columns(args.inputs) if args.inputs else list(saved.get("inputs") or [])
-    outputs = _split_columns(args.outputs) if args.outputs else list(saved.get("outputs") or [])
+    model = load_model(args.model)
+    saved = _saved_columns(model, args.model)
+    inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
+    outputs = _split_columns(args.outputs) if args.outputs else saved["outputs"]
     if not outputs:
         raise CLIError("validate: the model file names no output columns; give --outputs")
     if len(inputs) != model.m or len(outputs) != model.l:
@@ -266,49 +336,68 @@ def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
         )
     time = args.time
     if time is None and args.dt is None and args.fs is None:
-        if saved.get("time") is None and model.options.get("sampling_interval"):
-            args.dt = float(model.options["sampling_interval"])  # identified with --dt
+        dt = model.options.get("sampling_interval")
+        if saved["time"] is None and isinstance(dt, int | float) and dt > 0:
+            args.dt = float(dt)  # identified with --dt
         else:
-            time = saved.get("time") or "t"
+            time = saved["time"] or "t"
     if args.k is not None and args.k < 1:
         raise CLIError(f"--k must be a positive number of steps, got {args.k}")
+    unit = None if args.time_unit is None else _time_unit(args.time_unit)
+    names = [] if args.no_plot else ["validation.png"]
+    if not args.no_plot and len(args.files) > 1:
+        names = [f"validation-{Path(f).stem}.png" for f in args.files]
+    outdir = _check_out(args.out, names)
     records = _read_records(args, args.files, {"time": time, "inputs": inputs, "outputs": outputs})
-    outdir = Path(args.out)
     for rec in records:
-        uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
-        sim = model.compare(rec.t, uu, rec.y)
-        print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
-        for name, f in zip(outputs, sim.fit, strict=True):
-            print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
-        if args.k is not None:
-            pred = model.compare(rec.t, uu, rec.y, k=args.k)
-            for name, f in zip(outputs, pred.fit, strict=True):
-                print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
-        try:
-            report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
-        except ValueError as exc:
-            print(f"  residual tests not possible: {exc}", file=out)
-            continue
-        print(report.summary(outputs, inputs), file=out)
-        if not args.no_plot:
-            from .plots import plot_validation, save_figure
-
-            fig = plot_validation(
-                model,
-                rec.t,
-                uu,
-                rec.y,
-                k=args.k,
-                report=report,
-                output_names=outputs,
-                input_names=inputs,
-                title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
-            )
-            name = (
-                "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
-            )
-            print(f"wrote {save_figure(fig, outdir / name)}", file=out)
+        _warn_time_scale(model, rec, unit)
+        name = "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
+        with warnings.catch_warnings():  # said once above; the evaluations would repeat it
+            warnings.simplefilter("ignore", TimeScaleWarning)
+            _validate_record(args, model, rec, inputs, outputs, outdir / name, out)
     return EXIT_OK
+
+
+def _validate_record(
+    args: argparse.Namespace,
+    model: StateSpaceModel,
+    rec: Record,
+    inputs: list[str],
+    outputs: list[str],
+    figure: Path,
+    out: TextIO,
+) -> None:
+    """Fits, residual tests and figure of ``model`` on one record (``hdpbsid validate``)."""
+    uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
+    sim = model.compare(rec.t, uu, rec.y)
+    print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
+    for name, f in zip(outputs, sim.fit, strict=True):
+        print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
+    if args.k is not None:
+        pred = model.compare(rec.t, uu, rec.y, k=args.k)
+        for name, f in zip(outputs, pred.fit, strict=True):
+            print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
+    try:
+        report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
+    except ValueError as exc:
+        print(f"  residual tests not possible: {exc}", file=out)
+        return
+    print(report.summary(outputs, inputs), file=out)
+    if not args.no_plot:
+        from .plots import plot_validation, save_figure
+
+        fig = plot_validation(
+            model,
+            rec.t,
+            uu,
+            rec.y,
+            k=args.k,
+            report=report,
+            output_names=outputs,
+            input_names=inputs,
+            title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
+        )
+        print(f"wrote {save_figure(fig, figure)}", file=out)
 
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
@@ -324,7 +413,7 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     snr = None if str(args.snr).lower() in ("none", "inf") else float(args.snr)
     outputs = tuple(_split_columns(args.outputs))
     orders = tuple(int(o) for o in _split_columns([args.orders]))
-    outdir = Path(args.out)
+    outdir = _check_out(args.out, ["model.json"])
     result = studies.run_study(
         "quadrotor",
         runs=1,
@@ -404,7 +493,7 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
         "excitation": args.excitation,
         "order": main_order,
     }
-    print(f"wrote {write_model_json(model, outdir / 'model.json')} (order {main_order})", file=out)
+    print(f"wrote {save_model(model, outdir / 'model.json')} (order {main_order})", file=out)
     if not args.no_plot:
         from .plots import plot_identification, save_figure
         from .studies.figures import quadrotor_figures
@@ -433,7 +522,7 @@ def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
     from . import studies
 
     settings = _parse_options(args.set)
-    outdir = Path(args.out) if args.out else Path("hdpbsid-study") / args.name
+    outdir = _check_out(args.out or Path("hdpbsid-study") / args.name, [])
     try:
         result = studies.run_study(
             args.name,
@@ -462,8 +551,9 @@ def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
     return EXIT_OK
 
 
-def _add_time_arguments(p: argparse.ArgumentParser) -> None:
+def _add_time_arguments(p: argparse.ArgumentParser, unit_help: str) -> None:
     p.add_argument("--time", default=None, help="time column name (default: t)")
+    p.add_argument("--time-unit", default=None, metavar="UNIT", help=unit_help)
     g = p.add_mutually_exclusive_group()
     g.add_argument(
         "--dt", type=float, default=None, help="sampling interval, when there is no time column"
@@ -510,7 +600,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="COLS",
         help="output column names (space or comma separated)",
     )
-    _add_time_arguments(p)
+    _add_time_arguments(
+        p, "unit of the times, recorded in the model (eigenvalues in rad/UNIT; default s)"
+    )
     p.add_argument(
         "--detrend",
         choices=("mean", "linear", "none"),
@@ -566,7 +658,10 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument(
         "--outputs", nargs="+", default=None, metavar="COLS", help="default: as identified"
     )
-    _add_time_arguments(v)
+    _add_time_arguments(
+        v,
+        "unit of the record's times; a warning when it is not the model's (default: the model's)",
+    )
     v.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
     v.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
     v.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -640,7 +735,7 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     0 success, 1 identification failed (message on stderr), 2 usage or input error
     (missing file, unknown column, unknown method, bad arguments; message on stderr).
     """
-    out = sys.stdout if stdout is None else stdout
+    out = _PipeSafe(sys.stdout if stdout is None else stdout)
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         args = build_parser().parse_args(argv)
@@ -659,6 +754,49 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    finally:
+        out.flush()
+
+
+class _PipeSafe:
+    """A text stream that stops writing, quietly, once its reader has gone.
+
+    ``hdpbsid identify data.csv | head`` closes the pipe after a few lines; Unix tools
+    then stop printing without a message, and so does this one -- but the files it was
+    asked for (model, figures) are still written, since they do not depend on the
+    pipe.  When the stream is the process's standard output its descriptor is pointed at
+    ``os.devnull``, so the interpreter's final flush cannot raise either (Python
+    documentation, "Note on SIGPIPE").
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.broken = False
+
+    def write(self, text: str) -> int:
+        if not self.broken:
+            try:
+                self.stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.broken:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self.broken = True
+        if self.stream is sys.stdout:
+            try:
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+                os.close(devnull)
+            except (OSError, ValueError, AttributeError):  # no descriptor: nothing to redirect
+                pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -140,7 +141,7 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
     --------
     >>> import numpy as np
     >>> from hdpbsid import StateSpaceModel
-    >>> d = model_to_dict(StateSpaceModel([[-1.0]], [[1.0]], [[1.0]]))
+    >>> d = model_to_dict(StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]]))
     >>> d["A"], d["time_unit"], d["input_names"]
     ([[-1.0]], 's', ['u1'])
     """
@@ -203,10 +204,10 @@ def save_model(model: StateSpaceModel, path: str | Path) -> Path:
     --------
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel, load_model
-    >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], input_names=["force"])
+    >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], input_names=["F"])
     >>> p = save_model(m, pathlib.Path(tempfile.mkdtemp()) / "model.json")
     >>> load_model(p).input_names
-    ['force']
+    ['F']
     """
     path = Path(path)
     if path.is_dir():
@@ -235,6 +236,27 @@ def _check_depth(d: Any, limit: int) -> None:
         for k, w in items:
             sub = f"{where}.{k}" if isinstance(v, dict) else f"{where}[{k}]"
             stack.append((w, sub, depth + 1))
+
+
+_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')
+_COLON = re.compile(r"\s*:")
+
+
+def _deep_key(text: str, limit: int) -> str:
+    """The top-level key under which ``text`` nests deeper than ``limit`` (a scan of
+    strings and brackets, for the message when the recursive JSON reader gave up)."""
+    depth, key = 0, "?"
+    for tok in _TOKEN.finditer(text):
+        c = tok.group()
+        if c in "[{":
+            depth += 1
+            if depth > limit:
+                return key
+        elif c in "]}":
+            depth -= 1
+        elif depth == 1 and _COLON.match(text, tok.end()):
+            key = c[1:-1]
+    return key
 
 
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -416,7 +438,8 @@ def model_from_dict(d: Any) -> StateSpaceModel:
     Examples
     --------
     >>> from hdpbsid import StateSpaceModel
-    >>> m = model_from_dict(model_to_dict(StateSpaceModel([[-2.0]], [[1.0]], [[3.0]])))
+    >>> m0 = StateSpaceModel([[-2.0]], [[1.0]], [[3.0]], [[0.0]], [[0.0]])
+    >>> m = model_from_dict(model_to_dict(m0))
     >>> m.eigenvalues.real.tolist()
     [-2.0]
     """
@@ -524,7 +547,8 @@ def load_model(path: str | Path, max_bytes: int = MAX_BYTES) -> StateSpaceModel:
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "m.json"
-    >>> _ = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], time_unit="ms").save(p)
+    >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], time_unit="ms")
+    >>> _ = m.save(p)
     >>> load_model(p).time_unit
     'ms'
     """
@@ -553,8 +577,8 @@ def load_model(path: str | Path, max_bytes: int = MAX_BYTES) -> StateSpaceModel:
         raise ValueError(f"{path}: not a JSON model file: {exc}") from exc
     except RecursionError as exc:  # deeper than the reader's own recursion allows
         raise ValueError(
-            f"{path}: nests arrays/objects deeper than the JSON reader can follow; a model "
-            f"file nests at most {MAX_DEPTH} levels"
+            f"{path}: key {_deep_key(text, MAX_DEPTH)!r} nests arrays/objects deeper than "
+            f"the JSON reader can follow; a model file nests at most {MAX_DEPTH} levels"
         ) from exc
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
