@@ -22,7 +22,8 @@ from .identify import (
 from .methods.dt import identify_discrete, identify_dt
 from .methods.settings import BasisSettings
 from .metrics import eigenvalue_errors, match_eigenvalues
-from .model import DiscreteModel, FitResult, StateSpaceModel
+from .model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
+from .model_io import load_model, save_model
 from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 _LAZY_ATTRS = {
@@ -60,6 +61,9 @@ __all__: list[str] = [
     "StateSpaceModel",
     "DiscreteModel",
     "FitResult",
+    "TimeScaleWarning",
+    "load_model",
+    "save_model",
     "c2d",
     "d2c",
     "pbsid_core",

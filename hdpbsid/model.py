@@ -22,6 +22,8 @@ absolute signals; states ``x`` (and ``x0``) are always deviation states.
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,6 +33,8 @@ from numpy.typing import NDArray
 from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
 from .checks import (
     as_float_array,
+    check_label,
+    check_names,
     check_positive_int,
     check_signal,
     check_state_space,
@@ -47,6 +51,10 @@ __all__ = [
     "FitResult",
     "LinearTrend",
     "fit_statistics",
+    "TimeScaleWarning",
+    "TIME_UNITS",
+    "SAMPLING_RATIO_LIMIT",
+    "scale_signals",
 ]
 
 Array = NDArray[np.float64]
@@ -108,6 +116,45 @@ class LinearTrend:
         self.y_slope = as_float_array(self.y_slope, "y_slope").reshape(-1)
 
 
+class TimeScaleWarning(UserWarning):
+    """A record's time scale does not match the model's: its time unit differs, or its
+    sampling interval is more than :data:`SAMPLING_RATIO_LIMIT` times larger or smaller
+    than the identification record's (:meth:`StateSpaceModel.check_record`)."""
+
+
+#: Seconds per unit of the time units the messages can convert between.  Any other
+#: non-empty name is accepted as a label; it is only compared for equality.
+TIME_UNITS: dict[str, float] = {
+    "ns": 1e-9,
+    "us": 1e-6,
+    "\u00b5s": 1e-6,
+    "ms": 1e-3,
+    "s": 1.0,
+    "min": 60.0,
+    "h": 3600.0,
+    "d": 86400.0,
+}
+
+#: A record whose median sampling interval differs from the model's by more than this
+#: factor (either way) draws a :class:`TimeScaleWarning`.  Resampling a record of the
+#: same system by a factor up to 10 is routine (a 1 kHz log validated at 100 Hz), and the
+#: exact sampled model simulates any step size, so such records are not flagged; a time
+#: stamp in the wrong unit changes the interval by at least 24 (hours and days), usually
+#: 60 (seconds and minutes) or 1000 (milliseconds and seconds).  20 lies between the two,
+#: so every wrong common unit is flagged and no routine resampling is.
+SAMPLING_RATIO_LIMIT = 20.0
+
+
+def _check_interval(value: Any, name: str) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a positive number or None, got {value!r}")
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive finite number or None, got {value!r}")
+    return float(value)
+
+
 def _fmt_eigs(ev: NDArray[np.complex128], limit: int = 8) -> str:
     parts = []
     for lam in ev[:limit]:
@@ -136,12 +183,18 @@ class _ModelBase:
     u0: Array | None = None
     y0: Array | None = None
     trend: LinearTrend | None = None
+    time_unit: str = "s"
+    input_names: list[str] | None = None
+    output_names: list[str] | None = None
 
     def __post_init__(self) -> None:
         self.A, self.B, self.C, self.D, self.K = check_state_space(
             self.A, self.B, self.C, self.D, self.K
         )
         m, l = self.B.shape[1], self.C.shape[0]
+        self.time_unit = check_label(self.time_unit, "time_unit")
+        self.input_names = check_names(self.input_names, "input_names", m, "u")
+        self.output_names = check_names(self.output_names, "output_names", l, "y")
         self.u0 = _level(self.u0, "u0", m)
         self.y0 = _level(self.y0, "y0", l)
         if self.trend is not None:
@@ -169,7 +222,36 @@ class _ModelBase:
         return U0, Y0
 
     def _offsets_kwargs(self) -> dict[str, Any]:
-        return {"u0": self.u0.copy(), "y0": self.y0.copy(), "trend": self.trend}
+        """The operating point and the labels, for a converted copy of the model."""
+        return {
+            "u0": self.u0.copy(),
+            "y0": self.y0.copy(),
+            "trend": self.trend,
+            "time_unit": self.time_unit,
+            "input_names": list(self.input_names or []),
+            "output_names": list(self.output_names or []),
+        }
+
+    def set_labels(
+        self,
+        input_names: Any | None = None,
+        output_names: Any | None = None,
+        time_unit: str | None = None,
+    ) -> None:
+        """Set the channel names and the time unit (each left as it is when ``None``).
+
+        ``input_names`` (``m`` distinct strings), ``output_names`` (``l``) and
+        ``time_unit`` (a non-empty string, e.g. ``"s"`` or ``"ms"``: the unit of ``t``,
+        so the eigenvalues are in rad per that unit) travel with the model: plots,
+        :meth:`StateSpaceModel.to_control` and the saved file use them.  Raises
+        ``TypeError`` / ``ValueError`` naming the argument.
+        """
+        if input_names is not None:
+            self.input_names = check_names(input_names, "input_names", self.m, "u")
+        if output_names is not None:
+            self.output_names = check_names(output_names, "output_names", self.l, "y")
+        if time_unit is not None:
+            self.time_unit = check_label(time_unit, "time_unit")
 
     @property
     def n(self) -> int:
@@ -193,6 +275,8 @@ class _ModelBase:
 
     def _repr_body(self) -> str:
         body = f"n={self.n}, m={self.m}, l={self.l}, eigenvalues={_fmt_eigs(self.eigenvalues)}"
+        if self.time_unit != "s":
+            body += f" rad/{self.time_unit}"
         if np.any(self.u0) or np.any(self.y0) or self.trend is not None:
             body += ", with operating point" + (" and trend" if self.trend is not None else "")
         return body
@@ -235,9 +319,60 @@ class StateSpaceModel(_ModelBase):
     covariance estimate, ``None`` if unknown) and ``discrete`` (the sampled model it was
     converted from, if any).  ``K`` follows the hold convention of
     :mod:`hdpbsid.conversion`.
+
+    Labels: ``time_unit`` (the unit of the times ``t``, default ``"s"``; the eigenvalues
+    are in rad per that unit), ``input_names`` and ``output_names`` (default ``u1, ...``
+    and ``y1, ...``) and ``sampling_interval`` (the median step of the identification
+    record in ``time_unit``, ``None`` when unknown): :meth:`check_record` compares a
+    record with them, and :meth:`save` / :func:`hdpbsid.load_model` keep them.
     """
 
     discrete: DiscreteModel | None = None
+    sampling_interval: float | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.sampling_interval = _check_interval(self.sampling_interval, "sampling_interval")
+
+    def save(self, path: Any) -> Any:
+        """Write the model to ``path`` as JSON (:func:`hdpbsid.model_io.save_model`);
+        :func:`hdpbsid.load_model` reads it back.  Returns the path."""
+        from .model_io import save_model
+
+        return save_model(self, path)
+
+    def check_record(self, t: Any, time_unit: str | None = None, name: str = "t") -> None:
+        """Warn (:class:`TimeScaleWarning`) when the record with times ``t`` does not
+        match the model's time scale.
+
+        Two checks, each only when both sides are known: ``time_unit`` (the record's)
+        differs from ``model.time_unit`` (the message gives the conversion factor for the
+        units of :data:`TIME_UNITS`); the record's median step differs from
+        ``model.sampling_interval`` by more than :data:`SAMPLING_RATIO_LIMIT` either
+        way, the signature of times in another unit (its docstring says why that
+        factor).  The exact sampled model simulates any step size, so neither is an
+        error: the fit of a record in the wrong unit is merely meaningless.
+        """
+        if time_unit is not None:
+            unit = check_label(time_unit, "time_unit")
+            if unit != self.time_unit:
+                warnings.warn(_unit_message(unit, self.time_unit), TimeScaleWarning, stacklevel=3)
+                return  # the step comparison would repeat the same finding
+        if self.sampling_interval is None:
+            return
+        tt = check_time(t, name)
+        h = float(np.median(np.diff(tt)))
+        ratio = h / self.sampling_interval
+        if not 1.0 / SAMPLING_RATIO_LIMIT <= ratio <= SAMPLING_RATIO_LIMIT:
+            warnings.warn(
+                f"{name}: the record's median sampling interval {h:.6g} is {ratio:.3g} times "
+                f"the identification record's {self.sampling_interval:.6g} {self.time_unit} "
+                f"(more than a factor {SAMPLING_RATIO_LIMIT:g} apart): are its times in "
+                f"{self.time_unit}?  A record in another time unit fits meaninglessly; "
+                f"convert its times, or ignore this if it was only resampled",
+                TimeScaleWarning,
+                stacklevel=3,
+            )
 
     def __repr__(self) -> str:
         method = self.options.get("method")
@@ -354,14 +489,27 @@ class StateSpaceModel(_ModelBase):
             raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
         return y
 
-    def fit(self, t: Any, u: Any, y: Any, x0: Any = "estimate", method: str = "zoh") -> FitResult:
+    def fit(
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        x0: Any = "estimate",
+        method: str = "zoh",
+        time_unit: str | None = None,
+    ) -> FitResult:
         """Simulate on ``(t, u)`` and compare with ``y``: VAF and NRMSE per output.
 
         ``u``, ``y`` and ``FitResult.y_sim`` are absolute signals (operating point in the
         module docstring).  ``x0="estimate"`` (default) fits the initial deviation state
         by least squares (the output is affine in ``x0``); ``"zero"`` or an array use that
-        state.
+        state.  ``time_unit``: the unit of ``t``, if known; a record whose time scale does
+        not match the model's draws a :class:`TimeScaleWarning` (:meth:`check_record`).
         """
+        self.check_record(t, time_unit)
+        return self._fit(t, u, y, x0, method)
+
+    def _fit(self, t: Any, u: Any, y: Any, x0: Any, method: str) -> FitResult:
         t = check_time(t, "t")
         y = self._check_output(t, y)
         t, u = self._check_input(t, u, method)
@@ -460,7 +608,14 @@ class StateSpaceModel(_ModelBase):
         return yp + Y0, x0v, y
 
     def predict(
-        self, t: Any, u: Any, y: Any, k: int = 1, x0: Any = "estimate", method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        k: int = 1,
+        x0: Any = "estimate",
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> Array:
         """``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
 
@@ -477,24 +632,34 @@ class StateSpaceModel(_ModelBase):
         approaches :meth:`simulate`.  Signals are absolute (operating point in the module
         docstring).  ``x0``: ``"estimate"`` (least squares on the prediction errors; the
         predictions are affine in it), ``"zero"`` or the initial deviation state.
-        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.
-        Returns ``y_hat (Ns, l)``.
+        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.  ``time_unit``:
+        as in :meth:`fit`.  Returns ``y_hat (Ns, l)``.
         """
+        self.check_record(t, time_unit)
         return self._predict(t, u, y, k, x0, method)[0]
 
     def compare(
-        self, t: Any, u: Any, y: Any, k: int | None = None, method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        k: int | None = None,
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> Comparison:
         """Fit of the model on a record, as MATLAB's ``compare``: per output
         ``fit = 100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent.
 
         ``k=None``: ``y_hat`` is the simulation (:meth:`fit`, initial state by least
         squares), which diverges for an unstable model; ``k`` given: the ``k``-step-ahead
-        prediction (:meth:`predict`, initial state by least squares).  Returns a
+        prediction (:meth:`predict`, initial state by least squares).  ``time_unit``: the
+        unit of ``t``, if known; a record whose time scale does not match the model's
+        draws a :class:`TimeScaleWarning` (:meth:`check_record`).  Returns a
         :class:`~hdpbsid.assessment.Comparison`.
         """
+        self.check_record(t, time_unit)
         if k is None:
-            res = self.fit(t, u, y, method=method)
+            res = self._fit(t, u, y, "estimate", method)
             y_meas = check_signal(y, "y")
             return Comparison(
                 fit=fit_percent(y_meas, res.y_sim), y_hat=res.y_sim, x0=res.x0, k=None
@@ -503,15 +668,22 @@ class StateSpaceModel(_ModelBase):
         return Comparison(fit=fit_percent(y_meas, y_hat), y_hat=y_hat, x0=x0v, k=int(k))
 
     def residuals(
-        self, t: Any, u: Any, y: Any, max_lag: int = 25, method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        max_lag: int = 25,
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> ResidualReport:
         """Residual analysis as MATLAB's ``resid`` (Ljung, *System Identification*, 2nd
         ed., sec. 16.6) of the one-step prediction errors ``e = y - y_hat(t | t - 1)``
         (:meth:`predict` with ``k=1``, initial state by least squares) against the input
         ``u``: whiteness (autocorrelation, Ljung-Box) and independence from the input
         (cross-correlation) over lags up to ``max_lag``; see
-        :func:`hdpbsid.assessment.residual_tests`.
+        :func:`hdpbsid.assessment.residual_tests`.  ``time_unit``: as in :meth:`compare`.
         """
+        self.check_record(t, time_unit)
         y_hat, _, y_meas = self._predict(t, u, y, 1, "estimate", method)
         t_arr = check_time(t, "t")
         _, u_arr = self._check_input(t_arr, u, method)
@@ -519,7 +691,8 @@ class StateSpaceModel(_ModelBase):
 
     # -- frequency domain and conversions -----------------------------------------------
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
-        """``G(jw) = C (jw I - A)^{-1} B + D`` for angular frequencies ``w`` (rad/s).
+        """``G(jw) = C (jw I - A)^{-1} B + D`` for angular frequencies ``w`` (rad per
+        ``time_unit``).
 
         Returns a complex array of shape ``(l, m, len(w))`` (python-control layout).
         """
@@ -551,18 +724,26 @@ class StateSpaceModel(_ModelBase):
 
         return StateSpace(self.A, self.B, self.C, self.D)
 
-    def to_control(self, noise_inputs: bool = False) -> Any:
-        """``control.StateSpace`` with ``dt=0``; with ``noise_inputs`` the inputs are
-        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``).
+    def to_control(self, noise_inputs: bool = False, name: str | None = None) -> Any:
+        """``control.StateSpace`` with ``dt=0``, its signals named after the model's
+        ``input_names`` and ``output_names``; with ``noise_inputs`` the inputs are
+        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``; the innovations named
+        ``e_<output>``).  ``name``: the system's name (python-control's default when
+        ``None``).
 
         Like :meth:`to_scipy` it describes deviations: inputs ``u - model.u0``, outputs
-        ``y - model.y0`` (python-control has no operating point either).
+        ``y - model.y0`` (python-control has no operating point either), and time in
+        ``model.time_unit`` (python-control has no unit).
         """
         control = _import_control()
         B, D = self.B, self.D
+        inputs = list(self.input_names or [])
         if noise_inputs:
             B, D = np.hstack([B, self.K]), np.hstack([D, np.eye(self.l)])
-        return control.StateSpace(self.A, B, self.C, D, 0)
+            inputs += _innovation_names(inputs, list(self.output_names or []))
+        return control.StateSpace(
+            self.A, B, self.C, D, 0, **_control_labels(inputs, self.output_names, name)
+        )
 
 
 @dataclass(repr=False)
@@ -615,6 +796,7 @@ class DiscreteModel(_ModelBase):
             options=dict(self.options),
             noise_covariance=self.noise_covariance,
             discrete=self,
+            sampling_interval=self.dt,
             **self._offsets_kwargs(),
         )
 
@@ -625,9 +807,64 @@ class DiscreteModel(_ModelBase):
 
         return StateSpace(self.A, self.B, self.C, self.D, dt=self.dt)
 
-    def to_control(self) -> Any:
-        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point."""
-        return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt)
+    def to_control(self, name: str | None = None) -> Any:
+        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point,
+        signals named as in :meth:`StateSpaceModel.to_control`."""
+        labels = _control_labels(self.input_names, self.output_names, name)
+        return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt, **labels)
+
+
+def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
+    """The same system for signals scaled by powers of two: ``u_new = u 2^pu``,
+    ``y_new = y 2^py`` (per channel) and states ``x_new = x 2^px``.
+
+    ``B -> 2^px B 2^-pu``, ``C -> 2^py C 2^-px``, ``D -> 2^py D 2^-pu``,
+    ``K -> 2^px K 2^-py`` (the innovations are in output units), the operating point
+    and trend, the noise covariance (``2^py N 2^py``) and the sampled model (if any) with
+    them; ``A`` and the eigenvalues are unchanged.  Every product is an exact change of
+    exponent (:func:`numpy.ldexp`) unless it leaves the float64 range: a ``ValueError``
+    when a matrix entry overflows (the system's gain is not representable).
+    ``model``: a :class:`StateSpaceModel` or :class:`DiscreteModel`; a new model is
+    returned.
+    """
+    pu = np.asarray(pu, dtype=np.int64).reshape(-1)
+    py = np.asarray(py, dtype=np.int64).reshape(-1)
+    if pu.size != model.m or py.size != model.l:
+        raise ValueError(
+            f"scale_signals: {model.m} input and {model.l} output exponents needed, got "
+            f"{pu.size} and {py.size}"
+        )
+    px = int(px)
+    with np.errstate(over="ignore"):
+        mats = {
+            "B": np.ldexp(model.B, px - pu[None, :]),
+            "C": np.ldexp(model.C, py[:, None] - px),
+            "D": np.ldexp(model.D, py[:, None] - pu[None, :]),
+            "K": np.ldexp(model.K, px - py[None, :]),
+        }
+    for k, M in mats.items():
+        if not np.all(np.isfinite(M)):
+            raise ValueError(
+                f"the identified {k} overflows float64 in the record's units (its inputs and "
+                f"outputs differ by more than the float range); rescale the signals"
+            )
+    tr = model.trend
+    if tr is not None:
+        tr = LinearTrend(tr.t_ref, np.ldexp(tr.u_slope, pu), np.ldexp(tr.y_slope, py))
+    nc = model.noise_covariance
+    if nc is not None:
+        nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
+    changes: dict[str, Any] = dict(
+        mats,
+        u0=np.ldexp(model.u0, pu),
+        y0=np.ldexp(model.y0, py),
+        trend=tr,
+        noise_covariance=nc,
+        options=model.options,
+    )
+    if isinstance(model, StateSpaceModel) and model.discrete is not None:
+        changes["discrete"] = scale_signals(model.discrete, pu, py, px)
+    return dataclasses.replace(model, **changes)
 
 
 def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128]) -> Any:
@@ -638,6 +875,37 @@ def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128])
     X = np.linalg.solve(M, np.broadcast_to(B, (s.size,) + B.shape))
     G = np.einsum("ij,kjl->kil", C, X) + D[None]
     return np.moveaxis(G, 0, -1)
+
+
+def _innovation_names(inputs: list[str], outputs: list[str]) -> list[str]:
+    """``e_<output>`` for each output, made distinct from the input names."""
+    names = []
+    for o in outputs:
+        e = f"e_{o}"
+        while e in inputs or e in names:
+            e = "_" + e
+        names.append(e)
+    return names
+
+
+def _control_labels(inputs: Any, outputs: Any, name: str | None) -> dict[str, Any]:
+    """Keyword arguments naming the signals (and the system) of a python-control model."""
+    labels: dict[str, Any] = {"inputs": list(inputs or []), "outputs": list(outputs or [])}
+    if name is not None:
+        labels["name"] = check_label(name, "name")
+    return labels
+
+
+def _unit_message(record: str, model: str) -> str:
+    """The warning for a record whose time unit differs from the model's."""
+    hint = ""
+    if record in TIME_UNITS and model in TIME_UNITS:
+        f = TIME_UNITS[record] / TIME_UNITS[model]
+        hint = f" (1 {record} = {f:g} {model}: multiply the record's times by {f:g})"
+    return (
+        f"the record's time unit {record!r} differs from the model's {model!r}{hint}; "
+        f"the eigenvalues are in rad/{model} and a record in another unit fits meaninglessly"
+    )
 
 
 def _import_control() -> Any:
