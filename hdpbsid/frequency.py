@@ -46,6 +46,7 @@ __all__ = [
     "frf_periodic",
     "effective_averages",
     "identify_frequency",
+    "plot_frf",
 ]
 
 Array = NDArray[np.float64]
@@ -944,3 +945,73 @@ def _select_order(
         for i, (o, e, z) in enumerate(zip(orders, errors, stats, strict=True))
     ]
     return orders[chosen], rows
+
+
+# -- figure -----------------------------------------------------------------------------------
+def plot_frf(
+    frf: FrequencyResponse,
+    model: StateSpaceModel | None = None,
+    alpha: float = 0.05,
+    output: int = 0,
+    input: int = 0,
+) -> Any:
+    """Bode magnitude and phase of an estimate with its ``1 - alpha`` confidence band
+    (from :meth:`FrequencyResponse.confidence_radius`: ``|H| +- r`` and ``+- asin(r /
+    |H|)`` in phase), a model's response over it, and the coherence with its bounds.
+
+    Parameters
+    ----------
+    frf : the estimate.
+    model : optional model drawn over it.
+    alpha : level of the bands.
+    output, input : the channel drawn.
+
+    Returns
+    -------
+    The matplotlib figure (three axes: magnitude, phase, coherence).
+    """
+    import matplotlib.pyplot as plt
+
+    if not isinstance(frf, FrequencyResponse):
+        raise TypeError(f"frf must be a FrequencyResponse, got {type(frf).__name__}")
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True, layout="constrained")
+    w, H = frf.w, frf.H[output, input]
+    ok = np.isfinite(H)
+    w, H = w[ok], H[ok]
+    mag = np.abs(H)
+    phase = np.degrees(np.unwrap(np.angle(H)))
+    axes[0].semilogx(w, 20 * np.log10(mag), ".", ms=3, label=f"{frf.method} estimate")
+    axes[1].semilogx(w, phase, ".", ms=3)
+    if frf.variance is not None and frf.dof is not None:
+        r = frf.confidence_radius(alpha)[output, input][ok]
+        # a region reaching zero is drawn down to -40 dB below the estimate
+        lo = 20 * np.log10(np.maximum(mag - r, 0.01 * mag))
+        axes[0].fill_between(
+            w,
+            lo,
+            20 * np.log10(mag + r),
+            alpha=0.3,
+            lw=0,
+            label=f"{100 * (1 - alpha):.0f} % region",
+        )
+        dph = np.degrees(np.arcsin(np.clip(r / mag, 0.0, 1.0)))
+        axes[1].fill_between(w, phase - dph, phase + dph, alpha=0.3, lw=0)
+    if model is not None:
+        G = model.frequency_response(w)[output, input]
+        axes[0].semilogx(w, 20 * np.log10(np.abs(G)), "-", lw=1.2, label="model")
+        gph = np.degrees(np.unwrap(np.angle(G)))
+        gph += 360.0 * np.round((phase[0] - gph[0]) / 360.0)
+        axes[1].semilogx(w, gph, "-", lw=1.2)
+    if frf.coherence is not None:
+        c = frf.coherence[output][ok]
+        axes[2].semilogx(w, c, ".", ms=3, label="coherence")
+        if frf.dof is not None:
+            clo, chi = frf.coherence_bounds(alpha)
+            axes[2].fill_between(w, clo[output][ok], chi[output][ok], alpha=0.3, lw=0)
+    axes[0].set_ylabel("|H| (dB)")
+    axes[0].legend(fontsize=8)
+    axes[1].set_ylabel("phase (deg)")
+    axes[2].set_ylabel("coherence")
+    axes[2].set_ylim(0, 1.05)
+    axes[2].set_xlabel("w (rad/s)")
+    return fig
