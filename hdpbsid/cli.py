@@ -42,6 +42,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from . import frequency_cli
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
@@ -733,6 +734,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="study setting, e.g. --set snrs=(50,6) --set methods=('hermite',) (repeatable)",
     )
+    frequency_cli.add_parsers(sub)
     return parser
 
 
@@ -752,6 +754,8 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
             return _cmd_validate(args, out)
         if args.command == "study":
             return _cmd_study(args, out)
+        if args.command in frequency_cli.COMMANDS:
+            return frequency_cli.run(args, out)
         return _cmd_demo(args, out)
     except _HelpExit as exc:
         return exc.status
