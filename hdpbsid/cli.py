@@ -43,6 +43,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from . import frequency_cli
 from .checks import check_label
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
@@ -742,6 +743,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="study setting, e.g. --set snrs=(50,6) --set methods=('hermite',) (repeatable)",
     )
+    frequency_cli.add_parsers(sub)
     return parser
 
 
@@ -761,6 +763,8 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
             return _cmd_validate(args, out)
         if args.command == "study":
             return _cmd_study(args, out)
+        if args.command in frequency_cli.COMMANDS:
+            return frequency_cli.run(args, out)
         return _cmd_demo(args, out)
     except _HelpExit as exc:
         return exc.status
