@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 from slbasis.numeric.engine import numba_available
 
@@ -78,6 +77,8 @@ def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
     ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when its row of
     ``R`` is real.
     """
+    from scipy.signal import lfilter  # here: scipy.signal costs a third of a second to import
+
     Z = np.zeros(R.shape, dtype=complex)
     for a in range(lam.size):
         ra = R[..., a, :-1]
