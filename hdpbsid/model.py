@@ -40,6 +40,7 @@ from .checks import (
 )
 from .conversion import c2d, d2c, sampled_steps
 from .recursion import linear_recursion
+from .runtime import library_call
 
 __all__ = [
     "StateSpaceModel",
@@ -257,6 +258,7 @@ class StateSpaceModel(_ModelBase):
         """
         return sampled_steps(self.A, self.B, self.K if with_k else None, h, method)
 
+    @library_call
     def simulate(
         self,
         t: Any,
@@ -354,6 +356,7 @@ class StateSpaceModel(_ModelBase):
             raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
         return y
 
+    @library_call
     def fit(self, t: Any, u: Any, y: Any, x0: Any = "estimate", method: str = "zoh") -> FitResult:
         """Simulate on ``(t, u)`` and compare with ``y``: VAF and NRMSE per output.
 
@@ -459,6 +462,7 @@ class StateSpaceModel(_ModelBase):
             yp = self._predict_deviation(t, ud, yd, x0v, k, method)
         return yp + Y0, x0v, y
 
+    @library_call
     def predict(
         self, t: Any, u: Any, y: Any, k: int = 1, x0: Any = "estimate", method: str = "zoh"
     ) -> Array:
@@ -482,6 +486,7 @@ class StateSpaceModel(_ModelBase):
         """
         return self._predict(t, u, y, k, x0, method)[0]
 
+    @library_call
     def compare(
         self, t: Any, u: Any, y: Any, k: int | None = None, method: str = "zoh"
     ) -> Comparison:
@@ -502,6 +507,7 @@ class StateSpaceModel(_ModelBase):
         y_hat, x0v, y_meas = self._predict(t, u, y, k, "estimate", method)
         return Comparison(fit=fit_percent(y_meas, y_hat), y_hat=y_hat, x0=x0v, k=int(k))
 
+    @library_call
     def residuals(
         self, t: Any, u: Any, y: Any, max_lag: int = 25, method: str = "zoh"
     ) -> ResidualReport:
@@ -576,6 +582,7 @@ class DiscreteModel(_ModelBase):
     def __repr__(self) -> str:
         return f"DiscreteModel(dt={self.dt:g}, {self._repr_body()})"
 
+    @library_call
     def simulate(self, u: Any, x0: Any | None = None, t: Any | None = None) -> Array:
         """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from the deviation state
         ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``

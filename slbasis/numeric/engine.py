@@ -16,8 +16,9 @@ Engines:
     (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values);
     ``"numpy"`` otherwise.
 
-Threads: ``numba.get_num_threads()`` (the ``NUMBA_NUM_THREADS`` environment variable or
-``numba.set_num_threads``); calls below ``2^20`` function values per thread run on the
+Threads: :func:`slbasis.runtime.compiled_threads` (numba's thread count, from the
+``NUMBA_NUM_THREADS`` environment variable or ``numba.set_num_threads``, unless the
+library's thread override is set); calls below ``2^20`` function values per thread run on the
 calling thread only.
 """
 
@@ -29,6 +30,8 @@ from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
 
 import numpy as np
+
+from ..runtime import compiled_threads
 
 __all__ = [
     "ENGINES",
@@ -98,9 +101,7 @@ def work(N: int, n_samples: int) -> int:
 
 
 def _threads() -> int:
-    import numba
-
-    return max(1, int(numba.get_num_threads()))
+    return compiled_threads()
 
 
 def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:
