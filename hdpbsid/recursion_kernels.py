@@ -14,6 +14,8 @@ Functions compile on first call and are cached on disk (``cache=True``).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
@@ -52,3 +54,14 @@ def powers(F: np.ndarray, P: np.ndarray) -> None:
                 for a in range(n):
                     s += F[i, a] * P[k - 1, a, j]
                 P[k, i, j] = s
+
+
+def _array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
+    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
+
+
+_F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean
+_M, _T = _array(_F8, 2), _array(_F8, 3)
+#: the argument types :mod:`hdpbsid.recursion` passes, compiled ahead of the first call
+#: by :mod:`slbasis.numeric.jit`
+WARM_SIGNATURES = {"recursions": [(_M, _T, _M, _T)], "powers": [(_M, _T)]}

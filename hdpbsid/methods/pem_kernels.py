@@ -44,6 +44,8 @@ Functions compile on first call and are cached on disk (``cache=True``).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
@@ -194,3 +196,21 @@ def sensitivity_regressors(
                 for b in range(p):
                     zr[a, b] = lr * zr[a, b] + w[b]
         _predictor_step(F, G, Kd, xi, u, y, k, xn)
+
+
+def _array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
+    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
+
+
+_F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean
+_M, _V = _array(_F8, 2), _array(_F8, 1)
+#: the argument types :mod:`hdpbsid.methods.refine` passes, compiled ahead of the first
+#: call by :mod:`slbasis.numeric.jit` (``lam_im`` is read-only when every mode is real:
+#: numpy's ``.imag`` of a real array)
+WARM_SIGNATURES = {
+    "weighted_errors": [(_M,) * 9 + (_array(_F8, 3),)],
+    "sensitivity_regressors": [
+        (_M,) * 5 + (_V, _V, _array(_F8, 1, readonly=ro), _array(_B1, 1), _array(_F8, 3), _M)
+        for ro in (False, True)
+    ],
+}

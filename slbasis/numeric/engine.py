@@ -12,9 +12,11 @@ Engines:
     cached on disk.
 ``"auto"`` (default)
     ``"numba"`` if numba imports, the environment variable ``SLBASIS_NO_NUMBA`` is unset
-    (or ``0``) and the call is large enough to pay for a first compilation
-    (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values);
-    ``"numpy"`` otherwise.
+    (or ``0``), the call is large enough to gain from the compiled kernels
+    (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values)
+    and its kernels are compiled or cached (:mod:`slbasis.numeric.jit`: until then numpy
+    runs while they compile in a background process; from ``2^32`` values the call
+    compiles them itself); ``"numpy"`` otherwise.
 
 Threads: :func:`slbasis.runtime.compiled_threads` (numba's thread count, from the
 ``NUMBA_NUM_THREADS`` environment variable or ``numba.set_num_threads``, unless the
@@ -50,6 +52,10 @@ _AUTO_MIN_WORK = 1 << 16  # function values: below this "auto" stays with numpy
 #: per function value at 2 * 10^4 samples (N = 400), i.e. ~1000 values
 NUMPY_ROW_OVERHEAD = 1 << 10
 _THREAD_MIN_WORK = 1 << 20  # function values per thread worth a thread
+#: function values from which "auto" compiles the kernels on the call when they are not
+#: compiled yet (:mod:`.jit`): the numpy engine's ~5 ns per value then takes about as long
+#: as compiling them (~20 s on one core)
+_COMPILE_NOW_WORK = 1 << 32
 
 
 @functools.lru_cache(maxsize=1)
@@ -85,7 +91,11 @@ def resolve(engine: str, work: int) -> str:
                 "engine='numba': numba is not installed (pip install 'slbasis-hdpbsid[fast]')"
             )
         return "numba"
-    return "numba" if work >= _AUTO_MIN_WORK and numba_available() else "numpy"
+    if work < _AUTO_MIN_WORK or not numba_available():
+        return "numpy"
+    from . import jit  # here: ``python -m slbasis.numeric.jit`` must find it not imported
+
+    return "numba" if work >= _COMPILE_NOW_WORK or jit.ready(_compiled()) else "numpy"
 
 
 def work(N: int, n_samples: int) -> int:
