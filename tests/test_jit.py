@@ -22,7 +22,8 @@ pytest.importorskip("numba")
 def _run(code: str, cache_dir) -> dict:
     """Run ``code`` (which prints one JSON line last) with numba's cache in ``cache_dir``."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
-    env.pop("SLBASIS_NO_NUMBA", None)
+    for switch in ("SLBASIS_NO_NUMBA", "NUMBA_DISABLE_JIT"):
+        env.pop(switch, None)
     out = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
     )

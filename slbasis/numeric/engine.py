@@ -11,12 +11,12 @@ Engines:
     its own partial sums (reduced at the end in a fixed order). Compiled on first use and
     cached on disk.
 ``"auto"`` (default)
-    ``"numba"`` if numba imports, the environment variable ``SLBASIS_NO_NUMBA`` is unset
-    (or ``0``), the call is large enough to gain from the compiled kernels
-    (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values)
-    and its kernels are compiled or cached (:mod:`slbasis.numeric.jit`: until then numpy
-    runs while they compile in a background process; from ``2^32`` values the call
-    compiles them itself); ``"numpy"`` otherwise.
+    ``"numba"`` if numba imports, the environment variables ``SLBASIS_NO_NUMBA`` and
+    ``NUMBA_DISABLE_JIT`` are unset (or ``0``), the call is large enough to gain from the
+    compiled kernels (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16``
+    function values) and its kernels are compiled or cached (:mod:`slbasis.numeric.jit`:
+    until then numpy runs while they compile in a background process; from ``2^32``
+    values the call compiles them itself); ``"numpy"`` otherwise.
 
 Threads: :func:`slbasis.runtime.compiled_threads` (numba's thread count, from the
 ``NUMBA_NUM_THREADS`` environment variable or ``numba.set_num_threads``, unless the
@@ -56,6 +56,8 @@ _THREAD_MIN_WORK = 1 << 20  # function values per thread worth a thread
 #: compiled yet (:mod:`.jit`): the numpy engine's ~5 ns per value then takes about as long
 #: as compiling them (~20 s on one core)
 _COMPILE_NOW_WORK = 1 << 32
+#: environment variables that switch the compiled engine off
+_SWITCHES = ("SLBASIS_NO_NUMBA", "NUMBA_DISABLE_JIT")
 
 
 @functools.lru_cache(maxsize=1)
@@ -69,11 +71,14 @@ def _compiled() -> ModuleType | None:
 
 
 def _disabled() -> bool:
-    return os.environ.get("SLBASIS_NO_NUMBA", "") not in ("", "0")
+    """``SLBASIS_NO_NUMBA`` set, or numba's own ``NUMBA_DISABLE_JIT`` (under which the
+    kernels would run as plain Python loops, orders of magnitude slower than numpy)."""
+    return any(os.environ.get(v, "") not in ("", "0") for v in _SWITCHES)
 
 
 def numba_available() -> bool:
-    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` unset)."""
+    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` and
+    ``NUMBA_DISABLE_JIT`` unset)."""
     return not _disabled() and _compiled() is not None
 
 
@@ -85,7 +90,10 @@ def resolve(engine: str, work: int) -> str:
         return "numpy"
     if engine == "numba":
         if _disabled():
-            raise RuntimeError("engine='numba': disabled by the environment (SLBASIS_NO_NUMBA)")
+            raise RuntimeError(
+                "engine='numba': disabled by the environment (SLBASIS_NO_NUMBA or "
+                "NUMBA_DISABLE_JIT)"
+            )
         if _compiled() is None:
             raise RuntimeError(
                 "engine='numba': numba is not installed (pip install 'slbasis-hdpbsid[fast]')"
