@@ -47,11 +47,11 @@ auto = B.project(t, y, engine="auto")
 ref = B.project(t, y, engine="numpy")
 proc = jit._process["proc"]
 started = proc is not None and proc is not False
+ready = jit.ready(engine._compiled())  # still compiling
 if started:
     proc.terminate()
     proc.wait()
-print(json.dumps({"same": bool(np.array_equal(auto, ref)), "started": started,
-                  "ready": jit.ready(engine._compiled())}))
+print(json.dumps({"same": bool(np.array_equal(auto, ref)), "started": started, "ready": ready}))
 """
     got = _run(code, tmp_path)
     assert got == {"same": True, "started": True, "ready": False}

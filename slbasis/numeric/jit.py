@@ -98,7 +98,8 @@ def ready(module: ModuleType) -> bool:
 
     True when they are compiled or cached (:func:`cached`); else starts the background
     compilation (once per process) and returns False, so the call runs with numpy.
-    True as well when no background process can be started (the call compiles).
+    True as well when no background process can be started, or it failed (the call
+    compiles).
     """
     name = module.__name__
     if name in _ready:
@@ -108,7 +109,9 @@ def ready(module: ModuleType) -> bool:
             _ready.add(name)
             return True
         _start_background()
-        return _process["proc"] is False
+        proc = _process["proc"]
+        # no background process, or it failed: the call compiles, as without this module
+        return proc is False or proc.poll() not in (None, 0)
 
 
 def warm(module: ModuleType) -> int:
