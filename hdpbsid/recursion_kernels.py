@@ -14,10 +14,10 @@ Functions compile on first call and are cached on disk (``cache=True``).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numba
 import numpy as np
+
+from slbasis.numeric.jit import array as _array
 
 __all__ = ["recursions", "powers"]
 
@@ -56,11 +56,7 @@ def powers(F: np.ndarray, P: np.ndarray) -> None:
                 P[k, i, j] = s
 
 
-def _array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
-    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
-
-
-_F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean
+_F8 = numba.types.float64
 _M, _T = _array(_F8, 2), _array(_F8, 3)
 #: the argument types :mod:`hdpbsid.recursion` passes, compiled ahead of the first call
 #: by :mod:`slbasis.numeric.jit`

@@ -44,10 +44,10 @@ Functions compile on first call and are cached on disk (``cache=True``).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numba
 import numpy as np
+
+from slbasis.numeric.jit import array as _array
 
 __all__ = ["weighted_errors", "sensitivity_regressors"]
 
@@ -198,11 +198,7 @@ def sensitivity_regressors(
         _predictor_step(F, G, Kd, xi, u, y, k, xn)
 
 
-def _array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
-    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
-
-
-_F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean
+_F8, _B1 = numba.types.float64, numba.types.boolean
 _M, _V = _array(_F8, 2), _array(_F8, 1)
 #: the argument types :mod:`hdpbsid.methods.refine` passes, compiled ahead of the first
 #: call by :mod:`slbasis.numeric.jit` (``lam_im`` is read-only when every mode is real:

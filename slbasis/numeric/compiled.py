@@ -33,10 +33,11 @@ module imports numba but compiles nothing.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numba
 import numpy as np
+
+from .jit import array as _array
 
 __all__ = ["BLOCK", "eval_range", "project_range"]
 
@@ -385,10 +386,6 @@ def project_range(
             if not math.isfinite((q[i] * f1) * f2):
                 bad += 1
     return bad
-
-
-def _array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
-    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
 
 
 _F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean

@@ -30,13 +30,36 @@ import threading
 from types import ModuleType
 from typing import Any
 
-__all__ = ["register", "registered", "cached", "ready", "warm", "main"]
+__all__ = ["array", "register", "registered", "cached", "ready", "warm", "main"]
 
 #: the kernel modules the background process compiles (names; imported only there)
 _REGISTERED: list[str] = ["slbasis.numeric.compiled"]
 _lock = threading.Lock()
 _ready: set[str] = set()
 _process: dict[str, Any] = {"proc": None}
+
+
+def array(dtype: Any, ndim: int, layout: str = "C", readonly: bool = False) -> Any:
+    """numba's type of a NumPy array argument, for a module's ``WARM_SIGNATURES``.
+
+    Parameters
+    ----------
+    dtype : numba type
+        Element type (``numba.types.float64``, ...).
+    ndim : int
+        Number of dimensions.
+    layout : str
+        ``"C"`` (contiguous) or ``"A"`` (any strides), as numba types the argument.
+    readonly : bool
+        Whether the array arrives read-only (a separate compilation in numba).
+
+    Returns
+    -------
+    numba.types.Array
+    """
+    import numba
+
+    return numba.types.Array(dtype, ndim, layout, readonly=readonly)
 
 
 def register(*names: str) -> None:
