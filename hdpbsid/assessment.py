@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2, norm
 
 __all__ = [
     "Comparison",
@@ -204,6 +203,8 @@ def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualRepo
         raise ValueError(f"max_lag must be between 1 and N/2 = {n / 2:g}, got {max_lag}")
     if not (np.all(np.isfinite(e)) and np.all(np.isfinite(u))):
         raise ValueError("residuals and input must be finite (the model's predictions diverged?)")
+    from scipy.stats import chi2, norm  # here: scipy.stats is slow to import
+
     M = int(max_lag)
     z = norm.ppf(0.5 + CONFIDENCE / 2)  # 2.5758
     lags = np.arange(M + 1)

@@ -42,6 +42,7 @@ from .feedback import refine_decision
 from .methods.dt import identify_dt
 from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
 from .model import LinearTrend, StateSpaceModel, scale_signals
+from .runtime import library_call
 
 __all__ = [
     "METHODS",
@@ -177,6 +178,7 @@ def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
     return u0, y0
 
 
+@library_call
 def identify(
     t: Any,
     u: Any = None,

@@ -44,6 +44,7 @@ from .checks import (
 )
 from .conversion import c2d, d2c, sampled_steps
 from .recursion import linear_recursion
+from .runtime import library_call
 
 __all__ = [
     "StateSpaceModel",
@@ -392,6 +393,7 @@ class StateSpaceModel(_ModelBase):
         """
         return sampled_steps(self.A, self.B, self.K if with_k else None, h, method)
 
+    @library_call
     def simulate(
         self,
         t: Any,
@@ -489,6 +491,7 @@ class StateSpaceModel(_ModelBase):
             raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
         return y
 
+    @library_call
     def fit(
         self,
         t: Any,
@@ -607,6 +610,7 @@ class StateSpaceModel(_ModelBase):
             yp = self._predict_deviation(t, ud, yd, x0v, k, method)
         return yp + Y0, x0v, y
 
+    @library_call
     def predict(
         self,
         t: Any,
@@ -638,6 +642,7 @@ class StateSpaceModel(_ModelBase):
         self.check_record(t, time_unit)
         return self._predict(t, u, y, k, x0, method)[0]
 
+    @library_call
     def compare(
         self,
         t: Any,
@@ -667,6 +672,7 @@ class StateSpaceModel(_ModelBase):
         y_hat, x0v, y_meas = self._predict(t, u, y, k, "estimate", method)
         return Comparison(fit=fit_percent(y_meas, y_hat), y_hat=y_hat, x0=x0v, k=int(k))
 
+    @library_call
     def residuals(
         self,
         t: Any,
@@ -757,6 +763,7 @@ class DiscreteModel(_ModelBase):
     def __repr__(self) -> str:
         return f"DiscreteModel(dt={self.dt:g}, {self._repr_body()})"
 
+    @library_call
     def simulate(self, u: Any, x0: Any | None = None, t: Any | None = None) -> Array:
         """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from the deviation state
         ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``

@@ -98,6 +98,7 @@ from .criteria import (
     windowed_simulation_error,
 )
 from .model import StateSpaceModel
+from .runtime import library_call
 
 __all__ = [
     "identify_auto",
@@ -680,6 +681,7 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return table
 
 
+@library_call
 def select_model(
     t: Any,
     u: Any,
@@ -789,6 +791,7 @@ def select_model(
     return model, _rows_table(rows), rule + floor_note
 
 
+@library_call
 def identify_auto(
     t: Any,
     u: Any,
@@ -851,6 +854,7 @@ def identify_auto(
     return model
 
 
+@library_call
 def select_order(
     method: str,
     t: Any,

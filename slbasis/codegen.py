@@ -28,6 +28,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 from sympy.printing.numpy import NumPyPrinter
 
+from .kernels import CATALOGUE
 from .symbolic.closed_forms import gamma_simplify
 from .symbolic.parse import N, X
 from .symbolic.problem import SturmLiouville
@@ -35,18 +36,6 @@ from .symbolic.problem import SturmLiouville
 #: Entries ``n < SMALL_N`` come from direct exact computation (see the module docstring).
 SMALL_N = 4
 KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
-
-#: Catalogue families -> (module name, default numeric parameter values).
-CATALOGUE = {
-    "hermite": ("hermite", {}),
-    "hermite_functions": ("hermite_functions", {}),
-    "laguerre": ("laguerre", {"alpha": 0}),
-    "legendre": ("legendre", {}),
-    "chebyshev_t": ("chebyshev_t", {}),
-    "chebyshev_u": ("chebyshev_u", {}),
-    "gegenbauer": ("gegenbauer", {"lam": 1}),
-    "jacobi": ("jacobi", {"alpha": 0, "beta": 0}),
-}
 
 
 class _XLogY(sp.Function):

@@ -17,15 +17,32 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-import sympy as sp
+if TYPE_CHECKING:
+    import sympy as sp
 
-from .symbolic.expr import to_expression
-from .symbolic.parse import N, X
-from .symbolic.problem import SturmLiouville
+    from .symbolic.expr import to_expression
+    from .symbolic.parse import N, X
+    from .symbolic.problem import SturmLiouville
 
-Param = int | float | str | sp.Expr | None
-_rf = sp.RisingFactorial
+#: a parameter value: a number, a string or sympy expression, or None (symbolic)
+Param = Any
+
+
+def _symbolic() -> None:
+    """Bind ``sp``, ``N``, ``X`` and ``SturmLiouville`` here on the first derivation.
+
+    The catalogue itself (names, parameters, descriptions) needs no sympy, so
+    ``import slbasis`` does not import it; the builders below run only through
+    :meth:`Family.with_oracle`, which calls this first.
+    """
+    global sp, N, X, SturmLiouville, to_expression
+    import sympy as sp
+
+    from .symbolic.expr import to_expression
+    from .symbolic.parse import N, X
+    from .symbolic.problem import SturmLiouville
 
 
 @dataclass(frozen=True)
@@ -60,6 +77,7 @@ class Family:
             raise TypeError(
                 f"{self.name} takes parameters {self.parameters or '()'}; got {sorted(unknown)}"
             )
+        _symbolic()
         values = {p: _parameter(p, params.get(p)) for p in self.parameters}
         problem, oracle = self._build(**values)
         problem.oracle = oracle

@@ -139,6 +139,7 @@ _LAYER_OF = {
     "recursion": "foundations",
     "recursion_kernels": "foundations",
     "feedback": "foundations",
+    "runtime": "foundations",
     "systems": "systems",
 }
 _MAY_IMPORT = {

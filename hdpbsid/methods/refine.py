@@ -88,12 +88,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
-from scipy.optimize import least_squares
 
 from ..checks import check_data
 from ..checks import is_uniform as checks_is_uniform
 from ..model import StateSpaceModel
 from ..recursion import select_kernels
+from ..runtime import library_call
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
 __all__ = [
@@ -477,6 +477,8 @@ def _lm_fit(
             return residuals(centre + Q @ beta, jac=True, directions=Q)[1]
 
         run = min(DDLC_RUN_NFEV, budget - nfev)
+        from scipy.optimize import least_squares  # here: scipy.optimize is slow to import
+
         sol = least_squares(fun, np.zeros(Q.shape[1]), jac=jac, max_nfev=run, **kw)
         theta = centre + Q @ sol.x
         nfev += int(sol.nfev)
@@ -759,6 +761,7 @@ def _residuals_compiled(
     return r, J
 
 
+@library_call
 def refine_pem(
     model: StateSpaceModel,
     t: Any,
@@ -928,6 +931,7 @@ def refine_pem(
     )
 
 
+@library_call
 def one_step_errors(
     model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str | None = None
 ) -> Array | None:
