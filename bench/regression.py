@@ -971,9 +971,12 @@ def _git(*args: str) -> str:
         return "unknown"
 
 
-def metadata(command: str, n_jobs: int, wall: float, n_rows: int) -> dict[str, Any]:
+def metadata(
+    command: str, n_jobs: int, wall: float, n_rows: int, load: tuple[float, ...]
+) -> dict[str, Any]:
     """The commit measured, the last commit that changed the library, whether the library
-    had uncommitted edits, the date, the machine and the versions."""
+    had uncommitted edits, the date, the machine, its load (1-minute average at the start
+    and the end: the CPU times rise with it on shared cores) and the versions."""
     from importlib.metadata import PackageNotFoundError, version
 
     import scipy
@@ -992,6 +995,7 @@ def metadata(command: str, n_jobs: int, wall: float, n_rows: int) -> dict[str, A
         "records": n_rows,
         "wall_seconds": round(wall, 1),
         "machine": f"{platform.machine()}, {os.cpu_count()} cores (shared)",
+        "load_average": [round(x, 1) for x in load],
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
@@ -1015,11 +1019,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not specs:
         raise SystemExit(f"--subset {args.subset} matches no record")
     command = "python bench/regression.py " + " ".join(sys.argv[1:] if argv is None else argv)
-    w0 = time.perf_counter()
+    w0, load0 = time.perf_counter(), os.getloadavg()[0]
     rows = run_table(specs, args.n_jobs)
     wall = time.perf_counter() - w0
     write_csv(rows, args.out)
-    meta = metadata(command.strip(), args.n_jobs, wall, len(rows))
+    meta = metadata(command.strip(), args.n_jobs, wall, len(rows), (load0, os.getloadavg()[0]))
     args.out.with_suffix(".json").write_text(json.dumps(meta, indent=1) + "\n")
     print(f"{len(rows)} records in {wall:.0f} s wall; {args.out}")
     print(summary_text(rows))
