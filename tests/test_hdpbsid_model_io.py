@@ -68,7 +68,7 @@ _options = st.dictionaries(
 )
 _name = st.text(
     st.characters(codec="utf-8", categories=("L", "N", "P", "S", "Zs")), min_size=1, max_size=12
-).filter(lambda s: s.strip() != "")
+).filter(lambda s: s.strip() != "" and s.isprintable())  # a label is printable text
 
 
 @settings(max_examples=40, deadline=None)

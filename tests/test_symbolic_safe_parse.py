@@ -21,6 +21,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import slbasis
+import slbasis.codegen  # a submodule: not imported by `import slbasis`
 from slbasis import SturmLiouville, families
 from slbasis.symbolic.expr import MAX_LENGTH, parse_expression, to_expression
 from slbasis.symbolic.parse import N, X
