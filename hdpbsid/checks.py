@@ -88,12 +88,15 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
 ENERGY_HEADROOM = 1e-12
 
 
-def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64]:
+def check_signal(
+    x: Any, name: str, ns: int | None = None, limit_energy: bool = True
+) -> NDArray[np.float64]:
     """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
 
     Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.  A
     channel whose energy is not below :data:`ENERGY_HEADROOM` of the float64 range is
-    refused (the sums of the least-squares steps would overflow).
+    refused (the sums of the least-squares steps would overflow) unless ``limit_energy``
+    is false (a simulation forms no such sums).
     """
     arr = as_float_array(x, name)
     if arr.ndim == 1:
@@ -103,7 +106,7 @@ def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64
             f"{name} must have shape (Ns,) or (Ns, channels) as in scipy.signal.lsim, "
             f"got shape {arr.shape}"
         )
-    if arr.size:
+    if arr.size and limit_energy:
         with np.errstate(over="ignore"):
             energy = np.einsum("ij,ij->j", arr, arr)
         limit = np.finfo(np.float64).max * ENERGY_HEADROOM

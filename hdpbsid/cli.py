@@ -485,6 +485,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
         print(f"  VAF identification record: {vaf_i}; validation record: {vaf_v}", file=out)
     main_order = 3 if 3 in models else min(models)
     model = models[main_order]
+    model.set_labels(input_names=["moment"], output_names=list(data.outputs), time_unit="s")
+    model.sampling_interval = float(np.median(np.diff(data.t)))
     _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
     model.options["demo"] = {
         "seed": args.seed,

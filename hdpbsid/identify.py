@@ -418,8 +418,8 @@ class _Scaling:
     """Channels far outside the float64 comfort band, scaled by powers of two for the
     identification and the model scaled back (:func:`~hdpbsid.checks.scale_exponents`):
     the result is the model of the unscaled record, since a power-of-two scaling is
-    exact and the methods are invariant to the signals' units.  The state is scaled by
-    the mean of the exponents, so ``B`` and ``C`` keep moderate entries."""
+    exact and the methods are invariant to the signals' units.  The state takes the
+    inputs' scale, so ``B`` keeps moderate entries and ``C``, ``D`` carry the gain."""
 
     def __init__(self, t: Any, u: Any, y: Any, several: bool) -> None:
         recs = [r for r in t if isinstance(r, list | tuple) and len(r) == 3] if several else []
@@ -440,7 +440,7 @@ class _Scaling:
         return t, self._u(u), self._y(y)
 
     def _u(self, x: Any) -> Any:
-        return None if x is None or not np.any(self.pu) else _ldexp(x, self.pu)
+        return x if x is None or not np.any(self.pu) else _ldexp(x, self.pu)
 
     def _y(self, x: Any) -> Any:
         return x if x is None or not np.any(self.py) else _ldexp(x, self.py)
@@ -450,7 +450,10 @@ class _Scaling:
             return model, info
         pu = self.pu if self.pu.size else np.zeros(model.m, dtype=np.int64)
         py = self.py if self.py.size else np.zeros(model.l, dtype=np.int64)
-        px = -int(round(float(np.mean(np.r_[pu, py]))))
+        # the state in the inputs' scale (the outputs' without inputs): B (and K of a time
+        # series) keep the entries they had, C and D carry the gain -- the sampled
+        # model's augmented exponential takes A, B and K, and must not see huge entries
+        px = -int(round(float(np.mean(pu if pu.size else py))))
         model = scale_signals(model, -pu, -py, px)
         model.options["signal_scaling"] = {
             "u_exponents": pu.tolist(),
