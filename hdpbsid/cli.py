@@ -65,6 +65,7 @@ __all__ = [
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
 class CLIError(Exception):
@@ -735,7 +736,9 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
     0 success, 1 identification failed (message on stderr), 2 usage or input error
-    (missing file, unknown column, unknown method, bad arguments; message on stderr).
+    (missing file, unknown column, unknown method, bad arguments; message on stderr),
+    130 interrupted (Ctrl-C).  A closed standard output (``| head``) ends the printing
+    quietly; the files are still written (:class:`_PipeSafe`).
     """
     out = _PipeSafe(sys.stdout if stdout is None else stdout)
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -756,6 +759,9 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, 128 + SIGINT, no traceback
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         out.flush()
 

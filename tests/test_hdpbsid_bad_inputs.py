@@ -124,6 +124,22 @@ def test_out_naming_a_file_fails_before_reading(csv_file: Path, tmp_path: Path, 
     assert "model.json is a directory" in capsys.readouterr().err
 
 
+def test_directories_and_interrupts(csv_file: Path, tmp_path: Path, capsys, monkeypatch) -> None:
+    with pytest.raises(ValueError, match="is a directory"):
+        read_record(tmp_path, ["u"], ["y"])
+    with pytest.raises(ValueError, match="is a directory"):
+        hdpbsid.load_model(tmp_path)
+    import hdpbsid.cli as cli
+
+    def interrupted(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_cmd_identify", interrupted)
+    assert main(_identify_args(csv_file, tmp_path / "o")) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Traceback" not in err
+
+
 def test_cli_reads_bom_csv_and_hints_decimal_commas(csv_file, tmp_path: Path, capsys) -> None:
     bom = tmp_path / "bom.csv"
     bom.write_bytes(b"\xef\xbb\xbf" + csv_file.read_bytes())
