@@ -326,9 +326,8 @@ def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
     """
     if x is None:
         return np.zeros(0, dtype=np.int64)
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
+    arr = _real_array(x)
+    if arr is None:
         return np.zeros(0, dtype=np.int64)
     if arr.ndim == 1:
         arr = arr[:, None]
@@ -339,6 +338,18 @@ def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
     e = np.frexp(big)[1].astype(np.int64)  # big = mantissa * 2^e, mantissa in [0.5, 1)
     inside = (big == 0) | ((big >= 2.0**-SCALE_EXPONENT) & (big <= 2.0**SCALE_EXPONENT))
     return np.where(inside, 0, -e)
+
+
+def _real_array(x: Any) -> NDArray[np.float64] | None:
+    """``x`` as a float array when it is an array of real numbers, else ``None`` (complex,
+    text, objects and ragged lists are left to the checks, which name them)."""
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError):
+        return None
+    if arr.dtype.kind not in "biuf":
+        return None
+    return arr.astype(np.float64, copy=False)
 
 
 def require_joblib(n_jobs: Any, name: str = "n_jobs") -> None:

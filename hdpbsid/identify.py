@@ -399,8 +399,11 @@ class _Labels:
         m = 0 if u is None else _channels(u)
         l = None if y is None else _channels(y)
         self.time_unit = check_label(time_unit, "time_unit")
-        self.inputs = None if inputs is None else check_names(inputs, "input_names", m, "u")
-        self.outputs = None
+        # the counts are checked here when the signals have a shape (else the data checks
+        # report them, and apply() checks the names against the model)
+        self.inputs, self.outputs = inputs, outputs
+        if inputs is not None and m is not None:
+            self.inputs = check_names(inputs, "input_names", m, "u")
         if outputs is not None and l is not None:
             self.outputs = check_names(outputs, "output_names", l, "y")
 
@@ -474,10 +477,9 @@ def _common(exps: list[Any]) -> Any:
 def _ldexp(x: Any, p: Any) -> Any:
     """``x * 2^p`` per column (a 1-D ``x`` is one channel); ``x`` left to the data
     checks when it is not a numeric array of the right width."""
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        return x
+    arr = np.asarray(x) if isinstance(x, np.ndarray | list | tuple) else None
+    if arr is None or arr.dtype.kind not in "biuf":
+        return x  # the data checks name what is wrong with it
     if arr.ndim == 1 and p.size == 1:
         return np.ldexp(arr, int(p[0]))
     if arr.ndim == 2 and arr.shape[1] == p.size:
@@ -496,10 +498,13 @@ def _unscale_levels(info: Any, pu: Any, py: Any) -> Any:
     return out
 
 
-def _channels(x: Any) -> int:
-    """Columns of a signal given as ``(Ns,)`` or ``(Ns, k)`` (the data checks report
-    anything else)."""
-    shape = np.shape(x)
+def _channels(x: Any) -> int | None:
+    """Columns of a signal given as ``(Ns,)`` or ``(Ns, k)``; ``None`` for a ragged one
+    (the data checks report it)."""
+    try:
+        shape = np.shape(x)
+    except ValueError:
+        return None
     return 1 if len(shape) < 2 else int(shape[1])
 
 
@@ -509,7 +514,13 @@ def _warn_not_exciting(u: Any) -> None:
     the record -- the model would describe the noise and initial conditions only."""
     if u is None:
         return
-    ua = np.asarray(u, dtype=float)
+    try:
+        ua = np.asarray(u)
+    except (TypeError, ValueError):  # ragged: the data checks name it
+        return
+    if ua.dtype.kind not in "biuf":
+        return  # complex, text, objects: the data checks name them
+    ua = ua.astype(float)
     ua = ua[:, None] if ua.ndim == 1 else ua
     if ua.ndim != 2 or ua.shape[0] < 2:
         return  # the method's checks report malformed input

@@ -284,3 +284,19 @@ def test_identify_labels_are_checked_first(record) -> None:
         hdpbsid.identify(t, u, y, time_unit="")
     with pytest.raises(ValueError, match="distinct"):
         hdpbsid.identify([(t, np.c_[u, -u], y)], input_names=["a", "a"])
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e200])
+@pytest.mark.parametrize(
+    "bad_u",
+    [np.ones(100) * (1 + 1j), [["a"]] * 100, [[1.0, 2.0]] * 50 + [[1.0]] * 50],
+    ids=["complex", "text", "ragged"],
+)
+def test_malformed_input_is_named_not_cast(bad_u, scale) -> None:
+    """Complex, text and ragged inputs reach the data checks untouched (no imaginary
+    part silently dropped by the scaling or the excitation check)."""
+    t = np.arange(100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a ComplexWarning would mean a silent cast
+        with pytest.raises(TypeError, match="^u must"):
+            hdpbsid.identify(t, bad_u, scale * np.sin(t), order=1, method="dt")
