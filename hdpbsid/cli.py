@@ -2,14 +2,17 @@
 
 The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
-2 usage / input error); it never calls ``sys.exit`` (a library that exits takes the caller's process
-with it).  Only this module prints.
+2 usage / input error, 130 interrupted); it never calls ``sys.exit`` (a library that
+exits takes the caller's process with it).  Only this module prints.  ``--out`` is
+checked before any data are read; a closed standard output (``| head``) ends the
+printing quietly and the files are still written.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
 the operating point (``--detrend``, stored in the model), identifies a continuous-time
-model, prints it with its eigenvalues and writes ``model.json`` (:func:`model_to_dict`:
-everything needed to rebuild the model) and ``identification.png`` (singular values,
+model, prints it with its eigenvalues and writes ``model.json``
+(:func:`hdpbsid.model_io.save_model`: everything needed to rebuild the model, with the
+column names as channel names and ``--time-unit``) and ``identification.png`` (singular values,
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
 ``--data FILE`` (repeatable) adds experiments: the list form of :func:`hdpbsid.identify`.
 Every bad file (missing column, text or missing values, unsorted times, empty) exits
@@ -17,7 +20,8 @@ with code 2 and a message naming the file and the column; no model is written.
 
 ``validate MODEL.json FILE ...`` prints the simulation fit per output (and the
 ``--k``-step prediction fit), the residual whiteness and input-independence verdicts
-(:mod:`hdpbsid.assessment`) and writes ``validation.png``.
+(:mod:`hdpbsid.assessment`) and writes ``validation.png``; a record whose time unit
+(``--time-unit``) or sampling interval does not match the model's draws one warning.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
 (:func:`hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`), identifies it with the best

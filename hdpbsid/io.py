@@ -20,6 +20,12 @@ suffix                     reader
                            (extra ``io``)
 =========================  ====================================================
 
+CSV text is UTF-8 (a leading byte-order mark, as spreadsheets write, is dropped) or
+UTF-16 with its byte-order mark; other encodings are refused with the line of the first
+byte that is not UTF-8.  Numbers take a decimal point: a decimal comma is refused with a
+hint, as are digit separators and numbers beyond the float64 range; a spreadsheet's
+``sep=;`` first line sets the delimiter.
+
 A variable may be stored as a row or a column (``(1, N)``, ``(N, 1)`` or ``(N,)``);
 anything with more than one non-singleton dimension is refused.
 """
