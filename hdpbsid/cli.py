@@ -47,7 +47,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from .checks import check_label
+from .checks import check_label, check_names
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
@@ -263,6 +263,11 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     _check_method(method)
     options = _parse_options(args.option)
     unit = _time_unit(args.time_unit or "s")
+    try:  # column names become the channel names: printable, short
+        check_names(inputs, "--inputs", len(inputs), "u")
+        check_names(outputs, "--outputs", len(outputs), "y")
+    except (TypeError, ValueError) as exc:
+        raise CLIError(f"{exc}; rename the column") from exc
     outdir = _check_out(args.out, ["model.json"] + ([] if args.no_plot else ["identification.png"]))
     columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
     records = _read_records(args, files, columns)

@@ -300,3 +300,13 @@ def test_malformed_input_is_named_not_cast(bad_u, scale) -> None:
         warnings.simplefilter("error")  # a ComplexWarning would mean a silent cast
         with pytest.raises(TypeError, match="^u must"):
             hdpbsid.identify(t, bad_u, scale * np.sin(t), order=1, method="dt")
+
+
+def test_cli_column_names_must_make_channel_names(tmp_path: Path, capsys) -> None:
+    long = "y" * 300
+    data = tmp_path / "d.csv"
+    data.write_text(f"t,u,{long}\n0,1,2\n1,2,3\n2,3,1\n")
+    argv = ["identify", str(data), "--inputs", "u", "--outputs", long, "--out", str(tmp_path)]
+    assert main(argv) == 2
+    assert "--outputs[0]" in capsys.readouterr().err
+    assert main([*argv[:5], "u", "--outputs", "u", "--out", str(tmp_path)]) == 2
