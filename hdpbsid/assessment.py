@@ -36,6 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .checks import scale_exponents
+
 __all__ = [
     "Comparison",
     "ResidualReport",
@@ -54,9 +56,14 @@ CONFIDENCE = 0.99
 def fit_percent(y: Array, y_hat: Array) -> Array:
     """MATLAB's ``compare`` fit per output column:
     ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent (``-inf`` is possible: a model
-    worse than the mean; ``nan`` for a constant output)."""
+    worse than the mean; ``nan`` for a constant output).  The columns are scaled by a
+    power of two first (exact; :func:`~hdpbsid.checks.scale_exponents`), so the norms of
+    a record in extreme units neither underflow nor overflow."""
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)
+    p = scale_exponents(y, "y")
+    if p.size == (y.shape[1] if y.ndim == 2 else 1):
+        y, y_hat = np.ldexp(y, p), np.ldexp(y_hat, p)
     den = np.linalg.norm(y - y.mean(axis=0), axis=0)
     num = np.linalg.norm(y - y_hat, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -88,12 +88,15 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
 ENERGY_HEADROOM = 1e-12
 
 
-def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64]:
+def check_signal(
+    x: Any, name: str, ns: int | None = None, limit_energy: bool = True
+) -> NDArray[np.float64]:
     """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
 
     Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.  A
     channel whose energy is not below :data:`ENERGY_HEADROOM` of the float64 range is
-    refused (the sums of the least-squares steps would overflow).
+    refused (the sums of the least-squares steps would overflow) unless ``limit_energy``
+    is false (a simulation forms no such sums).
     """
     arr = as_float_array(x, name)
     if arr.ndim == 1:
@@ -103,7 +106,7 @@ def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64
             f"{name} must have shape (Ns,) or (Ns, channels) as in scipy.signal.lsim, "
             f"got shape {arr.shape}"
         )
-    if arr.size:
+    if arr.size and limit_energy:
         with np.errstate(over="ignore"):
             energy = np.einsum("ij,ij->j", arr, arr)
         limit = np.finfo(np.float64).max * ENERGY_HEADROOM
@@ -323,9 +326,8 @@ def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
     """
     if x is None:
         return np.zeros(0, dtype=np.int64)
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
+    arr = _real_array(x)
+    if arr is None:
         return np.zeros(0, dtype=np.int64)
     if arr.ndim == 1:
         arr = arr[:, None]
@@ -336,6 +338,18 @@ def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
     e = np.frexp(big)[1].astype(np.int64)  # big = mantissa * 2^e, mantissa in [0.5, 1)
     inside = (big == 0) | ((big >= 2.0**-SCALE_EXPONENT) & (big <= 2.0**SCALE_EXPONENT))
     return np.where(inside, 0, -e)
+
+
+def _real_array(x: Any) -> NDArray[np.float64] | None:
+    """``x`` as a float array when it is an array of real numbers, else ``None`` (complex,
+    text, objects and ragged lists are left to the checks, which name them)."""
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError):
+        return None
+    if arr.dtype.kind not in "biuf":
+        return None
+    return arr.astype(np.float64, copy=False)
 
 
 def require_joblib(n_jobs: Any, name: str = "n_jobs") -> None:

@@ -2,14 +2,17 @@
 
 The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
-2 usage / input error); it never calls ``sys.exit`` (a library that exits takes the caller's process
-with it).  Only this module prints.
+2 usage / input error, 130 interrupted); it never calls ``sys.exit`` (a library that
+exits takes the caller's process with it).  Only this module prints.  ``--out`` is
+checked before any data are read; a closed standard output (``| head``) ends the
+printing quietly and the files are still written.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
 the operating point (``--detrend``, stored in the model), identifies a continuous-time
-model, prints it with its eigenvalues and writes ``model.json`` (:func:`model_to_dict`:
-everything needed to rebuild the model) and ``identification.png`` (singular values,
+model, prints it with its eigenvalues and writes ``model.json``
+(:func:`hdpbsid.model_io.save_model`: everything needed to rebuild the model, with the
+column names as channel names and ``--time-unit``) and ``identification.png`` (singular values,
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
 ``--data FILE`` (repeatable) adds experiments: the list form of :func:`hdpbsid.identify`.
 Every bad file (missing column, text or missing values, unsorted times, empty) exits
@@ -17,7 +20,8 @@ with code 2 and a message naming the file and the column; no model is written.
 
 ``validate MODEL.json FILE ...`` prints the simulation fit per output (and the
 ``--k``-step prediction fit), the residual whiteness and input-independence verdicts
-(:mod:`hdpbsid.assessment`) and writes ``validation.png``.
+(:mod:`hdpbsid.assessment`) and writes ``validation.png``; a record whose time unit
+(``--time-unit``) or sampling interval does not match the model's draws one warning.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
 (:func:`hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
@@ -44,7 +48,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from . import frequency_cli
-from .checks import check_label
+from .checks import check_label, check_names
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
@@ -66,6 +70,7 @@ __all__ = [
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
 class CLIError(Exception):
@@ -268,6 +273,11 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     _check_method(method)
     options = _parse_options(args.option)
     unit = _time_unit(args.time_unit or "s")
+    try:  # column names become the channel names: printable, short
+        check_names(inputs, "--inputs", len(inputs), "u")
+        check_names(outputs, "--outputs", len(outputs), "y")
+    except (TypeError, ValueError) as exc:
+        raise CLIError(f"{exc}; rename the column") from exc
     outdir = _check_out(args.out, ["model.json"] + ([] if args.no_plot else ["identification.png"]))
     columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
     records = _read_records(args, files, columns)
@@ -496,6 +506,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
         print(f"  VAF identification record: {vaf_i}; validation record: {vaf_v}", file=out)
     main_order = 3 if 3 in models else min(models)
     model = models[main_order]
+    model.set_labels(input_names=["moment"], output_names=list(data.outputs), time_unit="s")
+    model.sampling_interval = float(np.median(np.diff(data.t)))
     _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
     model.options["demo"] = {
         "seed": args.seed,
@@ -751,7 +763,9 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
     0 success, 1 identification failed (message on stderr), 2 usage or input error
-    (missing file, unknown column, unknown method, bad arguments; message on stderr).
+    (missing file, unknown column, unknown method, bad arguments; message on stderr),
+    130 interrupted (Ctrl-C).  A closed standard output (``| head``) ends the printing
+    quietly; the files are still written (:class:`_PipeSafe`).
     """
     out = _PipeSafe(sys.stdout if stdout is None else stdout)
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -774,6 +788,9 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, 128 + SIGINT, no traceback
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         out.flush()
 

@@ -418,8 +418,11 @@ class _Labels:
         m = 0 if u is None else _channels(u)
         l = None if y is None else _channels(y)
         self.time_unit = check_label(time_unit, "time_unit")
-        self.inputs = None if inputs is None else check_names(inputs, "input_names", m, "u")
-        self.outputs = None
+        # the counts are checked here when the signals have a shape (else the data checks
+        # report them, and apply() checks the names against the model)
+        self.inputs, self.outputs = inputs, outputs
+        if inputs is not None and m is not None:
+            self.inputs = check_names(inputs, "input_names", m, "u")
         if outputs is not None and l is not None:
             self.outputs = check_names(outputs, "output_names", l, "y")
 
@@ -437,8 +440,8 @@ class _Scaling:
     """Channels far outside the float64 comfort band, scaled by powers of two for the
     identification and the model scaled back (:func:`~hdpbsid.checks.scale_exponents`):
     the result is the model of the unscaled record, since a power-of-two scaling is
-    exact and the methods are invariant to the signals' units.  The state is scaled by
-    the mean of the exponents, so ``B`` and ``C`` keep moderate entries."""
+    exact and the methods are invariant to the signals' units.  The state takes the
+    inputs' scale, so ``B`` keeps moderate entries and ``C``, ``D`` carry the gain."""
 
     def __init__(self, t: Any, u: Any, y: Any, several: bool) -> None:
         recs = [r for r in t if isinstance(r, list | tuple) and len(r) == 3] if several else []
@@ -459,7 +462,7 @@ class _Scaling:
         return t, self._u(u), self._y(y)
 
     def _u(self, x: Any) -> Any:
-        return None if x is None or not np.any(self.pu) else _ldexp(x, self.pu)
+        return x if x is None or not np.any(self.pu) else _ldexp(x, self.pu)
 
     def _y(self, x: Any) -> Any:
         return x if x is None or not np.any(self.py) else _ldexp(x, self.py)
@@ -469,7 +472,10 @@ class _Scaling:
             return model, info
         pu = self.pu if self.pu.size else np.zeros(model.m, dtype=np.int64)
         py = self.py if self.py.size else np.zeros(model.l, dtype=np.int64)
-        px = -int(round(float(np.mean(np.r_[pu, py]))))
+        # the state in the inputs' scale (the outputs' without inputs): B (and K of a time
+        # series) keep the entries they had, C and D carry the gain -- the sampled
+        # model's augmented exponential takes A, B and K, and must not see huge entries
+        px = -int(round(float(np.mean(pu if pu.size else py))))
         model = scale_signals(model, -pu, -py, px)
         model.options["signal_scaling"] = {
             "u_exponents": pu.tolist(),
@@ -490,10 +496,9 @@ def _common(exps: list[Any]) -> Any:
 def _ldexp(x: Any, p: Any) -> Any:
     """``x * 2^p`` per column (a 1-D ``x`` is one channel); ``x`` left to the data
     checks when it is not a numeric array of the right width."""
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        return x
+    arr = np.asarray(x) if isinstance(x, np.ndarray | list | tuple) else None
+    if arr is None or arr.dtype.kind not in "biuf":
+        return x  # the data checks name what is wrong with it
     if arr.ndim == 1 and p.size == 1:
         return np.ldexp(arr, int(p[0]))
     if arr.ndim == 2 and arr.shape[1] == p.size:
@@ -512,10 +517,13 @@ def _unscale_levels(info: Any, pu: Any, py: Any) -> Any:
     return out
 
 
-def _channels(x: Any) -> int:
-    """Columns of a signal given as ``(Ns,)`` or ``(Ns, k)`` (the data checks report
-    anything else)."""
-    shape = np.shape(x)
+def _channels(x: Any) -> int | None:
+    """Columns of a signal given as ``(Ns,)`` or ``(Ns, k)``; ``None`` for a ragged one
+    (the data checks report it)."""
+    try:
+        shape = np.shape(x)
+    except ValueError:
+        return None
     return 1 if len(shape) < 2 else int(shape[1])
 
 
@@ -525,7 +533,13 @@ def _warn_not_exciting(u: Any) -> None:
     the record -- the model would describe the noise and initial conditions only."""
     if u is None:
         return
-    ua = np.asarray(u, dtype=float)
+    try:
+        ua = np.asarray(u)
+    except (TypeError, ValueError):  # ragged: the data checks name it
+        return
+    if ua.dtype.kind not in "biuf":
+        return  # complex, text, objects: the data checks name them
+    ua = ua.astype(float)
     ua = ua[:, None] if ua.ndim == 1 else ua
     if ua.ndim != 2 or ua.shape[0] < 2:
         return  # the method's checks report malformed input

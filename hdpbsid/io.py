@@ -20,6 +20,12 @@ suffix                     reader
                            (extra ``io``)
 =========================  ====================================================
 
+CSV text is UTF-8 (a leading byte-order mark, as spreadsheets write, is dropped) or
+UTF-16 with its byte-order mark; other encodings are refused with the line of the first
+byte that is not UTF-8.  Numbers take a decimal point: a decimal comma is refused with a
+hint, as are digit separators and numbers beyond the float64 range; a spreadsheet's
+``sep=;`` first line sets the delimiter.
+
 A variable may be stored as a row or a column (``(1, N)``, ``(N, 1)`` or ``(N,)``);
 anything with more than one non-singleton dimension is refused.
 """
@@ -317,29 +323,40 @@ def read_columns(
     when the Parquet / HDF5 reader is not installed.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"data file not found: {path}")
+    _check_file(path, "data file")
     columns = list(columns)
     dup = sorted({c for c in columns if columns.count(c) > 1})
     if dup:
         raise ValueError(f"{path}: column(s) {dup} selected more than once")
     fmt = _fmt(path)
-    if fmt == "csv":
-        out = _read_csv(path, columns, delimiter)
-    elif fmt == "mat":
-        out = _read_mat(path, columns)
-    elif fmt == "npz":
-        out = _read_npz(path, columns)
-    elif fmt == "parquet":
-        out = _read_parquet(path, columns)
-    else:
-        out = _read_hdf5(path, columns)
+    try:
+        if fmt == "csv":
+            out = _read_csv(path, columns, delimiter)
+        elif fmt == "mat":
+            out = _read_mat(path, columns)
+        elif fmt == "npz":
+            out = _read_npz(path, columns)
+        elif fmt == "parquet":
+            out = _read_parquet(path, columns)
+        else:
+            out = _read_hdf5(path, columns)
+    except OSError as exc:  # permissions, a file that vanished, a device error
+        raise ValueError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
     lengths = {c: v.size for c, v in out.items()}
     if len(set(lengths.values())) > 1:
         raise ValueError(f"{path}: the columns have different lengths {lengths}")
     if any(n == 0 for n in lengths.values()):
         raise ValueError(f"{path}: empty columns {lengths}; expected samples")
     return out
+
+
+def _check_file(path: Path, what: str) -> None:
+    """``ValueError`` unless ``path`` is an existing regular file (a directory is named
+    as such: "not found" would mislead)."""
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory; give the {what} inside it")
+    if not path.is_file():
+        raise ValueError(f"{what} not found: {path}")
 
 
 def _check_times(path: Path, name: str, t: Array) -> None:
@@ -501,8 +518,7 @@ def open_chunked(
     from .methods.chunked import ChunkedRecord
 
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"data file not found: {path}")
+    _check_file(path, "data file")
     if (dt is None) == (fs is None):
         raise ValueError("give exactly one of the sampling interval dt and the rate fs")
     step = dt if dt is not None else 1.0 / float(fs)  # type: ignore[arg-type]

@@ -41,6 +41,7 @@ from .checks import (
     check_time,
     check_uniform,
     is_uniform,
+    scale_exponents,
 )
 from .conversion import c2d, d2c, sampled_steps
 from .recursion import linear_recursion
@@ -83,7 +84,13 @@ class FitResult:
 
 
 def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
-    """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``."""
+    """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``.
+
+    Both are ratios, computed on the columns scaled by the power of two of
+    :func:`~hdpbsid.checks.scale_exponents` (exact), so that the squares of a record in
+    extreme units (1e-200) neither underflow nor overflow."""
+    p = scale_exponents(y, "y")
+    y, y_sim = np.ldexp(y, p), np.ldexp(y_sim, p)
     err = y - y_sim
     var_y = np.var(y, axis=0)
     safe = np.where(var_y > 0, var_y, np.nan)
@@ -293,6 +300,16 @@ def _level(x: Any, name: str, size: int) -> Array:
     return arr
 
 
+def _initial_state(O: Array, r: Array) -> Array:
+    """Least-squares ``x0`` of ``O x0 ~ r``, with ``O`` and ``r`` scaled by powers of two
+    (exact) to unit size first: the solver forms norms (sums of squares), which for a
+    record in extreme units (1e-200, 1e200) underflow or overflow."""
+    po = int(scale_exponents(O.ravel(), "O")[0]) if O.size else 0
+    pr = int(scale_exponents(r, "r")[0]) if r.size else 0
+    x = np.linalg.lstsq(np.ldexp(O, po), np.ldexp(r, pr), rcond=None)[0]
+    return np.ldexp(x, po - pr)
+
+
 def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     """``(h, h_groups, inv)``: the steps ``h = diff(t)``, one representative per group of
     steps equal to 1e-12 relative, and each step's group index (``h ~ h_groups[inv]``).
@@ -426,7 +443,7 @@ class StateSpaceModel(_ModelBase):
         t = check_time(t, "t", min_samples=1)
         if self.m == 0 and u is None:
             u = np.zeros((t.shape[0], 0))
-        u = check_signal(u, "u", t.shape[0])
+        u = check_signal(u, "u", t.shape[0], limit_energy=False)
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
         return t, u
@@ -486,7 +503,7 @@ class StateSpaceModel(_ModelBase):
         return Y[:, :, 0] + u @ self.D.T, Y[:, :, 1:].reshape(ns * self.l, n)
 
     def _check_output(self, t: Array, y: Any) -> Array:
-        y = check_signal(y, "y", t.shape[0])
+        y = check_signal(y, "y", t.shape[0], limit_energy=False)
         if y.shape[1] != self.l:
             raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
         return y
@@ -525,7 +542,7 @@ class StateSpaceModel(_ModelBase):
             if x0 == "estimate" and self.n > 0 and not is_uniform(t):
                 # non-uniform steps: one pass for the forced and all free responses
                 y_sim, O = self._forced_and_free(t, ud, method)
-                x0v = np.linalg.lstsq(O, (y - Y0 - y_sim).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (y - Y0 - y_sim).ravel())
                 y_sim = y_sim + Y0 + (O @ x0v).reshape(y.shape)
                 vaf, nrmse = fit_statistics(y, y_sim)
                 return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
@@ -539,7 +556,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = np.linalg.lstsq(O, (y - y_sim).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (y - y_sim).ravel())
                 y_sim = y_sim + (O @ x0v).reshape(y.shape)
         else:
             x0v = self._check_x0(x0)
@@ -603,7 +620,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = np.linalg.lstsq(O, (yd - yp).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (yd - yp).ravel())
                 yp = yp + (O @ x0v).reshape(yd.shape)
         else:
             x0v = self._check_x0(x0)
@@ -665,7 +682,7 @@ class StateSpaceModel(_ModelBase):
         self.check_record(t, time_unit)
         if k is None:
             res = self._fit(t, u, y, "estimate", method)
-            y_meas = check_signal(y, "y")
+            y_meas = check_signal(y, "y", limit_energy=False)
             return Comparison(
                 fit=fit_percent(y_meas, res.y_sim), y_hat=res.y_sim, x0=res.x0, k=None
             )
@@ -769,14 +786,14 @@ class DiscreteModel(_ModelBase):
         ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``
         added (module docstring).  ``t`` (the sample times) is needed only when the model
         has a :class:`LinearTrend`."""
-        u = check_signal(u, "u")
+        u = check_signal(u, "u", limit_energy=False)
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
         if t is None:
             if self.trend is not None:
                 raise ValueError("this model has a linear trend: pass the sample times t")
             t = np.zeros(u.shape[0])
-        t = check_signal(t, "t", u.shape[0])[:, 0]
+        t = check_signal(t, "t", u.shape[0], limit_energy=False)[:, 0]
         U0, Y0 = self.operating_point(t)
         u = u - U0
         x = np.zeros(self.n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
@@ -860,7 +877,10 @@ def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
         tr = LinearTrend(tr.t_ref, np.ldexp(tr.u_slope, pu), np.ldexp(tr.y_slope, py))
     nc = model.noise_covariance
     if nc is not None:
-        nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
+        with np.errstate(over="ignore"):
+            nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
+        if not np.all(np.isfinite(nc)):
+            nc = None  # the squares of the signals exceed float64: not representable
     changes: dict[str, Any] = dict(
         mats,
         u0=np.ldexp(model.u0, pu),

@@ -555,15 +555,23 @@ def load_model(path: str | Path, max_bytes: int = MAX_BYTES) -> StateSpaceModel:
     if not isinstance(path, str | Path):
         raise TypeError(f"path must be a str or pathlib.Path, got {type(path).__name__}")
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory; give the model file inside it")
     if not path.is_file():
         raise ValueError(f"model file not found: {path}")
-    size = path.stat().st_size
-    if size > max_bytes:
-        raise ValueError(
-            f"{path}: {size} bytes, more than a model file may have ({max_bytes}; "
-            f"pass max_bytes= to read a larger one)"
-        )
-    raw = path.read_bytes()[: max_bytes + 1]
+    try:
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise ValueError(
+                f"{path}: {size} bytes, more than a model file may have ({max_bytes}; "
+                f"pass max_bytes= to read a larger one)"
+            )
+        with path.open("rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as exc:  # permissions, a file that vanished
+        raise ValueError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
+    if len(raw) > max_bytes:  # grew since stat
+        raise ValueError(f"{path}: more than a model file may have ({max_bytes} bytes)")
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

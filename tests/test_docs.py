@@ -129,6 +129,7 @@ _LAYER_OF = {
     "methods": "methods",
     "core": "core",
     "model": "foundations",
+    "model_io": "foundations",
     "conversion": "foundations",
     "checks": "foundations",
     "metrics": "foundations",
