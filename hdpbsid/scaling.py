@@ -350,18 +350,15 @@ class LongRecordPolicy:
 # -- progress ------------------------------------------------------------------------------
 class _Progress:
     """A tqdm bar over the stages, and one over the samples of each pass over the record;
-    nothing when disabled or tqdm is missing."""
+    nothing when disabled."""
 
     def __init__(self, enabled: bool, stages: int) -> None:
         self.bar: Any = None
         self.samples: Any = None
         if not enabled:
             return
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            warnings.warn("progress=True needs tqdm (pip install tqdm)", UserWarning, stacklevel=3)
-            return
+        from tqdm.auto import tqdm  # a dependency, imported only when a bar is shown
+
         self._tqdm = tqdm
         self.bar = tqdm(total=stages, desc="identify", unit="stage", leave=True)
 
