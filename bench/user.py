@@ -172,11 +172,26 @@ def _sippy_binary(reps: int) -> dict:
 
 def _cli_csv(csv: str, out: str, timeout: float) -> dict:
     """:func:`long_records.run_cli` from this (fresh) process, so that the peak RSS of its
-    children is the command's alone."""
+    children is the command's alone; the order and worst eigenvalue error read from the
+    model file the command wrote."""
     sys.path.insert(0, str(HERE))
+    import numpy as np
     from long_records import run_cli
+    from segments import resonance
 
-    return run_cli(Path(csv), Path(out), timeout, env=dict(os.environ))
+    from hdpbsid.metrics import eigenvalue_errors
+
+    got = run_cli(Path(csv), Path(out), timeout, env=dict(os.environ))
+    if "status" in got:
+        return got
+    model = json.loads((Path(out) / "model.json").read_text())
+    A = np.asarray(model["A"], dtype=float)
+    got["order"] = int(model["n"])
+    true = np.linalg.eigvals(resonance()[0])
+    got["err"] = (
+        float(eigenvalue_errors(np.linalg.eigvals(A), true).max()) if A.shape == (2, 2) else None
+    )
+    return got
 
 
 WORKERS: dict[str, Callable[[int], dict]] = {
