@@ -66,13 +66,16 @@ print(json.dumps(dict(
 """
 
 
-def _env() -> dict[str, str]:
-    env = dict(os.environ)
+def _env(base: dict[str, str] | None = None) -> dict[str, str]:
+    env = dict(os.environ if base is None else base)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
 
 
-def run_api(ns: int, path: str = "", timeout: float = 900) -> dict:
+def run_api(ns: int, path: str = "", timeout: float = 900, env: dict | None = None) -> dict:
+    """``identify`` on ``ns`` samples (or the file ``path``) in a fresh subprocess whose
+    environment is ``env`` (default: this process's); the measurements as a dict, or
+    ``{"status": ...}`` on a time-out or failure."""
     code = CHILD.format(bench=str(HERE.parent), ns=ns, path=path)
     try:
         out = subprocess.run(
@@ -80,7 +83,7 @@ def run_api(ns: int, path: str = "", timeout: float = 900) -> dict:
             capture_output=True,
             text=True,
             timeout=timeout,
-            env=_env(),
+            env=_env(env),
             check=False,
         )
     except subprocess.TimeoutExpired:
@@ -107,7 +110,10 @@ def write_csv(path: Path, ns: int) -> None:
                comments="", fmt="%.9g")  # fmt: skip
 
 
-def run_cli(path: Path, out: Path, timeout: float = 900) -> dict:
+def run_cli(path: Path, out: Path, timeout: float = 900, env: dict | None = None) -> dict:
+    """``hdpbsid identify`` on the CSV ``path`` (results in ``out``) in a subprocess whose
+    environment is ``env`` (default: this process's): wall, CPU, peak RSS, method, whether
+    a progress bar was drawn; ``{"status": ...}`` on a time-out or failure."""
     import resource
 
     cmd = [sys.executable, "-m", "hdpbsid", "identify", str(path), "--inputs", "u",
@@ -116,7 +122,7 @@ def run_cli(path: Path, out: Path, timeout: float = 900) -> dict:
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
         res = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=timeout, env=_env(), check=False
+            cmd, capture_output=True, text=True, timeout=timeout, env=_env(env), check=False
         )
     except subprocess.TimeoutExpired:
         return {"status": f"time-out ({timeout:g} s)"}

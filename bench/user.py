@@ -28,10 +28,18 @@ Rows (``--list``):
   included), with ``import numpy, scipy.linalg`` as the floor the imports cannot go
   below.
 
-Hooks for rows still to come (functions that return None and print "not measured"):
-:func:`sippy_row` (SIPPY N4SID on the 10^4-sample binary-input case, same environment as
-hdpbsid) and :func:`long_record_row` (``identify(t, u, y)`` and the CLI on 10^5 to 10^7
-samples: time, peak memory, order, error).
+* ``sippy``: SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` (the order
+  is what N4SID is told; every other argument at its default) alternating on ``--reps``
+  seeds of the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions),
+  one worker process per column; the worst eigenvalue error (median over the seeds) in
+  the label and the ratio hdpbsid / N4SID of the default column on a line of its own.
+  Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
+* ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
+  samples of the lightly damped record of ``bench/long_records.py`` (its functions:
+  one call per column in a fresh process; peak RSS, method, order, worst eigenvalue
+  error of the default column in the label), and for 10^6 ``hdpbsid identify`` on the
+  same record as a 10^6-line CSV; ``long-7`` (only when named in ``--rows``: minutes)
+  10^7 samples from a chunked HDF5 file (extra ``io``).  ``--timeout`` bounds each call.
 """
 
 from __future__ import annotations
@@ -127,11 +135,71 @@ def _first_call(reps: int) -> dict:
     return {"wall": [wall], "cpu": [cpu], "samples": int(len(t))}
 
 
+#: the 10^4-sample binary-input case of ``bench/scaling.py``: ``identify`` given the order
+#: (the one thing N4SID is told), every other argument at its default
+SIPPY_SAMPLES = 10**4
+HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
+
+
+def _sippy_binary(reps: int) -> dict:
+    """SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` alternating on
+    ``reps`` seeds of :func:`scaling.binary_record` in this process (after one untimed
+    call each): wall, CPU time and worst relative eigenvalue error of each call."""
+    try:
+        import sippy_unipi  # noqa: F401
+    except ImportError as exc:
+        return {"status": f"SIPPY not installed ({exc}): pip install sippy-unipi (extra bench)"}
+    sys.path.insert(0, str(HERE))
+    from scaling import _errors, _fit, binary_record
+
+    from hdpbsid.methods.memo import clear_caches
+
+    specs = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
+    out = {k: {"wall": [], "cpu": [], "err": []} for k in specs}
+    for spec in specs.values():
+        _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels
+    for seed in range(reps):
+        data, true = binary_record(SIPPY_SAMPLES, seed)
+        for key, spec in specs.items():
+            clear_caches()  # each method projects the record itself
+            w0, c0 = time.perf_counter(), time.process_time()
+            eig, _ = _fit(spec, data)
+            out[key]["wall"].append(time.perf_counter() - w0)
+            out[key]["cpu"].append(time.process_time() - c0)
+            out[key]["err"].append(_errors(eig, true))
+    return out
+
+
+def _cli_csv(csv: str, out: str, timeout: float) -> dict:
+    """:func:`long_records.run_cli` from this (fresh) process, so that the peak RSS of its
+    children is the command's alone; the order and worst eigenvalue error read from the
+    model file the command wrote."""
+    sys.path.insert(0, str(HERE))
+    import numpy as np
+    from long_records import run_cli
+    from segments import resonance
+
+    from hdpbsid.metrics import eigenvalue_errors
+
+    got = run_cli(Path(csv), Path(out), timeout, env=dict(os.environ))
+    if "status" in got:
+        return got
+    model = json.loads((Path(out) / "model.json").read_text())
+    A = np.asarray(model["A"], dtype=float)
+    got["order"] = int(model["n"])
+    true = np.linalg.eigvals(resonance()[0])
+    got["err"] = (
+        float(eigenvalue_errors(np.linalg.eigvals(A), true).max()) if A.shape == (2, 2) else None
+    )
+    return got
+
+
 WORKERS: dict[str, Callable[[int], dict]] = {
     "hermite-quadrotor": lambda r: _time_calls("quadrotor", {"order": 3, "method": "hermite"}, r),
     "auto-quadrotor": lambda r: _time_calls("quadrotor", {}, r),
     "auto-second-order": lambda r: _time_calls("second-order", {}, r),
     "first-call": _first_call,
+    "sippy-binary": _sippy_binary,
 }
 
 
@@ -184,30 +252,128 @@ ROWS = [
 ]
 
 
-def sippy_row(reps: int, one_thread: bool) -> dict | None:
-    """Hook: SIPPY N4SID (f = p = 60) on the 10^4-sample binary-input case, against
-    hdpbsid's defaults in the same environment.  Returns ``{"wall": [...], "cpu": [...]}``
-    when implemented; None: not measured yet."""
-    return None
+#: a line of the table from a hook: label, default column, one-thread column
+Line = tuple[str, dict | None, dict | None]
 
 
-def long_record_row(n_samples: int, reps: int, one_thread: bool) -> dict | None:
-    """Hook: ``identify(t, u, y)`` and the CLI on ``n_samples`` (10^5 .. 10^7) of a lightly
-    damped second-order system (time, peak memory, order, error).  None: not measured
-    yet."""
-    return None
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.3g} %"
 
 
-HOOKS: dict[str, tuple[str, Callable[[int, bool], dict | None]]] = {
-    "sippy": ("SIPPY N4SID, 10^4 binary-input case", sippy_row),
+def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
+    """SIPPY N4SID (``f = p = 60``) against ``identify(t, u, y, order=2)`` (every other
+    argument at its default) on the 10^4-sample binary-input case of ``bench/scaling.py``,
+    both in one worker process per column, alternating on ``reps`` seeds.  Lines: each
+    method's times (labels: median worst eigenvalue error in the default column), then
+    the ratio hdpbsid / N4SID of the default column's medians."""
+    got = {one: _spawn("sippy-binary", reps, _environment(one, None)) for one in (False, True)}
+    if "status" in got[False]:
+        return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
+    lines: list[Line] = []
+    labels = {
+        "n4sid": "SIPPY N4SID f=p=60, 10^4 binary input",
+        "hdpbsid": "identify(t, u, y, order=2), same records",
+    }
+    for key, label in labels.items():
+        err = _median(got[False][key]["err"])
+        lines.append((f"{label}; worst eig. error {_pct(err)}", got[False][key], got[True][key]))
+    ratio = {
+        k: _median(got[False]["hdpbsid"][k]) / _median(got[False]["n4sid"][k])
+        for k in ("wall", "cpu")
+    }
+    lines.append(
+        (
+            f"hdpbsid / N4SID, default environment: wall {ratio['wall']:.2f}x,"
+            f" CPU {ratio['cpu']:.2f}x",
+            None,
+            None,
+        )
+    )
+    return lines
+
+
+def _long_details(r: dict) -> str:
+    if "status" in r:
+        return r["status"]
+    mb = r["rss"] / 2**20
+    out = f"peak RSS {mb:.0f} MB, {r.get('method')}"
+    if "order" in r:
+        out += f", order {r['order']}, worst eig. error {_pct(r.get('err'))}"
+    if r.get("skipped"):
+        out += f", skipped {r['skipped']}"
+    if "progress bar" in r:
+        out += f", progress bar {r['progress bar']}"
+    return out
+
+
+def _as_times(r: dict) -> dict:
+    return r if "status" in r else {"wall": [r["wall"]], "cpu": [r["cpu"]]}
+
+
+def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> list[Line]:
+    """``identify(t, u, y)`` with nothing else on ``n_samples`` of the lightly damped
+    second-order record of ``bench/long_records.py`` (in memory up to 2 10^6 samples, from
+    a chunked HDF5 file above), one call per column in a fresh process (``reps`` is not
+    used: the calls take minutes), and for 10^6 also ``hdpbsid identify`` on the same
+    record as a CSV file.  Labels: peak RSS, method, order, worst eigenvalue error of the
+    default column."""
+    sys.path.insert(0, str(HERE))
+    from long_records import run_api, write_csv, write_h5
+
+    tmp = Path(_DATA["dir"])
+    path = ""
+    if n_samples > 2 * 10**6:
+        path = str(tmp / f"resonance-{n_samples}.h5")
+        if not Path(path).exists():
+            write_h5(Path(path), n_samples)
+    got = {
+        one: run_api(n_samples, path, options.timeout, env=_environment(one, None))
+        for one in (False, True)
+    }
+    src = "chunked HDF5" if path else "in memory"
+    lines: list[Line] = [
+        (
+            f"identify(t, u, y), 10^{len(str(n_samples)) - 1} samples, {src};"
+            f" {_long_details(got[False])}",
+            _as_times(got[False]),
+            _as_times(got[True]),
+        )
+    ]
+    if n_samples == 10**6:
+        csv = tmp / "resonance-1e6.csv"
+        if not csv.exists():
+            write_csv(csv, n_samples)
+        cli = {}
+        for one in (False, True):
+            with tempfile.TemporaryDirectory() as out:
+                cli[one] = _spawn(
+                    "cli-csv",
+                    reps,
+                    _environment(one, None),
+                    ["--csv", str(csv), "--out", out, "--timeout", str(options.timeout)],
+                )
+        lines.append(
+            (
+                f"CLI hdpbsid identify, 10^6-line CSV; {_long_details(cli[False])}",
+                _as_times(cli[False]),
+                _as_times(cli[True]),
+            )
+        )
+    return lines
+
+
+HOOKS: dict[str, tuple[str, Callable[[int, argparse.Namespace], list[Line]]]] = {
+    "sippy": ("SIPPY N4SID vs identify, 10^4 binary-input case", sippy_row),
     **{
         f"long-{k}": (
-            f"identify(t, u, y), 10^{k} samples",
+            f"identify(t, u, y), 10^{k} samples" + (" and the CLI on a CSV" if k == 6 else ""),
             lambda r, o, k=k: long_record_row(10**k, r, o),
         )
         for k in (5, 6, 7)
     },
 }
+#: rows run only when named in ``--rows`` (minutes each)
+ON_REQUEST = ("long-7",)
 
 
 # -- the parent: subprocesses, table ----------------------------------------------------------
@@ -226,6 +392,22 @@ def _environment(one_thread: bool, extra: dict[str, str] | None) -> dict[str, st
 def _cpu_of_children() -> float:
     usage = os.times()
     return usage.children_user + usage.children_system
+
+
+def _spawn(worker: str, reps: int, env: dict[str, str], extra: list[str] | None = None) -> dict:
+    """Run ``worker`` in a fresh subprocess with ``env``; its JSON result (``{"status":
+    ...}`` when it failed)."""
+    out = subprocess.run(
+        [sys.executable, str(Path(__file__).resolve()), "--worker", worker, "--reps", str(reps)]
+        + (extra or []),
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if out.returncode != 0:
+        return {"status": f"failed: {out.stderr.strip().splitlines()[-1:]}"}
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def _run_worker(row: Row, reps: int, one_thread: bool) -> dict:
@@ -274,7 +456,9 @@ def _median(x: list[float]) -> float:
 
 def _cells(default: dict | None, one: dict | None) -> str:
     if default is None or one is None:
-        return "| not measured (hook) | | | | | |"
+        return "| | | | | | |"
+    if "status" in default or "status" in one:
+        return f"| {default.get('status', '')} | {one.get('status', '')} | | | | |"
     dw, ow = _median(default["wall"]), _median(one["wall"])
     dc, oc = _median(default["cpu"]), _median(one["cpu"])
     return f"| {dw:.3f} | {ow:.3f} | {dw / ow:.2f} | {dc:.3f} | {oc:.3f} | {dc / oc:.2f} |"
@@ -296,13 +480,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reps", type=int, default=5, help="repetitions per cell (median)")
     ap.add_argument("--rows", nargs="*", help="row names (default: all; --list)")
     ap.add_argument("--list", action="store_true", help="list the rows and exit")
+    ap.add_argument(
+        "--timeout", type=float, default=900, help="seconds per long-record call (long-*)"
+    )
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--csv", help=argparse.SUPPRESS)
+    ap.add_argument("--out", help=argparse.SUPPRESS)
     ap.add_argument("--make-records", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.make_records:
         for case in ("quadrotor", "second-order"):
             for seed in (*range(args.reps), 1000):
                 _record(case, seed)
+        return 0
+    if args.worker == "cli-csv":
+        print(json.dumps(_cli_csv(args.csv, args.out, args.timeout)))
         return 0
     if args.worker:
         print(json.dumps(WORKERS[args.worker](args.reps)))
@@ -312,9 +504,9 @@ def main(argv: list[str] | None = None) -> int:
         for r in ROWS:
             print(f"{r.name:16s} {r.label}")
         for k, (label, _) in HOOKS.items():
-            print(f"{k:16s} {label} (hook)")
+            print(f"{k:16s} {label}" + (" (only when named)" if k in ON_REQUEST else ""))
         return 0
-    chosen = args.rows or names
+    chosen = args.rows or [n for n in names if n not in ON_REQUEST]
     unknown = sorted(set(chosen) - set(names))
     if unknown:
         ap.error(f"unknown rows {unknown}; known: {names}")
@@ -344,9 +536,10 @@ def main(argv: list[str] | None = None) -> int:
         default = run(row, args.reps, False)
         one = run(row, args.reps, True)
         print(f"| {row.label} {_cells(default, one)}", flush=True)
-    for key, (label, hook) in HOOKS.items():
+    for key, (_, hook) in HOOKS.items():
         if key in chosen:
-            print(f"| {label} {_cells(hook(args.reps, False), hook(args.reps, True))}", flush=True)
+            for label, default, one in hook(args.reps, args):
+                print(f"| {label} {_cells(default, one)}", flush=True)
     data.cleanup()
     load1 = os.getloadavg()
     print()
