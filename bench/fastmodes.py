@@ -1,6 +1,6 @@
 """Why HD-PBSID misses the fast real poles of the Table-2-like closed loop (a diagnosis).
 
-Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/fastmodes.py [--seeds 3] [--snr 20]``.
+Run: ``.venv/bin/python bench/fastmodes.py [--seeds 3] [--snr 20]``.
 
 The cases ``table2-closed-loop`` and ``table2-closed-loop-rate`` of ``bench/cases.py``
 (plant eigenvalues ``-28, -10, 1.2 +- 5.8i``, LQG loop on the noisy rate, 1-4 Hz sweep,

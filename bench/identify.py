@@ -3,8 +3,8 @@
 Run: ``.venv/bin/python bench/identify.py [--runs 20] [--snr 40 20 10]
 [--cases second-order chirp quadrotor pbsid-mimo nonuniform] [--methods ...]``
 (``--quick``: 5 runs, SNR 20 only; ``--order none``: ``order=None``, the method's own
-choice).  ``OPENBLAS_NUM_THREADS=1`` is recommended on a
-busy machine (the refinement's small-matrix loops).
+choice).  Run in the default environment: the library sets its own thread counts
+(:mod:`hdpbsid.runtime`).
 
 ``--defaults`` measures ``hdpbsid.identify(t, u, y)`` with every default instead
 (``method="auto"``, held-out order choice, mean removal) on :data:`DEFAULTS_CASES`:

@@ -46,18 +46,12 @@ the tables of an earlier run without rerunning it.
 
 from __future__ import annotations
 
-import os
-
-# One BLAS thread: the machine's two cores are shared, and oversubscribed BLAS threads
-# made timings 10-20x slower and erratic; every method is timed under the same setting.
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-
 import argparse
 import contextlib
 import csv
 import io
 import json
+import os
 import platform
 import sys
 import time

@@ -4,6 +4,10 @@ Entry point: :func:`identify` (docs/user-guide.md).  The basis-domain
 methods (``identify_hermite``, ``identify_laguerre``, ``identify_legendre``,
 ``identify_chebyshev``, ``identify_sl``) are
 imported on first access so that ``import hdpbsid`` stays light.
+
+Threads: the library limits BLAS to one thread for its small-matrix work and uses the
+cores for large factorisations and the compiled projection (:mod:`hdpbsid.runtime`);
+``HDPBSID_NUM_THREADS=n`` or ``with hdpbsid.num_threads(n): ...`` overrides it.
 """
 
 from typing import Any
@@ -22,7 +26,9 @@ from .identify import (
 from .methods.dt import identify_discrete, identify_dt
 from .methods.settings import BasisSettings
 from .metrics import eigenvalue_errors, match_eigenvalues
-from .model import DiscreteModel, FitResult, StateSpaceModel
+from .model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
+from .model_io import load_model, save_model
+from .runtime import num_threads
 from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 _LAZY_ATTRS = {
@@ -60,6 +66,9 @@ __all__: list[str] = [
     "StateSpaceModel",
     "DiscreteModel",
     "FitResult",
+    "TimeScaleWarning",
+    "load_model",
+    "save_model",
     "c2d",
     "d2c",
     "pbsid_core",
@@ -71,4 +80,5 @@ __all__: list[str] = [
     "pitch_model",
     "simulate_pitch_closed_loop",
     "PitchData",
+    "num_threads",
 ]

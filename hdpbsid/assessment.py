@@ -35,7 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2, norm
+
+from .checks import scale_exponents
 
 __all__ = [
     "Comparison",
@@ -55,9 +56,14 @@ CONFIDENCE = 0.99
 def fit_percent(y: Array, y_hat: Array) -> Array:
     """MATLAB's ``compare`` fit per output column:
     ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent (``-inf`` is possible: a model
-    worse than the mean; ``nan`` for a constant output)."""
+    worse than the mean; ``nan`` for a constant output).  The columns are scaled by a
+    power of two first (exact; :func:`~hdpbsid.checks.scale_exponents`), so the norms of
+    a record in extreme units neither underflow nor overflow."""
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)
+    p = scale_exponents(y, "y")
+    if p.size == (y.shape[1] if y.ndim == 2 else 1):
+        y, y_hat = np.ldexp(y, p), np.ldexp(y_hat, p)
     den = np.linalg.norm(y - y.mean(axis=0), axis=0)
     num = np.linalg.norm(y - y_hat, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -204,6 +210,8 @@ def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualRepo
         raise ValueError(f"max_lag must be between 1 and N/2 = {n / 2:g}, got {max_lag}")
     if not (np.all(np.isfinite(e)) and np.all(np.isfinite(u))):
         raise ValueError("residuals and input must be finite (the model's predictions diverged?)")
+    from scipy.stats import chi2, norm  # here: scipy.stats is slow to import
+
     M = int(max_lag)
     z = norm.ppf(0.5 + CONFIDENCE / 2)  # 2.5758
     lags = np.arange(M + 1)

@@ -30,6 +30,12 @@ __all__ = [
     "check_positive_int",
     "check_matrix",
     "check_state_space",
+    "MAX_LABEL",
+    "check_label",
+    "check_names",
+    "SCALE_EXPONENT",
+    "scale_exponents",
+    "require_joblib",
 ]
 
 
@@ -84,12 +90,15 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
 ENERGY_HEADROOM = 1e-12
 
 
-def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64]:
+def check_signal(
+    x: Any, name: str, ns: int | None = None, limit_energy: bool = True
+) -> NDArray[np.float64]:
     """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
 
     Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.  A
     channel whose energy is not below :data:`ENERGY_HEADROOM` of the float64 range is
-    refused (the sums of the least-squares steps would overflow).
+    refused (the sums of the least-squares steps would overflow) unless ``limit_energy``
+    is false (a simulation forms no such sums).
     """
     arr = as_float_array(x, name)
     if arr.ndim == 1:
@@ -99,7 +108,7 @@ def check_signal(x: Any, name: str, ns: int | None = None) -> NDArray[np.float64
             f"{name} must have shape (Ns,) or (Ns, channels) as in scipy.signal.lsim, "
             f"got shape {arr.shape}"
         )
-    if arr.size:
+    if arr.size and limit_energy:
         with np.errstate(over="ignore"):
             energy = np.einsum("ij,ij->j", arr, arr)
         limit = np.finfo(np.float64).max * ENERGY_HEADROOM
@@ -291,3 +300,100 @@ def check_method_args(
         f = check_positive_int(f, "f")
     mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     return order, p, f, mo
+
+
+#: Longest time unit or channel name (characters).
+MAX_LABEL = 256
+
+
+def check_label(value: Any, name: str) -> str:
+    """A short printable string (a time unit or a channel name); ``TypeError`` /
+    ``ValueError`` naming ``name`` otherwise."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, got {type(value).__name__}")
+    if not value.strip() or len(value) > MAX_LABEL or not value.isprintable():
+        raise ValueError(
+            f"{name} must be a non-empty printable string of at most {MAX_LABEL} "
+            f"characters, got {value!r}"
+        )
+    return value
+
+
+def check_names(names: Any, name: str, size: int, prefix: str) -> list[str]:
+    """``size`` distinct channel names (:func:`check_label` each), or ``prefix1``,
+    ``prefix2``, ... when ``names`` is ``None``."""
+    if names is None:
+        return [f"{prefix}{i + 1}" for i in range(size)]
+    if isinstance(names, str) or not isinstance(names, list | tuple):
+        raise TypeError(f"{name} must be a list of {size} strings, got {type(names).__name__}")
+    out = [check_label(v, f"{name}[{i}]") for i, v in enumerate(names)]
+    if len(out) != size:
+        raise ValueError(f"{name} must have {size} entries (one per channel), got {len(out)}")
+    dup = sorted({v for v in out if out.count(v) > 1})
+    if dup:
+        raise ValueError(f"{name} must be distinct, but {dup} occur more than once")
+    return out
+
+
+#: Channels whose largest magnitude lies outside ``[2^-SCALE_EXPONENT, 2^SCALE_EXPONENT]``
+#: (about 1e-30 to 1e30) are scaled by a power of two before identification
+#: (:func:`scale_exponents`).  Inside the band the methods' float64 arithmetic -- sums of
+#: products of up to four samples over up to 10^10 samples, ``(2^100)^4 10^10 < 2^434``
+#: and ``(2^-100)^4 > 2^-400`` -- stays far from overflow and from the subnormal range,
+#: so records in any physical unit run unchanged; outside it, squares and their products
+#: overflow or underflow (a record scaled by 1e-200 had every square round to zero).
+SCALE_EXPONENT = 100
+
+
+def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
+    """Per channel of ``x`` (``(Ns,)`` or ``(Ns, k)``): the exponent ``p`` that brings the
+    channel's largest finite magnitude into ``[0.5, 1)`` by ``x * 2^p`` when it lies
+    outside the band of :data:`SCALE_EXPONENT`, else 0.
+
+    Multiplying by a power of two changes only the floating-point exponent, so it is
+    exact (no rounding) unless a value underflows, and the scaled record is the same
+    record in another unit.  ``x`` that is not a numeric array (the data checks report
+    it), an all-zero channel and ``None`` give zeros.
+    """
+    if x is None:
+        return np.zeros(0, dtype=np.int64)
+    arr = _real_array(x)
+    if arr is None:
+        return np.zeros(0, dtype=np.int64)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] == 0:
+        return np.zeros(arr.shape[-1] if arr.ndim == 2 else 0, dtype=np.int64)
+    with np.errstate(invalid="ignore"):
+        big = np.max(np.where(np.isfinite(arr), np.abs(arr), 0.0), axis=0)
+    e = np.frexp(big)[1].astype(np.int64)  # big = mantissa * 2^e, mantissa in [0.5, 1)
+    inside = (big == 0) | ((big >= 2.0**-SCALE_EXPONENT) & (big <= 2.0**SCALE_EXPONENT))
+    return np.where(inside, 0, -e)
+
+
+def _real_array(x: Any) -> NDArray[np.float64] | None:
+    """``x`` as a float array when it is an array of real numbers, else ``None`` (complex,
+    text, objects and ragged lists are left to the checks, which name them)."""
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError):
+        return None
+    if arr.dtype.kind not in "biuf":
+        return None
+    return arr.astype(np.float64, copy=False)
+
+
+def require_joblib(n_jobs: Any, name: str = "n_jobs") -> None:
+    """Raise ``ImportError`` naming the extra to install when ``n_jobs`` asks for parallel
+    workers (anything but ``None`` and 1) and joblib is missing -- before the work starts,
+    not when the first parallel section is reached."""
+    if n_jobs is None or (isinstance(n_jobs, int | np.integer) and n_jobs == 1):
+        return
+    import importlib.util
+
+    if importlib.util.find_spec("joblib") is None:
+        raise ImportError(
+            f"{name}={n_jobs!r} runs workers in parallel with joblib, which is not "
+            f'installed: pip install "slbasis-hdpbsid[studies]" (or pip install joblib), '
+            f"or leave {name} out"
+        )

@@ -2,14 +2,17 @@
 
 The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
-2 usage / input error); it never calls ``sys.exit`` (a library that exits takes the caller's process
-with it).  Only this module prints.
+2 usage / input error, 130 interrupted); it never calls ``sys.exit`` (a library that
+exits takes the caller's process with it).  Only this module prints.  ``--out`` is
+checked before any data are read; a closed standard output (``| head``) ends the
+printing quietly and the files are still written.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
 the operating point (``--detrend``, stored in the model), identifies a continuous-time
-model, prints it with its eigenvalues and writes ``model.json`` (:func:`model_to_dict`:
-everything needed to rebuild the model) and ``identification.png`` (singular values,
+model, prints it with its eigenvalues and writes ``model.json``
+(:func:`hdpbsid.model_io.save_model`: everything needed to rebuild the model, with the
+column names as channel names and ``--time-unit``) and ``identification.png`` (singular values,
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
 ``--data FILE`` (repeatable) adds experiments: the list form of :func:`hdpbsid.identify`.
 Every bad file (missing column, text or missing values, unsorted times, empty) exits
@@ -17,7 +20,8 @@ with code 2 and a message naming the file and the column; no model is written.
 
 ``validate MODEL.json FILE ...`` prints the simulation fit per output (and the
 ``--k``-step prediction fit), the residual whiteness and input-independence verdicts
-(:mod:`hdpbsid.assessment`) and writes ``validation.png``.
+(:mod:`hdpbsid.assessment`) and writes ``validation.png``; a record whose time unit
+(``--time-unit``) or sampling interval does not match the model's draws one warning.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
 (:func:`hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`), identifies it with the best
@@ -35,17 +39,21 @@ from __future__ import annotations
 
 import argparse
 import ast
-import json
+import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 
+from . import frequency_cli
+from .checks import check_label, check_names
 from .identify import available_methods, identify, is_available
 from .io import Record, read_columns, read_record
 from .metrics import match_eigenvalues
-from .model import LinearTrend, StateSpaceModel
+from .model import StateSpaceModel, TimeScaleWarning
+from .model_io import load_model, model_from_dict, model_to_dict, save_model
 
 __all__ = [
     "main",
@@ -62,6 +70,7 @@ __all__ = [
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
 class CLIError(Exception):
@@ -86,117 +95,15 @@ class _HelpExit(Exception):
         self.status = status
 
 
-# -- JSON ---------------------------------------------------------------------------------
-def _jsonable(x: Any) -> Any:
-    """Convert numpy arrays/scalars, complex numbers and containers to JSON values.
-
-    Complex numbers become ``{"real": ..., "imag": ...}``; anything else unknown becomes
-    its ``repr`` (options may hold callables or objects; they are recorded, not lost).
-    """
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return _jsonable(x.item())
-    if isinstance(x, complex):
-        return {"real": x.real, "imag": x.imag}
-    if isinstance(x, float):
-        return x if np.isfinite(x) else repr(x)
-    if x is None or isinstance(x, bool | int | str):
-        return x
-    return repr(x)
-
-
-def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
-    """JSON-ready description of a model: ``A, B, C, D, K`` (nested lists),
-    ``eigenvalues`` (list of ``{"real", "imag"}``), ``singular_values``, ``options``,
-    ``n, m, l``, ``"time": "continuous"``, the operating point ``u0``, ``y0`` and
-    ``trend`` (``None`` or ``{"t_ref", "u_slope", "y_slope"}``) and
-    ``noise_covariance``: everything :func:`model_from_dict` needs to rebuild it."""
-    sv = model.singular_values
-    tr = model.trend
-    nc = model.noise_covariance
-    return {
-        "time": "continuous",
-        "n": model.n,
-        "m": model.m,
-        "l": model.l,
-        "A": model.A.tolist(),
-        "B": model.B.tolist(),
-        "C": model.C.tolist(),
-        "D": model.D.tolist(),
-        "K": model.K.tolist(),
-        "u0": model.u0.tolist(),
-        "y0": model.y0.tolist(),
-        "trend": None
-        if tr is None
-        else {"t_ref": tr.t_ref, "u_slope": tr.u_slope.tolist(), "y_slope": tr.y_slope.tolist()},
-        "noise_covariance": None if nc is None else np.asarray(nc, dtype=float).tolist(),
-        "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
-        "singular_values": None if sv is None else np.asarray(sv, dtype=float).tolist(),
-        "options": _jsonable(model.options),
-    }
-
-
-def model_from_dict(d: dict[str, Any]) -> StateSpaceModel:
-    """Inverse of :func:`model_to_dict` (options come back as plain JSON values).
-
-    Files written before the operating point was stored (no ``u0``/``y0``) load with
-    zero levels.  Raises ``ValueError`` naming a missing or misshapen entry.
-    """
-    if not isinstance(d, dict):
-        raise ValueError(f"a model description must be a JSON object, got {type(d).__name__}")
-    if d.get("time", "continuous") != "continuous":
-        raise ValueError(f"expected a continuous-time model, got time={d.get('time')!r}")
-    try:
-        n, m, l = int(d["n"]), int(d["m"]), int(d["l"])
-        mats = [np.array(d[k], dtype=float) for k in ("A", "B", "C", "D", "K")]
-    except KeyError as exc:
-        raise ValueError(f"model description lacks the entry {exc.args[0]!r}") from exc
-    shapes = [(n, n), (n, m), (l, n), (l, m), (n, l)]
-    for name, M, shape in zip("ABCDK", mats, shapes, strict=True):
-        if M.size != shape[0] * shape[1]:
-            raise ValueError(f"model entry {name!r} has {M.size} values, expected shape {shape}")
-    mats = [M.reshape(s) for M, s in zip(mats, shapes, strict=True)]
-    sv = d.get("singular_values")
-    tr = d.get("trend")
-    nc = d.get("noise_covariance")
-    return StateSpaceModel(
-        *mats,
-        singular_values=None if sv is None else np.asarray(sv, dtype=float),
-        options=dict(d.get("options") or {}),
-        noise_covariance=None if nc is None else np.asarray(nc, dtype=float).reshape(l, l),
-        u0=d.get("u0"),
-        y0=d.get("y0"),
-        trend=None if tr is None else LinearTrend(tr["t_ref"], tr["u_slope"], tr["y_slope"]),
-    )
-
-
+# -- JSON (hdpbsid.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
-    """Write :func:`model_to_dict` to ``path`` (indented JSON); returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(model_to_dict(model), indent=2) + "\n")
-    return path
+    """:func:`hdpbsid.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    return save_model(model, path)
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
-    """Read a model written by :func:`write_model_json` (``ValueError`` naming the file
-    when it is missing or not a model)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"model file not found: {path}")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not a JSON model file: {exc}") from exc
-    try:
-        return model_from_dict(d)
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"{path}: {exc}") from exc
+    """:func:`hdpbsid.load_model` (kept for callers of the earlier CLI helper)."""
+    return load_model(path)
 
 
 # -- data files -----------------------------------------------------------------------------
@@ -236,6 +143,62 @@ def _read_records(
     ]
 
 
+# -- checks made before any work ---------------------------------------------------------------
+def _check_out(out: str | Path, names: list[str]) -> Path:
+    """The output directory ``out``: an existing directory, or a path that can be created
+    as one, in which ``names`` can be written as files.  Checked before the data are read,
+    so a bad ``--out`` costs nothing (it is created only when something is written)."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise CLIError(f"--out {path}: exists and is not a directory; give a directory to write to")
+    parent = path
+    while not parent.exists():  # the nearest existing ancestor must be a writable directory
+        parent = parent.parent
+    if not parent.is_dir():
+        raise CLIError(f"--out {path}: cannot create it, because {parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise CLIError(f"--out {path}: cannot write in {parent} (permission denied)")
+    for name in names:
+        if (path / name).is_dir():
+            raise CLIError(f"--out {path}: {path / name} is a directory; cannot write {name}")
+    return path
+
+
+def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
+    """The column names a model was identified from: ``options["columns"]`` (written by
+    ``hdpbsid identify``), else the model's channel names (a model saved from Python)."""
+    cols = model.options.get("columns")
+    if cols is None:
+        return {"time": None, "inputs": model.input_names, "outputs": model.output_names}
+    ok = isinstance(cols, dict) and isinstance(cols.get("time"), str | None)
+    for key in ("inputs", "outputs"):
+        names = cols.get(key) if isinstance(cols, dict) else None
+        ok = ok and isinstance(names, list) and all(isinstance(c, str) for c in names)
+    if not ok:
+        raise CLIError(
+            f"{path}: key 'options.columns' must be an object with 'time' (a name or null), "
+            f"'inputs' and 'outputs' (lists of names), got {cols!r:.200}"
+        )
+    return {"time": cols["time"], "inputs": list(cols["inputs"]), "outputs": list(cols["outputs"])}
+
+
+def _time_unit(unit: str) -> str:
+    try:
+        return check_label(unit, "--time-unit")
+    except (TypeError, ValueError) as exc:
+        raise CLIError(str(exc)) from exc
+
+
+def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> None:
+    """The record-against-model time scale check of :meth:`StateSpaceModel.check_record`,
+    printed once per record (the evaluations that follow would repeat it)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TimeScaleWarning)
+        model.check_record(rec.t, unit, name=rec.time or "t")
+    for w in caught:
+        print(f"warning: {rec.source}: {w.message}", file=sys.stderr)
+
+
 # -- commands -----------------------------------------------------------------------------
 def best_method() -> str:
     """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
@@ -266,7 +229,7 @@ def _print_model(model: StateSpaceModel, out: TextIO) -> None:
     print(repr(model), file=out)
     for name in ("A", "B", "C", "D", "K"):
         print(f"{name} =\n{getattr(model, name)}", file=out)
-    print("eigenvalues:", file=out)
+    print(f"eigenvalues (rad/{model.time_unit}):", file=out)
     for z in model.eigenvalues:
         print(f"  {_fmt_complex(complex(z))}", file=out)
 
@@ -289,6 +252,15 @@ def _check_method(method: str) -> None:
         )
 
 
+def _progress(choice: str, records: list[Record]) -> bool:
+    """Progress bars (stderr): ``on``, ``off``, or ``auto``: when stderr is a terminal or
+    a record is long (:data:`hdpbsid.scaling.LONG_SAMPLES`)."""
+    from .scaling import LONG_SAMPLES
+
+    long = max(r.t.size for r in records) > LONG_SAMPLES
+    return choice == "on" or (choice == "auto" and (sys.stderr.isatty() or long))
+
+
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     inputs = _split_columns(args.inputs)
     outputs = _split_columns(args.outputs)
@@ -300,15 +272,32 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     method = args.method
     _check_method(method)
     options = _parse_options(args.option)
+    unit = _time_unit(args.time_unit or "s")
+    try:  # column names become the channel names: printable, short
+        check_names(inputs, "--inputs", len(inputs), "u")
+        check_names(outputs, "--outputs", len(outputs), "y")
+    except (TypeError, ValueError) as exc:
+        raise CLIError(f"{exc}; rename the column") from exc
+    outdir = _check_out(args.out, ["model.json"] + ([] if args.no_plot else ["identification.png"]))
     columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
     records = _read_records(args, files, columns)
     detrend = None if args.detrend == "none" else args.detrend
     refine = None if args.refine == "none" else args.refine
+    options.setdefault("progress", _progress(args.progress, records))
+    labels = {"input_names": inputs, "output_names": outputs, "time_unit": unit}
     try:
         if len(records) == 1:
             t, u, y = records[0].as_tuple()
             model = identify(
-                t, u, y, order=args.order, method=method, refine=refine, detrend=detrend, **options
+                t,
+                u,
+                y,
+                order=args.order,
+                method=method,
+                refine=refine,
+                detrend=detrend,
+                **labels,
+                **options,
             )
         else:
             model = identify(
@@ -317,6 +306,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
                 method=method,
                 refine=refine,
                 detrend=detrend,
+                **labels,
                 **options,
             )
     except (ValueError, TypeError) as exc:
@@ -339,8 +329,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
         if len(records) > 1:
             print(f"{rec.source}:", file=out)
         _print_fit(model, rec.t, uu, rec.y, outputs, out)
-    outdir = Path(args.out)
-    path = write_model_json(model, outdir / "model.json")
+    path = save_model(model, outdir / "model.json")
     print(f"wrote {path}", file=out)
     if not args.no_plot:
         from .plots import plot_identification, save_figure
@@ -355,10 +344,10 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
     """Fit and residual tests of a saved model on other records (:mod:`hdpbsid.assessment`)."""
-    model = read_model_json(args.model)
-    saved = model.options.get("columns") or {}
-    inputs = _split_columns(args.inputs) if args.inputs else list(saved.get("inputs") or [])
-    outputs = _split_columns(args.outputs) if args.outputs else list(saved.get("outputs") or [])
+    model = load_model(args.model)
+    saved = _saved_columns(model, args.model)
+    inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
+    outputs = _split_columns(args.outputs) if args.outputs else saved["outputs"]
     if not outputs:
         raise CLIError("validate: the model file names no output columns; give --outputs")
     if len(inputs) != model.m or len(outputs) != model.l:
@@ -368,49 +357,68 @@ def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
         )
     time = args.time
     if time is None and args.dt is None and args.fs is None:
-        if saved.get("time") is None and model.options.get("sampling_interval"):
-            args.dt = float(model.options["sampling_interval"])  # identified with --dt
+        dt = model.options.get("sampling_interval")
+        if saved["time"] is None and isinstance(dt, int | float) and dt > 0:
+            args.dt = float(dt)  # identified with --dt
         else:
-            time = saved.get("time") or "t"
+            time = saved["time"] or "t"
     if args.k is not None and args.k < 1:
         raise CLIError(f"--k must be a positive number of steps, got {args.k}")
+    unit = None if args.time_unit is None else _time_unit(args.time_unit)
+    names = [] if args.no_plot else ["validation.png"]
+    if not args.no_plot and len(args.files) > 1:
+        names = [f"validation-{Path(f).stem}.png" for f in args.files]
+    outdir = _check_out(args.out, names)
     records = _read_records(args, args.files, {"time": time, "inputs": inputs, "outputs": outputs})
-    outdir = Path(args.out)
     for rec in records:
-        uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
-        sim = model.compare(rec.t, uu, rec.y)
-        print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
-        for name, f in zip(outputs, sim.fit, strict=True):
-            print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
-        if args.k is not None:
-            pred = model.compare(rec.t, uu, rec.y, k=args.k)
-            for name, f in zip(outputs, pred.fit, strict=True):
-                print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
-        try:
-            report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
-        except ValueError as exc:
-            print(f"  residual tests not possible: {exc}", file=out)
-            continue
-        print(report.summary(outputs, inputs), file=out)
-        if not args.no_plot:
-            from .plots import plot_validation, save_figure
-
-            fig = plot_validation(
-                model,
-                rec.t,
-                uu,
-                rec.y,
-                k=args.k,
-                report=report,
-                output_names=outputs,
-                input_names=inputs,
-                title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
-            )
-            name = (
-                "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
-            )
-            print(f"wrote {save_figure(fig, outdir / name)}", file=out)
+        _warn_time_scale(model, rec, unit)
+        name = "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
+        with warnings.catch_warnings():  # said once above; the evaluations would repeat it
+            warnings.simplefilter("ignore", TimeScaleWarning)
+            _validate_record(args, model, rec, inputs, outputs, outdir / name, out)
     return EXIT_OK
+
+
+def _validate_record(
+    args: argparse.Namespace,
+    model: StateSpaceModel,
+    rec: Record,
+    inputs: list[str],
+    outputs: list[str],
+    figure: Path,
+    out: TextIO,
+) -> None:
+    """Fits, residual tests and figure of ``model`` on one record (``hdpbsid validate``)."""
+    uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
+    sim = model.compare(rec.t, uu, rec.y)
+    print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
+    for name, f in zip(outputs, sim.fit, strict=True):
+        print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
+    if args.k is not None:
+        pred = model.compare(rec.t, uu, rec.y, k=args.k)
+        for name, f in zip(outputs, pred.fit, strict=True):
+            print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
+    try:
+        report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
+    except ValueError as exc:
+        print(f"  residual tests not possible: {exc}", file=out)
+        return
+    print(report.summary(outputs, inputs), file=out)
+    if not args.no_plot:
+        from .plots import plot_validation, save_figure
+
+        fig = plot_validation(
+            model,
+            rec.t,
+            uu,
+            rec.y,
+            k=args.k,
+            report=report,
+            output_names=outputs,
+            input_names=inputs,
+            title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
+        )
+        print(f"wrote {save_figure(fig, figure)}", file=out)
 
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
@@ -426,7 +434,7 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     snr = None if str(args.snr).lower() in ("none", "inf") else float(args.snr)
     outputs = tuple(_split_columns(args.outputs))
     orders = tuple(int(o) for o in _split_columns([args.orders]))
-    outdir = Path(args.out)
+    outdir = _check_out(args.out, ["model.json"])
     result = studies.run_study(
         "quadrotor",
         runs=1,
@@ -498,6 +506,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
         print(f"  VAF identification record: {vaf_i}; validation record: {vaf_v}", file=out)
     main_order = 3 if 3 in models else min(models)
     model = models[main_order]
+    model.set_labels(input_names=["moment"], output_names=list(data.outputs), time_unit="s")
+    model.sampling_interval = float(np.median(np.diff(data.t)))
     _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
     model.options["demo"] = {
         "seed": args.seed,
@@ -506,7 +516,7 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
         "excitation": args.excitation,
         "order": main_order,
     }
-    print(f"wrote {write_model_json(model, outdir / 'model.json')} (order {main_order})", file=out)
+    print(f"wrote {save_model(model, outdir / 'model.json')} (order {main_order})", file=out)
     if not args.no_plot:
         from .plots import plot_identification, save_figure
         from .studies.figures import quadrotor_figures
@@ -535,7 +545,7 @@ def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
     from . import studies
 
     settings = _parse_options(args.set)
-    outdir = Path(args.out) if args.out else Path("hdpbsid-study") / args.name
+    outdir = _check_out(args.out or Path("hdpbsid-study") / args.name, [])
     try:
         result = studies.run_study(
             args.name,
@@ -564,8 +574,9 @@ def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
     return EXIT_OK
 
 
-def _add_time_arguments(p: argparse.ArgumentParser) -> None:
+def _add_time_arguments(p: argparse.ArgumentParser, unit_help: str) -> None:
     p.add_argument("--time", default=None, help="time column name (default: t)")
+    p.add_argument("--time-unit", default=None, metavar="UNIT", help=unit_help)
     g = p.add_mutually_exclusive_group()
     g.add_argument(
         "--dt", type=float, default=None, help="sampling interval, when there is no time column"
@@ -612,7 +623,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="COLS",
         help="output column names (space or comma separated)",
     )
-    _add_time_arguments(p)
+    _add_time_arguments(
+        p, "unit of the times, recorded in the model (eigenvalues in rad/UNIT; default s)"
+    )
     p.add_argument(
         "--detrend",
         choices=("mean", "linear", "none"),
@@ -625,6 +638,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         help="model order (default: chosen by held-out simulation error)",
+    )
+    p.add_argument(
+        "--progress",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="progress bars on stderr (auto: when stderr is a terminal or the record is long)",
     )
     p.add_argument(
         "--method",
@@ -668,7 +687,10 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument(
         "--outputs", nargs="+", default=None, metavar="COLS", help="default: as identified"
     )
-    _add_time_arguments(v)
+    _add_time_arguments(
+        v,
+        "unit of the record's times; a warning when it is not the model's (default: the model's)",
+    )
     v.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
     v.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
     v.add_argument("--no-plot", action="store_true", help="do not write the figure")
@@ -733,6 +755,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="study setting, e.g. --set snrs=(50,6) --set methods=('hermite',) (repeatable)",
     )
+    frequency_cli.add_parsers(sub)
     return parser
 
 
@@ -740,9 +763,11 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); returns the exit code.
 
     0 success, 1 identification failed (message on stderr), 2 usage or input error
-    (missing file, unknown column, unknown method, bad arguments; message on stderr).
+    (missing file, unknown column, unknown method, bad arguments; message on stderr),
+    130 interrupted (Ctrl-C).  A closed standard output (``| head``) ends the printing
+    quietly; the files are still written (:class:`_PipeSafe`).
     """
-    out = sys.stdout if stdout is None else stdout
+    out = _PipeSafe(sys.stdout if stdout is None else stdout)
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         args = build_parser().parse_args(argv)
@@ -752,6 +777,8 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
             return _cmd_validate(args, out)
         if args.command == "study":
             return _cmd_study(args, out)
+        if args.command in frequency_cli.COMMANDS:
+            return frequency_cli.run(args, out)
         return _cmd_demo(args, out)
     except _HelpExit as exc:
         return exc.status
@@ -761,6 +788,52 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
     except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, 128 + SIGINT, no traceback
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        out.flush()
+
+
+class _PipeSafe:
+    """A text stream that stops writing, quietly, once its reader has gone.
+
+    ``hdpbsid identify data.csv | head`` closes the pipe after a few lines; Unix tools
+    then stop printing without a message, and so does this one -- but the files it was
+    asked for (model, figures) are still written, since they do not depend on the
+    pipe.  When the stream is the process's standard output its descriptor is pointed at
+    ``os.devnull``, so the interpreter's final flush cannot raise either (Python
+    documentation, "Note on SIGPIPE").
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.broken = False
+
+    def write(self, text: str) -> int:
+        if not self.broken:
+            try:
+                self.stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.broken:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self.broken = True
+        if self.stream is sys.stdout:
+            try:
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+                os.close(devnull)
+            except (OSError, ValueError, AttributeError):  # no descriptor: nothing to redirect
+                pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -57,7 +57,6 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
-from scipy.stats import chi2
 
 from .assessment import correlation
 from .model import StateSpaceModel
@@ -186,6 +185,8 @@ def feedback_statistics(
                 stat += float(np.sum((correlation(ec[:, i], w[:, j], neg) / scale) ** 2))
     stat *= w.shape[0]
     dof = lags * m * l
+    from scipy.stats import chi2  # here: scipy.stats is slow to import
+
     thr = float(chi2.ppf(1.0 - FEEDBACK_LEVEL, dof))
     out.update(statistic=stat, threshold=thr, dof=dof, feedback=bool(stat > thr))
     return out

@@ -27,12 +27,23 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_data, check_time, check_varies, is_uniform
+from . import scaling
+from .checks import (
+    check_data,
+    check_label,
+    check_names,
+    check_time,
+    check_varies,
+    is_uniform,
+    require_joblib,
+    scale_exponents,
+)
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
 from .methods.refine import REFINE_CHOICES, WARM_START, one_step_errors, refine_pem
-from .model import LinearTrend, StateSpaceModel
+from .model import LinearTrend, StateSpaceModel, scale_signals
+from .runtime import library_call
 
 __all__ = [
     "METHODS",
@@ -168,6 +179,7 @@ def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
     return u0, y0
 
 
+@library_call
 def identify(
     t: Any,
     u: Any = None,
@@ -176,6 +188,10 @@ def identify(
     method: str = "auto",
     refine: str | None = "auto",
     detrend: str | None = "mean",
+    *,
+    input_names: Any = None,
+    output_names: Any = None,
+    time_unit: str = "s",
     **options: Any,
 ) -> StateSpaceModel:
     """Identify a continuous-time model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
@@ -244,6 +260,20 @@ def identify(
     HD-PBSID 24 % -> 3.6 % at SNR 10 dB and 41 % -> 4.7 % at 6 dB; on the open-loop stiff
     benchmark (``dt``, order 3) 1.5-8.3 % -> 0.34-0.65 % at 20 dB.
 
+    Long records (``method="auto"`` on more than 50 000 samples, or a
+    :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t``) take a bounded path
+    (:mod:`hdpbsid.scaling`): methods and orders chosen on a segment, the chosen one
+    fitted on the whole record, refined on a bounded part; ``long_record=`` a
+    :class:`~hdpbsid.scaling.LongRecordPolicy` (or False: off), ``progress=True`` shows
+    progress bars.
+
+    ``input_names``, ``output_names`` (``m`` and ``l`` distinct strings; default ``u1``,
+    ... and ``y1``, ...) and ``time_unit`` (the unit of ``t``, default ``"s"``; the
+    eigenvalues are in rad per it) label the model (:meth:`~hdpbsid.StateSpaceModel.
+    set_labels`): plots, ``to_control`` and the saved file carry them, and
+    ``model.sampling_interval`` records the median step of the record(s) so that
+    ``compare`` can warn about a record on another time scale.
+
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
     arguments as passed here).
@@ -254,9 +284,22 @@ def identify(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
+    long_record, progress = options.pop("long_record", None), options.pop("progress", False)
+    in_memory = isinstance(t, np.ndarray | list | tuple)
+    labels = _Labels(input_names, output_names, time_unit, t, u, y) if in_memory else None
+    if scaling.is_long(t, u, y, method, long_record):  # bounded work: hdpbsid.scaling
+        model = scaling.identify_long(t, u, y, order, refine, detrend, long_record=long_record,
+                                      progress=progress, **options)  # fmt: skip
+        if labels is not None:
+            labels.apply(model, [(t, u, y)])
+        return model
     func = get_method(method)
+    require_joblib(options.get("n_jobs"))
+    assert labels is not None  # only the bounded path takes a chunked record
     _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
     several = isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple))
+    signal_scale = _Scaling(t, u, y, several)
+    t, u, y = signal_scale.apply(t, u, y)
     if several:
         if u is not None or y is not None:
             raise ValueError(
@@ -331,6 +374,8 @@ def identify(
     if refine is not None:
         model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)
+    model, op_info = signal_scale.undo(model, op_info)
+    labels.apply(model, t if several else [(t, u, y)])
     model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
     model.options["detrend"] = detrend
@@ -414,13 +459,138 @@ def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | N
             mod.u0, mod.y0, mod.trend = u0.copy(), y0.copy(), trend
 
 
+class _Labels:
+    """The channel names and time unit given to :func:`identify`, checked before any
+    computation against the channel counts of the first record."""
+
+    def __init__(self, inputs: Any, outputs: Any, time_unit: Any, t: Any, u: Any, y: Any) -> None:
+        if isinstance(t, list | tuple) and len(t) and isinstance(t[0], list | tuple):
+            u, y = (t[0][1], t[0][2]) if len(t[0]) == 3 else (None, None)
+        m = 0 if u is None else _channels(u)
+        l = None if y is None else _channels(y)
+        self.time_unit = check_label(time_unit, "time_unit")
+        # the counts are checked here when the signals have a shape (else the data checks
+        # report them, and apply() checks the names against the model)
+        self.inputs, self.outputs = inputs, outputs
+        if inputs is not None and m is not None:
+            self.inputs = check_names(inputs, "input_names", m, "u")
+        if outputs is not None and l is not None:
+            self.outputs = check_names(outputs, "output_names", l, "y")
+
+    def apply(self, model: StateSpaceModel, records: Any) -> None:
+        """Label ``model`` (and its sampled model) and record the median step of the
+        records' times as ``model.sampling_interval``."""
+        steps = [np.diff(check_time(r[0], "t")) for r in records]
+        for mod in (model, model.discrete):
+            if mod is not None:
+                mod.set_labels(self.inputs, self.outputs, self.time_unit)
+        model.sampling_interval = float(np.median(np.concatenate(steps)))
+
+
+class _Scaling:
+    """Channels far outside the float64 comfort band, scaled by powers of two for the
+    identification and the model scaled back (:func:`~hdpbsid.checks.scale_exponents`):
+    the result is the model of the unscaled record, since a power-of-two scaling is
+    exact and the methods are invariant to the signals' units.  The state takes the
+    inputs' scale, so ``B`` keeps moderate entries and ``C``, ``D`` carry the gain."""
+
+    def __init__(self, t: Any, u: Any, y: Any, several: bool) -> None:
+        recs = [r for r in t if isinstance(r, list | tuple) and len(r) == 3] if several else []
+        pairs = [(r[1], r[2]) for r in recs] if several else [(u, y)]
+        pu = [scale_exponents(uu, "u") for uu, _ in pairs if uu is not None]
+        py = [scale_exponents(yy, "y") for _, yy in pairs if yy is not None]
+        # one exponent per channel for all records (the same units): the smallest, so
+        # that no record's largest value grows beyond the band
+        self.pu = _common(pu)
+        self.py = _common(py)
+        self.active = bool(np.any(self.pu) or np.any(self.py))
+
+    def apply(self, t: Any, u: Any, y: Any) -> tuple[Any, Any, Any]:
+        if not self.active:
+            return t, u, y
+        if isinstance(t, list | tuple) and u is None and y is None:
+            return [(r[0], self._u(r[1]), self._y(r[2])) for r in t], None, None
+        return t, self._u(u), self._y(y)
+
+    def _u(self, x: Any) -> Any:
+        return x if x is None or not np.any(self.pu) else _ldexp(x, self.pu)
+
+    def _y(self, x: Any) -> Any:
+        return x if x is None or not np.any(self.py) else _ldexp(x, self.py)
+
+    def undo(self, model: StateSpaceModel, info: Any) -> tuple[StateSpaceModel, Any]:
+        if not self.active:
+            return model, info
+        pu = self.pu if self.pu.size else np.zeros(model.m, dtype=np.int64)
+        py = self.py if self.py.size else np.zeros(model.l, dtype=np.int64)
+        # the state in the inputs' scale (the outputs' without inputs): B (and K of a time
+        # series) keep the entries they had, C and D carry the gain -- the sampled
+        # model's augmented exponential takes A, B and K, and must not see huge entries
+        px = -int(round(float(np.mean(pu if pu.size else py))))
+        model = scale_signals(model, -pu, -py, px)
+        model.options["signal_scaling"] = {
+            "u_exponents": pu.tolist(),
+            "y_exponents": py.tolist(),
+            "note": "channels scaled by 2**exponent for the identification; option "
+            "values in signal units refer to the scaled signals",
+        }
+        return model, _unscale_levels(info, pu, py)
+
+
+def _common(exps: list[Any]) -> Any:
+    exps = [e for e in exps if e.size]
+    if not exps or len({e.size for e in exps}) > 1:
+        return np.zeros(0 if not exps else exps[0].size, dtype=np.int64)  # checks report
+    return np.min(np.stack(exps), axis=0)
+
+
+def _ldexp(x: Any, p: Any) -> Any:
+    """``x * 2^p`` per column (a 1-D ``x`` is one channel); ``x`` left to the data
+    checks when it is not a numeric array of the right width."""
+    arr = np.asarray(x) if isinstance(x, np.ndarray | list | tuple) else None
+    if arr is None or arr.dtype.kind not in "biuf":
+        return x  # the data checks name what is wrong with it
+    if arr.ndim == 1 and p.size == 1:
+        return np.ldexp(arr, int(p[0]))
+    if arr.ndim == 2 and arr.shape[1] == p.size:
+        return np.ldexp(arr, p[None, :])
+    return x
+
+
+def _unscale_levels(info: Any, pu: Any, py: Any) -> Any:
+    """The operating points of ``options["operating_points"]`` in the record's units."""
+    if isinstance(info, list):
+        return [_unscale_levels(d, pu, py) for d in info]
+    out = dict(info)
+    for key, p in (("u0", pu), ("u_slope", pu), ("y0", py), ("y_slope", py)):
+        if key in out:
+            out[key] = np.ldexp(np.asarray(out[key], dtype=float), -p).tolist()
+    return out
+
+
+def _channels(x: Any) -> int | None:
+    """Columns of a signal given as ``(Ns,)`` or ``(Ns, k)``; ``None`` for a ragged one
+    (the data checks report it)."""
+    try:
+        shape = np.shape(x)
+    except ValueError:
+        return None
+    return 1 if len(shape) < 2 else int(shape[1])
+
+
 def _warn_not_exciting(u: Any) -> None:
     """Warn when an input column is constant: a constant input excites no dynamics
     (it is not persistently exciting of any order), so ``B`` is not identifiable from
     the record -- the model would describe the noise and initial conditions only."""
     if u is None:
         return
-    ua = np.asarray(u, dtype=float)
+    try:
+        ua = np.asarray(u)
+    except (TypeError, ValueError):  # ragged: the data checks name it
+        return
+    if ua.dtype.kind not in "biuf":
+        return  # complex, text, objects: the data checks name them
+    ua = ua.astype(float)
     ua = ua[:, None] if ua.ndim == 1 else ua
     if ua.ndim != 2 or ua.shape[0] < 2:
         return  # the method's checks report malformed input

@@ -20,6 +20,12 @@ suffix                     reader
                            (extra ``io``)
 =========================  ====================================================
 
+CSV text is UTF-8 (a leading byte-order mark, as spreadsheets write, is dropped) or
+UTF-16 with its byte-order mark; other encodings are refused with the line of the first
+byte that is not UTF-8.  Numbers take a decimal point: a decimal comma is refused with a
+hint, as are digit separators and numbers beyond the float64 range; a spreadsheet's
+``sep=;`` first line sets the delimiter.
+
 A variable may be stored as a row or a column (``(1, N)``, ``(N, 1)`` or ``(N,)``);
 anything with more than one non-singleton dimension is refused.
 """
@@ -27,6 +33,7 @@ anything with more than one non-singleton dimension is refused.
 from __future__ import annotations
 
 import csv
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -118,16 +125,82 @@ def _vector(path: Path, name: str, values: Any) -> Array:
 
 
 # -- readers ------------------------------------------------------------------------------
-def _read_csv(path: Path, columns: Sequence[str], delimiter: str | None) -> dict[str, Array]:
+_DECIMAL_COMMA = re.compile(r"[+-]?(\d{1,3}(\.\d{3})+|\d*),\d+([eE][+-]?\d+)?")
+_SEP_LINE = re.compile(r"sep=(.)")
+
+
+def _decode(path: Path, raw: bytes) -> str:
+    """The text of a CSV file: UTF-8 (a byte-order mark, as spreadsheets write, is
+    dropped) or UTF-16 with its byte-order mark (a spreadsheet's "Unicode text"); any
+    other encoding is refused with the position of the first byte that is not UTF-8,
+    since guessing it could rename the columns."""
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        try:
+            return raw.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: starts like UTF-16 text but is not: {exc}") from exc
     try:
-        text = path.read_text()
+        return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not a text (CSV) file: {exc}") from exc
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ValueError(
+            f"{path}: not a UTF-8 text (CSV) file: byte 0x{raw[exc.start]:02x} on line {line} "
+            f"(offset {exc.start}) is not UTF-8; save the file as UTF-8 text (a spreadsheet's "
+            f"'CSV UTF-8'), or store the data as .npz / .mat / .parquet / .h5"
+        ) from exc
+
+
+def _cell_value(path: Path, lineno: int, column: str, cell: str) -> float:
+    """One CSV field as a finite float; ``ValueError`` naming the file, line and column
+    (with a hint for a decimal comma) otherwise."""
+    where = f"{path}: line {lineno}, column {column!r}"
+    if cell == "":
+        raise ValueError(f"{where}: missing value")
+    try:
+        value = float(cell)
+    except ValueError:
+        value = None
+    if value is None or "_" in cell or not cell.isascii():  # float() takes '1_0', '١'
+        hint = ""
+        if _DECIMAL_COMMA.fullmatch(cell):
+            hint = (
+                "; this looks like a decimal comma: the reader takes decimal points "
+                "('1.5'), so export the file with a decimal point (the spreadsheet's "
+                "locale or number format) or replace the commas"
+            )
+        raise ValueError(f"{where}: not a number: {cell!r}{hint}")
+    if not np.isfinite(value):
+        what = "NaN" if np.isnan(value) else "infinite"
+        if not cell.strip("+-").lower().startswith(("inf", "nan")):
+            what = "beyond the float64 range (1.8e308)"
+        raise ValueError(
+            f"{where}: {cell!r} is {what}; fill or cut such samples before identifying"
+        )
+    return value
+
+
+def _field_count_error(
+    path: Path, lineno: int, row: list[str], header: list[str], delimiter: str
+) -> str:
+    msg = f"{path}: line {lineno} has {len(row)} field(s), the header {len(header)}"
+    if delimiter == "," and len(row) > len(header):
+        msg += (
+            "; if the numbers have decimal commas ('1,5'), the commas split them: export "
+            "the file with decimal points, or with ';' between the fields"
+        )
+    return msg
+
+
+def _read_csv(path: Path, columns: Sequence[str], delimiter: str | None) -> dict[str, Array]:
+    text = _decode(path, path.read_bytes())
     lines = [
         (no, ln)
         for no, ln in enumerate(text.splitlines(), start=1)
         if ln.strip() and not ln.lstrip().startswith("#")
     ]
+    if lines and _SEP_LINE.fullmatch(lines[0][1].strip()):  # a spreadsheet's "sep=;" line
+        delimiter = delimiter or _SEP_LINE.fullmatch(lines[0][1].strip()).group(1)
+        lines = lines[1:]
     if not lines:
         raise ValueError(f"{path}: empty file; expected a header row and data rows")
     if delimiter is None:
@@ -137,7 +210,7 @@ def _read_csv(path: Path, columns: Sequence[str], delimiter: str | None) -> dict
             delimiter = ","
     rows = list(csv.reader([ln for _, ln in lines], delimiter=delimiter, skipinitialspace=True))
     header = [h.strip() for h in rows[0]]
-    dup = sorted({h for h in header if header.count(h) > 1})
+    dup = sorted({h for h in header if h and header.count(h) > 1})
     if dup:
         raise ValueError(f"{path}: the header names column(s) {dup} more than once")
     _missing(path, columns, header)
@@ -150,18 +223,8 @@ def _read_csv(path: Path, columns: Sequence[str], delimiter: str | None) -> dict
         for r, row in enumerate(rows[1:]):
             lineno = lines[r + 1][0]
             if len(row) != len(header):
-                raise ValueError(
-                    f"{path}: line {lineno} has {len(row)} field(s), the header {len(header)}"
-                )
-            cell = row[j].strip()
-            if cell == "":
-                raise ValueError(f"{path}: line {lineno}, column {c!r}: missing value")
-            try:
-                vals[r] = float(cell)
-            except ValueError as exc:
-                raise ValueError(
-                    f"{path}: line {lineno}, column {c!r}: not a number: {cell!r}"
-                ) from exc
+                raise ValueError(_field_count_error(path, lineno, row, header, delimiter))
+            vals[r] = _cell_value(path, lineno, c, row[j].strip())
         out[c] = _vector(path, c, vals)
     return out
 
@@ -260,29 +323,40 @@ def read_columns(
     when the Parquet / HDF5 reader is not installed.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"data file not found: {path}")
+    _check_file(path, "data file")
     columns = list(columns)
     dup = sorted({c for c in columns if columns.count(c) > 1})
     if dup:
         raise ValueError(f"{path}: column(s) {dup} selected more than once")
     fmt = _fmt(path)
-    if fmt == "csv":
-        out = _read_csv(path, columns, delimiter)
-    elif fmt == "mat":
-        out = _read_mat(path, columns)
-    elif fmt == "npz":
-        out = _read_npz(path, columns)
-    elif fmt == "parquet":
-        out = _read_parquet(path, columns)
-    else:
-        out = _read_hdf5(path, columns)
+    try:
+        if fmt == "csv":
+            out = _read_csv(path, columns, delimiter)
+        elif fmt == "mat":
+            out = _read_mat(path, columns)
+        elif fmt == "npz":
+            out = _read_npz(path, columns)
+        elif fmt == "parquet":
+            out = _read_parquet(path, columns)
+        else:
+            out = _read_hdf5(path, columns)
+    except OSError as exc:  # permissions, a file that vanished, a device error
+        raise ValueError(f"{path}: cannot read the file: {exc.strerror or exc}") from exc
     lengths = {c: v.size for c, v in out.items()}
     if len(set(lengths.values())) > 1:
         raise ValueError(f"{path}: the columns have different lengths {lengths}")
     if any(n == 0 for n in lengths.values()):
         raise ValueError(f"{path}: empty columns {lengths}; expected samples")
     return out
+
+
+def _check_file(path: Path, what: str) -> None:
+    """``ValueError`` unless ``path`` is an existing regular file (a directory is named
+    as such: "not found" would mislead)."""
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory; give the {what} inside it")
+    if not path.is_file():
+        raise ValueError(f"{what} not found: {path}")
 
 
 def _check_times(path: Path, name: str, t: Array) -> None:
@@ -444,8 +518,7 @@ def open_chunked(
     from .methods.chunked import ChunkedRecord
 
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"data file not found: {path}")
+    _check_file(path, "data file")
     if (dt is None) == (fs is None):
         raise ValueError("give exactly one of the sampling interval dt and the rate fs")
     step = dt if dt is not None else 1.0 / float(fs)  # type: ignore[arg-type]

@@ -6,7 +6,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
 __all__ = ["match_eigenvalues", "eigenvalue_errors"]
 
@@ -20,6 +19,8 @@ def match_eigenvalues(
     ``|est_i - true_j|``.  Returns ``(est_paired, true_paired)`` of length
     ``min(len(estimated), len(true))``, in the order of ``true``.
     """
+    from scipy.optimize import linear_sum_assignment  # here: scipy.optimize is slow to import
+
     est = np.asarray(estimated, dtype=complex).ravel()
     tru = np.asarray(true, dtype=complex).ravel()
     cost = np.abs(est[:, None] - tru[None, :])

@@ -22,6 +22,8 @@ absolute signals; states ``x`` (and ``x0``) are always deviation states.
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,15 +33,19 @@ from numpy.typing import NDArray
 from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
 from .checks import (
     as_float_array,
+    check_label,
+    check_names,
     check_positive_int,
     check_signal,
     check_state_space,
     check_time,
     check_uniform,
     is_uniform,
+    scale_exponents,
 )
 from .conversion import c2d, d2c, sampled_steps
 from .recursion import linear_recursion
+from .runtime import library_call
 
 __all__ = [
     "StateSpaceModel",
@@ -47,6 +53,10 @@ __all__ = [
     "FitResult",
     "LinearTrend",
     "fit_statistics",
+    "TimeScaleWarning",
+    "TIME_UNITS",
+    "SAMPLING_RATIO_LIMIT",
+    "scale_signals",
 ]
 
 Array = NDArray[np.float64]
@@ -74,7 +84,13 @@ class FitResult:
 
 
 def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
-    """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``."""
+    """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``.
+
+    Both are ratios, computed on the columns scaled by the power of two of
+    :func:`~hdpbsid.checks.scale_exponents` (exact), so that the squares of a record in
+    extreme units (1e-200) neither underflow nor overflow."""
+    p = scale_exponents(y, "y")
+    y, y_sim = np.ldexp(y, p), np.ldexp(y_sim, p)
     err = y - y_sim
     var_y = np.var(y, axis=0)
     safe = np.where(var_y > 0, var_y, np.nan)
@@ -108,6 +124,45 @@ class LinearTrend:
         self.y_slope = as_float_array(self.y_slope, "y_slope").reshape(-1)
 
 
+class TimeScaleWarning(UserWarning):
+    """A record's time scale does not match the model's: its time unit differs, or its
+    sampling interval is more than :data:`SAMPLING_RATIO_LIMIT` times larger or smaller
+    than the identification record's (:meth:`StateSpaceModel.check_record`)."""
+
+
+#: Seconds per unit of the time units the messages can convert between.  Any other
+#: non-empty name is accepted as a label; it is only compared for equality.
+TIME_UNITS: dict[str, float] = {
+    "ns": 1e-9,
+    "us": 1e-6,
+    "\u00b5s": 1e-6,
+    "ms": 1e-3,
+    "s": 1.0,
+    "min": 60.0,
+    "h": 3600.0,
+    "d": 86400.0,
+}
+
+#: A record whose median sampling interval differs from the model's by more than this
+#: factor (either way) draws a :class:`TimeScaleWarning`.  Resampling a record of the
+#: same system by a factor up to 10 is routine (a 1 kHz log validated at 100 Hz), and the
+#: exact sampled model simulates any step size, so such records are not flagged; a time
+#: stamp in the wrong unit changes the interval by at least 24 (hours and days), usually
+#: 60 (seconds and minutes) or 1000 (milliseconds and seconds).  20 lies between the two,
+#: so every wrong common unit is flagged and no routine resampling is.
+SAMPLING_RATIO_LIMIT = 20.0
+
+
+def _check_interval(value: Any, name: str) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a positive number or None, got {value!r}")
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive finite number or None, got {value!r}")
+    return float(value)
+
+
 def _fmt_eigs(ev: NDArray[np.complex128], limit: int = 8) -> str:
     parts = []
     for lam in ev[:limit]:
@@ -136,12 +191,18 @@ class _ModelBase:
     u0: Array | None = None
     y0: Array | None = None
     trend: LinearTrend | None = None
+    time_unit: str = "s"
+    input_names: list[str] | None = None
+    output_names: list[str] | None = None
 
     def __post_init__(self) -> None:
         self.A, self.B, self.C, self.D, self.K = check_state_space(
             self.A, self.B, self.C, self.D, self.K
         )
         m, l = self.B.shape[1], self.C.shape[0]
+        self.time_unit = check_label(self.time_unit, "time_unit")
+        self.input_names = check_names(self.input_names, "input_names", m, "u")
+        self.output_names = check_names(self.output_names, "output_names", l, "y")
         self.u0 = _level(self.u0, "u0", m)
         self.y0 = _level(self.y0, "y0", l)
         if self.trend is not None:
@@ -169,7 +230,36 @@ class _ModelBase:
         return U0, Y0
 
     def _offsets_kwargs(self) -> dict[str, Any]:
-        return {"u0": self.u0.copy(), "y0": self.y0.copy(), "trend": self.trend}
+        """The operating point and the labels, for a converted copy of the model."""
+        return {
+            "u0": self.u0.copy(),
+            "y0": self.y0.copy(),
+            "trend": self.trend,
+            "time_unit": self.time_unit,
+            "input_names": list(self.input_names or []),
+            "output_names": list(self.output_names or []),
+        }
+
+    def set_labels(
+        self,
+        input_names: Any | None = None,
+        output_names: Any | None = None,
+        time_unit: str | None = None,
+    ) -> None:
+        """Set the channel names and the time unit (each left as it is when ``None``).
+
+        ``input_names`` (``m`` distinct strings), ``output_names`` (``l``) and
+        ``time_unit`` (a non-empty string, e.g. ``"s"`` or ``"ms"``: the unit of ``t``,
+        so the eigenvalues are in rad per that unit) travel with the model: plots,
+        :meth:`StateSpaceModel.to_control` and the saved file use them.  Raises
+        ``TypeError`` / ``ValueError`` naming the argument.
+        """
+        if input_names is not None:
+            self.input_names = check_names(input_names, "input_names", self.m, "u")
+        if output_names is not None:
+            self.output_names = check_names(output_names, "output_names", self.l, "y")
+        if time_unit is not None:
+            self.time_unit = check_label(time_unit, "time_unit")
 
     @property
     def n(self) -> int:
@@ -193,6 +283,8 @@ class _ModelBase:
 
     def _repr_body(self) -> str:
         body = f"n={self.n}, m={self.m}, l={self.l}, eigenvalues={_fmt_eigs(self.eigenvalues)}"
+        if self.time_unit != "s":
+            body += f" rad/{self.time_unit}"
         if np.any(self.u0) or np.any(self.y0) or self.trend is not None:
             body += ", with operating point" + (" and trend" if self.trend is not None else "")
         return body
@@ -206,6 +298,16 @@ def _level(x: Any, name: str, size: int) -> Array:
     if arr.size != size:
         raise ValueError(f"{name} must have {size} entries (one per channel), got {arr.size}")
     return arr
+
+
+def _initial_state(O: Array, r: Array) -> Array:
+    """Least-squares ``x0`` of ``O x0 ~ r``, with ``O`` and ``r`` scaled by powers of two
+    (exact) to unit size first: the solver forms norms (sums of squares), which for a
+    record in extreme units (1e-200, 1e200) underflow or overflow."""
+    po = int(scale_exponents(O.ravel(), "O")[0]) if O.size else 0
+    pr = int(scale_exponents(r, "r")[0]) if r.size else 0
+    x = np.linalg.lstsq(np.ldexp(O, po), np.ldexp(r, pr), rcond=None)[0]
+    return np.ldexp(x, po - pr)
 
 
 def _step_groups(t: Array) -> tuple[Array, Array, Array]:
@@ -235,9 +337,60 @@ class StateSpaceModel(_ModelBase):
     covariance estimate, ``None`` if unknown) and ``discrete`` (the sampled model it was
     converted from, if any).  ``K`` follows the hold convention of
     :mod:`hdpbsid.conversion`.
+
+    Labels: ``time_unit`` (the unit of the times ``t``, default ``"s"``; the eigenvalues
+    are in rad per that unit), ``input_names`` and ``output_names`` (default ``u1, ...``
+    and ``y1, ...``) and ``sampling_interval`` (the median step of the identification
+    record in ``time_unit``, ``None`` when unknown): :meth:`check_record` compares a
+    record with them, and :meth:`save` / :func:`hdpbsid.load_model` keep them.
     """
 
     discrete: DiscreteModel | None = None
+    sampling_interval: float | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.sampling_interval = _check_interval(self.sampling_interval, "sampling_interval")
+
+    def save(self, path: Any) -> Any:
+        """Write the model to ``path`` as JSON (:func:`hdpbsid.model_io.save_model`);
+        :func:`hdpbsid.load_model` reads it back.  Returns the path."""
+        from .model_io import save_model
+
+        return save_model(self, path)
+
+    def check_record(self, t: Any, time_unit: str | None = None, name: str = "t") -> None:
+        """Warn (:class:`TimeScaleWarning`) when the record with times ``t`` does not
+        match the model's time scale.
+
+        Two checks, each only when both sides are known: ``time_unit`` (the record's)
+        differs from ``model.time_unit`` (the message gives the conversion factor for the
+        units of :data:`TIME_UNITS`); the record's median step differs from
+        ``model.sampling_interval`` by more than :data:`SAMPLING_RATIO_LIMIT` either
+        way, the signature of times in another unit (its docstring says why that
+        factor).  The exact sampled model simulates any step size, so neither is an
+        error: the fit of a record in the wrong unit is merely meaningless.
+        """
+        if time_unit is not None:
+            unit = check_label(time_unit, "time_unit")
+            if unit != self.time_unit:
+                warnings.warn(_unit_message(unit, self.time_unit), TimeScaleWarning, stacklevel=3)
+                return  # the step comparison would repeat the same finding
+        if self.sampling_interval is None:
+            return
+        tt = check_time(t, name)
+        h = float(np.median(np.diff(tt)))
+        ratio = h / self.sampling_interval
+        if not 1.0 / SAMPLING_RATIO_LIMIT <= ratio <= SAMPLING_RATIO_LIMIT:
+            warnings.warn(
+                f"{name}: the record's median sampling interval {h:.6g} is {ratio:.3g} times "
+                f"the identification record's {self.sampling_interval:.6g} {self.time_unit} "
+                f"(more than a factor {SAMPLING_RATIO_LIMIT:g} apart): are its times in "
+                f"{self.time_unit}?  A record in another time unit fits meaninglessly; "
+                f"convert its times, or ignore this if it was only resampled",
+                TimeScaleWarning,
+                stacklevel=3,
+            )
 
     def __repr__(self) -> str:
         method = self.options.get("method")
@@ -257,6 +410,7 @@ class StateSpaceModel(_ModelBase):
         """
         return sampled_steps(self.A, self.B, self.K if with_k else None, h, method)
 
+    @library_call
     def simulate(
         self,
         t: Any,
@@ -289,7 +443,7 @@ class StateSpaceModel(_ModelBase):
         t = check_time(t, "t", min_samples=1)
         if self.m == 0 and u is None:
             u = np.zeros((t.shape[0], 0))
-        u = check_signal(u, "u", t.shape[0])
+        u = check_signal(u, "u", t.shape[0], limit_energy=False)
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
         return t, u
@@ -349,19 +503,33 @@ class StateSpaceModel(_ModelBase):
         return Y[:, :, 0] + u @ self.D.T, Y[:, :, 1:].reshape(ns * self.l, n)
 
     def _check_output(self, t: Array, y: Any) -> Array:
-        y = check_signal(y, "y", t.shape[0])
+        y = check_signal(y, "y", t.shape[0], limit_energy=False)
         if y.shape[1] != self.l:
             raise ValueError(f"y must have {self.l} column(s) (outputs), got shape {y.shape}")
         return y
 
-    def fit(self, t: Any, u: Any, y: Any, x0: Any = "estimate", method: str = "zoh") -> FitResult:
+    @library_call
+    def fit(
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        x0: Any = "estimate",
+        method: str = "zoh",
+        time_unit: str | None = None,
+    ) -> FitResult:
         """Simulate on ``(t, u)`` and compare with ``y``: VAF and NRMSE per output.
 
         ``u``, ``y`` and ``FitResult.y_sim`` are absolute signals (operating point in the
         module docstring).  ``x0="estimate"`` (default) fits the initial deviation state
         by least squares (the output is affine in ``x0``); ``"zero"`` or an array use that
-        state.
+        state.  ``time_unit``: the unit of ``t``, if known; a record whose time scale does
+        not match the model's draws a :class:`TimeScaleWarning` (:meth:`check_record`).
         """
+        self.check_record(t, time_unit)
+        return self._fit(t, u, y, x0, method)
+
+    def _fit(self, t: Any, u: Any, y: Any, x0: Any, method: str) -> FitResult:
         t = check_time(t, "t")
         y = self._check_output(t, y)
         t, u = self._check_input(t, u, method)
@@ -374,7 +542,7 @@ class StateSpaceModel(_ModelBase):
             if x0 == "estimate" and self.n > 0 and not is_uniform(t):
                 # non-uniform steps: one pass for the forced and all free responses
                 y_sim, O = self._forced_and_free(t, ud, method)
-                x0v = np.linalg.lstsq(O, (y - Y0 - y_sim).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (y - Y0 - y_sim).ravel())
                 y_sim = y_sim + Y0 + (O @ x0v).reshape(y.shape)
                 vaf, nrmse = fit_statistics(y, y_sim)
                 return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
@@ -388,7 +556,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = np.linalg.lstsq(O, (y - y_sim).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (y - y_sim).ravel())
                 y_sim = y_sim + (O @ x0v).reshape(y.shape)
         else:
             x0v = self._check_x0(x0)
@@ -452,15 +620,23 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = np.linalg.lstsq(O, (yd - yp).ravel(), rcond=None)[0]
+                x0v = _initial_state(O, (yd - yp).ravel())
                 yp = yp + (O @ x0v).reshape(yd.shape)
         else:
             x0v = self._check_x0(x0)
             yp = self._predict_deviation(t, ud, yd, x0v, k, method)
         return yp + Y0, x0v, y
 
+    @library_call
     def predict(
-        self, t: Any, u: Any, y: Any, k: int = 1, x0: Any = "estimate", method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        k: int = 1,
+        x0: Any = "estimate",
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> Array:
         """``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
 
@@ -477,41 +653,60 @@ class StateSpaceModel(_ModelBase):
         approaches :meth:`simulate`.  Signals are absolute (operating point in the module
         docstring).  ``x0``: ``"estimate"`` (least squares on the prediction errors; the
         predictions are affine in it), ``"zero"`` or the initial deviation state.
-        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.
-        Returns ``y_hat (Ns, l)``.
+        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.  ``time_unit``:
+        as in :meth:`fit`.  Returns ``y_hat (Ns, l)``.
         """
+        self.check_record(t, time_unit)
         return self._predict(t, u, y, k, x0, method)[0]
 
+    @library_call
     def compare(
-        self, t: Any, u: Any, y: Any, k: int | None = None, method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        k: int | None = None,
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> Comparison:
         """Fit of the model on a record, as MATLAB's ``compare``: per output
         ``fit = 100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent.
 
         ``k=None``: ``y_hat`` is the simulation (:meth:`fit`, initial state by least
         squares), which diverges for an unstable model; ``k`` given: the ``k``-step-ahead
-        prediction (:meth:`predict`, initial state by least squares).  Returns a
+        prediction (:meth:`predict`, initial state by least squares).  ``time_unit``: the
+        unit of ``t``, if known; a record whose time scale does not match the model's
+        draws a :class:`TimeScaleWarning` (:meth:`check_record`).  Returns a
         :class:`~hdpbsid.assessment.Comparison`.
         """
+        self.check_record(t, time_unit)
         if k is None:
-            res = self.fit(t, u, y, method=method)
-            y_meas = check_signal(y, "y")
+            res = self._fit(t, u, y, "estimate", method)
+            y_meas = check_signal(y, "y", limit_energy=False)
             return Comparison(
                 fit=fit_percent(y_meas, res.y_sim), y_hat=res.y_sim, x0=res.x0, k=None
             )
         y_hat, x0v, y_meas = self._predict(t, u, y, k, "estimate", method)
         return Comparison(fit=fit_percent(y_meas, y_hat), y_hat=y_hat, x0=x0v, k=int(k))
 
+    @library_call
     def residuals(
-        self, t: Any, u: Any, y: Any, max_lag: int = 25, method: str = "zoh"
+        self,
+        t: Any,
+        u: Any,
+        y: Any,
+        max_lag: int = 25,
+        method: str = "zoh",
+        time_unit: str | None = None,
     ) -> ResidualReport:
         """Residual analysis as MATLAB's ``resid`` (Ljung, *System Identification*, 2nd
         ed., sec. 16.6) of the one-step prediction errors ``e = y - y_hat(t | t - 1)``
         (:meth:`predict` with ``k=1``, initial state by least squares) against the input
         ``u``: whiteness (autocorrelation, Ljung-Box) and independence from the input
         (cross-correlation) over lags up to ``max_lag``; see
-        :func:`hdpbsid.assessment.residual_tests`.
+        :func:`hdpbsid.assessment.residual_tests`.  ``time_unit``: as in :meth:`compare`.
         """
+        self.check_record(t, time_unit)
         y_hat, _, y_meas = self._predict(t, u, y, 1, "estimate", method)
         t_arr = check_time(t, "t")
         _, u_arr = self._check_input(t_arr, u, method)
@@ -519,7 +714,8 @@ class StateSpaceModel(_ModelBase):
 
     # -- frequency domain and conversions -----------------------------------------------
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
-        """``G(jw) = C (jw I - A)^{-1} B + D`` for angular frequencies ``w`` (rad/s).
+        """``G(jw) = C (jw I - A)^{-1} B + D`` for angular frequencies ``w`` (rad per
+        ``time_unit``).
 
         Returns a complex array of shape ``(l, m, len(w))`` (python-control layout).
         """
@@ -551,18 +747,26 @@ class StateSpaceModel(_ModelBase):
 
         return StateSpace(self.A, self.B, self.C, self.D)
 
-    def to_control(self, noise_inputs: bool = False) -> Any:
-        """``control.StateSpace`` with ``dt=0``; with ``noise_inputs`` the inputs are
-        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``).
+    def to_control(self, noise_inputs: bool = False, name: str | None = None) -> Any:
+        """``control.StateSpace`` with ``dt=0``, its signals named after the model's
+        ``input_names`` and ``output_names``; with ``noise_inputs`` the inputs are
+        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``; the innovations named
+        ``e_<output>``).  ``name``: the system's name (python-control's default when
+        ``None``).
 
         Like :meth:`to_scipy` it describes deviations: inputs ``u - model.u0``, outputs
-        ``y - model.y0`` (python-control has no operating point either).
+        ``y - model.y0`` (python-control has no operating point either), and time in
+        ``model.time_unit`` (python-control has no unit).
         """
         control = _import_control()
         B, D = self.B, self.D
+        inputs = list(self.input_names or [])
         if noise_inputs:
             B, D = np.hstack([B, self.K]), np.hstack([D, np.eye(self.l)])
-        return control.StateSpace(self.A, B, self.C, D, 0)
+            inputs += _innovation_names(inputs, list(self.output_names or []))
+        return control.StateSpace(
+            self.A, B, self.C, D, 0, **_control_labels(inputs, self.output_names, name)
+        )
 
 
 @dataclass(repr=False)
@@ -576,19 +780,20 @@ class DiscreteModel(_ModelBase):
     def __repr__(self) -> str:
         return f"DiscreteModel(dt={self.dt:g}, {self._repr_body()})"
 
+    @library_call
     def simulate(self, u: Any, x0: Any | None = None, t: Any | None = None) -> Array:
         """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from the deviation state
         ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``
         added (module docstring).  ``t`` (the sample times) is needed only when the model
         has a :class:`LinearTrend`."""
-        u = check_signal(u, "u")
+        u = check_signal(u, "u", limit_energy=False)
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
         if t is None:
             if self.trend is not None:
                 raise ValueError("this model has a linear trend: pass the sample times t")
             t = np.zeros(u.shape[0])
-        t = check_signal(t, "t", u.shape[0])[:, 0]
+        t = check_signal(t, "t", u.shape[0], limit_energy=False)[:, 0]
         U0, Y0 = self.operating_point(t)
         u = u - U0
         x = np.zeros(self.n) if x0 is None else as_float_array(x0, "x0").reshape(-1)
@@ -615,6 +820,7 @@ class DiscreteModel(_ModelBase):
             options=dict(self.options),
             noise_covariance=self.noise_covariance,
             discrete=self,
+            sampling_interval=self.dt,
             **self._offsets_kwargs(),
         )
 
@@ -625,9 +831,67 @@ class DiscreteModel(_ModelBase):
 
         return StateSpace(self.A, self.B, self.C, self.D, dt=self.dt)
 
-    def to_control(self) -> Any:
-        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point."""
-        return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt)
+    def to_control(self, name: str | None = None) -> Any:
+        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point,
+        signals named as in :meth:`StateSpaceModel.to_control`."""
+        labels = _control_labels(self.input_names, self.output_names, name)
+        return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt, **labels)
+
+
+def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
+    """The same system for signals scaled by powers of two: ``u_new = u 2^pu``,
+    ``y_new = y 2^py`` (per channel) and states ``x_new = x 2^px``.
+
+    ``B -> 2^px B 2^-pu``, ``C -> 2^py C 2^-px``, ``D -> 2^py D 2^-pu``,
+    ``K -> 2^px K 2^-py`` (the innovations are in output units), the operating point
+    and trend, the noise covariance (``2^py N 2^py``) and the sampled model (if any) with
+    them; ``A`` and the eigenvalues are unchanged.  Every product is an exact change of
+    exponent (:func:`numpy.ldexp`) unless it leaves the float64 range: a ``ValueError``
+    when a matrix entry overflows (the system's gain is not representable).
+    ``model``: a :class:`StateSpaceModel` or :class:`DiscreteModel`; a new model is
+    returned.
+    """
+    pu = np.asarray(pu, dtype=np.int64).reshape(-1)
+    py = np.asarray(py, dtype=np.int64).reshape(-1)
+    if pu.size != model.m or py.size != model.l:
+        raise ValueError(
+            f"scale_signals: {model.m} input and {model.l} output exponents needed, got "
+            f"{pu.size} and {py.size}"
+        )
+    px = int(px)
+    with np.errstate(over="ignore"):
+        mats = {
+            "B": np.ldexp(model.B, px - pu[None, :]),
+            "C": np.ldexp(model.C, py[:, None] - px),
+            "D": np.ldexp(model.D, py[:, None] - pu[None, :]),
+            "K": np.ldexp(model.K, px - py[None, :]),
+        }
+    for k, M in mats.items():
+        if not np.all(np.isfinite(M)):
+            raise ValueError(
+                f"the identified {k} overflows float64 in the record's units (its inputs and "
+                f"outputs differ by more than the float range); rescale the signals"
+            )
+    tr = model.trend
+    if tr is not None:
+        tr = LinearTrend(tr.t_ref, np.ldexp(tr.u_slope, pu), np.ldexp(tr.y_slope, py))
+    nc = model.noise_covariance
+    if nc is not None:
+        with np.errstate(over="ignore"):
+            nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
+        if not np.all(np.isfinite(nc)):
+            nc = None  # the squares of the signals exceed float64: not representable
+    changes: dict[str, Any] = dict(
+        mats,
+        u0=np.ldexp(model.u0, pu),
+        y0=np.ldexp(model.y0, py),
+        trend=tr,
+        noise_covariance=nc,
+        options=model.options,
+    )
+    if isinstance(model, StateSpaceModel) and model.discrete is not None:
+        changes["discrete"] = scale_signals(model.discrete, pu, py, px)
+    return dataclasses.replace(model, **changes)
 
 
 def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128]) -> Any:
@@ -638,6 +902,37 @@ def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128])
     X = np.linalg.solve(M, np.broadcast_to(B, (s.size,) + B.shape))
     G = np.einsum("ij,kjl->kil", C, X) + D[None]
     return np.moveaxis(G, 0, -1)
+
+
+def _innovation_names(inputs: list[str], outputs: list[str]) -> list[str]:
+    """``e_<output>`` for each output, made distinct from the input names."""
+    names = []
+    for o in outputs:
+        e = f"e_{o}"
+        while e in inputs or e in names:
+            e = "_" + e
+        names.append(e)
+    return names
+
+
+def _control_labels(inputs: Any, outputs: Any, name: str | None) -> dict[str, Any]:
+    """Keyword arguments naming the signals (and the system) of a python-control model."""
+    labels: dict[str, Any] = {"inputs": list(inputs or []), "outputs": list(outputs or [])}
+    if name is not None:
+        labels["name"] = check_label(name, "name")
+    return labels
+
+
+def _unit_message(record: str, model: str) -> str:
+    """The warning for a record whose time unit differs from the model's."""
+    hint = ""
+    if record in TIME_UNITS and model in TIME_UNITS:
+        f = TIME_UNITS[record] / TIME_UNITS[model]
+        hint = f" (1 {record} = {f:g} {model}: multiply the record's times by {f:g})"
+    return (
+        f"the record's time unit {record!r} differs from the model's {model!r}{hint}; "
+        f"the eigenvalues are in rad/{model} and a record in another unit fits meaninglessly"
+    )
 
 
 def _import_control() -> Any:

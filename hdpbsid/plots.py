@@ -77,6 +77,24 @@ def display_fit(
     )
 
 
+def _names(
+    model: StateSpaceModel,
+    output_names: list[str] | None,
+    input_names: list[str] | None,
+    l: int,
+    m: int,
+) -> tuple[list[str], list[str]]:
+    """The output and input names for a figure: those given, else the model's (when they
+    fit the record's channel counts), else ``y1, ...`` and ``u1, ...``."""
+    onames = output_names or getattr(model, "output_names", None) or []
+    inames = input_names or getattr(model, "input_names", None) or []
+    if len(onames) != l:
+        onames = [f"y{i + 1}" for i in range(l)]
+    if len(inames) != m:
+        inames = [f"u{j + 1}" for j in range(m)]
+    return list(onames), list(inames)
+
+
 def new_figure(figsize: tuple[float, float] = (10.0, 8.0)) -> Any:
     """A :class:`matplotlib.figure.Figure` attached to an Agg canvas."""
     try:
@@ -129,16 +147,19 @@ def plot_identification(
     * singular values of the PBSID SVD step (log scale) with the chosen order marked;
     * each output measured vs simulated (:func:`display_fit`: whole record for a stable
       model, short segments for an unstable one), VAF in the legend;
-    * ``|G(jw)|`` in dB for every input-output pair (``w`` rad/s; default from the record
-      length to Nyquist), dashed for ``true_model`` if given.
+    * ``|G(jw)|`` in dB for every input-output pair (``w`` in rad per the model's
+      ``time_unit``; default from the record length to Nyquist), dashed for
+      ``true_model`` if given.
 
-    Returns the :class:`matplotlib.figure.Figure` (save it with :func:`save_figure`).
+    Channel names default to the model's ``input_names`` / ``output_names``; the axes
+    carry its ``time_unit``.  Returns the :class:`matplotlib.figure.Figure` (save it with
+    :func:`save_figure`).
     """
     t, u, y = check_data(t, u, y)
     l = y.shape[1]
     m = u.shape[1]
-    onames = output_names or [f"y{i + 1}" for i in range(l)]
-    inames = input_names or [f"u{j + 1}" for j in range(m)]
+    onames, inames = _names(model, output_names, input_names, l, m)
+    unit = model.time_unit
     fig = new_figure((10.0, 3.0 + 2.2 * l))
     gs = fig.add_gridspec(l + 1, 2)
 
@@ -173,7 +194,7 @@ def plot_identification(
         ax.legend(fontsize="small")
     else:
         ax.text(0.5, 0.5, "no inputs", ha="center", transform=ax.transAxes)
-    ax.set_xlabel("frequency [rad/s]")
+    ax.set_xlabel(f"frequency [rad/{unit}]")
     ax.set_ylabel("|G| [dB]")
     ax.set_title("Bode magnitude" + (" (dashed: true)" if true_model is not None else ""))
 
@@ -185,14 +206,17 @@ def plot_identification(
         ax.set_ylabel(onames[i])
         ax.legend(loc="upper right", fontsize="small")
         if i == l - 1:
-            ax.set_xlabel(f"time ({fit.kind})")
+            ax.set_xlabel(f"time [{unit}] ({fit.kind})")
     method = model.options.get("method", "?")
     fig.suptitle(title or f"hdpbsid: method {method!r}, order {model.n}")
     return fig
 
 
-def plot_eigenvalues(identified: Any, true: Any | None = None, title: str = "Eigenvalues") -> Any:
-    """Identified (crosses) and true (circles) eigenvalues in the complex plane."""
+def plot_eigenvalues(
+    identified: Any, true: Any | None = None, title: str = "Eigenvalues", time_unit: str = "s"
+) -> Any:
+    """Identified (crosses) and true (circles) eigenvalues in the complex plane (axes in
+    rad per ``time_unit``)."""
     fig = new_figure((5.5, 4.5))
     ax = fig.add_subplot(1, 1, 1)
     ev = np.asarray(identified, dtype=complex).ravel()
@@ -202,8 +226,8 @@ def plot_eigenvalues(identified: Any, true: Any | None = None, title: str = "Eig
     ax.plot(ev.real, ev.imag, "x", ms=8, mew=2, label="identified")
     ax.axvline(0.0, color="0.5", lw=0.8)
     ax.axhline(0.0, color="0.5", lw=0.8)
-    ax.set_xlabel("Re")
-    ax.set_ylabel("Im")
+    ax.set_xlabel(f"Re [rad/{time_unit}]")
+    ax.set_ylabel(f"Im [rad/{time_unit}]")
     ax.set_title(title)
     ax.legend()
     return fig
@@ -243,14 +267,14 @@ def plot_bode(
     title: str = "Bode diagram",
 ) -> Any:
     """Magnitude and phase of every input-output pair of several models (solid) and of
-    ``true_model`` (black dashed) over ``w`` rad/s; one column per output."""
+    ``true_model`` (black dashed) over ``w`` (rad per the first model's ``time_unit``);
+    one column per output; channel names default to the first model's."""
     w = np.asarray(w, dtype=float).ravel()
     first = next(iter(models.values())) if models else true_model
     if first is None:
         raise ValueError("plot_bode needs at least one model")
     l, m = first.l, first.m
-    onames = output_names or [f"y{i + 1}" for i in range(l)]
-    inames = input_names or [f"u{j + 1}" for j in range(m)]
+    onames, inames = _names(first, output_names, input_names, l, m)
     fig = new_figure((4.5 * l * m + 1.0, 6.0))
     axes = [[fig.add_subplot(2, l * m, 1 + k + r * l * m) for k in range(l * m)] for r in range(2)]
     curves = list(models.items())
@@ -271,7 +295,7 @@ def plot_bode(
     for k in range(l * m):
         axes[0][k].set_ylabel("|G| [dB]")
         axes[1][k].set_ylabel("phase [deg]")
-        axes[1][k].set_xlabel("frequency [rad/s]")
+        axes[1][k].set_xlabel(f"frequency [rad/{first.time_unit}]")
         for r in range(2):
             axes[r][k].grid(True, which="both", alpha=0.3)
     axes[0][0].legend(fontsize="small")
@@ -330,9 +354,11 @@ def plot_outputs(
     output_names: list[str] | None = None,
     title: str = "Measured and simulated outputs",
     window: tuple[float, float] | None = None,
+    time_unit: str = "s",
 ) -> Any:
     """Measured outputs (grey) with one or more simulated ones (the thesis's Figure 2 style);
-    ``window`` restricts the time axis (a few seconds are readable, 30 s are not)."""
+    ``window`` restricts the time axis (a few seconds are readable, 30 s are not);
+    ``time_unit`` labels it."""
     t = np.asarray(t, dtype=float).ravel()
     y = np.asarray(measured, dtype=float).reshape(t.size, -1)
     l = y.shape[1]
@@ -350,7 +376,7 @@ def plot_outputs(
         ax.set_ylabel(names[i])
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel(f"time [{time_unit}]")
     fig.suptitle(title)
     return fig
 
@@ -378,12 +404,12 @@ def plot_validation(
       99 % band (:mod:`hdpbsid.assessment`).
 
     ``report``: a :class:`~hdpbsid.assessment.ResidualReport` already computed (else
-    :meth:`StateSpaceModel.residuals` with ``max_lag``).  Returns the figure.
+    :meth:`StateSpaceModel.residuals` with ``max_lag``).  Channel names default to the
+    model's; the time axis carries its ``time_unit``.  Returns the figure.
     """
     t, u, y = check_data(t, u, y)
     l, m = y.shape[1], u.shape[1]
-    onames = output_names or [f"y{i + 1}" for i in range(l)]
-    inames = input_names or [f"u{j + 1}" for j in range(m)]
+    onames, inames = _names(model, output_names, input_names, l, m)
     if report is None:
         report = model.residuals(t, u, y, max_lag=max_lag)
     sim = model.compare(t, u, y)
@@ -398,7 +424,7 @@ def plot_validation(
             label = f"{pred.kind}, fit {pred.fit[i]:.1f} %"
             ax.plot(t, pred.y_hat[:, i], color="C1", lw=0.9, label=label)
         ax.set_ylabel(onames[i])
-        ax.set_xlabel("time")
+        ax.set_xlabel(f"time [{model.time_unit}]")
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
         ax = fig.add_subplot(gs[i, 2])

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
+from slbasis.numeric import jit
 from slbasis.numeric.engine import numba_available
 
 __all__ = [
@@ -38,6 +38,9 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+
+# compiled ahead of their first use, in the background, by slbasis.numeric.jit
+jit.register("hdpbsid.recursion_kernels", "hdpbsid.methods.pem_kernels")
 
 #: largest eigenvector condition number for the modal form: rounding errors of order
 #: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
@@ -57,7 +60,10 @@ def select_kernels(engine: str, load: Callable[[], Any]) -> Any:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if engine == "numpy" or (engine == "auto" and not numba_available()):
         return None
-    return load()
+    module = load()
+    if engine == "auto" and not jit.ready(module):
+        return None  # numpy while the kernels compile in the background (slbasis.numeric.jit)
+    return module
 
 
 def _load_kernels() -> Any:
@@ -78,6 +84,8 @@ def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
     ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when its row of
     ``R`` is real.
     """
+    from scipy.signal import lfilter  # here: scipy.signal costs a third of a second to import
+
     Z = np.zeros(R.shape, dtype=complex)
     for a in range(lam.size):
         ra = R[..., a, :-1]

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from slbasis.numeric.jit import array as _array
+
 __all__ = ["recursions", "powers"]
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -52,3 +54,10 @@ def powers(F: np.ndarray, P: np.ndarray) -> None:
                 for a in range(n):
                     s += F[i, a] * P[k - 1, a, j]
                 P[k, i, j] = s
+
+
+_F8 = numba.types.float64
+_M, _T = _array(_F8, 2), _array(_F8, 3)
+#: the argument types :mod:`hdpbsid.recursion` passes, compiled ahead of the first call
+#: by :mod:`slbasis.numeric.jit`
+WARM_SIGNATURES = {"recursions": [(_M, _T, _M, _T)], "powers": [(_M, _T)]}

@@ -109,6 +109,7 @@ from .criteria import (
     windowed_simulation_error,
 )
 from .model import StateSpaceModel
+from .runtime import library_call
 
 __all__ = [
     "identify_auto",
@@ -823,6 +824,7 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return table
 
 
+@library_call
 def select_model(
     t: Any,
     u: Any,
@@ -1038,6 +1040,7 @@ def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> Sta
     return model
 
 
+@library_call
 def identify_auto(
     t: Any,
     u: Any,
@@ -1099,6 +1102,7 @@ def identify_auto(
     return model
 
 
+@library_call
 def select_order(
     method: str,
     t: Any,

@@ -8,10 +8,22 @@
 * :mod:`slbasis.numeric` — stable evaluation, quadrature, projection and operator matrices.
 """
 
+from typing import Any
+
 from .bases import basis, kernel
 from .families import families
 from .numeric import Basis, Kernel, KernelSpec, TimeMap, check_kernel, evaluate, gauss
-from .symbolic.problem import SturmLiouville
+
+
+def __getattr__(name: str) -> Any:
+    """:class:`SturmLiouville` on first access (PEP 562): it imports sympy, which numeric
+    work (``slbasis.basis("hermite", ...)``) never needs."""
+    if name == "SturmLiouville":
+        from .symbolic.problem import SturmLiouville
+
+        return SturmLiouville
+    raise AttributeError(f"module 'slbasis' has no attribute {name!r}")
+
 
 __all__ = [
     "Basis",

@@ -12,12 +12,23 @@ True
 from __future__ import annotations
 
 import importlib
+import sys
 import types
+from typing import TYPE_CHECKING
 
-from .codegen import CATALOGUE, kernel_module
+from .kernels import CATALOGUE
 from .numeric import Basis, Kernel
 from .numeric.closed_form_kernel import ClosedFormKernel
-from .symbolic.problem import SturmLiouville
+
+if TYPE_CHECKING:
+    from .symbolic.problem import SturmLiouville
+
+
+def _is_problem(obj: object) -> bool:
+    """Whether ``obj`` is a :class:`SturmLiouville` problem, without importing sympy: no
+    problem can exist before its module (and sympy) has been imported."""
+    module = sys.modules.get("slbasis.symbolic.problem")
+    return module is not None and isinstance(obj, module.SturmLiouville)
 
 
 def catalogue_kernel_module(family: str) -> types.ModuleType:
@@ -52,7 +63,9 @@ def bind_kernel(module: types.ModuleType, **params: float) -> ClosedFormKernel:
 
 def kernel(family: str | SturmLiouville, **params: float) -> ClosedFormKernel:
     """The numeric kernel of a catalogue family name or of a custom problem."""
-    if isinstance(family, SturmLiouville):
+    if _is_problem(family):
+        from .codegen import kernel_module
+
         return bind_kernel(kernel_module(family), **params)
     if isinstance(family, str):
         return bind_kernel(catalogue_kernel_module(family), **params)
@@ -76,7 +89,7 @@ def basis(
     ``params``: family parameters (``alpha`` for Laguerre, ...).  ``scale``/``centre``
     override the default affine time map (see :class:`~slbasis.numeric.Basis`).
     """
-    if isinstance(family, (str, SturmLiouville)):
+    if isinstance(family, str) or _is_problem(family):
         k = kernel(family, **params)
     elif params:
         raise TypeError("parameters apply to a family name or a problem, not to a kernel")

@@ -25,8 +25,10 @@ from functools import lru_cache
 from pathlib import Path
 
 import sympy as sp
+from sympy.core.function import AppliedUndef
 from sympy.printing.numpy import NumPyPrinter
 
+from .kernels import CATALOGUE
 from .symbolic.closed_forms import gamma_simplify
 from .symbolic.parse import N, X
 from .symbolic.problem import SturmLiouville
@@ -34,18 +36,6 @@ from .symbolic.problem import SturmLiouville
 #: Entries ``n < SMALL_N`` come from direct exact computation (see the module docstring).
 SMALL_N = 4
 KERNEL_DIR = Path(__file__).resolve().parent / "kernels"
-
-#: Catalogue families -> (module name, default numeric parameter values).
-CATALOGUE = {
-    "hermite": ("hermite", {}),
-    "hermite_functions": ("hermite_functions", {}),
-    "laguerre": ("laguerre", {"alpha": 0}),
-    "legendre": ("legendre", {}),
-    "chebyshev_t": ("chebyshev_t", {}),
-    "chebyshev_u": ("chebyshev_u", {}),
-    "gegenbauer": ("gegenbauer", {"lam": 1}),
-    "jacobi": ("jacobi", {"alpha": 0, "beta": 0}),
-}
 
 
 class _XLogY(sp.Function):
@@ -66,8 +56,24 @@ class _Printer(NumPyPrinter):
         return f"math.gamma({self._print(expr.args[0])})"
 
 
+def _text(value: object) -> str:
+    """``str(value)`` safe inside a generated string literal or docstring: backslashes,
+    quotes and line breaks escaped, so that no text (a problem's ``name``) can end the
+    literal and become code of the module that :func:`kernel_module` executes."""
+    out = str(value).replace("\\", "\\\\").replace('"', '\\"')
+    return out.replace("\n", "\\n").replace("\r", "\\r")
+
+
 def _code(expr: sp.Expr, names: dict[sp.Symbol, str]) -> str:
-    expr = sp.sympify(expr).subs({s: sp.Symbol(v) for s, v in names.items()})
+    expr = sp.sympify(expr, strict=True)
+    undefined = expr.atoms(AppliedUndef)
+    odd = [s.name for s in expr.free_symbols if s not in names]
+    if undefined or odd:
+        raise ValueError(
+            f"codegen: only sympy's own functions and the symbols {sorted(map(str, names))} "
+            f"can be generated; got {sorted(map(str, undefined)) + sorted(odd)}"
+        )
+    expr = expr.subs({s: sp.Symbol(v) for s, v in names.items()})
     if expr.has(sp.gamma) and expr.free_symbols & {sp.Symbol("n"), sp.Symbol("x")}:
         raise ValueError(f"codegen: Gamma function of n or x left in {expr}")
     return _Printer({"fully_qualified_modules": True}).doprint(expr)
@@ -106,7 +112,7 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
     names = {N: "n", X: "x", **pnames}
     signature = "".join(f", {s.name}" for s in params)
     p0 = sp.Poly(p.p0, X)
-    p0_coeffs = tuple(sp.sympify(p0.coeff_monomial(X**k)) for k in range(3))
+    p0_coeffs = tuple(sp.sympify(p0.coeff_monomial(X**k), strict=True) for k in range(3))
     if any(c.free_symbols for c in p0_coeffs):
         raise ValueError("codegen: p0 with symbolic parameters is not supported")
     a_sq = _rational(cf.jacobi_offdiag_squared)
@@ -127,7 +133,7 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
     a, b = p.interval
     checks = "".join(
         f"    if not ({_code(e, names)}) > 0:\n"
-        f'        raise ValueError("{name}: parameters must satisfy {e} > 0")\n'
+        f'        raise ValueError("{_text(name)}: parameters must satisfy {_text(e)} > 0")\n'
         for e in dict.fromkeys(p.weight_form.assumptions)
     )
     defaults = CATALOGUE.get(name, (name, {}))[1]
@@ -145,11 +151,12 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         return "(" + ", ".join(_code(v, names) for v in vals) + ")"
 
     lines = [
-        f'"""Generated closed forms for {p.name}: {name}. DO NOT EDIT.',
+        f'"""Generated closed forms for {_text(p.name)}: {_text(name)}. DO NOT EDIT.',
         "",
-        f"Regenerate with ``{regenerate}``.",
-        f"Source: SturmLiouville(p0={p.p0}, p1={p.p1}, q0={p.q0}),",
-        f"standardisation c_n = {p.standardization}. Functions n -> closed forms in n (arrays),",
+        f"Regenerate with ``{_text(regenerate)}``.",
+        f"Source: SturmLiouville(p0={_text(p.p0)}, p1={_text(p.p1)}, q0={_text(p.q0)}),",
+        f"standardisation c_n = {_text(p.standardization)}. Functions n -> closed forms in n "
+        "(arrays),",
         "used by slbasis.numeric.closed_form_kernel.ClosedFormKernel (conventions there).",
         '"""',
         "",

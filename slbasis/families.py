@@ -17,14 +17,32 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-import sympy as sp
+if TYPE_CHECKING:
+    import sympy as sp
 
-from .symbolic.parse import N, X
-from .symbolic.problem import SturmLiouville
+    from .symbolic.expr import to_expression
+    from .symbolic.parse import N, X
+    from .symbolic.problem import SturmLiouville
 
-Param = int | float | str | sp.Expr | None
-_rf = sp.RisingFactorial
+#: a parameter value: a number, a string or sympy expression, or None (symbolic)
+Param = Any
+
+
+def _symbolic() -> None:
+    """Bind ``sp``, ``N``, ``X`` and ``SturmLiouville`` here on the first derivation.
+
+    The catalogue itself (names, parameters, descriptions) needs no sympy, so
+    ``import slbasis`` does not import it; the builders below run only through
+    :meth:`Family.with_oracle`, which calls this first.
+    """
+    global sp, N, X, SturmLiouville, to_expression
+    import sympy as sp
+
+    from .symbolic.expr import to_expression
+    from .symbolic.parse import N, X
+    from .symbolic.problem import SturmLiouville
 
 
 @dataclass(frozen=True)
@@ -59,6 +77,7 @@ class Family:
             raise TypeError(
                 f"{self.name} takes parameters {self.parameters or '()'}; got {sorted(unknown)}"
             )
+        _symbolic()
         values = {p: _parameter(p, params.get(p)) for p in self.parameters}
         problem, oracle = self._build(**values)
         problem.oracle = oracle
@@ -67,19 +86,22 @@ class Family:
 
 
 def _parameter(name: str, value: Param) -> sp.Expr:
+    """A family parameter: symbolic if ``None`` (or its own name), else an exact value.
+
+    Strings go through the safe parser (numbers, constants, whitelisted functions; the
+    parameter's own name stands for the symbolic parameter), never through ``sympify``.
+    """
+    symbol = sp.Symbol(name, real=True)
     if value is None:
-        return sp.Symbol(name, real=True)
+        return symbol
     if isinstance(value, bool):
         raise TypeError(f"{name} must be a number or a sympy expression, got {value!r}")
-    if isinstance(value, float):
-        return sp.nsimplify(value, rational=True)
-    return sp.sympify(value, rational=True)
+    return to_expression(value, argument=name, symbols={name: symbol})
 
 
-def _require(condition: sp.Expr, message: str) -> None:
+def _require(condition: sp.Basic | bool, message: str) -> None:
     """Raise ``ValueError`` when a parameter condition is decidably false."""
-    truth = sp.sympify(condition)
-    if truth is sp.false or truth == sp.false:
+    if condition is sp.false or condition is False:
         raise ValueError(message)
 
 

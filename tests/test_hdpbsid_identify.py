@@ -87,9 +87,11 @@ def test_a_constant_or_overflowing_channel_is_named(second_order_data, method) -
         identify(t, u, two, method=method)
     with pytest.raises(ValueError, match=r"y\[:, 0\] is constant"):
         identify(t, u, np.zeros_like(y), method=method)
-    # squares of 1e200 overflow float64: refused before any least squares runs
-    with pytest.raises(ValueError, match=r"u\[:, 0\] is too large to identify from"):
-        identify(t, 1e200 * u, y, method=method)
+    # squares of 1e200 overflow float64: a method called directly refuses the record
+    # before any least squares runs (identify scales it: test_hdpbsid_bad_inputs)
+    if method != "auto":
+        with pytest.raises(ValueError, match=r"u\[:, 0\] is too large to identify from"):
+            get_method(method)(t, 1e200 * u, y, 2)
     with pytest.raises(ValueError, match=r"record 1: y\[:, 0\] is constant"):
         identify([(t, u, y), (t, u, np.zeros_like(y))], order=2, method=method)
     if method != "auto":  # the method itself, called directly, says the same

@@ -76,7 +76,7 @@ BAD_CSV = {
     "missing column": ("t,u,z\n0,1,2\n1,2,3\n", "unknown column"),
     "text in a column": ("t,u,y\n0,1,2\n1,abc,3\n", "line 3, column 'u': not a number: 'abc'"),
     "empty cell": ("t,u,y\n0,1,2\n1,,3\n", "line 3, column 'u': missing value"),
-    "NaN": ("t,u,y\n0,1,2\n1,nan,3\n", "column 'u' has 1 missing/NaN/inf"),
+    "NaN": ("t,u,y\n0,1,2\n1,nan,3\n", "line 3, column 'u': 'nan' is NaN"),
     "unsorted times": ("t,u,y\n0,1,2\n2,2,3\n1,3,4\n", "strictly increasing.*decreasing"),
     "repeated times": ("t,u,y\n0,1,2\n1,2,3\n1,3,4\n", "strictly increasing.*repeated"),
     "empty file": ("", "empty file"),

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from scipy import signal
 from scipy.integrate import solve_ivp
 
-from hdpbsid import DiscreteModel, StateSpaceModel
+from hdpbsid import DiscreteModel, StateSpaceModel, TimeScaleWarning
 from hdpbsid.systems import second_order
 
 
@@ -184,3 +184,114 @@ def test_fit_recovers_the_initial_state_on_non_uniform_times(method):
     # hundred steps) amplified by the conditioning of the observability matrix
     np.testing.assert_allclose(res.x0, x_true, rtol=0, atol=1e-9)
     np.testing.assert_allclose(res.y_sim, y, rtol=0, atol=1e-9 * np.abs(y).max())
+
+
+# -- labels: time unit, channel names, sampling interval --------------------------------------
+def _labelled(sampling_interval=0.02, time_unit="s"):
+    A, B, C, D = second_order()
+    return StateSpaceModel(
+        A,
+        B,
+        C,
+        D,
+        np.array([[0.2], [0.1]]),
+        input_names=["force"],
+        output_names=["pos"],
+        time_unit=time_unit,
+        sampling_interval=sampling_interval,
+    )
+
+
+def test_to_control_names_the_signals():
+    m = _labelled()
+    sys = m.to_control(name="plant")
+    assert sys.input_labels == ["force"] and sys.output_labels == ["pos"] and sys.name == "plant"
+    noisy = m.to_control(noise_inputs=True)
+    assert noisy.input_labels == ["force", "e_pos"]
+    # the names survive an interconnection by name (python-control connects by label)
+    ctrl = control.ss([], [], [], [[2.0]], inputs=["pos_err"], outputs=["force"], name="k")
+    loop = control.interconnect(
+        [sys, ctrl, control.summing_junction(["ref", "-pos"], "pos_err")],
+        inplist=["ref"],
+        outlist=["pos"],
+    )
+    # proportional feedback 2 on 1/(s^2 + 0.8 s + 4): poles of s^2 + 0.8 s + 6
+    np.testing.assert_allclose(
+        np.sort_complex(loop.poles()), np.sort_complex(np.roots([1, 0.8, 6])), atol=1e-12
+    )
+    dm = m.to_discrete(0.1)
+    assert dm.input_names == ["force"] and dm.to_control().output_labels == ["pos"]
+    assert dm.to_continuous().sampling_interval == 0.1
+
+
+def test_labels_are_checked():
+    A, B, C, D = second_order()
+    with pytest.raises(ValueError, match="input_names must have 1 entries"):
+        StateSpaceModel(A, B, C, D, None, input_names=["a", "b"])
+    with pytest.raises(TypeError, match="output_names"):
+        StateSpaceModel(A, B, C, D, None, output_names="pos")
+    with pytest.raises(ValueError, match="time_unit"):
+        StateSpaceModel(A, B, C, D, None, time_unit="\n")
+    with pytest.raises(ValueError, match="sampling_interval"):
+        StateSpaceModel(A, B, C, D, None, sampling_interval=0.0)
+    m = StateSpaceModel(A, B, C, D, None)
+    assert (m.input_names, m.output_names, m.time_unit) == (["u1"], ["y1"], "s")
+    m.set_labels(input_names=["F"], time_unit="ms")
+    assert m.input_names == ["F"] and "rad/ms" in repr(m)
+
+
+@pytest.mark.parametrize(
+    ("factor", "warns"),
+    [(1.0, False), (2.0, False), (0.1, False), (19.0, False), (25.0, True), (1000.0, True)],
+)
+def test_compare_warns_on_a_foreign_sampling_interval(factor, warns):
+    """The limit lies between routine resampling (up to 10) and the smallest factor
+    between common time units (24); see SAMPLING_RATIO_LIMIT."""
+    m = _labelled()
+    t = np.arange(300) * 0.02 * factor
+    u = np.sin(0.05 * np.arange(300))
+    y = m.simulate(t, u)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m.compare(t, u, y)
+        m.residuals(t, u, y)
+        m.predict(t, u, y, k=2)
+        m.fit(t, u, y)
+    got = [w for w in caught if issubclass(w.category, TimeScaleWarning)]
+    assert len(got) == (4 if warns else 0)  # one per call, none repeated inside
+    if warns:
+        assert "sampling interval" in str(got[0].message)
+
+
+def test_compare_warns_on_another_time_unit():
+    m = _labelled(time_unit="s")
+    t = np.arange(300) * 0.02
+    u = np.sin(0.05 * np.arange(300))
+    y = m.simulate(t, u)
+    with pytest.warns(TimeScaleWarning, match=r"1 ms = 0\.001 s"):
+        m.compare(t, u, y, time_unit="ms")
+    with pytest.warns(TimeScaleWarning, match="'cycles' differs"):
+        m.compare(t, u, y, time_unit="cycles")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TimeScaleWarning)
+        m.compare(t, u, y, time_unit="s")  # the same unit and step: silent
+        _labelled(sampling_interval=None).compare(t * 1000, u, y)  # no step recorded
+
+
+def test_plots_carry_names_and_units():
+    from hdpbsid.plots import plot_identification, plot_validation
+
+    m = _labelled(time_unit="ms")
+    rng = np.random.default_rng(4)
+    t = np.arange(400) * 0.02
+    u = rng.standard_normal(400)
+    y = m.simulate(t, u) + 0.01 * rng.standard_normal((400, 1))
+    for fig in (plot_identification(m, t, u, y), plot_validation(m, t, u, y, max_lag=10)):
+        labels = [a.get_xlabel() for a in fig.axes] + [a.get_ylabel() for a in fig.axes]
+        titles = " ".join(a.get_title() for a in fig.axes)
+        legends = " ".join(
+            t.get_text() for a in fig.axes if a.get_legend() for t in a.get_legend().get_texts()
+        )
+        assert any("[ms]" in s for s in labels) and "pos" in labels
+        assert "rad/s" not in " ".join(labels)
+        assert "force" in titles + legends

@@ -64,6 +64,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
 
+from ..runtime import large_work
 from .pbsid import CoreResult, core_options, estimate_cd, resolve_order, stable_gain
 from .varx import (
     CachedPowers,
@@ -377,7 +378,8 @@ def _householder(A: Array) -> tuple[Array, Array]:
     A = np.asfortranarray(A, dtype=float)
     if A.shape[1] == 0:
         return A, np.zeros(0)
-    h, tau, _, info = dgeqrf(A, lwork=max(1, 64 * A.shape[1]))
+    with large_work(2.0 * A.shape[0] * A.shape[1] ** 2):  # Householder QR: 2 n k^2 flops
+        h, tau, _, info = dgeqrf(A, lwork=max(1, 64 * A.shape[1]))
     if info != 0:  # pragma: no cover - argument errors only
         raise ValueError(f"LAPACK geqrf failed (info = {info})")
     return h, tau

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import solve_discrete_are
 
+from ..runtime import library_call
 from .varx import LagOperator, SampleShift, VarxResult, varx
 
 __all__ = [
@@ -308,6 +309,7 @@ def subspace_stage(
     return SubspaceStage(vx, Xall, s, Ug)
 
 
+@library_call
 def pbsid_core(
     U: Array,
     Y: Array,

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..runtime import large_work
 from .blocks import (
     BlockLag,
     BlockPseudo,
@@ -76,7 +77,8 @@ def r_of(A: Array, width: int | None = None) -> Array:
     """``width x width`` triangular factor of the tall matrix ``A`` (``A = Q R``),
     zero-padded when ``A`` has fewer rows than columns."""
     w = A.shape[1] if width is None else width
-    R = np.linalg.qr(A, mode="r") if A.shape[0] else np.zeros((0, w))
+    with large_work(2.0 * A.shape[0] * A.shape[1] ** 2):  # Householder QR: 2 n k^2 flops
+        R = np.linalg.qr(A, mode="r") if A.shape[0] else np.zeros((0, w))
     if R.shape[0] < w:
         R = np.vstack([R, np.zeros((w - R.shape[0], w))])
     return R

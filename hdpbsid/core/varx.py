@@ -29,7 +29,6 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
-from scipy.optimize import minimize_scalar
 
 __all__ = [
     "LagOperator",
@@ -306,6 +305,8 @@ def ridge_gcv_r(
     i = int(np.argmin(vals))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     if b > a:
+        from scipy.optimize import minimize_scalar  # here: scipy.optimize is slow to import
+
         res = minimize_scalar(gcv, bounds=(a, b), method="bounded", options={"xatol": 1e-4})
         best = float(res.x) if res.fun <= vals[i] else float(grid[i])
     else:

@@ -51,6 +51,7 @@ from ..checks import check_order, check_positive_int
 from ..core import streamed
 from ..core.blocks import BlockLag, BlockPseudo
 from ..model import StateSpaceModel
+from ..runtime import library_call
 from .basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
@@ -547,6 +548,7 @@ def _reduce(
     return dask.compute(parts[0])[0]
 
 
+@library_call
 def identify_chunked(
     record: ChunkedRecord,
     order: int | None = None,

@@ -53,6 +53,7 @@ from ..core.varx import (
 )
 from ..model import DiscreteModel, StateSpaceModel
 from ..records import as_records
+from ..runtime import library_call
 from .memo import memoize
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
@@ -150,6 +151,7 @@ def _shared_subspace_stage(
     return subspace_stage(U, Y, p, f, SampleShift(), feedthrough, regularize)
 
 
+@library_call
 def identify_discrete(
     u: Any,
     y: Any,
@@ -282,6 +284,7 @@ def identify_discrete(
     )
 
 
+@library_call
 def identify_dt(
     t: Any,
     u: Any = None,

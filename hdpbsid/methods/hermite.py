@@ -39,6 +39,7 @@ from ..checks import check_data, check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
+from ..runtime import library_call
 from .basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
@@ -197,6 +198,7 @@ def _real(x: Any, name: str, positive: bool = True) -> float:
     return x
 
 
+@library_call
 def identify_hermite(
     t: Any,
     u: Any = None,

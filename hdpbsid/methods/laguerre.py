@@ -43,6 +43,7 @@ from ..core.blocks import BlockLag
 from ..core.varx import SampleShift
 from ..model import StateSpaceModel
 from ..records import as_records
+from ..runtime import library_call
 from .basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
@@ -118,6 +119,7 @@ def laguerre_filter(t: Array, x: Array, a: float, N: int) -> Array:
     return out
 
 
+@library_call
 def identify_laguerre(
     t: Any,
     u: Any = None,

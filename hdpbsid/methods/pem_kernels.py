@@ -47,6 +47,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from slbasis.numeric.jit import array as _array
+
 __all__ = ["weighted_errors", "sensitivity_regressors"]
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -194,3 +196,17 @@ def sensitivity_regressors(
                 for b in range(p):
                     zr[a, b] = lr * zr[a, b] + w[b]
         _predictor_step(F, G, Kd, xi, u, y, k, xn)
+
+
+_F8, _B1 = numba.types.float64, numba.types.boolean
+_M, _V = _array(_F8, 2), _array(_F8, 1)
+#: the argument types :mod:`hdpbsid.methods.refine` passes, compiled ahead of the first
+#: call by :mod:`slbasis.numeric.jit` (``lam_im`` is read-only when every mode is real:
+#: numpy's ``.imag`` of a real array)
+WARM_SIGNATURES = {
+    "weighted_errors": [(_M,) * 9 + (_array(_F8, 3),)],
+    "sensitivity_regressors": [
+        (_M,) * 5 + (_V, _V, _array(_F8, 1, readonly=ro), _array(_B1, 1), _array(_F8, 3), _M)
+        for ro in (False, True)
+    ],
+}

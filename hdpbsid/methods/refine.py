@@ -88,12 +88,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
-from scipy.optimize import least_squares
 
 # is_uniform: the package's one uniformity test (hdpbsid.checks), re-exported here
 from ..checks import check_data, is_uniform
 from ..model import StateSpaceModel
 from ..recursion import select_kernels
+from ..runtime import library_call
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
 __all__ = [
@@ -468,6 +468,8 @@ def _lm_fit(
             return residuals(centre + Q @ beta, jac=True, directions=Q)[1]
 
         run = min(DDLC_RUN_NFEV, budget - nfev)
+        from scipy.optimize import least_squares  # here: scipy.optimize is slow to import
+
         sol = least_squares(fun, np.zeros(Q.shape[1]), jac=jac, max_nfev=run, **kw)
         theta = centre + Q @ sol.x
         nfev += int(sol.nfev)
@@ -750,6 +752,7 @@ def _residuals_compiled(
     return r, J
 
 
+@library_call
 def refine_pem(
     model: StateSpaceModel,
     t: Any,
@@ -919,6 +922,7 @@ def refine_pem(
     )
 
 
+@library_call
 def one_step_errors(
     model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str | None = None
 ) -> Array | None:

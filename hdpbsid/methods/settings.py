@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import DEFAULT_MAX_ORDER, check_positive_int
+from ..checks import DEFAULT_MAX_ORDER, check_positive_int, require_joblib
 from ..core.varx import parse_regularize
 
 __all__ = ["BasisSettings", "INPUT_HOLDS", "SETTING_NAMES", "check_window", "resolve_settings"]
@@ -68,6 +68,7 @@ def _check_n_jobs(n_jobs: Any) -> int | None:
         raise TypeError(f"n_jobs must be None or an int, got {type(n_jobs).__name__}")
     if n_jobs == 0:
         raise ValueError("n_jobs must be None, a positive count or negative (joblib), got 0")
+    require_joblib(n_jobs)
     return int(n_jobs)
 
 

@@ -60,6 +60,7 @@ from ..checks import check_order, check_positive_int
 from ..core.blocks import BlockLag
 from ..model import StateSpaceModel
 from ..records import as_records
+from ..runtime import library_call
 from .basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
@@ -269,6 +270,7 @@ def _integrator_lag(
     return lag, solve_rows, how
 
 
+@library_call
 def identify_sl(
     t: Any,
     u: Any = None,
@@ -454,6 +456,7 @@ def identify_sl(
     )
 
 
+@library_call
 def identify_legendre(
     t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
@@ -463,6 +466,7 @@ def identify_legendre(
     return identify_sl(t, u, y, order, family="legendre", **options)
 
 
+@library_call
 def identify_chebyshev(
     t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:

@@ -37,6 +37,8 @@ import math
 import numba
 import numpy as np
 
+from .jit import array as _array
+
 __all__ = ["BLOCK", "eval_range", "project_range"]
 
 BLOCK = 256  # samples per block: 2 mantissa rows, x and 8 weighted signals use 22 kB of L1
@@ -384,3 +386,17 @@ def project_range(
             if not math.isfinite((q[i] * f1) * f2):
                 bad += 1
     return bad
+
+
+_F8, _I8, _B1 = numba.types.float64, numba.types.int64, numba.types.boolean
+_V = _array(_F8, 1)
+#: the argument types the engine (:mod:`slbasis.numeric.engine`) passes, compiled ahead
+#: of the first call by :mod:`slbasis.numeric.jit`: ``wy`` is a column range of the
+#: weighted signals, contiguous on one thread ("C") and strided on several ("A")
+WARM_SIGNATURES = {
+    "eval_range": [(_V, _V, _array(_I8, 1), _V, _V, _V, _array(_B1, 1), _array(_F8, 2), _I8)],
+    "project_range": [
+        (_V, _V, _array(_I8, 1), _array(_F8, 2, layout), _V, _V, _V, _array(_B1, 1), _array(_F8, 2))
+        for layout in ("C", "A")
+    ],
+}

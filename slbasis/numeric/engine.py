@@ -11,13 +11,16 @@ Engines:
     its own partial sums (reduced at the end in a fixed order). Compiled on first use and
     cached on disk.
 ``"auto"`` (default)
-    ``"numba"`` if numba imports, the environment variable ``SLBASIS_NO_NUMBA`` is unset
-    (or ``0``) and the call is large enough to pay for a first compilation
-    (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values);
-    ``"numpy"`` otherwise.
+    ``"numba"`` if numba imports, the environment variables ``SLBASIS_NO_NUMBA`` and
+    ``NUMBA_DISABLE_JIT`` are unset (or ``0``), the call is large enough to gain from the
+    compiled kernels (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16``
+    function values) and its kernels are compiled or cached (:mod:`slbasis.numeric.jit`:
+    until then numpy runs while they compile in a background process; from ``2^32``
+    values the call compiles them itself); ``"numpy"`` otherwise.
 
-Threads: ``numba.get_num_threads()`` (the ``NUMBA_NUM_THREADS`` environment variable or
-``numba.set_num_threads``); calls below ``2^20`` function values per thread run on the
+Threads: :func:`slbasis.runtime.compiled_threads` (numba's thread count, from the
+``NUMBA_NUM_THREADS`` environment variable or ``numba.set_num_threads``, unless the
+library's thread override is set); calls below ``2^20`` function values per thread run on the
 calling thread only.
 """
 
@@ -29,6 +32,8 @@ from concurrent.futures import ThreadPoolExecutor
 from types import ModuleType
 
 import numpy as np
+
+from ..runtime import compiled_threads
 
 __all__ = [
     "ENGINES",
@@ -47,6 +52,12 @@ _AUTO_MIN_WORK = 1 << 16  # function values: below this "auto" stays with numpy
 #: per function value at 2 * 10^4 samples (N = 400), i.e. ~1000 values
 NUMPY_ROW_OVERHEAD = 1 << 10
 _THREAD_MIN_WORK = 1 << 20  # function values per thread worth a thread
+#: function values from which "auto" compiles the kernels on the call when they are not
+#: compiled yet (:mod:`.jit`): the numpy engine's ~5 ns per value then takes about as long
+#: as compiling them (~20 s on one core)
+_COMPILE_NOW_WORK = 1 << 32
+#: environment variables that switch the compiled engine off
+_SWITCHES = ("SLBASIS_NO_NUMBA", "NUMBA_DISABLE_JIT")
 
 
 @functools.lru_cache(maxsize=1)
@@ -60,11 +71,14 @@ def _compiled() -> ModuleType | None:
 
 
 def _disabled() -> bool:
-    return os.environ.get("SLBASIS_NO_NUMBA", "") not in ("", "0")
+    """``SLBASIS_NO_NUMBA`` set, or numba's own ``NUMBA_DISABLE_JIT`` (under which the
+    kernels would run as plain Python loops, orders of magnitude slower than numpy)."""
+    return any(os.environ.get(v, "") not in ("", "0") for v in _SWITCHES)
 
 
 def numba_available() -> bool:
-    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` unset)."""
+    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` and
+    ``NUMBA_DISABLE_JIT`` unset)."""
     return not _disabled() and _compiled() is not None
 
 
@@ -76,13 +90,20 @@ def resolve(engine: str, work: int) -> str:
         return "numpy"
     if engine == "numba":
         if _disabled():
-            raise RuntimeError("engine='numba': disabled by the environment (SLBASIS_NO_NUMBA)")
+            raise RuntimeError(
+                "engine='numba': disabled by the environment (SLBASIS_NO_NUMBA or "
+                "NUMBA_DISABLE_JIT)"
+            )
         if _compiled() is None:
             raise RuntimeError(
                 "engine='numba': numba is not installed (pip install 'slbasis-hdpbsid[fast]')"
             )
         return "numba"
-    return "numba" if work >= _AUTO_MIN_WORK and numba_available() else "numpy"
+    if work < _AUTO_MIN_WORK or not numba_available():
+        return "numpy"
+    from . import jit  # here: ``python -m slbasis.numeric.jit`` must find it not imported
+
+    return "numba" if work >= _COMPILE_NOW_WORK or jit.ready(_compiled()) else "numpy"
 
 
 def work(N: int, n_samples: int) -> int:
@@ -98,9 +119,7 @@ def work(N: int, n_samples: int) -> int:
 
 
 def _threads() -> int:
-    import numba
-
-    return max(1, int(numba.get_num_threads()))
+    return compiled_threads()
 
 
 def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:

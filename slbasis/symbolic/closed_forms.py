@@ -90,7 +90,7 @@ class ClosedForms:
         p0_sign: int,
     ):
         self.k = coeffs
-        self.c_n = sp.sympify(standardization)
+        self.c_n = sp.sympify(standardization, strict=True)
         self.d0_squared = d0_squared
         self.p0_sign = p0_sign
 

@@ -49,7 +49,7 @@ class DirectComputation:
         self.domain = _domain(p0, p1)
         self.p0 = sp.Poly(p0, X, domain=self.domain)
         self.p1 = sp.Poly(p1, X, domain=self.domain)
-        self.c_n = sp.sympify(standardization)
+        self.c_n = sp.sympify(standardization, strict=True)
         self.form = form
         self.free = lru_cache(maxsize=None)(self._free)
         # Integration runs in the polynomial ring of the parameters (no gcd per operation);

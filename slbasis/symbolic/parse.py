@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from .expr import check_symbol_name, to_expression
+
 #: The canonical independent variable of every derivation.
 X = sp.Symbol("x", real=True)
 #: The canonical (non-negative integer) index of eigenfunctions.
@@ -35,26 +37,6 @@ class Coefficients:
         return sp.Poly(getattr(self, which), X)
 
 
-def _to_expr(value: Coefficient, name: str, local: dict[str, sp.Symbol]) -> sp.Expr:
-    if isinstance(value, sp.Basic):
-        expr = value
-    elif isinstance(value, bool) or not isinstance(value, str | int | float):
-        raise TypeError(
-            f"{name} must be a string, a number or a sympy expression in x; "
-            f"got {type(value).__name__}"
-        )
-    elif isinstance(value, float):
-        expr = sp.nsimplify(value, rational=True)
-    else:
-        try:
-            expr = sp.sympify(value, locals=local, rational=True)
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise ValueError(f"{name}={value!r} is not a valid expression: {exc}") from exc
-    if not isinstance(expr, sp.Expr):
-        raise TypeError(f"{name} must be a scalar expression, got {expr!r}")
-    return expr
-
-
 def parse_coefficients(
     p0: Coefficient,
     p1: Coefficient,
@@ -62,21 +44,27 @@ def parse_coefficients(
     *,
     var: str | sp.Symbol = "x",
     params: Iterable[str | sp.Symbol] = (),
+    names: tuple[str, str, str] = ("p0", "p1", "q0"),
 ) -> Coefficients:
     """Convert and validate ``p0, p1, q0``.
 
     ``var`` names the independent variable used in the inputs (default ``x``); ``params``
     names the symbols that are parameters (e.g. Jacobi's ``alpha, beta``).  Any other free
-    symbol is an error, so that ``p0="1 - t**2"`` without ``var="t"`` is caught.
+    symbol is an error, so that ``p0="1 - t**2"`` without ``var="t"`` is caught.  Strings
+    are read by the safe parser :func:`slbasis.symbolic.expr.parse_expression` (never
+    evaluated as Python); ``names`` are the argument names used in error messages.
+    Parameter names must be identifiers without ``__`` (generated code uses them).
 
     Raises ``ValueError`` when ``p0`` or ``p1`` is not a polynomial in the variable, when
-    ``q0`` is not rational in it, or when an undeclared symbol appears.
+    ``q0`` is not rational in it, when an undeclared symbol appears, or when a string is
+    outside the grammar of the safe parser.
     """
     var_name = var.name if isinstance(var, sp.Symbol) else str(var)
     param_syms = []
     local: dict[str, sp.Symbol] = {}
     for prm in params:
         sym = prm if isinstance(prm, sp.Symbol) else sp.Symbol(str(prm), real=True)
+        check_symbol_name(sym.name, "params")
         if sym.name == var_name:
             raise ValueError(f"params: {sym.name!r} is the independent variable, not a parameter")
         param_syms.append(sym)
@@ -84,8 +72,8 @@ def parse_coefficients(
     user_var = var if isinstance(var, sp.Symbol) else sp.Symbol(var_name)
     local[var_name] = user_var
     exprs = {}
-    for name, value in (("p0", p0), ("p1", p1), ("q0", q0)):
-        expr = _to_expr(value, name, local)
+    for key, name, value in zip(("p0", "p1", "q0"), names, (p0, p1, q0), strict=True):
+        expr = to_expression(value, argument=name, symbols=local, free_names=True)
         # Symbols given as sympy objects may carry other assumptions: match them by name.
         by_name = {s.name: s for s in expr.free_symbols}
         if var_name in by_name:
@@ -103,17 +91,21 @@ def parse_coefficients(
                 f"{name}={value!s} contains the undeclared symbol(s) {', '.join(unknown)} "
                 f"(independent variable is {var_name!r}){hint}"
             )
-        exprs[name] = sp.expand(expr)
-    for name in ("p0", "p1"):
-        if not exprs[name].is_polynomial(X):
+        exprs[key] = sp.expand(expr)
+    for key, name in zip(("p0", "p1"), names, strict=False):
+        if not exprs[key].is_polynomial(X):
             raise ValueError(
-                f"{name}={exprs[name]} is not a polynomial in {var_name}; "
+                f"{name}={exprs[key]} is not a polynomial in {var_name}; "
                 "the classical theory (eq. 8-10) needs polynomial p0 and p1"
             )
     if not exprs["q0"].is_rational_function(X):
-        raise ValueError(f"q0={exprs['q0']} is not a polynomial or rational function of {var_name}")
+        raise ValueError(
+            f"{names[2]}={exprs['q0']} is not a polynomial or rational function of {var_name}"
+        )
     if exprs["p0"] == 0:
-        raise ValueError("p0 must not be identically zero (the problem must be second order)")
+        raise ValueError(
+            f"{names[0]} must not be identically zero (the problem must be second order)"
+        )
     return Coefficients(
         p0=exprs["p0"],
         p1=exprs["p1"],

@@ -12,6 +12,7 @@ import sympy as sp
 
 from .closed_forms import ClosedForms, PolynomialData, gamma_simplify
 from .direct import DirectComputation
+from .expr import to_expression
 from .gauge import Gauge, find_gauge
 from .ladder import (
     BandedOperator,
@@ -56,7 +57,8 @@ class SturmLiouville:
     params : iterable of str or sympy.Symbol
         Parameter symbols (e.g. ``("alpha", "beta")``); symbols are kept as given.
     standardization : str or sympy expression, optional
-        Rodrigues constant ``c_n`` of eq. (10) as an expression in ``n``; default
+        Rodrigues constant ``c_n`` of eq. (10) as an expression in ``n`` (and the
+        parameters); default
         ``(-1)^n`` if ``p0 > 0`` on the interval (else ``1``), which makes every leading
         coefficient positive.
     name : str, optional
@@ -132,14 +134,17 @@ class SturmLiouville:
         else:
             prefer = None
             if gauge is not None:
-                prefer = parse_coefficients(c.p0, gauge, var=var, params=self.params).p1
+                prefer = parse_coefficients(
+                    c.p0, gauge, var=var, params=self.params, names=("p0", "gauge", "q0")
+                ).p1
             self.gauge = find_gauge(c.p0, c.p1, c.q0, prefer)
             self.weight_form = self.gauge.weight_form
         self._p1_poly = c.p1 if self.gauge is None else self.gauge.p1_poly
         if standardization is None:
             self._standardization = (-sp.Integer(self.weight_form.p0_sign)) ** N
         else:
-            std = sp.sympify(standardization, locals={"n": N, self.n.name: N})
+            local = {p.name: p for p in self.params} | {"n": N, self.n.name: N}
+            std = to_expression(standardization, argument="standardization", symbols=local)
             self._standardization = std.subs({sp.Symbol("n"): N, self.n: N})
         self.closed = ClosedForms(
             PolynomialData.from_exprs(c.p0, self._p1_poly),
@@ -278,7 +283,10 @@ class SturmLiouville:
         """An index argument with the user's ``n`` read as the canonical one."""
         if n is None:
             return N
-        n = sp.sympify(n)
+        if isinstance(n, str):
+            local = {p.name: p for p in self.params} | {self.n.name: self.n}
+            n = to_expression(n, argument="n", symbols=local)
+        n = sp.sympify(n, strict=True)
         return n.xreplace({self.n: N}) if self._user else n
 
     def eigenvalue(self, n: int | sp.Expr | None = None) -> sp.Expr:

@@ -72,7 +72,7 @@ class VerificationReport:
 
 
 def _zero(expr: sp.Expr) -> bool:
-    expr = sp.sympify(expr)
+    expr = sp.sympify(expr, strict=True)
     if expr == 0:
         return True
     if expr.has(sp.gamma, sp.factorial, sp.RisingFactorial, sp.binomial):
@@ -91,7 +91,7 @@ def _zero(expr: sp.Expr) -> bool:
 def _equal_radicals(a: sp.Expr, b: sp.Expr, sample: dict) -> bool:
     """``a == b`` for expressions ``rational * sqrt(rational)``: equal squares (a rational
     identity) and equal signs at an admissible sample point of the parameters."""
-    a, b = sp.sympify(a), sp.sympify(b)
+    a, b = sp.sympify(a, strict=True), sp.sympify(b, strict=True)
     if _zero(a - b):
         return True
     if not _zero(sp.factor(sp.cancel(sp.expand(a**2 - b**2)))):
@@ -114,7 +114,7 @@ def verify(problem: SturmLiouville, nmax: int = 10) -> VerificationReport:
     subst = p.positive_substitution()
 
     def _is_zero(expr: sp.Expr) -> bool:  # noqa: F811 - parameters made positive first
-        return _zero(sp.sympify(expr).subs(subst))
+        return _zero(sp.sympify(expr, strict=True).subs(subst))
 
     sample = {
         u: sp.Rational(4, 3) + sp.Rational(i, 7)
@@ -127,7 +127,9 @@ def verify(problem: SturmLiouville, nmax: int = 10) -> VerificationReport:
     sample.update({s: v for s, v in _sample(p).items() if s not in subst})
 
     def _same(a: sp.Expr, b: sp.Expr) -> bool:
-        return _equal_radicals(sp.sympify(a).subs(subst), sp.sympify(b).subs(subst), sample)
+        return _equal_radicals(
+            sp.sympify(a, strict=True).subs(subst), sp.sympify(b, strict=True).subs(subst), sample
+        )
 
     cf = p.closed
     d = p.direct
@@ -356,7 +358,7 @@ def _oracle_checks(rep: VerificationReport, p: SturmLiouville, oracle, nmax: int
     subst = p.positive_substitution()
 
     def _is_zero(expr: sp.Expr) -> bool:
-        return _zero(sp.sympify(expr).subs(subst))
+        return _zero(sp.sympify(expr, strict=True).subs(subst))
 
     cf = p.closed
     d = p.direct

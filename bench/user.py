@@ -1,0 +1,551 @@
+"""What a user gets: the calls of a session timed in the default environment and with
+one thread, side by side.
+
+Run: ``python bench/user.py [--reps 5] [--rows NAME ...] [--list]``
+
+One table.  Every row runs its work twice, each time in a fresh subprocess: in the
+**default environment** (what a user has: no thread variables set) and with **one
+thread** (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS`` and
+``NUMBA_NUM_THREADS`` set to 1), and prints the median wall and CPU time of ``--reps``
+repetitions and the ratio default / one thread.  CPU time is the process's (all its
+threads), which a machine shared with other work disturbs less than wall time.  The load
+average at the start and the end is printed under the table: on a loaded machine compare
+the ratios, not the absolute times.
+
+Rows (``--list``):
+
+* ``identify(t, u, y, order=3, method="hermite")`` and ``identify(t, u, y)`` on records of
+  6000 samples (the closed-loop quadrotor of ``bench/cases.py`` at 20 dB, 24 s at 250 Hz;
+  the second-order system with a smooth random input, 60 s at 100 Hz), with numba and
+  with ``NUMBA_DISABLE_JIT=1`` (which the library treats as "no numba": numpy kernels);
+  each repetition on a record of another seed, after one call on a further seed (imports,
+  kernel cache, first-use setup), so that no result is reused between repetitions;
+* the first call with an empty kernel cache: ``import hdpbsid`` and one
+  ``identify(..., order=3, method="hermite")`` in a fresh process whose
+  ``NUMBA_CACHE_DIR`` is a new empty directory (the background compilation it starts is
+  stopped when the time is taken);
+* ``import hdpbsid`` and ``hdpbsid --help``: the whole process (interpreter start
+  included), with ``import numpy, scipy.linalg`` as the floor the imports cannot go
+  below.
+
+* ``sippy``: SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` (the order
+  is what N4SID is told; every other argument at its default) alternating on ``--reps``
+  seeds of the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions),
+  one worker process per column; the worst eigenvalue error (median over the seeds) in
+  the label and the ratio hdpbsid / N4SID of the default column on a line of its own.
+  Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
+* ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
+  samples of the lightly damped record of ``bench/long_records.py`` (its functions:
+  one call per column in a fresh process; peak RSS, method, order, worst eigenvalue
+  error of the default column in the label), and for 10^6 ``hdpbsid identify`` on the
+  same record as a 10^6-line CSV; ``long-7`` (only when named in ``--rows``: minutes)
+  10^7 samples from a chunked HDF5 file (extra ``io``).  ``--timeout`` bounds each call.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+_DATA = {"dir": ""}  # the records of this table (set by main)
+ROOT = HERE.parent
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: every variable that sets a thread count; the default column removes them all
+ALL_THREAD_VARIABLES = (*THREAD_VARIABLES, "NUMBA_NUM_THREADS", "HDPBSID_NUM_THREADS")
+#: the kernel modules compiled before the table, so that rows other than the first-call
+#: row time a filled cache (``make compiled`` does the same)
+JIT_MODULES = (
+    "slbasis.numeric.compiled",
+    "hdpbsid.recursion_kernels",
+    "hdpbsid.methods.pem_kernels",
+)
+
+
+# -- the work of each row, run inside a worker subprocess ---------------------------------
+def _make_record(case: str, seed: int):
+    sys.path.insert(0, str(HERE))
+    from cases import quadrotor, second_order_smooth
+
+    if case == "quadrotor":
+        data = quadrotor(seed, 20.0, duration=24.0)
+    elif case == "second-order":
+        data = second_order_smooth(seed, 20.0, T=60.0)
+    else:  # pragma: no cover - the rows name the cases
+        raise ValueError(f"unknown case {case!r}")
+    r = data.estimation
+    return r.t, r.u, r.y
+
+
+def _record(case: str, seed: int):
+    """The record of ``case`` and ``seed``, made once per table (the quadrotor's closed-loop
+    simulation takes longer than its identification) in ``BENCH_USER_DATA``."""
+    import numpy as np
+
+    path = Path(os.environ["BENCH_USER_DATA"]) / f"{case}-{seed}.npz"
+    if not path.exists():
+        t, u, y = _make_record(case, seed)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez(tmp, t=t, u=u, y=y)
+        tmp.replace(path)
+    with np.load(path) as f:
+        return f["t"], f["u"], f["y"]
+
+
+def _time_calls(case: str, options: dict, reps: int) -> dict:
+    """Median wall and CPU time of ``identify`` on ``reps`` records of distinct seeds."""
+    import hdpbsid
+
+    t, u, y = _record(case, 1000)
+    hdpbsid.identify(t, u, y, **options)  # first use: imports, kernel cache, bases
+    walls, cpus = [], []
+    for seed in range(reps):
+        t, u, y = _record(case, seed)
+        w0, c0 = time.perf_counter(), time.process_time()
+        hdpbsid.identify(t, u, y, **options)
+        walls.append(time.perf_counter() - w0)
+        cpus.append(time.process_time() - c0)
+    return {"wall": walls, "cpu": cpus, "samples": int(len(t))}
+
+
+def _first_call(reps: int) -> dict:
+    """``import hdpbsid`` and a first ``identify`` in this fresh process (the caller set
+    an empty ``NUMBA_CACHE_DIR``); one measurement (``reps`` is for the caller)."""
+    t, u, y = _record("quadrotor", 0)
+    w0, c0 = time.perf_counter(), time.process_time()
+    import hdpbsid
+
+    hdpbsid.identify(t, u, y, order=3, method="hermite")
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    from slbasis.numeric import jit
+
+    proc = jit._process["proc"]
+    if proc:  # the background compilation this call started: stop it, it is not timed
+        proc.terminate()
+        proc.wait()
+    return {"wall": [wall], "cpu": [cpu], "samples": int(len(t))}
+
+
+#: the 10^4-sample binary-input case of ``bench/scaling.py``: ``identify`` given the order
+#: (the one thing N4SID is told), every other argument at its default
+SIPPY_SAMPLES = 10**4
+HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
+
+
+def _sippy_binary(reps: int) -> dict:
+    """SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` alternating on
+    ``reps`` seeds of :func:`scaling.binary_record` in this process (after one untimed
+    call each): wall, CPU time and worst relative eigenvalue error of each call."""
+    try:
+        import sippy_unipi  # noqa: F401
+    except ImportError as exc:
+        return {"status": f"SIPPY not installed ({exc}): pip install sippy-unipi (extra bench)"}
+    sys.path.insert(0, str(HERE))
+    from scaling import _errors, _fit, binary_record
+
+    from hdpbsid.methods.memo import clear_caches
+
+    specs = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
+    out = {k: {"wall": [], "cpu": [], "err": []} for k in specs}
+    for spec in specs.values():
+        _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels
+    for seed in range(reps):
+        data, true = binary_record(SIPPY_SAMPLES, seed)
+        for key, spec in specs.items():
+            clear_caches()  # each method projects the record itself
+            w0, c0 = time.perf_counter(), time.process_time()
+            eig, _ = _fit(spec, data)
+            out[key]["wall"].append(time.perf_counter() - w0)
+            out[key]["cpu"].append(time.process_time() - c0)
+            out[key]["err"].append(_errors(eig, true))
+    return out
+
+
+def _cli_csv(csv: str, out: str, timeout: float) -> dict:
+    """:func:`long_records.run_cli` from this (fresh) process, so that the peak RSS of its
+    children is the command's alone; the order and worst eigenvalue error read from the
+    model file the command wrote."""
+    sys.path.insert(0, str(HERE))
+    import numpy as np
+    from long_records import run_cli
+    from segments import resonance
+
+    from hdpbsid.metrics import eigenvalue_errors
+
+    got = run_cli(Path(csv), Path(out), timeout, env=dict(os.environ))
+    if "status" in got:
+        return got
+    model = json.loads((Path(out) / "model.json").read_text())
+    A = np.asarray(model["A"], dtype=float)
+    got["order"] = int(model["n"])
+    true = np.linalg.eigvals(resonance()[0])
+    got["err"] = (
+        float(eigenvalue_errors(np.linalg.eigvals(A), true).max()) if A.shape == (2, 2) else None
+    )
+    return got
+
+
+WORKERS: dict[str, Callable[[int], dict]] = {
+    "hermite-quadrotor": lambda r: _time_calls("quadrotor", {"order": 3, "method": "hermite"}, r),
+    "auto-quadrotor": lambda r: _time_calls("quadrotor", {}, r),
+    "auto-second-order": lambda r: _time_calls("second-order", {}, r),
+    "first-call": _first_call,
+    "sippy-binary": _sippy_binary,
+}
+
+
+# -- rows ------------------------------------------------------------------------------------
+@dataclass
+class Row:
+    """One line of the table: what is timed, and how (a worker or a whole command)."""
+
+    name: str
+    label: str
+    worker: str | None = None  # a key of WORKERS, run with --worker
+    command: tuple[str, ...] | None = None  # a whole process, timed from outside
+    env: dict[str, str] | None = None  # added to both columns
+    fresh_cache: bool = False  # a new empty NUMBA_CACHE_DIR per repetition
+
+
+ROWS = [
+    Row("hermite", 'identify(order=3, method="hermite"), quadrotor', worker="hermite-quadrotor"),
+    Row("auto", "identify(t, u, y), quadrotor", worker="auto-quadrotor"),
+    Row("auto-2nd", "identify(t, u, y), second order", worker="auto-second-order"),
+    Row(
+        "hermite-nojit",
+        'identify(order=3, method="hermite"), quadrotor, NUMBA_DISABLE_JIT=1',
+        worker="hermite-quadrotor",
+        env={"NUMBA_DISABLE_JIT": "1"},
+    ),
+    Row(
+        "auto-nojit",
+        "identify(t, u, y), quadrotor, NUMBA_DISABLE_JIT=1",
+        worker="auto-quadrotor",
+        env={"NUMBA_DISABLE_JIT": "1"},
+    ),
+    Row(
+        "auto-2nd-nojit",
+        "identify(t, u, y), second order, NUMBA_DISABLE_JIT=1",
+        worker="auto-second-order",
+        env={"NUMBA_DISABLE_JIT": "1"},
+    ),
+    Row(
+        "first-call",
+        "import + first identify(hermite), empty kernel cache",
+        worker="first-call",
+        fresh_cache=True,
+    ),
+    Row("import", "process: import hdpbsid", command=("-c", "import hdpbsid")),
+    Row("help", "process: hdpbsid --help", command=("-m", "hdpbsid", "--help")),
+    Row(
+        "floor", "process: import numpy, scipy.linalg", command=("-c", "import numpy, scipy.linalg")
+    ),
+]
+
+
+#: a line of the table from a hook: label, default column, one-thread column
+Line = tuple[str, dict | None, dict | None]
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.3g} %"
+
+
+def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
+    """SIPPY N4SID (``f = p = 60``) against ``identify(t, u, y, order=2)`` (every other
+    argument at its default) on the 10^4-sample binary-input case of ``bench/scaling.py``,
+    both in one worker process per column, alternating on ``reps`` seeds.  Lines: each
+    method's times (labels: median worst eigenvalue error in the default column), then
+    the ratio hdpbsid / N4SID of the default column's medians."""
+    got = {one: _spawn("sippy-binary", reps, _environment(one, None)) for one in (False, True)}
+    if "status" in got[False]:
+        return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
+    lines: list[Line] = []
+    labels = {
+        "n4sid": "SIPPY N4SID f=p=60, 10^4 binary input",
+        "hdpbsid": "identify(t, u, y, order=2), same records",
+    }
+    for key, label in labels.items():
+        err = _median(got[False][key]["err"])
+        lines.append((f"{label}; worst eig. error {_pct(err)}", got[False][key], got[True][key]))
+    ratio = {
+        k: _median(got[False]["hdpbsid"][k]) / _median(got[False]["n4sid"][k])
+        for k in ("wall", "cpu")
+    }
+    lines.append(
+        (
+            f"hdpbsid / N4SID, default environment: wall {ratio['wall']:.2f}x,"
+            f" CPU {ratio['cpu']:.2f}x",
+            None,
+            None,
+        )
+    )
+    return lines
+
+
+def _long_details(r: dict) -> str:
+    if "status" in r:
+        return r["status"]
+    mb = r["rss"] / 2**20
+    out = f"peak RSS {mb:.0f} MB, {r.get('method')}"
+    if "order" in r:
+        out += f", order {r['order']}, worst eig. error {_pct(r.get('err'))}"
+    if r.get("skipped"):
+        out += f", skipped {r['skipped']}"
+    if "progress bar" in r:
+        out += f", progress bar {r['progress bar']}"
+    return out
+
+
+def _as_times(r: dict) -> dict:
+    return r if "status" in r else {"wall": [r["wall"]], "cpu": [r["cpu"]]}
+
+
+def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> list[Line]:
+    """``identify(t, u, y)`` with nothing else on ``n_samples`` of the lightly damped
+    second-order record of ``bench/long_records.py`` (in memory up to 2 10^6 samples, from
+    a chunked HDF5 file above), one call per column in a fresh process (``reps`` is not
+    used: the calls take minutes), and for 10^6 also ``hdpbsid identify`` on the same
+    record as a CSV file.  Labels: peak RSS, method, order, worst eigenvalue error of the
+    default column."""
+    sys.path.insert(0, str(HERE))
+    from long_records import run_api, write_csv, write_h5
+
+    tmp = Path(_DATA["dir"])
+    path = ""
+    if n_samples > 2 * 10**6:
+        path = str(tmp / f"resonance-{n_samples}.h5")
+        if not Path(path).exists():
+            write_h5(Path(path), n_samples)
+    got = {
+        one: run_api(n_samples, path, options.timeout, env=_environment(one, None))
+        for one in (False, True)
+    }
+    src = "chunked HDF5" if path else "in memory"
+    lines: list[Line] = [
+        (
+            f"identify(t, u, y), 10^{len(str(n_samples)) - 1} samples, {src};"
+            f" {_long_details(got[False])}",
+            _as_times(got[False]),
+            _as_times(got[True]),
+        )
+    ]
+    if n_samples == 10**6:
+        csv = tmp / "resonance-1e6.csv"
+        if not csv.exists():
+            write_csv(csv, n_samples)
+        cli = {}
+        for one in (False, True):
+            with tempfile.TemporaryDirectory() as out:
+                cli[one] = _spawn(
+                    "cli-csv",
+                    reps,
+                    _environment(one, None),
+                    ["--csv", str(csv), "--out", out, "--timeout", str(options.timeout)],
+                )
+        lines.append(
+            (
+                f"CLI hdpbsid identify, 10^6-line CSV; {_long_details(cli[False])}",
+                _as_times(cli[False]),
+                _as_times(cli[True]),
+            )
+        )
+    return lines
+
+
+HOOKS: dict[str, tuple[str, Callable[[int, argparse.Namespace], list[Line]]]] = {
+    "sippy": ("SIPPY N4SID vs identify, 10^4 binary-input case", sippy_row),
+    **{
+        f"long-{k}": (
+            f"identify(t, u, y), 10^{k} samples" + (" and the CLI on a CSV" if k == 6 else ""),
+            lambda r, o, k=k: long_record_row(10**k, r, o),
+        )
+        for k in (5, 6, 7)
+    },
+}
+#: rows run only when named in ``--rows`` (minutes each)
+ON_REQUEST = ("long-7",)
+
+
+# -- the parent: subprocesses, table ----------------------------------------------------------
+def _environment(one_thread: bool, extra: dict[str, str] | None) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ALL_THREAD_VARIABLES}
+    env["BENCH_USER_DATA"] = _DATA["dir"]
+    env.pop("NUMBA_DISABLE_JIT", None)
+    env.pop("SLBASIS_NO_NUMBA", None)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    if one_thread:
+        env.update({k: "1" for k in (*THREAD_VARIABLES, "NUMBA_NUM_THREADS")})
+    env.update(extra or {})
+    return env
+
+
+def _cpu_of_children() -> float:
+    usage = os.times()
+    return usage.children_user + usage.children_system
+
+
+def _spawn(worker: str, reps: int, env: dict[str, str], extra: list[str] | None = None) -> dict:
+    """Run ``worker`` in a fresh subprocess with ``env``; its JSON result (``{"status":
+    ...}`` when it failed)."""
+    out = subprocess.run(
+        [sys.executable, str(Path(__file__).resolve()), "--worker", worker, "--reps", str(reps)]
+        + (extra or []),
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if out.returncode != 0:
+        return {"status": f"failed: {out.stderr.strip().splitlines()[-1:]}"}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _run_worker(row: Row, reps: int, one_thread: bool) -> dict:
+    walls: list[float] = []
+    cpus: list[float] = []
+    for _ in range(reps if row.fresh_cache else 1):
+        env = _environment(one_thread, row.env)
+        with tempfile.TemporaryDirectory() as cache:
+            if row.fresh_cache:
+                env["NUMBA_CACHE_DIR"] = cache
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    str(Path(__file__).resolve()),
+                    "--worker",
+                    row.worker,
+                    "--reps",
+                    str(reps),
+                ],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+        got = json.loads(out.stdout.strip().splitlines()[-1])
+        walls += got["wall"]
+        cpus += got["cpu"]
+    return {"wall": walls, "cpu": cpus}
+
+
+def _run_command(row: Row, reps: int, one_thread: bool) -> dict:
+    walls, cpus = [], []
+    env = _environment(one_thread, row.env)
+    for _ in range(reps):
+        c0 = _cpu_of_children()
+        w0 = time.perf_counter()
+        subprocess.run([sys.executable, *row.command], env=env, capture_output=True, check=True)
+        walls.append(time.perf_counter() - w0)
+        cpus.append(_cpu_of_children() - c0)
+    return {"wall": walls, "cpu": cpus}
+
+
+def _median(x: list[float]) -> float:
+    return statistics.median(x) if x else float("nan")
+
+
+def _cells(default: dict | None, one: dict | None) -> str:
+    if default is None or one is None:
+        return "| | | | | | |"
+    if "status" in default or "status" in one:
+        return f"| {default.get('status', '')} | {one.get('status', '')} | | | | |"
+    dw, ow = _median(default["wall"]), _median(one["wall"])
+    dc, oc = _median(default["cpu"]), _median(one["cpu"])
+    return f"| {dw:.3f} | {ow:.3f} | {dw / ow:.2f} | {dc:.3f} | {oc:.3f} | {dc / oc:.2f} |"
+
+
+def _prepare_kernels() -> None:
+    """Fill numba's cache (the rows other than "first-call" time a filled cache)."""
+    subprocess.run(
+        [sys.executable, "-m", "slbasis.numeric.jit", *JIT_MODULES],
+        env=_environment(False, None),
+        capture_output=True,
+        check=False,
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the table (or, with ``--worker``, run one row's work and print its times)."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--reps", type=int, default=5, help="repetitions per cell (median)")
+    ap.add_argument("--rows", nargs="*", help="row names (default: all; --list)")
+    ap.add_argument("--list", action="store_true", help="list the rows and exit")
+    ap.add_argument(
+        "--timeout", type=float, default=900, help="seconds per long-record call (long-*)"
+    )
+    ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--csv", help=argparse.SUPPRESS)
+    ap.add_argument("--out", help=argparse.SUPPRESS)
+    ap.add_argument("--make-records", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.make_records:
+        for case in ("quadrotor", "second-order"):
+            for seed in (*range(args.reps), 1000):
+                _record(case, seed)
+        return 0
+    if args.worker == "cli-csv":
+        print(json.dumps(_cli_csv(args.csv, args.out, args.timeout)))
+        return 0
+    if args.worker:
+        print(json.dumps(WORKERS[args.worker](args.reps)))
+        return 0
+    names = [r.name for r in ROWS] + list(HOOKS)
+    if args.list:
+        for r in ROWS:
+            print(f"{r.name:16s} {r.label}")
+        for k, (label, _) in HOOKS.items():
+            print(f"{k:16s} {label}" + (" (only when named)" if k in ON_REQUEST else ""))
+        return 0
+    chosen = args.rows or [n for n in names if n not in ON_REQUEST]
+    unknown = sorted(set(chosen) - set(names))
+    if unknown:
+        ap.error(f"unknown rows {unknown}; known: {names}")
+    data = tempfile.TemporaryDirectory(prefix="bench-user-")
+    _DATA["dir"] = data.name
+    _prepare_kernels()
+    subprocess.run(
+        [sys.executable, str(Path(__file__).resolve()), "--make-records", "--reps", str(args.reps)],
+        env=_environment(False, None),
+        check=True,
+    )
+    commit = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+    ).stdout.strip()
+    load0 = os.getloadavg()
+    print(f"bench/user.py at {commit}, {os.cpu_count()} cores, median of {args.reps}")
+    print()
+    print(
+        "| row | default wall s | 1 thread wall s | ratio | default CPU s | 1 thread CPU s | ratio"
+        " |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for row in ROWS:
+        if row.name not in chosen:
+            continue
+        run = _run_worker if row.worker else _run_command
+        default = run(row, args.reps, False)
+        one = run(row, args.reps, True)
+        print(f"| {row.label} {_cells(default, one)}", flush=True)
+    for key, (_, hook) in HOOKS.items():
+        if key in chosen:
+            for label, default, one in hook(args.reps, args):
+                print(f"| {label} {_cells(default, one)}", flush=True)
+    data.cleanup()
+    load1 = os.getloadavg()
+    print()
+    print(f"load average (1 min) {load0[0]:.1f} at the start, {load1[0]:.1f} at the end")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

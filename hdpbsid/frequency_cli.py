@@ -1,0 +1,245 @@
+"""The ``hdpbsid frf`` and ``hdpbsid input`` commands (registered by :mod:`hdpbsid.cli`).
+
+``hdpbsid frf FILE --inputs U --outputs Y [--dt DT] [--period N --skip P] [--reference R]
+[--fit [--order N]]``: the frequency response and coherence of a record (Welch H1, from a
+reference in closed loop, or the exact lines of a periodic record), written to
+``OUT/frf.csv`` with its 95 % region, a Bode figure ``OUT/frf.png`` and, with ``--fit``, a
+model identified from it (:func:`hdpbsid.frequency.identify_frequency`) drawn over it.
+
+``hdpbsid input KIND --dt DT --samples N ...``: an input design from
+:mod:`hdpbsid.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from . import frequency, inputs
+from .io import read_record
+
+COMMANDS = ("frf", "input")
+
+
+def add_parsers(sub: Any) -> None:
+    """Register ``frf`` and ``input`` on the ``hdpbsid`` subparsers."""
+    f = sub.add_parser(
+        "frf",
+        help="frequency response, coherence and a model from frequency data",
+        description="Non-parametric frequency response of a record (hdpbsid.frequency) "
+        "with its 95 %% region and coherence; optionally a model fitted to it.",
+    )
+    f.add_argument("file", metavar="FILE")
+    f.add_argument("--inputs", nargs="+", required=True, metavar="COLS")
+    f.add_argument("--outputs", nargs="+", required=True, metavar="COLS")
+    f.add_argument("--time", default=None, help="time column (default t)")
+    f.add_argument("--dt", type=float, default=None, help="sampling interval (no time column)")
+    f.add_argument("--fs", type=float, default=None, help="sampling rate (no time column)")
+    f.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
+    f.add_argument(
+        "--reference",
+        nargs="+",
+        default=None,
+        metavar="COLS",
+        help="reference columns (closed loop: H = S_yr S_ur^-1)",
+    )
+    f.add_argument(
+        "--period",
+        type=int,
+        default=None,
+        help="samples per period of a periodic input (exact DFT lines)",
+    )
+    f.add_argument("--skip", type=int, default=1, help="periods skipped (default 1)")
+    f.add_argument("--nperseg", type=int, default=None, help="Welch segment length")
+    f.add_argument("--fit", action="store_true", help="identify a model from the estimate")
+    f.add_argument("--order", type=int, default=None, help="model order (default: chosen)")
+    f.add_argument("--out", default="hdpbsid-frf", help="output directory")
+    f.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+    i = sub.add_parser(
+        "input",
+        help="design an input signal (PRBS, random binary, multisine, chirp, Hermite sweep)",
+        description="Write an input design of hdpbsid.inputs to OUT/input.csv.",
+    )
+    i.add_argument(
+        "kind", choices=("prbs", "rbs", "multisine", "chirp", "logchirp", "hermite-sweep")
+    )
+    i.add_argument("--dt", type=float, required=True, help="sampling interval (s)")
+    i.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        help="samples (period for multisine; 2^order - 1 bits for prbs)",
+    )
+    i.add_argument(
+        "--band",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("F_LO", "F_HI"),
+        help="band in Hz (multisine, rbs; f0 f1 for sweeps)",
+    )
+    i.add_argument("--order", type=int, default=10, help="PRBS register length (default 10)")
+    i.add_argument("--clock", type=float, default=None, help="random binary clock (s)")
+    i.add_argument("--periods", type=int, default=1, help="periods (prbs, multisine)")
+    i.add_argument("--channels", type=int, default=1, help="inputs (default 1)")
+    i.add_argument("--amplitude", type=float, default=1.0, help="peak value (default 1)")
+    i.add_argument("--n-max-u", type=int, default=300, help="Hermite terms (hermite-sweep)")
+    i.add_argument("--seed", type=int, default=0, help="random seed (rbs)")
+    i.add_argument("--out", default="hdpbsid-input", help="output directory")
+    i.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+
+def run(args: argparse.Namespace, out: TextIO) -> int:
+    """Run ``frf`` or ``input``; returns the exit code (0)."""
+    if args.command == "frf":
+        return _run_frf(args, out)
+    return _run_input(args, out)
+
+
+def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
+    time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
+    rec = read_record(
+        args.file,
+        args.inputs,
+        args.outputs,
+        time=time,
+        dt=args.dt,
+        fs=args.fs,
+        delimiter=args.delimiter,
+    )
+    dt = float(np.mean(np.diff(rec.t)))
+    if args.period is not None:
+        est = frequency.frf_periodic(rec.u, rec.y, dt, args.period, skip=args.skip)
+    else:
+        r = None
+        if args.reference:
+            r = read_record(
+                args.file,
+                [],
+                args.reference,
+                time=time,
+                dt=args.dt,
+                fs=args.fs,
+                delimiter=args.delimiter,
+            ).y
+        est = frequency.frf_welch(rec.u, rec.y, dt, r=r, nperseg=args.nperseg)
+    model = frequency.identify_frequency(est, order=args.order) if args.fit else None
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    cols = {"w_rad_s": est.w}
+    radius = est.confidence_radius() if est.variance is not None else None
+    for i, yn in enumerate(rec.outputs):
+        for j, un in enumerate(rec.inputs):
+            H = est.H[i, j]
+            cols[f"mag_db_{yn}_{un}"] = 20 * np.log10(np.abs(H))
+            cols[f"phase_deg_{yn}_{un}"] = np.degrees(np.angle(H))
+            if radius is not None:
+                cols[f"radius95_{yn}_{un}"] = radius[i, j]
+        if est.coherence is not None:
+            cols[f"coherence_{yn}"] = est.coherence[i]
+    names = list(cols)
+    np.savetxt(
+        outdir / "frf.csv",
+        np.column_stack([cols[k] for k in names]),
+        delimiter=",",
+        header=",".join(names),
+        comments="",
+    )
+    print(
+        f"{est.method}: {est.w.size} lines, {est.w.min():.4g}-{est.w.max():.4g} rad/s "
+        f"-> {outdir / 'frf.csv'}",
+        file=out,
+    )
+    if model is not None:
+        eig = ", ".join(f"{e:.4g}" for e in model.eigenvalues)
+        print(f"model: order {model.n}, eigenvalues {eig}", file=out)
+    if not args.no_plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig = frequency.plot_frf(est, model)
+        fig.savefig(outdir / "frf.png", dpi=120)
+        plt.close(fig)
+    return 0
+
+
+def _run_input(args: argparse.Namespace, out: TextIO) -> int:
+    kind, dt = args.kind, args.dt
+    band = tuple(args.band) if args.band is not None else None
+    if kind == "prbs":
+        d = inputs.prbs(
+            args.order, dt, periods=args.periods, amplitude=args.amplitude, channels=args.channels
+        )
+    elif kind == "rbs":
+        d = inputs.random_binary(
+            _need(args.samples, "--samples"),
+            dt,
+            rng=np.random.default_rng(args.seed),
+            clock=args.clock,
+            band=band,
+            amplitude=args.amplitude,
+            channels=args.channels,
+        )
+    elif kind == "multisine":
+        d = inputs.multisine(
+            _need(args.samples, "--samples"),
+            dt,
+            _need(band, "--band"),
+            periods=args.periods,
+            amplitude=args.amplitude,
+            channels=args.channels,
+        )
+    elif kind in ("chirp", "logchirp"):
+        f0, f1 = _need(band, "--band")
+        d = inputs.chirp(
+            _need(args.samples, "--samples"),
+            dt,
+            f0,
+            f1,
+            amplitude=args.amplitude,
+            method="linear" if kind == "chirp" else "logarithmic",
+        )
+    else:
+        f0, f1 = _need(band, "--band")
+        d = inputs.hermite_sweep(
+            _need(args.samples, "--samples"),
+            dt,
+            f0,
+            f1,
+            n_max_u=args.n_max_u,
+            amplitude=args.amplitude,
+        )
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    header = ",".join(["t"] + [f"u{j + 1}" for j in range(d.m)])
+    np.savetxt(
+        outdir / "input.csv", np.column_stack([d.t, d.u]), delimiter=",", header=header, comments=""
+    )
+    cf = ", ".join(f"{c:.3f}" for c in d.crest_factor)
+    print(
+        f"{d.kind}: {d.u.shape[0]} samples, {d.m} channel(s), crest factor {cf} "
+        f"-> {outdir / 'input.csv'}",
+        file=out,
+    )
+    if not args.no_plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig = inputs.plot_input(d)
+        fig.savefig(outdir / "input.png", dpi=120)
+        plt.close(fig)
+    return 0
+
+
+def _need(value: Any, flag: str) -> Any:
+    if value is None:
+        raise ValueError(f"{flag} is required for this input kind")
+    return value
