@@ -201,7 +201,10 @@ def test_hermite_with_held_out_data_returns_the_whole_record_fit_at_its_alpha() 
     again = identify_hermite(
         *est, order=2, alpha=m.options["alpha"], input_hold=m.options["input_hold"]
     )
-    np.testing.assert_allclose(m.A, again.A, rtol=0, atol=0)
+    # equal up to rounding: the two calls may run the numpy and the compiled projection
+    # kernels (a first call runs numpy while the kernels compile), which agree to ~1e-12;
+    # another alpha or an internal split moves A at the 1e-3 level
+    np.testing.assert_allclose(m.A, again.A, rtol=1e-9, atol=1e-9)
     assert len(m.options["alpha_passes"]) > 1  # this record asks for a change (3.7 -> 2.0)
     assert f"held-out fit ({t.size - split} samples" in m.options["alpha_check"]
 

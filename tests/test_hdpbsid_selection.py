@@ -553,15 +553,20 @@ def test_rejudgement_in_parallel_is_the_serial_run():
     parallel = hdpbsid.identify(d.t, d.u, d.y, n_jobs=2, **kw)
 
     def key(m):
-        return [
-            (r["method"], r["order"], r["error"], r["refined_error"])
-            for r in m.options["selection"]
-        ]
+        return [(r["method"], r["order"]) for r in m.options["selection"]]
+
+    def errors(m):
+        rows = m.options["selection"]
+        return np.array([[r["error"], r["refined_error"] or np.nan] for r in rows], float)
 
     # the premise: refined candidates were compared (closed loop, close orders)
     assert sum(r["refined_error"] is not None for r in serial.options["selection"]) >= 2
     assert key(serial) == key(parallel)
-    np.testing.assert_array_equal(serial.A, parallel.A)
+    # the same computation up to rounding: a worker may run the numpy kernels where the
+    # parent runs the compiled ones (they agree to ~1e-13); a different stage or setting
+    # would move the errors and A at the 1e-3 level
+    np.testing.assert_allclose(errors(serial), errors(parallel), rtol=1e-9, equal_nan=True)
+    np.testing.assert_allclose(serial.A, parallel.A, rtol=1e-9, atol=1e-9)
 
 
 def test_no_larger_order_is_refined_without_the_symptom_of_a_biased_choice():
