@@ -17,9 +17,9 @@ are the median worst relative eigenvalue error over the runs, full-size runs of
 * operator (10 runs): alpha/s = 0.05: 0.85, 0.25: 5.1e-2, 0.5..64: <= 6e-3 (default 4:
   9.7e-4), 256: 5.9e-2; beta 0.1..10: <= 6.9e-3; gamma 0.1..10: 9.7e-4..1.1e-3 (gamma
   cancels in ``A' M = (A/alpha + beta)(D/alpha + beta)^-1``: no effect but the ridge);
-* table1 (3 runs, as in the test): 50 dB HD-PBSID 1.2e-3, Laguerre filters 1.1e-2,
-  Laguerre projection 2.4e-3; 6 dB STD of the pair HD-PBSID 0.21 rad/s, filters 1.48,
-  projection 2.6 (100 runs: 0.31, 3.4, 11.0);
+* table1 (as in the test): 50 dB (3 runs) HD-PBSID 1.2e-3, Laguerre filters 1.1e-2,
+  Laguerre projection 2.4e-3; 6 dB (8 runs) STD of the pair HD-PBSID 0.27 rad/s, filters
+  2.5, projection 11.9 (100 runs: 0.31, 3.4, 11.0);
 * quadrotor (q, theta outputs, 20 dB, N = 400): order 3 worst error 3.9 %; singular
   values 173, 102, 2.4, 0.65, ... (two dominant; the log-gap picks 2, not 3 or 4).
 """
@@ -114,24 +114,44 @@ def test_operator_ranges() -> None:
 
 
 def test_table1_small(tmp_path: Path) -> None:
-    runs = 20 if FULL else 3
     methods = ("hermite", "laguerre", "laguerre-filter")
     # the thesis's comparison is of the subspace methods alone: refinement off (with the
     # default refinement all three reach the same prediction-error optimum)
     alone = {m: {"refine": None} for m in methods}
     res = S.table1(
-        runs=runs, snrs=(50.0, 6.0), methods=methods, options=alone, progress=False, out=tmp_path
+        runs=20 if FULL else 3,
+        snrs=(50.0,),
+        methods=methods,
+        options=alone,
+        progress=False,
+        out=tmp_path,
     )
     for m in methods:
         row = _row(res, snr_db=50.0, method=m)
         # measured 1.2e-3 (HD-PBSID), 2.4e-3 (projection), 1.1e-2 (filters) at 50 dB;
         # 3 % = "both accurate" (100 runs: 1.3e-3, 2.5e-3, 1.3e-2)
         assert row["failed"] == 0 and row["median err"] < 0.03, row
-    h6 = _row(res, snr_db=6.0, method="hermite")
-    # measured STD of the pair 0.21 (HD-PBSID) vs 1.48 (filters) and 2.6 rad/s
-    # (projection) with 3 runs (100 runs: 0.31 vs 3.4 and 11): "several times" = 3x
+    # The effect (the thesis, Table 1): at 6 dB HD-PBSID's estimates of the oscillatory
+    # pair scatter several times less than CT-PBSID's.  The Laguerre methods' estimates
+    # there are bimodal: the pair is found (scatter ~0.5 rad/s projection, ~1 rad/s
+    # filters) or lost to two real poles (errors 4-30 rad/s), and in about 1 run of 4
+    # the mode is decided by rounding (OPENBLAS_CORETYPE=Prescott moved 2 of 8 runs per
+    # method; HD-PBSID's estimates did not change).  So the STD over 3 runs depended on
+    # the machine; over 8 runs (about half of them lost-pair runs, three of them the same
+    # under both kernels) it stays far above 3x HD-PBSID's unless every run finds the
+    # pair.  Measured over these 8 runs: STD of the pair 0.27 (HD-PBSID) vs 11.9
+    # (projection) and 2.5-4.1 (filters), default and Prescott kernels.
+    res6 = S.table1(
+        runs=20 if FULL else 8,
+        snrs=(6.0,),
+        methods=methods,
+        options=alone,
+        progress=False,
+        out=tmp_path,
+    )
+    h6 = _row(res6, snr_db=6.0, method="hermite")
     for m in ("laguerre", "laguerre-filter"):
-        assert h6["std pair"] < _row(res, snr_db=6.0, method=m)["std pair"] / 3
+        assert h6["std pair"] < _row(res6, snr_db=6.0, method=m)["std pair"] / 3, res6.summary
     assert h6["divergent"] == 0  # measured: no HD-PBSID estimate runs away at 6 dB
     text = res.table()
     assert "std pair" in text and "laguerre-filter" in text
