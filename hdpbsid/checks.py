@@ -61,6 +61,27 @@ def as_float_array(x: Any, name: str) -> NDArray[np.float64]:
     return arr
 
 
+def as_columns(x: Any, name: str) -> NDArray[np.float64]:
+    """``x`` as a finite real ``(samples, channels)`` array (a 1-D signal is one channel);
+    ``TypeError``/``ValueError`` naming ``name`` otherwise."""
+    arr = as_float_array(x, name)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] < 1:
+        raise ValueError(f"{name} must be a 1-D or 2-D (samples, channels) array, got {arr.shape}")
+    return arr
+
+
+def check_step(dt: Any, name: str = "dt") -> float:
+    """``dt`` as a positive finite float (a sampling interval); ``TypeError`` /
+    ``ValueError`` naming ``name`` otherwise."""
+    if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a number, got {type(dt).__name__}")
+    if not np.isfinite(dt) or dt <= 0:
+        raise ValueError(f"{name} must be a positive finite number (s), got {dt}")
+    return float(dt)
+
+
 def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.float64]:
     """Check a time vector: 1-D, finite, strictly increasing, at least ``min_samples`` long."""
     arr = as_float_array(t, name)

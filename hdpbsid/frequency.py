@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import as_float_array, check_positive_int
+from .checks import as_columns, as_float_array, check_positive_int, check_step
 from .model import StateSpaceModel
 
 __all__ = [
@@ -238,15 +238,15 @@ def frf_welch(
     """
     from scipy.signal import csd, get_window
 
-    dt = _check_dt(dt)
-    U = _columns(u, "u")
-    Y = _columns(y, "y")
+    dt = check_step(dt)
+    U = as_columns(u, "u")
+    Y = as_columns(y, "y")
     ns = U.shape[0]
     if Y.shape[0] != ns:
         raise ValueError(f"y has {Y.shape[0]} samples but u has {ns}")
     R = None
     if r is not None:
-        R = _columns(r, "r")
+        R = as_columns(r, "r")
         if R.shape[0] != ns:
             raise ValueError(f"r has {R.shape[0]} samples but u has {ns}")
         if R.shape[1] < U.shape[1]:
@@ -375,9 +375,9 @@ def frf_periodic(
     >>> bool(np.allclose(est.H[0, 0, 0], np.exp(-2j * np.pi * 3 / n)))
     True
     """
-    dt = _check_dt(dt)
-    U = _columns(u, "u")
-    Y = _columns(y, "y")
+    dt = check_step(dt)
+    U = as_columns(u, "u")
+    Y = as_columns(y, "y")
     if Y.shape[0] != U.shape[0]:
         raise ValueError(f"y has {Y.shape[0]} samples but u has {U.shape[0]}")
     n = check_positive_int(period, "period", 2)
@@ -464,23 +464,6 @@ def _excited_lines(Um: CArray, lines: Any | None, n: int) -> list[NDArray[np.int
 
 
 # -- helpers -------------------------------------------------------------------------------
-def _columns(x: Any, name: str) -> Array:
-    arr = as_float_array(x, name)
-    if arr.ndim == 1:
-        arr = arr[:, None]
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be a 1-D or 2-D (samples, channels) array, got {arr.shape}")
-    return arr
-
-
-def _check_dt(dt: Any) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
-        raise TypeError(f"dt must be a number, got {type(dt).__name__}")
-    if not np.isfinite(dt) or dt <= 0:
-        raise ValueError(f"dt must be a positive finite number (s), got {dt}")
-    return float(dt)
-
-
 def _check_alpha(alpha: float) -> None:
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")

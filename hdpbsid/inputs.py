@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_positive_int
+from .checks import as_columns, check_positive_int, check_step
 
 __all__ = [
     "InputDesign",
@@ -130,7 +130,7 @@ def crest_factor(u: Any) -> Array:
     >>> float(crest_factor(np.sin(2 * np.pi * np.arange(100) / 100))[0])  # doctest: +ELLIPSIS
     1.414...
     """
-    u = _as_columns(u, "u")
+    u = as_columns(u, "u")
     rms = np.sqrt(np.mean(u**2, axis=0))
     peak = np.max(np.abs(u), axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -161,8 +161,8 @@ def line_power(u: Any, dt: float, period: int | None = None) -> tuple[Array, Arr
     ValueError
         If ``period`` exceeds the record.
     """
-    u = _as_columns(u, "u")
-    dt = _check_dt(dt)
+    u = as_columns(u, "u")
+    dt = check_step(dt)
     n = u.shape[0] if period is None else check_positive_int(period, "period")
     if n > u.shape[0]:
         raise ValueError(f"period ({n} samples) exceeds the record ({u.shape[0]} samples)")
@@ -224,7 +224,7 @@ def random_binary(
     [-1.0, 1.0]
     """
     n_samples = check_positive_int(n_samples, "n_samples", 2)
-    dt = _check_dt(dt)
+    dt = check_step(dt)
     rng = _check_rng(rng)
     channels = check_positive_int(channels, "channels")
     amplitude = _check_amplitude(amplitude)
@@ -294,7 +294,7 @@ def prbs(
     order = check_positive_int(order, "order", 2)
     if order > 32:
         raise ValueError(f"order must be between 2 and 32, got {order}")
-    dt = _check_dt(dt)
+    dt = check_step(dt)
     clock = check_positive_int(clock, "clock")
     periods = check_positive_int(periods, "periods")
     channels = check_positive_int(channels, "channels")
@@ -457,7 +457,7 @@ def multisine(
     array([10, 50])
     """
     n = check_positive_int(period, "period", 4)
-    dt = _check_dt(dt)
+    dt = check_step(dt)
     lo, hi = _check_band(band, 1.0 / (2.0 * dt))
     grid = check_positive_int(grid, "grid")
     periods = check_positive_int(periods, "periods")
@@ -553,7 +553,7 @@ def chirp(
     from scipy.signal.windows import tukey
 
     n_samples = check_positive_int(n_samples, "n_samples", 2)
-    dt = _check_dt(dt)
+    dt = check_step(dt)
     nyq = 1.0 / (2.0 * dt)
     for name, v in (("f0", f0), ("f1", f1)):
         if not np.isfinite(v) or not 0.0 <= v <= nyq:
@@ -617,7 +617,7 @@ def hermite_sweep(
     from .systems.quadrotor import hermite_sweep_excitation
 
     n_samples = check_positive_int(n_samples, "n_samples", 2)
-    dt = _check_dt(dt)
+    dt = check_step(dt)
     n_max_u = check_positive_int(n_max_u, "n_max_u")
     nyq = 1.0 / (2.0 * dt)
     for name, v in (("f0", f0), ("f1", f1)):
@@ -686,23 +686,6 @@ def _design(
     freqs, power = line_power(u, dt, period)
     cf = crest_factor(u[: period or u.shape[0]])
     return InputDesign(t, u, kind, freqs, power, cf, period, lines, {"dt": dt, **options})
-
-
-def _as_columns(u: Any, name: str) -> Array:
-    arr = np.asarray(u, dtype=float)
-    if arr.ndim == 1:
-        arr = arr[:, None]
-    if arr.ndim != 2 or arr.shape[0] < 1:
-        raise ValueError(f"{name} must be a 1-D or 2-D (samples, channels) array, got {arr.shape}")
-    return arr
-
-
-def _check_dt(dt: Any) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
-        raise TypeError(f"dt must be a number, got {type(dt).__name__}")
-    if not np.isfinite(dt) or dt <= 0:
-        raise ValueError(f"dt must be a positive finite number (s), got {dt}")
-    return float(dt)
 
 
 def _check_amplitude(a: Any) -> float:
