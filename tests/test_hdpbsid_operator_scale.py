@@ -201,7 +201,11 @@ def test_hermite_with_held_out_data_returns_the_whole_record_fit_at_its_alpha() 
     again = identify_hermite(
         *est, order=2, alpha=m.options["alpha"], input_hold=m.options["input_hold"]
     )
-    np.testing.assert_allclose(m.A, again.A, rtol=0, atol=0)
+    # the same fit up to rounding (the held-out path reaches it through other, cached
+    # stages: measured 6e-13 relative, bit-identical only by chance of the BLAS kernel);
+    # the other alpha changes A by 0.2, a fit on 90 % of est by 8e-3, alpha * (1 + 1e-6)
+    # by 4e-7: 1e-9 relative tells the same fit from any other
+    assert np.abs(m.A - again.A).max() <= 1e-9 * np.abs(again.A).max()
     assert len(m.options["alpha_passes"]) > 1  # this record asks for a change (3.7 -> 2.0)
     assert f"held-out fit ({t.size - split} samples" in m.options["alpha_check"]
 

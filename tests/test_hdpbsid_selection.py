@@ -554,14 +554,27 @@ def test_rejudgement_in_parallel_is_the_serial_run():
 
     def key(m):
         return [
-            (r["method"], r["order"], r["error"], r["refined_error"])
-            for r in m.options["selection"]
+            (r["method"], r["order"], r["refined_error"] is None) for r in m.options["selection"]
         ]
+
+    def scores(m):
+        return np.array(
+            [
+                [r[k] if r[k] is not None else np.nan for k in ("error", "refined_error")]
+                for r in m.options["selection"]
+            ],
+            dtype=float,
+        )
 
     # the premise: refined candidates were compared (closed loop, close orders)
     assert sum(r["refined_error"] is not None for r in serial.options["selection"]) >= 2
     assert key(serial) == key(parallel)
-    np.testing.assert_array_equal(serial.A, parallel.A)
+    # the same computations up to rounding: the workers' BLAS calls may round differently
+    # from the parent's (another kernel, OPENBLAS_CORETYPE=Prescott: 2e-13 relative in A),
+    # while another candidate or refit differs at the noise level (1e-3 and more): 1e-9
+    # relative tells the serial run from any other
+    np.testing.assert_allclose(scores(parallel), scores(serial), rtol=1e-9, equal_nan=True)
+    assert np.abs(parallel.A - serial.A).max() <= 1e-9 * np.abs(serial.A).max()
 
 
 def test_no_larger_order_is_refined_without_the_symptom_of_a_biased_choice():
