@@ -221,6 +221,15 @@ def test_singular_end_rejected(eng):
 
 
 def test_engine_choice(monkeypatch):
+    from numba.core import config
+
+    # the policy with the JIT on, also in a NUMBA_DISABLE_JIT=1 run (which debugs the
+    # kernels as Python: "auto" must not send large calls there)
+    monkeypatch.setattr(config, "DISABLE_JIT", True)
+    assert not engine.numba_available()
+    assert engine.resolve("auto", 1 << 30) == "numpy"
+    assert engine.resolve("numba", 10) == "numba"  # asked for: runs, uncompiled
+    monkeypatch.setattr(config, "DISABLE_JIT", False)
     assert engine.resolve("auto", 10) == "numpy"  # too small to be worth a compilation
     assert engine.resolve("auto", 1 << 20) == "numba"
     with pytest.raises(ValueError, match="engine"):

@@ -11,8 +11,10 @@ Engines:
     its own partial sums (reduced at the end in a fixed order). Compiled on first use and
     cached on disk.
 ``"auto"`` (default)
-    ``"numba"`` if numba imports, the environment variable ``SLBASIS_NO_NUMBA`` is unset
-    (or ``0``) and the call is large enough to pay for a first compilation
+    ``"numba"`` if numba imports, its JIT is on (``NUMBA_DISABLE_JIT`` unset: with it the
+    kernels run as plain Python, orders of magnitude slower than numpy, which is for
+    debugging them, not for ``"auto"``), the environment variable ``SLBASIS_NO_NUMBA`` is
+    unset (or ``0``) and the call is large enough to pay for a first compilation
     (:func:`work` of ``N`` functions at ``len(x)`` points ``>= 2^16`` function values);
     ``"numpy"`` otherwise.
 
@@ -63,9 +65,17 @@ def _disabled() -> bool:
     return os.environ.get("SLBASIS_NO_NUMBA", "") not in ("", "0")
 
 
+def _jit_disabled() -> bool:
+    """numba's ``NUMBA_DISABLE_JIT`` (read by numba at import): kernels run uncompiled."""
+    from numba.core import config
+
+    return bool(config.DISABLE_JIT)
+
+
 def numba_available() -> bool:
-    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` unset)."""
-    return not _disabled() and _compiled() is not None
+    """Whether the compiled engine can be used (numba installed with its JIT on,
+    ``SLBASIS_NO_NUMBA`` unset)."""
+    return not _disabled() and _compiled() is not None and not _jit_disabled()
 
 
 def resolve(engine: str, work: int) -> str:
