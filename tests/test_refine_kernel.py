@@ -164,19 +164,24 @@ def test_workspace_and_record_memory_return_the_same_numbers() -> None:
     theta = lay.pack(A, B, C, D, K)
     u, y = rng.standard_normal((400, 1)), rng.standard_normal((400, 2))
     W = np.eye(2)
-    fresh = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True)
+    # the workspace is the compiled evaluation's: asked for by name, so that a run with
+    # "auto" on the numpy evaluation (SLBASIS_NO_NUMBA, NUMBA_DISABLE_JIT) tests it too
+    fresh = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True, engine="numba")
     ws = _Workspace()
-    _residuals(theta + 0.01, lay, u, y, 0.05, "zoh", W, jac=True, workspace=ws)  # dirty it
-    again = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True, workspace=ws)
+    kw = {"workspace": ws, "engine": "numba"}
+    _residuals(theta + 0.01, lay, u, y, 0.05, "zoh", W, jac=True, **kw)  # dirty it
+    again = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True, **kw)
     assert all(np.array_equal(a, b) for a, b in zip(fresh, again, strict=True))
     # a Jacobian at the point of the last residual evaluation starts from that pass (the
     # predictor from the smaller matrix exponential): the same to rounding, amplified by
     # the normal equations of the free response: cond(Fr)^2 = 2e2 here, so 1e-11 is
     # ~200 eps cond(Fr)^2 (measured: no difference at all)
-    r_first = _residuals(theta, lay, u, y, 0.05, "zoh", W, workspace=ws)
-    r_reused, J_reused = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True, workspace=ws)
+    r_first = _residuals(theta, lay, u, y, 0.05, "zoh", W, **kw)
+    r_reused, J_reused = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True, **kw)
     assert r_reused is r_first
     assert np.abs(J_reused - fresh[1]).max() <= 1e-11 * np.abs(fresh[1]).max()
+    # the record remembers whatever its engine ("auto") computes
+    fresh = _residuals(theta, lay, u, y, 0.05, "zoh", W, jac=True)
     record = _Record(lay, u, y, 0.05, "zoh")
     assert all(np.array_equal(a, b) for a, b in zip(fresh, record(theta, W, jac=True), strict=True))
     first = record(theta, W)
