@@ -20,11 +20,10 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-from scipy.signal import tf2ss
-
 import peers
 from cases import Record
+from numpy.typing import NDArray
+from scipy.signal import tf2ss
 
 Array = NDArray[np.float64]
 
@@ -93,8 +92,11 @@ def _llsi(method: str) -> Callable[[Record, int, int | None], peers.Identified]:
         model = getattr(llsi, method)(data, order)
         ss = model if hasattr(model, "A") else model.to_ss()
         return peers.Identified(
-            np.atleast_2d(ss.A), np.atleast_2d(ss.B), np.atleast_2d(ss.C),
-            np.atleast_2d(ss.D), _dt(rec),
+            np.atleast_2d(ss.A),
+            np.atleast_2d(ss.B),
+            np.atleast_2d(ss.C),
+            np.atleast_2d(ss.D),
+            _dt(rec),
         )
 
     return run
@@ -106,8 +108,9 @@ def _psid(rec: Record, order: int, horizon: int | None) -> peers.Identified:
     i = 10 if horizon is None else horizon
     s = IPSID(rec.y, Z=None, U=rec.u, nx=order, n1=0, i=i)
     D = s.D if getattr(s, "D", None) is not None else np.zeros((rec.y.shape[1], rec.u.shape[1]))
-    return peers.Identified(np.atleast_2d(s.A), np.atleast_2d(s.B), np.atleast_2d(s.C),
-                            np.atleast_2d(D), _dt(rec))
+    return peers.Identified(
+        np.atleast_2d(s.A), np.atleast_2d(s.B), np.atleast_2d(s.C), np.atleast_2d(D), _dt(rec)
+    )
 
 
 @dataclass(frozen=True)
@@ -133,8 +136,13 @@ PEERS: dict[str, Peer] = {
 def available() -> list[str]:
     """Keys of :data:`PEERS` whose package imports here."""
     out = []
-    for key, mod in (("arx", None), ("pysib-oe", "pysib"), ("llsi-n4sid", "llsi"),
-                     ("llsi-pem", "llsi"), ("psid", "PSID")):
+    for key, mod in (
+        ("arx", None),
+        ("pysib-oe", "pysib"),
+        ("llsi-n4sid", "llsi"),
+        ("llsi-pem", "llsi"),
+        ("psid", "PSID"),
+    ):
         if mod is None:
             out.append(key)
             continue

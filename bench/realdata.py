@@ -390,8 +390,11 @@ def summarize(runs: Sequence[Run], methods: Sequence[str], peer_keys: Sequence[s
         name = peer_label(key)
         if key == "arx":
             fixed = [r for r in dflt if r.order_requested == 2]
-            out.append(Entry("arx-2-2", "ARX(2, 2) least squares, nk = 1", True,
-                             _best(fixed), fails(fixed)))
+            out.append(
+                Entry(
+                    "arx-2-2", "ARX(2, 2) least squares, nk = 1", True, _best(fixed), fails(fixed)
+                )
+            )
         setting = "" if default is None else f" (default setting {default})"
         out.append(
             Entry(
@@ -507,8 +510,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     names = list(RECORDS) + list(SIMULATED)
     ap.add_argument("--records", nargs="+", default=names, choices=names)
     all_peers = list(PEERS) + list(more_peers.PEERS)
-    ap.add_argument("--peers", nargs="+", choices=all_peers,
-                    help="default: every peer that imports here")
+    ap.add_argument(
+        "--peers", nargs="+", choices=all_peers, help="default: every peer that imports here"
+    )
     ap.add_argument("--methods", nargs="+", help="our methods (default: every available)")
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown / figures")
     ap.add_argument("--readme", action="store_true", help="rewrite the README section")
