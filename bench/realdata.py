@@ -117,6 +117,11 @@ SIMULATED = tuple(measured_like.GENERATORS)
 LONG_RECORD = 20_000
 
 
+#: Peers whose fit takes minutes on a long record (iterative PEM in pure Python): skipped
+#: above :data:`LONG_RECORD` samples.
+SLOW_PEERS = ("llsi-pem",)
+
+
 def load_record(name: str, data_dir: Path = DATA) -> tuple[Array, Array, float]:
     """``(u (Ns, 1), y (Ns, 1), dt)`` of record ``name`` (a key of :data:`RECORDS` or a
     simulated record of :data:`SIMULATED`)."""
@@ -311,8 +316,10 @@ def run_record(
     # warm-up, not timed or kept: imports, lazy registration, basis caches
     for m in methods:
         _ours(m, split, None)
+    long = split.estimation.t.size > LONG_RECORD
     for key in peer_keys:
-        _peer(key, split, peer_default(key), 1)
+        if not (long and key in SLOW_PEERS):
+            _peer(key, split, peer_default(key), 1)
     for m in methods:
         for order in (None, *ORDERS):
             r = _ours(m, split, order)
@@ -321,6 +328,9 @@ def run_record(
         default = next(r for r in runs if r.method == m and r.order_requested is None)
         log(f"{name:13s} {m:16s} defaults: {_run_txt(default)};  tuned: {_run_txt(best)}")
     for key in peer_keys:
+        if long and key in SLOW_PEERS:
+            log(f"{name:13s} {key:16s} skipped: over {LONG_RECORD} samples (minutes a fit)")
+            continue
         for order in ORDERS:
             hs = peer_horizons(key, l_out, order)
             if split.estimation.t.size > LONG_RECORD:
