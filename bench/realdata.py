@@ -333,7 +333,7 @@ def run_record(
             continue
         for order in ORDERS:
             hs = peer_horizons(key, l_out, order)
-            if split.estimation.t.size > LONG_RECORD:
+            if long:
                 hs = hs[:1]
             for h in hs:
                 runs.append(_peer(key, split, h, order))
