@@ -44,7 +44,7 @@ from .checks import (
     scale_exponents,
 )
 from .conversion import c2d, d2c, sampled_steps
-from .delay import check_delay, delayed_input_terms, pade, pade_order
+from .dead_time import check_delay, delayed_input_terms, pade, pade_order
 from .recursion import linear_recursion
 from .runtime import library_call
 
@@ -348,7 +348,7 @@ class StateSpaceModel(_ModelBase):
     Dead times: ``delay`` (``m`` numbers ``>= 0`` in ``time_unit``, one per input; a
     scalar or ``None`` is accepted and stored as ``m`` numbers) delays each input,
     ``dx/dt = A x + B u(t - delay) + K e``, ``y = C x + D u(t - delay) + e``
-    (:mod:`hdpbsid.delay`).  :meth:`simulate`, :meth:`fit`, :meth:`predict`,
+    (:mod:`hdpbsid.dead_time`).  :meth:`simulate`, :meth:`fit`, :meth:`predict`,
     :meth:`frequency_response` honour it exactly; :meth:`to_control` and :meth:`to_scipy`
     by a Pade approximant (:meth:`pade_order`); :meth:`to_discrete` refuses a delayed
     model.  The matrices are the delay-free part.
@@ -480,7 +480,7 @@ class StateSpaceModel(_ModelBase):
         the input's contribution to each step, ``Bu[k] = G1 u_k (+ G2 (u_{k+1} - u_k))``
         (``G2`` only with a first-order hold), so that ``x_{k+1} = Phi[inv[k]] x_k + Bu[k]``;
         and the input the direct term sees, ``ud`` (``u`` itself, or ``u`` at ``t - delay``
-        with a dead time: :func:`hdpbsid.delay.delayed_input_terms`)."""
+        with a dead time: :func:`hdpbsid.dead_time.delayed_input_terms`)."""
         _, hg, inv = _step_groups(t)
         Phi, G1, G2, _ = self._step_matrices(hg, method)
         Bu, ud = self._input_terms(t, u, method, Phi, G1, G2, inv)
@@ -760,8 +760,8 @@ class StateSpaceModel(_ModelBase):
     def pade_order(self, w_max: float | None = None) -> int:
         """The order of the Pade approximant :meth:`to_control` and :meth:`to_scipy` use
         by default: the smallest whose phase is within 1 degree of every dead time's up
-        to ``w_max`` (:func:`hdpbsid.delay.pade_order`; at most
-        :data:`hdpbsid.delay.MAX_PADE_ORDER`).  Default ``w_max``: a decade above the
+        to ``w_max`` (:func:`hdpbsid.dead_time.pade_order`; at most
+        :data:`hdpbsid.dead_time.MAX_PADE_ORDER`).  Default ``w_max``: a decade above the
         fastest eigenvalue (``10 max |lambda|``, where a strictly proper model's gain has
         fallen by 20 dB or more from that mode's), or the Nyquist frequency ``pi /
         sampling_interval`` when that is lower (the data say nothing above it).  0 for a
@@ -841,7 +841,7 @@ class StateSpaceModel(_ModelBase):
         ``e_<output>``, not delayed).  ``name``: the system's name (python-control's
         default when ``None``).
 
-        Dead times become ``(N, N)`` Pade approximants (:func:`hdpbsid.delay.pade`) in
+        Dead times become ``(N, N)`` Pade approximants (:func:`hdpbsid.dead_time.pade`) in
         series with each delayed input, ``N = pade_order`` or, by default,
         :meth:`pade_order` (the smallest order whose phase is within 1 degree of the
         delay's a decade above the fastest mode); the approximants' ``N m`` states follow
