@@ -47,6 +47,7 @@ from .conversion import c2d, d2c, sampled_steps
 from .dead_time import check_delay, delayed_input_terms, pade, pade_order
 from .recursion import linear_recursion
 from .runtime import library_call
+from .uncertainty import COVARIANCE_KEY, scale_factor
 
 __all__ = [
     "StateSpaceModel",
@@ -974,13 +975,26 @@ def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
             nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
         if not np.all(np.isfinite(nc)):
             nc = None  # the squares of the signals exceed float64: not representable
+    options = model.options
+    if options.get(COVARIANCE_KEY) is not None:  # the parameters' factor scales with them
+        options = dict(options)
+        n, m, l = model.n, model.m, model.l
+        options[COVARIANCE_KEY] = scale_factor(
+            options[COVARIANCE_KEY],
+            n,
+            m,
+            l,
+            np.ldexp(np.ones((n, m)), px - pu[None, :]),
+            np.ldexp(np.ones((l, n)), py[:, None] - px),
+            np.ldexp(np.ones((l, m)), py[:, None] - pu[None, :]),
+        )
     changes: dict[str, Any] = dict(
         mats,
         u0=np.ldexp(model.u0, pu),
         y0=np.ldexp(model.y0, py),
         trend=tr,
         noise_covariance=nc,
-        options=model.options,
+        options=options,
     )
     if isinstance(model, StateSpaceModel) and model.discrete is not None:
         changes["discrete"] = scale_signals(model.discrete, pu, py, px)
