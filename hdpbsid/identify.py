@@ -280,8 +280,9 @@ def identify(
     (:func:`hdpbsid.delay.estimate_delay`, the Welch frequency response searched on the
     grid of whole samples; ``order`` when given is the order of the dynamics it is
     estimated against, ``max_delay=`` bounds the search).  Each input is shifted by its
-    delay in whole samples (the first sample held before the record), the method runs on
-    the shifted record, and the model gets ``model.delay``; ``options["delay"]`` says how
+    delay in whole samples and the first ``max(delay)`` samples of ``y`` are dropped (no
+    input is invented before the record), the method runs on the shifted record, and the
+    model gets ``model.delay``; ``options["delay"]`` says how
     it was found.  ``None`` stays the default because a search on a record without a
     dead time can still return one sample (the estimate's resolution), which would
     change models that are right as they are.
@@ -447,12 +448,11 @@ def _identify_delayed(
         info = {"rule": "given"}
     if np.any(steps >= tt.size // 2):
         raise ValueError(f"delay of {steps.tolist()} samples leaves too little of the record")
-    shifted = ua.copy()
-    for j, d in enumerate(steps):
-        if d:
-            shifted[d:, j] = ua[:-d, j]
-            shifted[:d, j] = ua[0, j]
-    model = identify(tt, shifted, yy, order, method, refine, detrend, **options)
+    # y from sample dmax on against each input dmax - d_j samples earlier: no input is
+    # invented before the record, the method estimates the state at t[dmax]
+    dmax, ns = int(np.max(steps)), tt.size
+    shifted = np.column_stack([ua[dmax - d : ns - d, j] for j, d in enumerate(steps)])
+    model = identify(tt[dmax:], shifted, yy[dmax:], order, method, refine, detrend, **options)
     model.delay = steps * dt
     info["samples"] = steps.tolist()
     model.options["delay"] = info
