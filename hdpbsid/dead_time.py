@@ -1,5 +1,5 @@
 """Input-output dead times: checking them, simulating them exactly, approximating them by
-Pade, and estimating them from a record.
+Pade.
 
 A model with dead times ``tau_j >= 0`` (one per input) is
 
@@ -27,22 +27,18 @@ grid and for any (fractional) dead time.
 Graves-Morris, *Pade Approximants*, 2nd ed., 1996, sec. 1.2), is all-pass; its phase is
 within 1 degree of ``-w tau`` for ``w tau`` below :data:`PADE_PHASE_RANGE` ``[N]``.
 
-**Estimation** (:func:`estimate_delay`): ARX models with the input lags shifted by each
-candidate delay are compared by their least-squares loss, as MATLAB's ``delayest`` does
-(Ljung, *System Identification*, 2nd ed., sec. 16.4: "a natural approach is to test
-different delays in ARX models and pick the one that gives the best fit").
+Estimation is in :mod:`hdpbsid.delay`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from math import factorial
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import as_columns, check_positive_int, check_step
+from .checks import check_positive_int
 from .conversion import sampled_steps
 
 __all__ = [
@@ -50,8 +46,6 @@ __all__ = [
     "pade",
     "pade_order",
     "delayed_input_terms",
-    "DelayEstimate",
-    "estimate_delay",
     "PADE_PHASE_RANGE",
     "MAX_PADE_ORDER",
     "SNAP",
@@ -264,157 +258,3 @@ def _loop(Phi: Array, inv: NDArray[np.intp], W: Array) -> Array:
     for k in range(W.shape[0]):
         X[k + 1] = Phi[inv[k]] @ X[k] + W[k]
     return X
-
-
-# -- estimation -------------------------------------------------------------------------------
-#: ARX orders ``na = nb`` tried by :func:`estimate_delay` (each with every candidate delay);
-#: the Akaike criterion picks the pair.  Two is MATLAB ``delayest``'s default; the larger
-#: orders let a record of a higher-order system keep its delay from being absorbed in a
-#: misfit of the dynamics.
-ARX_ORDERS = (1, 2, 3, 4)
-
-
-@dataclass
-class DelayEstimate:
-    """Dead times estimated from a record (:func:`estimate_delay`).
-
-    Attributes
-    ----------
-    delay : (m,) dead time of each input (time unit of ``t``).
-    samples : (m,) the same in whole samples.
-    dt : the sampling interval.
-    arx_order : the ARX order ``na = nb`` chosen.
-    loss : (m, max_delay + 1) the loss (mean squared one-step error, summed over the
-        outputs) of each candidate delay of each input, the others at their estimates.
-    """
-
-    delay: Array
-    samples: NDArray[np.intp]
-    dt: float
-    arx_order: int
-    loss: Array
-    options: dict[str, Any] = field(default_factory=dict)
-
-
-def _arx_loss(U: Array, Y: Array, na: int, lags: NDArray[np.intp], start: int) -> float:
-    """Mean squared one-step error of the least-squares ARX model ``y_k = -sum a_i
-    y_{k-i} + sum_j sum_{i<nb} b_ji u_j(k - 1 - lags_j - i)`` (``nb = na``) over the
-    samples from ``start`` on (the same samples for every candidate delay), summed over
-    the outputs."""
-    m = U.shape[1]
-    rows = np.arange(start, U.shape[0])
-    cols = [Y[rows - i] for i in range(1, na + 1)]  # each (N, l)
-    total = 0.0
-    for o in range(Y.shape[1]):
-        reg = [c[:, o] for c in cols]
-        for j in range(m):
-            reg += [U[rows - 1 - lags[j] - i, j] for i in range(na)]
-        X = np.column_stack(reg)
-        yk = Y[rows, o]
-        coef, *_ = np.linalg.lstsq(X, yk, rcond=None)
-        r = yk - X @ coef
-        total += float(r @ r) / rows.size
-    return total
-
-
-def estimate_delay(
-    t: Any,
-    u: Any,
-    y: Any,
-    max_delay: float | None = None,
-    *,
-    passes: int = 2,
-) -> DelayEstimate:
-    """Dead time of each input by comparing ARX models with shifted input lags.
-
-    For each ARX order ``na = nb`` of :data:`ARX_ORDERS` and each candidate delay ``d``
-    (whole samples, ``0 .. max_delay``) the least-squares ARX model with input lags ``d +
-    1 .. d + nb`` is fitted (each output on its own, all inputs in each fit; several
-    inputs by coordinate descent, ``passes`` sweeps from zero delays); the pair
-    ``(na, d)`` with the smallest Akaike criterion ``N log V + 2 (na + m nb)`` is kept.
-    The first input lag is ``d + 1`` because a zero-order-held input reaches a strictly
-    proper sampled system one sample later: a delay-free system gives ``d = 0``.  A
-    record's true dead time ``tau`` lies within one sample of ``d dt``: a fractional
-    part ``tau - floor(tau / dt) dt`` spreads the first input coefficient over two lags,
-    and ``d`` is the lag where the fit is best.
-
-    Parameters
-    ----------
-    t : (Ns,) uniformly sampled times.
-    u : (Ns,) or (Ns, m) inputs.
-    y : (Ns,) or (Ns, l) outputs.
-    max_delay : the largest delay tried (time unit of ``t``); default a tenth of the
-        record, at most 200 samples.
-    passes : coordinate-descent sweeps over the inputs (several inputs only).
-
-    Returns
-    -------
-    DelayEstimate
-
-    Raises
-    ------
-    ValueError
-        When ``t`` is not uniform, the lengths differ or the record is too short for the
-        candidate delays.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> u = rng.standard_normal(2000)
-    >>> y = np.zeros(2000)
-    >>> for k in range(1, 2000):  # y_k = 0.9 y_{k-1} + u_{k-6}: a five-sample dead time
-    ...     y[k] = 0.9 * y[k - 1] + (u[k - 6] if k >= 6 else 0.0)
-    >>> estimate_delay(np.arange(2000) * 0.1, u, y).samples.tolist()
-    [5]
-    """
-    from .checks import check_uniform
-
-    tt = np.asarray(t, dtype=float).reshape(-1)
-    U = as_columns(u, "u")
-    Y = as_columns(y, "y")
-    if U.shape[0] != tt.size or Y.shape[0] != tt.size:
-        raise ValueError(
-            f"t, u and y must have the same number of samples, got {tt.size}, {U.shape[0]}, "
-            f"{Y.shape[0]}"
-        )
-    dt = check_step(check_uniform(tt), "t (sampling interval)")
-    ns, m = U.shape
-    if max_delay is None:
-        dmax = int(min(200, ns // 10))
-    else:
-        dmax = int(np.floor(float(check_delay(max_delay, 1, "max_delay")[0]) / dt + SNAP))
-    passes = check_positive_int(passes, "passes")
-    need = dmax + 10 * max(ARX_ORDERS) * (m + 1)
-    if ns <= need:
-        raise ValueError(
-            f"the record ({ns} samples) is too short to compare delays up to {dmax} samples "
-            f"(needs more than {need})"
-        )
-    U = U - U.mean(axis=0)
-    Y = Y - Y.mean(axis=0)
-    best: tuple[float, int, NDArray[np.intp], Array] | None = None
-    for na in ARX_ORDERS:
-        lags = np.zeros(m, dtype=np.intp)
-        loss = np.full((m, dmax + 1), np.inf)
-        for _ in range(passes if m > 1 else 1):
-            for j in range(m):
-                for d in range(dmax + 1):
-                    trial = lags.copy()
-                    trial[j] = d
-                    loss[j, d] = _arx_loss(U, Y, na, trial, dmax + 2 * na + 1)
-                lags[j] = int(np.argmin(loss[j]))
-        v = float(np.min(loss[m - 1]))
-        n_eff = ns - dmax - 2 * na
-        aic = n_eff * np.log(max(v, np.finfo(float).tiny)) + 2 * (na + m * na)
-        if best is None or aic < best[0]:
-            best = (aic, na, lags.copy(), loss.copy())
-    assert best is not None
-    _, na, lags, loss = best
-    return DelayEstimate(
-        delay=lags * dt,
-        samples=lags,
-        dt=dt,
-        arx_order=na,
-        loss=loss,
-        options=dict(max_delay_samples=dmax, arx_orders=ARX_ORDERS, passes=passes),
-    )
