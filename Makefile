@@ -17,8 +17,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m slbasis.numeric.jit $(JIT_MODULES)
 	touch $(STAMP)
 
+# the derivation report goes to a file; the terminal shows the identification
 demo: $(STAMP) compiled
-	$(BIN)/slbasis derive --family hermite_functions --nmax 3
+	@mkdir -p out/demo
+	@$(BIN)/slbasis derive --family hermite_functions --nmax 3 > out/demo/hermite_functions.md
+	@echo "derived and verified the Hermite functions: out/demo/hermite_functions.md"
 	$(BIN)/hdpbsid demo --out out/demo
 
 test: $(STAMP) compiled
