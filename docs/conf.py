@@ -40,7 +40,16 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".py": "myst-nb"}
-exclude_patterns = ["_build", "**.ipynb_checkpoints", "conf.py", "check_site.py", "jupyter_execute"]
+exclude_patterns = [
+    "_build",
+    "**.ipynb_checkpoints",
+    "conf.py",
+    "check_site.py",
+    "jupyter_execute",
+    # included by the benchmark pages, not pages themselves
+    "_generated/regression-table.md",
+    "_generated/bench-toc.md",
+]
 # the notebooks are jupytext percent scripts; myst-nb reads them through jupytext
 nb_custom_formats = {".py": ["jupytext.reads", {"fmt": "py:percent"}]}
 nb_execution_mode = "force"
@@ -125,8 +134,11 @@ def _bench_pages() -> None:
             f"```{{include}} ../../bench/results/{md.stem}.md\n```\n",
         )
     for old in _GEN.glob("bench-*.md"):
-        if old.name not in wanted:
+        if old.name not in wanted and old.name != "bench-toc.md":
             old.unlink()
+    entries = "".join(f"_generated/{Path(name).stem}\n" for name in sorted(wanted))
+    toc = f"```{{toctree}}\n:maxdepth: 1\n\n{entries}```\n" if entries else "\n"
+    _write_if_changed(_GEN / "bench-toc.md", toc)
     sys.path.insert(0, str(ROOT / "bench"))
     try:
         import regression  # bench/regression.py: the table's own renderer
