@@ -253,12 +253,13 @@ def _check_method(method: str) -> None:
 
 
 def _progress(choice: str, records: list[Record]) -> bool:
-    """Progress bars (stderr): ``on``, ``off``, or ``auto``: when stderr is a terminal or
-    a record is long (:data:`hdpbsid.scaling.LONG_SAMPLES`)."""
+    """Progress bars (stderr): ``on``, ``off``, or ``auto``: only where the work is long,
+    i.e. a record longer than :data:`hdpbsid.scaling.LONG_SAMPLES` (a shorter record is
+    identified in seconds, and bars would only add lines to the output)."""
     from .scaling import LONG_SAMPLES
 
     long = max(r.t.size for r in records) > LONG_SAMPLES
-    return choice == "on" or (choice == "auto" and (sys.stderr.isatty() or long))
+    return choice == "on" or (choice == "auto" and long)
 
 
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
@@ -647,7 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--progress",
         choices=("auto", "on", "off"),
         default="auto",
-        help="progress bars on stderr (auto: when stderr is a terminal or the record is long)",
+        help="progress bars on stderr (auto: when the record is long)",
     )
     p.add_argument(
         "--method",

@@ -422,6 +422,7 @@ def plot_eigenvalue_scatter(
     true: Any | None = None,
     zoom: float | None = 1.5,
     title: str = "Identified eigenvalues",
+    time_unit: str = "s",
 ) -> Any:
     """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
     true ones (circles), as in the thesis's Figure 1.
@@ -429,6 +430,7 @@ def plot_eigenvalue_scatter(
     ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
     axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
     detail"); points outside are counted in the panel title.  ``None``: autoscale.
+    ``time_unit`` labels the axes (rad per that unit).
     """
     k = max(len(groups), 1)
     fig = new_figure((4.2 * k, 4.2))
@@ -452,8 +454,8 @@ def plot_eigenvalue_scatter(
             ax.plot(tv.real, tv.imag, "o", mfc="none", mec="k", ms=10, mew=1.5, label="true")
         ax.axvline(0.0, color="0.6", lw=0.8)
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.set_xlabel("Re")
-        ax.set_ylabel("Im")
+        ax.set_xlabel(f"Re [rad/{time_unit}]")
+        ax.set_ylabel(f"Im [rad/{time_unit}]")
         ax.set_title(f"{label}" + (f"\n({outside} outside the view)" if outside else ""))
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)
