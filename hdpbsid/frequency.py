@@ -93,6 +93,11 @@ class FrequencyResponse:
         """``20 log10 |H|`` (dB)."""
         return 20.0 * np.log10(np.abs(self.H))
 
+    def __repr__(self) -> str:
+        l, m, nf = np.shape(self.H)
+        band = f"{self.w.min():.3g}-{self.w.max():.3g} rad/s" if nf else "no lines"
+        return f"FrequencyResponse({self.method!r}, l={l}, m={m}, {nf} lines, {band})"
+
     @property
     def phase_deg(self) -> Array:
         """Phase of ``H`` unwrapped along frequency (degrees)."""

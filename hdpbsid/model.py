@@ -68,9 +68,13 @@ Array = NDArray[np.float64]
 class FitResult:
     """Simulation fit of a model on a record.
 
-    ``vaf`` (percent, per output) ``= 100 (1 - var(y - y_sim) / var(y))``;
-    ``nrmse`` (per output) ``= ||y - y_sim|| / ||y - mean(y)||`` (MATLAB's ``fit`` is
-    ``100 (1 - nrmse)``); ``y_sim`` the simulated output; ``x0`` the initial state used.
+    ``nrmse`` (per output) ``= ||y - y_sim|| / ||y - mean(y)||``; :attr:`fit` (percent,
+    per output) ``= 100 (1 - nrmse)``, the fit of MATLAB's ``compare`` and the measure
+    every printed summary uses; ``vaf`` (percent, per output)
+    ``= 100 (1 - var(y - y_sim) / var(y))``, the variance accounted for, kept for those
+    who quote it (``vaf = 100 (1 - (1 - fit/100)^2)`` for a zero-mean error, so a VAF
+    of 99 % is a fit of 90 %); ``y_sim`` the simulated output; ``x0`` the initial state
+    used.
     """
 
     vaf: Array
@@ -78,11 +82,13 @@ class FitResult:
     y_sim: Array
     x0: Array
 
+    @property
+    def fit(self) -> Array:
+        """``100 (1 - nrmse)`` percent per output (MATLAB's ``compare`` fit)."""
+        return 100.0 * (1.0 - self.nrmse)
+
     def __repr__(self) -> str:
-        return (
-            f"FitResult(vaf={np.array2string(self.vaf, precision=2)} %, "
-            f"nrmse={np.array2string(self.nrmse, precision=4)})"
-        )
+        return f"FitResult(fit={np.array2string(self.fit, precision=2)} %)"
 
 
 def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
