@@ -17,8 +17,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m slbasis.numeric.jit $(JIT_MODULES)
 	touch $(STAMP)
 
+# the derivation report goes to a file; the terminal shows the identification
 demo: $(STAMP) compiled
-	$(BIN)/slbasis derive --family hermite_functions --nmax 3
+	@mkdir -p out/demo
+	@$(BIN)/slbasis derive --family hermite_functions --nmax 3 > out/demo/hermite_functions.md
+	@echo "derived and verified the Hermite functions: out/demo/hermite_functions.md"
 	$(BIN)/hdpbsid demo --out out/demo
 
 test: $(STAMP) compiled
@@ -43,13 +46,17 @@ kernels: $(STAMP)
 compiled: $(STAMP)
 	$(BIN)/python -m slbasis.numeric.jit $(JIT_MODULES)
 
-# the site: docs/_build/html; warnings are errors; notebooks rendered without execution
-$(VENV)/.docs-installed: $(STAMP)
+# the site: docs/_build/html; warnings are errors; the notebooks and example pages are
+# executed during the build (small settings); then the built pages are checked: nothing
+# loaded from another host (MathJax served locally), every image present, figures on the
+# notebook pages and the user guide's sections, the navigation on every page
+$(VENV)/.docs-installed: $(STAMP) pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[docs]"
 	touch $@
 
-docs: $(VENV)/.docs-installed
+docs: $(VENV)/.docs-installed compiled
 	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+	$(BIN)/python docs/check_site.py docs/_build/html
 
 clean:
-	rm -rf $(VENV) .pytest_cache .hypothesis build *.egg-info docs/_build docs/api/generated docs/notebooks
+	rm -rf $(VENV) .pytest_cache .hypothesis build *.egg-info docs/_build docs/api/generated docs/notebooks docs/_generated docs/jupyter_execute

@@ -1,7 +1,8 @@
 """Input design, frequency responses and models from frequency data: the numbers of the
 frequency-domain tools, side by side with scipy.signal where scipy has the same estimator.
 
-Run: ``PYTHONPATH=. .venv/bin/python bench/frequency.py [--seeds 5]``.
+Run: ``PYTHONPATH=. .venv/bin/python bench/frequency.py [--seeds 5]``; the table is
+printed and written as markdown to ``bench/results/frequency.md``.
 
 Rows (median and worst over seeds where a seed matters):
 
@@ -16,9 +17,14 @@ Rows (median and worst over seeds where a seed matters):
    largest relative eigenvalue error (``identify_frequency``, order free); scipy has no
    fit of a model to frequency-response data;
 4. Rao-Garnier from 20 dB time data (12 periods of a 0.04-8 Hz multisine, 2 skipped)
-   through ``frf_periodic`` and ``identify_frequency``.
+   through ``frf_periodic`` and ``identify_frequency``;
+5. the second-order system with a dead time of 0.13 s at dt = 0.01 (random binary input,
+   120 s, 20 dB): ``identify(..., order=2, method="dt", delay="auto")``, the delay error
+   in samples and the largest relative eigenvalue error, beside ``identify`` on the same
+   record without the dead time (same input and noise).
 
-SIPPY, ``freq-statespace`` and ``strid`` are not run (not installed in this environment).
+SIPPY, ``freq-statespace`` and ``strid`` are not run (not installed in this environment);
+no peer estimates a continuous-time dead time, so row 5 has no peer column.
 Not a test: nothing is asserted.
 """
 
@@ -162,12 +168,54 @@ def time_data_rows(seeds: int) -> list[tuple[str, str, str]]:
     ]
 
 
+def delay_rows(seeds: int) -> list[tuple[str, str, str]]:
+    from hdpbsid import identify
+
+    A, B, C, D = second_order()
+    ev = np.linalg.eigvals(A)
+    dt, tau = 0.01, 0.13
+    derr, e_del, e_free = [], [], []
+    for s in range(seeds):
+        rng = np.random.default_rng(s)
+        d = inputs.random_binary(12_000, dt, rng=rng)
+        noise = rng.standard_normal((12_000, 1))
+        for delay, out in ((tau, e_del), (0.0, e_free)):
+            m = StateSpaceModel(A, B, C, D, np.zeros((2, 1)), delay=delay)
+            y0 = m.simulate(d.t, d.u)
+            y = y0 + noise * np.std(y0) / 10.0  # 20 dB
+            kw = dict(delay="auto", max_delay=0.5) if delay else {}
+            model = identify(d.t, d.u, y, order=2, method="dt", **kw)
+            out.append(100 * eigenvalue_errors(model.eigenvalues, ev).max())
+            if delay:
+                derr.append(abs(model.delay[0] - tau) / dt)
+    return [
+        (
+            "2nd order, dead time 0.13 s, 20 dB",
+            "identify(delay='auto'), delay error",
+            f"median {np.median(derr):.2f}, worst {max(derr):.2f} samples (target <= 1)",
+        ),
+        (
+            "",
+            "eigenvalue error with / without delay",
+            f"median {np.median(e_del):.3f} / {np.median(e_free):.3f} %, "
+            f"worst {max(e_del):.3f} / {max(e_free):.3f} %",
+        ),
+    ]
+
+
+def markdown(rows: list[tuple[str, str, str]]) -> str:
+    """The table as markdown (for the docs pages that include ``bench/results``)."""
+    lines = ["| case | estimator | result |", "|---|---|---|"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
     args = ap.parse_args()
     rows = []
-    for fn in (crest_rows, frf_rows, frf_points_rows, time_data_rows):
+    for fn in (crest_rows, frf_rows, frf_points_rows, time_data_rows, delay_rows):
         rows += fn(args.seeds)
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
@@ -175,6 +223,10 @@ def main() -> None:
     print("-" * (w0 + w1 + 60))
     for a, b, c in rows:
         print(f"{a:<{w0}}  {b:<{w1}}  {c}")
+    out = Path(__file__).resolve().parent / "results" / "frequency.md"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(markdown(rows), encoding="utf-8")
+    print(f"-> {out}")
 
 
 if __name__ == "__main__":

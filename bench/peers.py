@@ -2,7 +2,7 @@
 """Head-to-head benchmark of hdpbsid against the Python tools users would pick instead.
 
 Run: ``.venv/bin/python bench/peers.py [--runs 10] [--cases ...] [--snr 40 20 10]
-[--methods ...] [--out DIR] [--readme]`` (peers from ``pip install -e ".[bench]"``).
+[--methods ...] [--out DIR] [--results]`` (peers from ``pip install -e ".[bench]"``).
 
 What is measured, per case (``bench/cases.py``), SNR and method, over seeded runs on
 *identical* data (every method sees the same estimation record):
@@ -38,10 +38,10 @@ thread for every method (the machine's cores are shared).
 A separate table times the identification call on ``10^4`` samples (second-order and
 quadrotor cases at SNR 20 dB): HD-PBSID and ``dt`` vs SIPPY N4SID.
 
-``--readme`` rewrites the README section between ``<!-- peers:begin -->`` and
-``<!-- peers:end -->`` with the summary table; ``--out DIR`` writes the per-run CSV, the
-summary JSON and the full markdown tables; ``--from-json DIR/summary.json`` re-renders
-the tables of an earlier run without rerunning it.
+``--results`` writes the tables as markdown to ``bench/results/peers.md`` (the
+documentation's page includes it); ``--out DIR`` writes the per-run CSV, the summary JSON
+(with the commit measured) and the same markdown; ``--from-json DIR/summary.json``
+re-renders the tables of an earlier run without rerunning it.
 """
 
 from __future__ import annotations
@@ -76,8 +76,7 @@ from hdpbsid.model import StateSpaceModel
 Array = NDArray[np.float64]
 
 REPO = Path(__file__).resolve().parent.parent
-README_BEGIN = "<!-- peers:begin -->"
-README_END = "<!-- peers:end -->"
+RESULTS = REPO / "bench" / "results"
 
 #: First seed of the evaluation runs.
 EVAL_SEED0 = 1
@@ -796,17 +795,17 @@ def findings(cells: Sequence[dict[str, object]], timing: Sequence[dict[str, obje
     return " ".join(parts)
 
 
-def readme_section(
+def results_markdown(
     cells: Sequence[dict[str, object]],
     timing: Sequence[dict[str, object]],
     command: str,
-    version: str = "",
 ) -> str:
+    """The tables as markdown, headed by the command and the machine (the commit measured
+    is in ``summary.json`` of ``--out``)."""
     runs = max(int(c["runs"]) for c in cells)
     return "\n".join(
         [
-            README_BEGIN,
-            f"Produced by `{command}` ({version}) on {machine_line()}. "
+            f"Produced by `{command}` on {machine_line()}. "
             f"Median over {runs} seeds of the largest relative eigenvalue error over the "
             f"runs that produced a model (in brackets: failed runs, i.e. exception, "
             f"`sys.exit`, wrong order, NaN or no continuous counterpart; n/a: the method "
@@ -831,24 +830,19 @@ def readme_section(
             full_tables(cells),
             "",
             "</details>",
-            README_END,
+            "",
         ]
     )
 
 
-def write_readme(
-    section: str,
-    path: Path = REPO / "README.md",
-    begin: str = README_BEGIN,
-    end: str = README_END,
-) -> None:
-    """Replace the text from the ``begin`` marker to the ``end`` marker (inclusive) by
-    ``section``; the markers must already exist (nothing else is touched)."""
-    text = path.read_text()
-    i, j = text.find(begin), text.find(end)
-    if i < 0 or j < i:
-        raise SystemExit(f"{path}: markers {begin} / {end} not found")
-    path.write_text(text[:i] + section + text[j + len(end) :])
+def write_results(text: str, name: str, directory: Path = RESULTS) -> Path:
+    """Write ``text`` to ``<directory>/<name>.md``, by default ``bench/results/<name>.md``
+    (the benchmark pages include it), ending in one newline."""
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"{name}.md"
+    path.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+    print(f"wrote {path}")
+    return path
 
 
 def _parse_snr(x: str) -> float | None:
@@ -864,22 +858,23 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS, choices=list(METHODS))
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown")
-    ap.add_argument("--readme", action="store_true", help="rewrite the README section")
+    ap.add_argument(
+        "--results", action="store_true", help="write the tables to bench/results/peers.md"
+    )
     ap.add_argument("--no-timing", action="store_true", help="skip the 10^4-sample timing")
     ap.add_argument(
         "--from-json",
         type=Path,
-        help="re-render the tables (and --readme) from a summary.json of an earlier run",
+        help="re-render the tables (and --results) from a summary.json of an earlier run",
     )
     args = ap.parse_args(argv)
 
     if args.from_json:
         saved = json.loads(args.from_json.read_text())
         cells, timing, command = saved["cells"], saved["timing"], saved["command"]
-        version = saved.get("version", "code version not recorded")
         print(summary_table(cells))
-        if args.readme:
-            write_readme(readme_section(cells, timing, command.strip(), version))
+        if args.results:
+            write_results(results_markdown(cells, timing, command.strip()), "peers")
         return
 
     command = "python bench/peers.py " + " ".join(sys.argv[1:] if argv is None else list(argv))
@@ -909,9 +904,9 @@ def main(argv: Sequence[str] | None = None) -> None:
                 indent=1,
             )
         )
-        (args.out / "tables.md").write_text(readme_section(cells, timing, command.strip(), version))
-    if args.readme:
-        write_readme(readme_section(cells, timing, command.strip(), version))
+        (args.out / "tables.md").write_text(results_markdown(cells, timing, command.strip()))
+    if args.results:
+        write_results(results_markdown(cells, timing, command.strip()), "peers")
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 """Every hdpbsid method and the Python peers on two measured DaISy records.
 
 Run: ``.venv/bin/python bench/realdata.py [--records robot-arm ball-and-beam]
-[--out DIR] [--readme]`` (peers from ``pip install -e ".[bench]"``).
+[--out DIR] [--results]`` (peers from ``pip install -e ".[bench]"``).
 
 Data (``bench/data/``, from DaISy, the Database for the Identification of Systems, KU
 Leuven, ESAT; see ``bench/data/README.md``): ``robot-arm.csv`` (flexible robot arm, 1024
@@ -63,8 +63,6 @@ from hdpbsid.model import StateSpaceModel
 Array = NDArray[np.float64]
 
 DATA = Path(__file__).resolve().parent / "data"
-README_BEGIN = "<!-- realdata:begin -->"
-README_END = "<!-- realdata:end -->"
 
 #: Orders tried when tuning on validation.
 ORDERS = tuple(range(1, 9))
@@ -467,11 +465,12 @@ def markdown_table(results: dict[str, list[Entry]]) -> str:
     return "\n".join(lines) + "\n\n" + "; ".join(best) + "."
 
 
-def readme_section(results: dict[str, list[Entry]], command: str, version: str) -> str:
+def results_markdown(results: dict[str, list[Entry]], command: str) -> str:
+    """The table as markdown, headed by the command, the machine and how it is scored
+    (the commit measured is in ``summary.json`` of ``--out``)."""
     return "\n".join(
         [
-            README_BEGIN,
-            f"Produced by `{command}` ({version}) on {peers.machine_line()}. "
+            f"Produced by `{command}` on {peers.machine_line()}. "
             "Records from DaISy (KU Leuven, ESAT; `bench/data/README.md`). Identified on "
             "the first two thirds after removing that part's means, scored on the last "
             "third: simulation from a least-squares initial state, every model in discrete "
@@ -483,7 +482,7 @@ def readme_section(results: dict[str, list[Entry]], command: str, version: str) 
             "`bench/realdata.py`.",
             "",
             markdown_table(results),
-            README_END,
+            "",
         ]
     )
 
@@ -525,7 +524,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     ap.add_argument("--methods", nargs="+", help="our methods (default: every available)")
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown / figures")
-    ap.add_argument("--readme", action="store_true", help="rewrite the README section")
+    ap.add_argument(
+        "--results", action="store_true", help="write the table to bench/results/realdata.md"
+    )
     args = ap.parse_args(argv)
 
     command = "python bench/realdata.py " + " ".join(sys.argv[1:] if argv is None else argv)
@@ -563,7 +564,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     table = markdown_table(results)
     print()
     print(table)
-    section = readme_section(results, command.strip(), version)
+    section = results_markdown(results, command.strip())
     if args.out:
         with open(args.out / "runs.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -589,8 +590,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             json.dumps({"results": summary, "command": command, "version": version}, indent=1)
         )
         (args.out / "table.md").write_text(section + "\n")
-    if args.readme:
-        peers.write_readme(section, begin=README_BEGIN, end=README_END)
+    if args.results:
+        peers.write_results(section, "realdata")
 
 
 if __name__ == "__main__":

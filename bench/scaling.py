@@ -399,7 +399,9 @@ def main() -> None:
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per point")
     ap.add_argument("--mem-limit-gb", type=float, default=8.0)
     ap.add_argument("--tmp", default="/tmp/hdpbsid-scaling", help="directory of the chunked files")
-    ap.add_argument("--out", help="also write the table to this file")
+    ap.add_argument(
+        "--out", help="also write the table to this file (the docs page: bench/results/scaling.md)"
+    )
     ap.add_argument(
         "--target-only",
         action="store_true",
@@ -426,9 +428,11 @@ def main() -> None:
         capture_output=True,
         text=True,
     ).stdout.strip()
+    print(f"# code {head or 'unknown'}", flush=True)  # the log's, not the table's
     lines = [
-        f"# code {head or 'unknown'}; one BLAS thread per process; load average at start "
-        f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)",
+        f"One BLAS thread per process; load average at start "
+        f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs).",
+        "",
         "| sweep | case | method | samples | input band (Hz) | wall time | CPU time "
         "| peak extra memory of the call | peak RSS | worst eigenvalue error | notes |",
         "|---|---|---|---|---|---|---|---|---|---|---|",

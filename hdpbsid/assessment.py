@@ -136,6 +136,22 @@ class ResidualReport:
         """``M``, the largest lag tested."""
         return int(self.lags[-1])
 
+    def __repr__(self) -> str:
+        """The verdicts and the test statistics on one line (the arrays are attributes;
+        :meth:`summary` gives one line per test)."""
+        n, l = self.residuals.shape
+        m = self.cross_correlation.shape[2]
+        white = int(np.sum(self.white_per_output))
+        q = np.array2string(self.ljung_box, precision=1, separator=", ")
+        text = (
+            f"ResidualReport(N={n}, M={self.max_lag}, white: {white}/{l} outputs "
+            f"(Ljung-Box Q={q} vs {self.ljung_box_threshold:.1f})"
+        )
+        if m:
+            indep = int(np.sum(self.independent_per_pair))
+            text += f", independent of the input: {indep}/{l * m} pairs"
+        return text + ")"
+
     @property
     def white_per_output(self) -> NDArray[np.bool_]:
         """Whiteness not rejected at the 1 % level, per output (Ljung-Box)."""

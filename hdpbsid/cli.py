@@ -239,10 +239,10 @@ def _print_fit(
 ) -> None:
     from .plots import display_fit
 
-    fit = display_fit(model, t, u, y)
-    print(f"fit ({fit.kind}):", file=out)
-    for name, vaf in zip(names, fit.vaf, strict=True):
-        print(f"  VAF {name}: {vaf:.2f} %", file=out)
+    shown = display_fit(model, t, u, y)
+    print(f"fit, 100 (1 - NRMSE) as MATLAB's compare ({shown.kind}):", file=out)
+    for name, fit in zip(names, shown.fit, strict=True):
+        print(f"  {name}: {fit:.1f} %", file=out)
 
 
 def _check_method(method: str) -> None:
@@ -253,12 +253,13 @@ def _check_method(method: str) -> None:
 
 
 def _progress(choice: str, records: list[Record]) -> bool:
-    """Progress bars (stderr): ``on``, ``off``, or ``auto``: when stderr is a terminal or
-    a record is long (:data:`hdpbsid.scaling.LONG_SAMPLES`)."""
+    """Progress bars (stderr): ``on``, ``off``, or ``auto``: only where the work is long,
+    i.e. a record longer than :data:`hdpbsid.scaling.LONG_SAMPLES` (a shorter record is
+    identified in seconds, and bars would only add lines to the output)."""
     from .scaling import LONG_SAMPLES
 
     long = max(r.t.size for r in records) > LONG_SAMPLES
-    return choice == "on" or (choice == "auto" and (sys.stderr.isatty() or long))
+    return choice == "on" or (choice == "auto" and long)
 
 
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
@@ -486,6 +487,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     for o, mrec in res["models"].items():
         mats = [np.asarray(mrec["matrices"][k], dtype=float) for k in ("A", "B", "C", "D", "K")]
         model = StateSpaceModel(*mats, singular_values=sv, options=dict(mrec["options"]))
+        if res.get("order_selection"):  # what chose the order, for the figure
+            model.options["order_selection"] = res["order_selection"]
         models[int(o)] = model
         est, tru = match_eigenvalues(model.eigenvalues, true)
         errs = np.abs(est - tru) / np.abs(tru)
@@ -497,18 +500,20 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
             print(f"  {_fmt_complex(e):<22}{_fmt_complex(tv):<22}{100 * err:.3f} %", file=out)
         for z in mrec.get("extra") or []:
             print(f"  {_fmt_complex(complex(*z)):<22}{'(no true match)':<22}", file=out)
-        vaf_i = ", ".join(
-            f"{n} {v:.2f} %" for n, v in zip(data.outputs, mrec["vaf_identification"], strict=True)
+        fit_i = ", ".join(
+            f"{n} {v:.1f} %" for n, v in zip(data.outputs, mrec["fit_identification"], strict=True)
         )
-        vaf_v = ", ".join(
-            f"{n} {v:.2f} %" for n, v in zip(data.outputs, mrec["vaf_validation"], strict=True)
+        fit_v = ", ".join(
+            f"{n} {v:.1f} %" for n, v in zip(data.outputs, mrec["fit_validation"], strict=True)
         )
-        print(f"  VAF identification record: {vaf_i}; validation record: {vaf_v}", file=out)
+        print(
+            f"  fit, 100 (1 - NRMSE): identification record {fit_i}; new record {fit_v}",
+            file=out,
+        )
     main_order = 3 if 3 in models else min(models)
     model = models[main_order]
     model.set_labels(input_names=["moment"], output_names=list(data.outputs), time_unit="s")
     model.sampling_interval = float(np.median(np.diff(data.t)))
-    _print_fit(model, data.t, data.u, data.y, list(data.outputs), out)
     model.options["demo"] = {
         "seed": args.seed,
         "snr_db": snr,
@@ -643,7 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--progress",
         choices=("auto", "on", "off"),
         default="auto",
-        help="progress bars on stderr (auto: when stderr is a terminal or the record is long)",
+        help="progress bars on stderr (auto: when the record is long)",
     )
     p.add_argument(
         "--method",

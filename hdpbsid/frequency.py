@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from .checks import as_columns, as_float_array, check_positive_int, check_step
 from .model import StateSpaceModel
+from .uncertainty import COVARIANCE_KEY, covariance_factor, response_band
 
 __all__ = [
     "FrequencyResponse",
@@ -91,6 +92,11 @@ class FrequencyResponse:
     def magnitude_db(self) -> Array:
         """``20 log10 |H|`` (dB)."""
         return 20.0 * np.log10(np.abs(self.H))
+
+    def __repr__(self) -> str:
+        l, m, nf = np.shape(self.H)
+        band = f"{self.w.min():.3g}-{self.w.max():.3g} rad/s" if nf else "no lines"
+        return f"FrequencyResponse({self.method!r}, l={l}, m={m}, {nf} lines, {band})"
 
     @property
     def phase_deg(self) -> Array:
@@ -594,7 +600,35 @@ def identify_frequency(
     )
     if selection is not None:
         options["selection"] = selection
+    if "covariance" in info:
+        options[COVARIANCE_KEY] = _full_factor(info, l, m, feedthrough)
     return StateSpaceModel(A, B, C, D, np.zeros((A.shape[0], l)), options=options)
+
+
+def _full_factor(info: dict[str, Any], l: int, m: int, feedthrough: bool) -> Array:
+    """The covariance factor of ``[vec A, vec B, vec C, vec D]``
+    (:data:`hdpbsid.uncertainty.COVARIANCE_KEY`) from the modal parameters' covariance of
+    :func:`_refine`: ``A`` is linear in the modal parameters (a real eigenvalue sets its
+    diagonal entry; a pair ``(sigma, omega)`` its block ``[[sigma, omega], [-omega,
+    sigma]]``), ``B``, ``C``, ``D`` are parameters themselves (``D`` fixed at zero
+    without feedthrough)."""
+    lay = info["parameter_layout"]
+    nr, npair, n = lay["real"], lay["pairs"], lay["states"]
+    P = np.asarray(info["covariance"]).shape[0]
+    M = np.zeros((n * n + n * m + l * n + l * m, P))
+    for i in range(nr):
+        M[i * n + i, i] = 1.0
+    for k in range(npair):
+        i, c = nr + 2 * k, nr + 2 * k
+        M[i * n + i, c] = M[(i + 1) * n + i + 1, c] = 1.0  # sigma
+        M[i * n + i + 1, c + 1], M[(i + 1) * n + i, c + 1] = 1.0, -1.0  # omega
+    rows = n * n
+    cols = nr + 2 * npair
+    size = n * m + l * n
+    M[rows : rows + size, cols : cols + size] = np.eye(size)
+    if feedthrough:
+        M[rows + size :, cols + size :] = np.eye(l * m)
+    return M @ covariance_factor(info["covariance"])
 
 
 def _frequency_data(w: Any, H: Any, weight: Any) -> tuple[Array, CArray, Array, str]:
@@ -940,7 +974,11 @@ def plot_frf(
 ) -> Any:
     """Bode magnitude and phase of an estimate with its ``1 - alpha`` confidence band
     (from :meth:`FrequencyResponse.confidence_radius`: ``|H| +- r`` and ``+- asin(r /
-    |H|)`` in phase), a model's response over it, and the coherence with its bounds.
+    |H|)`` in phase), a model's response over it with the model's own pointwise ``1 -
+    alpha`` band when it carries a parameter covariance
+    (:func:`hdpbsid.uncertainty.response_band`, the delta method), and the coherence
+    with its bounds: the comparison of a parametric model with the non-parametric
+    estimate a reviewer asks for.
 
     Parameters
     ----------
@@ -980,11 +1018,22 @@ def plot_frf(
         dph = np.degrees(np.arcsin(np.clip(r / mag, 0.0, 1.0)))
         axes[1].fill_between(w, phase - dph, phase + dph, alpha=0.3, lw=0)
     if model is not None:
-        G = model.frequency_response(w)[output, input]
-        axes[0].semilogx(w, 20 * np.log10(np.abs(G)), "-", lw=1.2, label="model")
+        wd = np.geomspace(w.min(), w.max(), 400)
+        G = model.frequency_response(wd)[output, input]
+        axes[0].semilogx(wd, 20 * np.log10(np.abs(G)), "-", lw=1.2, color="C1", label="model")
         gph = np.degrees(np.unwrap(np.angle(G)))
-        gph += 360.0 * np.round((phase[0] - gph[0]) / 360.0)
-        axes[1].semilogx(w, gph, "-", lw=1.2)
+        shift = 360.0 * np.round((phase[0] - np.interp(w[0], wd, gph)) / 360.0)
+        axes[1].semilogx(wd, gph + shift, "-", lw=1.2, color="C1")
+        if model.options.get(COVARIANCE_KEY) is not None:
+            band = response_band(model, wd, alpha)
+            lo, _, hi = (x[output, input] for x in band.magnitude_db())
+            axes[0].fill_between(
+                wd, lo, hi, color="C1", alpha=0.25, lw=0,
+                label=f"model {100 * (1 - alpha):.0f} % band (parameter covariance)",
+            )  # fmt: skip
+            plo, pc, phi = (x[output, input] for x in band.phase_deg())
+            off = gph + shift - pc
+            axes[1].fill_between(wd, plo + off, phi + off, color="C1", alpha=0.25, lw=0)
     if frf.coherence is not None:
         c = frf.coherence[output][ok]
         axes[2].semilogx(w, c, ".", ms=3, label="coherence")

@@ -1,10 +1,13 @@
 """The ``hdpbsid frf`` and ``hdpbsid input`` commands (registered by :mod:`hdpbsid.cli`).
 
 ``hdpbsid frf FILE --inputs U --outputs Y [--dt DT] [--period N --skip P] [--reference R]
-[--fit [--order N]]``: the frequency response and coherence of a record (Welch H1, from a
-reference in closed loop, or the exact lines of a periodic record), written to
-``OUT/frf.csv`` with its 95 % region, a Bode figure ``OUT/frf.png`` and, with ``--fit``, a
-model identified from it (:func:`hdpbsid.frequency.identify_frequency`) drawn over it.
+[--fit [--order N]] [--model MODEL.json]``: the frequency response and coherence of a
+record (Welch H1, from a reference in closed loop, or the exact lines of a periodic
+record), written to ``OUT/frf.csv`` with its 95 % region, and a Bode figure
+``OUT/frf.png``: magnitude and phase of the estimate with its region, the model (fitted
+to it with ``--fit`` by :func:`hdpbsid.frequency.identify_frequency`, or read from
+``--model``, e.g. a model of ``hdpbsid identify``) with its 95 % band from the parameter
+covariance (:func:`hdpbsid.uncertainty.response_band`), and the coherence with its bounds.
 
 ``hdpbsid input KIND --dt DT --samples N ...``: an input design from
 :mod:`hdpbsid.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
@@ -56,6 +59,12 @@ def add_parsers(sub: Any) -> None:
     f.add_argument("--nperseg", type=int, default=None, help="Welch segment length")
     f.add_argument("--fit", action="store_true", help="identify a model from the estimate")
     f.add_argument("--order", type=int, default=None, help="model order (default: chosen)")
+    f.add_argument(
+        "--model",
+        default=None,
+        metavar="MODEL.json",
+        help="a saved model drawn over the estimate (with its band when it has a covariance)",
+    )
     f.add_argument("--out", default="hdpbsid-frf", help="output directory")
     f.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
@@ -127,7 +136,13 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
                 delimiter=args.delimiter,
             ).y
         est = frequency.frf_welch(rec.u, rec.y, dt, r=r, nperseg=args.nperseg)
+    if args.fit and args.model:
+        raise ValueError("give --fit or --model, not both")
     model = frequency.identify_frequency(est, order=args.order) if args.fit else None
+    if args.model:
+        from .model_io import load_model
+
+        model = load_model(args.model)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     cols = {"w_rad_s": est.w}

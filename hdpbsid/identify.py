@@ -191,6 +191,7 @@ def identify(
     input_names: Any = None,
     output_names: Any = None,
     time_unit: str = "s",
+    delay: Any = None,
     **options: Any,
 ) -> StateSpaceModel:
     """Identify a continuous-time model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
@@ -273,12 +274,31 @@ def identify(
     ``model.sampling_interval`` records the median step of the record(s) so that
     ``compare`` can warn about a record on another time scale.
 
+    ``delay`` (one uniformly sampled record): ``None`` (default) identifies without a
+    dead time, as before; a number (or one per input), a multiple of the sampling
+    interval, is a known dead time; ``"auto"`` estimates it
+    (:func:`hdpbsid.delay.estimate_delay`, the Welch frequency response searched on the
+    grid of whole samples; ``order`` when given is the order of the dynamics it is
+    estimated against, ``max_delay=`` bounds the search).  Each input is shifted by its
+    delay in whole samples and the first ``max(delay)`` samples of ``y`` are dropped (no
+    input is invented before the record), the method runs on the shifted record, and the
+    model gets ``model.delay``; ``options["delay"]`` says how
+    it was found.  ``None`` stays the default because a search on a record without a
+    dead time can still return one sample (the estimate's resolution), which would
+    change models that are right as they are.
+
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
     arguments as passed here).
     Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
     ``detrend`` and bad data, and whatever the method raises.
     """
+    if delay is not None:
+        return _identify_delayed(
+            t, u, y, order, method, refine, detrend, delay,
+            input_names=input_names, output_names=output_names, time_unit=time_unit,
+            **options,
+        )  # fmt: skip
     if refine not in REFINE_CHOICES:
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
@@ -377,6 +397,65 @@ def identify(
     model.options["requested_method"] = method
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
+    return model
+
+
+def _identify_delayed(
+    t: Any,
+    u: Any,
+    y: Any,
+    order: Any,
+    method: str,
+    refine: Any,
+    detrend: Any,
+    delay: Any,
+    **options: Any,
+) -> StateSpaceModel:
+    """:func:`identify` with ``delay`` given or ``"auto"`` (its docstring): the inputs
+    shifted by whole samples, the model told its dead times."""
+    from .checks import check_uniform
+    from .dead_time import check_delay
+    from .delay import estimate_delay
+
+    if isinstance(t, list | tuple) and len(t) and isinstance(t[0], list | tuple):
+        raise ValueError("delay needs a single record, not a list of records")
+    if u is None:
+        raise ValueError("delay needs an input u (a dead time delays the inputs)")
+    tt, ua, yy = check_data(t, u, y)
+    dt = check_uniform(tt)
+    max_delay = options.pop("max_delay", None)
+    if isinstance(delay, str):
+        if delay != "auto":
+            raise ValueError(
+                f"delay must be None, 'auto', a number or one per input, got {delay!r}"
+            )
+        est = estimate_delay(tt, ua, yy, max_delay, order=order if isinstance(order, int) else None)
+        steps = est.samples
+        info: dict[str, Any] = {
+            "rule": "auto: Welch FRF, refined fits profiled over whole samples "
+            "(hdpbsid.delay.estimate_delay)",
+            "estimate": est.delay.tolist(),
+            "order": est.order.tolist(),
+        }
+    else:
+        tau = check_delay(delay, ua.shape[1])
+        steps = np.round(tau / dt).astype(np.intp)
+        if np.any(np.abs(tau / dt - steps) > 1e-6):
+            raise ValueError(
+                f"delay must be a multiple of the sampling interval {dt:g} (whole samples), "
+                f"got {tau.tolist()}; a fractional part is left to the model's dynamics"
+            )
+        info = {"rule": "given"}
+    if np.any(steps >= tt.size // 2):
+        raise ValueError(f"delay of {steps.tolist()} samples leaves too little of the record")
+    # y from sample dmax on against each input dmax - d_j samples earlier: no input is
+    # invented before the record, the method estimates the state at t[dmax]
+    dmax, ns = int(np.max(steps)), tt.size
+    shifted = np.column_stack([ua[dmax - d : ns - d, j] for j, d in enumerate(steps)])
+    model = identify(tt[dmax:], shifted, yy[dmax:], order, method, refine, detrend, **options)
+    model.delay = steps * dt
+    info["samples"] = steps.tolist()
+    model.options["delay"] = info
     return model
 
 

@@ -113,6 +113,14 @@ class InputDesign:
         """Number of input channels."""
         return int(self.u.shape[1])
 
+    def __repr__(self) -> str:
+        crest = np.array2string(np.asarray(self.crest_factor), precision=2, separator=", ")
+        period = "" if self.period is None else f", period={self.period} samples"
+        return (
+            f"InputDesign({self.kind!r}, Ns={self.t.size}, m={self.m}, dt={self.dt:g}"
+            f"{period}, crest factor={crest})"
+        )
+
 
 def crest_factor(u: Any) -> Array:
     """Crest factor ``max|u| / sqrt(mean(u^2))`` of each column of ``u``.

@@ -86,6 +86,13 @@ class Record:
         """``(t, u, y)`` as :func:`hdpbsid.identify` takes it."""
         return self.t, self.u, self.y
 
+    def __repr__(self) -> str:
+        step = f"time column {self.time!r}" if self.time else f"dt={self.dt:g}"
+        return (
+            f"Record({self.source!r}, {self.t.size} samples, {step}, inputs {self.inputs}, "
+            f"outputs {self.outputs})"
+        )
+
 
 def _fmt(path: Path) -> str:
     fmt = SUFFIXES.get(path.suffix.lower())

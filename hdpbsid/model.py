@@ -44,8 +44,10 @@ from .checks import (
     scale_exponents,
 )
 from .conversion import c2d, d2c, sampled_steps
+from .dead_time import check_delay, delayed_input_terms, pade, pade_order
 from .recursion import linear_recursion
 from .runtime import library_call
+from .uncertainty import COVARIANCE_KEY, scale_factor
 
 __all__ = [
     "StateSpaceModel",
@@ -66,9 +68,13 @@ Array = NDArray[np.float64]
 class FitResult:
     """Simulation fit of a model on a record.
 
-    ``vaf`` (percent, per output) ``= 100 (1 - var(y - y_sim) / var(y))``;
-    ``nrmse`` (per output) ``= ||y - y_sim|| / ||y - mean(y)||`` (MATLAB's ``fit`` is
-    ``100 (1 - nrmse)``); ``y_sim`` the simulated output; ``x0`` the initial state used.
+    ``nrmse`` (per output) ``= ||y - y_sim|| / ||y - mean(y)||``; :attr:`fit` (percent,
+    per output) ``= 100 (1 - nrmse)``, the fit of MATLAB's ``compare`` and the measure
+    every printed summary uses; ``vaf`` (percent, per output)
+    ``= 100 (1 - var(y - y_sim) / var(y))``, the variance accounted for, kept for those
+    who quote it (``vaf = 100 (1 - (1 - fit/100)^2)`` for a zero-mean error, so a VAF
+    of 99 % is a fit of 90 %); ``y_sim`` the simulated output; ``x0`` the initial state
+    used.
     """
 
     vaf: Array
@@ -76,11 +82,13 @@ class FitResult:
     y_sim: Array
     x0: Array
 
+    @property
+    def fit(self) -> Array:
+        """``100 (1 - nrmse)`` percent per output (MATLAB's ``compare`` fit)."""
+        return 100.0 * (1.0 - self.nrmse)
+
     def __repr__(self) -> str:
-        return (
-            f"FitResult(vaf={np.array2string(self.vaf, precision=2)} %, "
-            f"nrmse={np.array2string(self.nrmse, precision=4)})"
-        )
+        return f"FitResult(fit={np.array2string(self.fit, precision=2)} %)"
 
 
 def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
@@ -343,14 +351,29 @@ class StateSpaceModel(_ModelBase):
     and ``y1, ...``) and ``sampling_interval`` (the median step of the identification
     record in ``time_unit``, ``None`` when unknown): :meth:`check_record` compares a
     record with them, and :meth:`save` / :func:`hdpbsid.load_model` keep them.
+
+    Dead times: ``delay`` (``m`` numbers ``>= 0`` in ``time_unit``, one per input; a
+    scalar or ``None`` is accepted and stored as ``m`` numbers) delays each input,
+    ``dx/dt = A x + B u(t - delay) + K e``, ``y = C x + D u(t - delay) + e``
+    (:mod:`hdpbsid.dead_time`).  :meth:`simulate`, :meth:`fit`, :meth:`predict`,
+    :meth:`frequency_response` honour it exactly; :meth:`to_control` and :meth:`to_scipy`
+    by a Pade approximant (:meth:`pade_order`); :meth:`to_discrete` refuses a delayed
+    model.  The matrices are the delay-free part.
     """
 
     discrete: DiscreteModel | None = None
     sampling_interval: float | None = None
+    delay: Array | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.sampling_interval = _check_interval(self.sampling_interval, "sampling_interval")
+        self.delay = check_delay(self.delay, self.m)
+
+    @property
+    def has_delay(self) -> bool:
+        """Whether any input has a dead time."""
+        return bool(np.any(self.delay))
 
     def save(self, path: Any) -> Any:
         """Write the model to ``path`` as JSON (:func:`hdpbsid.model_io.save_model`);
@@ -395,6 +418,8 @@ class StateSpaceModel(_ModelBase):
     def __repr__(self) -> str:
         method = self.options.get("method")
         extra = f", method={method!r}" if method else ""
+        if self.has_delay:
+            extra += f", delay={np.array2string(self.delay, precision=6)} {self.time_unit}"
         return f"StateSpaceModel(continuous, {self._repr_body()}{extra})"
 
     # -- simulation ------------------------------------------------------------------
@@ -456,32 +481,46 @@ class StateSpaceModel(_ModelBase):
             )
         return x
 
-    def _input_steps(self, t: Array, u: Array, method: str) -> tuple[Array, Array, Array]:
+    def _input_steps(self, t: Array, u: Array, method: str) -> tuple[Array, Array, Array, Array]:
         """The sampled system over the steps of ``t`` (``Ns >= 2``): the distinct one-step
         matrices ``Phi (g, n, n)``, the index ``inv (Ns - 1,)`` of each step's group, and
         the input's contribution to each step, ``Bu[k] = G1 u_k (+ G2 (u_{k+1} - u_k))``
-        (``G2`` only with a first-order hold), so that ``x_{k+1} = Phi[inv[k]] x_k + Bu[k]``."""
+        (``G2`` only with a first-order hold), so that ``x_{k+1} = Phi[inv[k]] x_k + Bu[k]``;
+        and the input the direct term sees, ``ud`` (``u`` itself, or ``u`` at ``t - delay``
+        with a dead time: :func:`hdpbsid.dead_time.delayed_input_terms`)."""
         _, hg, inv = _step_groups(t)
         Phi, G1, G2, _ = self._step_matrices(hg, method)
+        Bu, ud = self._input_terms(t, u, method, Phi, G1, G2, inv)
+        return Phi, inv, Bu, ud
+
+    def _input_terms(
+        self, t: Array, u: Array, method: str, Phi: Array, G1: Array, G2: Any, inv: Array
+    ) -> tuple[Array, Array]:
+        """``(Bu, ud)`` of :meth:`_input_steps` for the step matrices given."""
+        if self.has_delay:
+            return delayed_input_terms(self.A, self.B, t, u, self.delay, method, Phi, inv)
         Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
         if G2 is not None:
             Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
-        return Phi, inv, Bu
+        return Bu, u
 
     def _simulate_deviation(self, t: Array, u: Array, x: Array, method: str) -> tuple[Array, Array]:
         """Response ``(y, X)`` of the matrices alone to the deviation input ``u``."""
         ns, n = t.shape[0], self.n
         X = np.empty((ns, n))
         X[0] = x
+        ud = u
         if ns > 1:
-            Phi, inv, Bu = self._input_steps(t, u, method)
+            Phi, inv, Bu, ud = self._input_steps(t, u, method)
             if Phi.shape[0] == 1:  # uniform sampling: modal filters
                 X = linear_recursion(Phi[0], Bu, x)
             else:
                 for k in range(ns - 1):
                     x = Phi[inv[k]] @ x + Bu[k]
                     X[k + 1] = x
-        return X @ self.C.T + u @ self.D.T, X
+        elif self.has_delay:
+            ud = np.where(self.delay[None, :] > 0, 0.0, u)
+        return X @ self.C.T + ud @ self.D.T, X
 
     def _forced_and_free(self, t: Array, u: Array, method: str) -> tuple[Array, Array]:
         """The response to the deviation input ``u`` from the zero state and the free
@@ -492,15 +531,16 @@ class StateSpaceModel(_ModelBase):
         ns, n = t.shape[0], self.n
         S = np.zeros((ns, n, n + 1))  # column 0: forced; columns 1..n: free from e_j
         S[0, :, 1:] = np.eye(n)
+        ud = u
         if ns > 1:
-            Phi, inv, Bu = self._input_steps(t, u, method)
+            Phi, inv, Bu, ud = self._input_steps(t, u, method)
             z = S[0]
             for k in range(ns - 1):
                 z = Phi[inv[k]] @ z
                 z[:, 0] += Bu[k]
                 S[k + 1] = z
         Y = np.einsum("li,kij->klj", self.C, S)
-        return Y[:, :, 0] + u @ self.D.T, Y[:, :, 1:].reshape(ns * self.l, n)
+        return Y[:, :, 0] + ud @ self.D.T, Y[:, :, 1:].reshape(ns * self.l, n)
 
     def _check_output(self, t: Array, y: Any) -> Array:
         y = check_signal(y, "y", t.shape[0], limit_energy=False)
@@ -576,9 +616,7 @@ class StateSpaceModel(_ModelBase):
         if ns > 1:
             _, hg, inv = _step_groups(t)
             Phi, G1, G2, Gk = self._step_matrices(hg, method, with_k=True)
-            Bu = np.einsum("kij,kj->ki", G1[inv], u[:-1])
-            if G2 is not None:
-                Bu += np.einsum("kij,kj->ki", G2[inv], np.diff(u, axis=0))
+            Bu, u = self._input_terms(t, u, method, Phi, G1, G2, inv)  # u: the delayed input
             Ku = np.einsum("kij,kj->ki", Gk[inv], y[:-1] - u[:-1] @ self.D.T)
             # predictor: x_{j+1} = (Phi - Gk C) x_j + Bu_j + Gk (y_j - D u_j)
             F = Phi - np.einsum("kij,jl->kil", Gk, self.C)
@@ -714,17 +752,69 @@ class StateSpaceModel(_ModelBase):
 
     # -- frequency domain and conversions -----------------------------------------------
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
-        """``G(jw) = C (jw I - A)^{-1} B + D`` for angular frequencies ``w`` (rad per
-        ``time_unit``).
+        """``G(jw) = (C (jw I - A)^{-1} B + D) diag(e^{-jw delay_j})`` for angular
+        frequencies ``w`` (rad per ``time_unit``); the dead times enter exactly.
 
         Returns a complex array of shape ``(l, m, len(w))`` (python-control layout).
         """
         w = as_float_array(w, "w").reshape(-1)
         s = 1j * w
-        return _transfer(self.A, self.B, self.C, self.D, s)
+        G = _transfer(self.A, self.B, self.C, self.D, s)
+        if self.has_delay:
+            G = G * np.exp(-1j * self.delay[None, :, None] * w[None, None, :])
+        return G
+
+    def pade_order(self, w_max: float | None = None) -> int:
+        """The order of the Pade approximant :meth:`to_control` and :meth:`to_scipy` use
+        by default: the smallest whose phase is within 1 degree of every dead time's up
+        to ``w_max`` (:func:`hdpbsid.dead_time.pade_order`; at most
+        :data:`hdpbsid.dead_time.MAX_PADE_ORDER`).  Default ``w_max``: a decade above the
+        fastest eigenvalue (``10 max |lambda|``, where a strictly proper model's gain has
+        fallen by 20 dB or more from that mode's), or the Nyquist frequency ``pi /
+        sampling_interval`` when that is lower (the data say nothing above it).  0 for a
+        model without delay.
+        """
+        if not self.has_delay:
+            return 0
+        if w_max is None:
+            top = [10.0 * float(np.max(np.abs(self.eigenvalues), initial=0.0))]
+            if self.sampling_interval is not None:
+                top.append(np.pi / self.sampling_interval)
+            positive = [x for x in top if x > 0]
+            w_max = min(positive) if positive else 1.0 / float(np.max(self.delay))
+        return pade_order(self.delay, float(w_max))
+
+    def _with_pade(self, order: int | None) -> tuple[Array, Array, Array, Array]:
+        """``(A, B, C, D)`` with each delayed input through a Pade approximant of
+        ``order`` (default :meth:`pade_order`) before the plant: the approximants' states
+        follow the plant's."""
+        N = self.pade_order() if order is None else check_positive_int(order, "pade_order", 0)
+        if not self.has_delay or N == 0:
+            return self.A, self.B, self.C, self.D
+        blocks = [pade(float(tau), N) for tau in self.delay]
+        Ap = _block_diag([b[0] for b in blocks])
+        Bp = _block_diag([b[1] for b in blocks])
+        Cp = _block_diag([b[2] for b in blocks])
+        Dp = np.diag([float(b[3][0, 0]) for b in blocks])
+        n, q = self.n, Ap.shape[0]
+        A = np.block([[self.A, self.B @ Cp], [np.zeros((q, n)), Ap]])
+        B = np.vstack([self.B @ Dp, Bp])
+        C = np.hstack([self.C, self.D @ Cp])
+        return A, B, C, self.D @ Dp
 
     def to_discrete(self, dt: float) -> DiscreteModel:
-        """ZOH sampling (:func:`hdpbsid.conversion.c2d`, ``K`` by the hold convention)."""
+        """ZOH sampling (:func:`hdpbsid.conversion.c2d`, ``K`` by the hold convention).
+
+        Raises ``ValueError`` for a model with a dead time (its exact sampled model needs
+        states for the delayed inputs, which :class:`DiscreteModel` does not hold):
+        sample ``model.to_control()`` (Pade) or simulate the continuous model."""
+        if self.has_delay:
+            raise ValueError(
+                f"to_discrete: the model has dead times {self.delay.tolist()} "
+                f"{self.time_unit}; the exact sampled model of a delay needs extra states. "
+                f"Simulate the continuous model (exact), or sample its Pade approximant "
+                f"(control.sample_system(model.to_control(), dt))"
+            )
         Ad, Bd, C, D, Kd = c2d(self.A, self.B, self.C, self.D, self.K, dt)
         return DiscreteModel(
             Ad,
@@ -737,36 +827,46 @@ class StateSpaceModel(_ModelBase):
             **self._offsets_kwargs(),
         )
 
-    def to_scipy(self) -> Any:
+    def to_scipy(self, pade_order: int | None = None) -> Any:
         """``scipy.signal.StateSpace(A, B, C, D)`` (continuous; the ``u -> y`` part).
 
         It describes *deviations* from the operating point: feed it ``u - model.u0`` and
         add ``model.y0`` to its output (module docstring); scipy has no place for levels.
+        Dead times become Pade approximants of order ``pade_order`` (default
+        :meth:`pade_order`) on the inputs, their states after the model's.
         """
         from scipy.signal import StateSpace
 
-        return StateSpace(self.A, self.B, self.C, self.D)
+        return StateSpace(*self._with_pade(pade_order))
 
-    def to_control(self, noise_inputs: bool = False, name: str | None = None) -> Any:
+    def to_control(
+        self, noise_inputs: bool = False, name: str | None = None, pade_order: int | None = None
+    ) -> Any:
         """``control.StateSpace`` with ``dt=0``, its signals named after the model's
         ``input_names`` and ``output_names``; with ``noise_inputs`` the inputs are
         ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``; the innovations named
-        ``e_<output>``).  ``name``: the system's name (python-control's default when
-        ``None``).
+        ``e_<output>``, not delayed).  ``name``: the system's name (python-control's
+        default when ``None``).
+
+        Dead times become ``(N, N)`` Pade approximants (:func:`hdpbsid.dead_time.pade`) in
+        series with each delayed input, ``N = pade_order`` or, by default,
+        :meth:`pade_order` (the smallest order whose phase is within 1 degree of the
+        delay's a decade above the fastest mode); the approximants' ``N m`` states follow
+        the model's ``n``.  The exact delayed response is :meth:`frequency_response` and
+        :meth:`simulate`.
 
         Like :meth:`to_scipy` it describes deviations: inputs ``u - model.u0``, outputs
         ``y - model.y0`` (python-control has no operating point either), and time in
         ``model.time_unit`` (python-control has no unit).
         """
         control = _import_control()
-        B, D = self.B, self.D
+        A, B, C, D = self._with_pade(pade_order)
         inputs = list(self.input_names or [])
         if noise_inputs:
-            B, D = np.hstack([B, self.K]), np.hstack([D, np.eye(self.l)])
+            K = np.vstack([self.K, np.zeros((A.shape[0] - self.n, self.l))])
+            B, D = np.hstack([B, K]), np.hstack([D, np.eye(self.l)])
             inputs += _innovation_names(inputs, list(self.output_names or []))
-        return control.StateSpace(
-            self.A, B, self.C, D, 0, **_control_labels(inputs, self.output_names, name)
-        )
+        return control.StateSpace(A, B, C, D, 0, **_control_labels(inputs, self.output_names, name))
 
 
 @dataclass(repr=False)
@@ -881,13 +981,26 @@ def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
             nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
         if not np.all(np.isfinite(nc)):
             nc = None  # the squares of the signals exceed float64: not representable
+    options = model.options
+    if options.get(COVARIANCE_KEY) is not None:  # the parameters' factor scales with them
+        options = dict(options)
+        n, m, l = model.n, model.m, model.l
+        options[COVARIANCE_KEY] = scale_factor(
+            options[COVARIANCE_KEY],
+            n,
+            m,
+            l,
+            np.ldexp(np.ones((n, m)), px - pu[None, :]),
+            np.ldexp(np.ones((l, n)), py[:, None] - px),
+            np.ldexp(np.ones((l, m)), py[:, None] - pu[None, :]),
+        )
     changes: dict[str, Any] = dict(
         mats,
         u0=np.ldexp(model.u0, pu),
         y0=np.ldexp(model.y0, py),
         trend=tr,
         noise_covariance=nc,
-        options=model.options,
+        options=options,
     )
     if isinstance(model, StateSpaceModel) and model.discrete is not None:
         changes["discrete"] = scale_signals(model.discrete, pu, py, px)
@@ -902,6 +1015,14 @@ def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128])
     X = np.linalg.solve(M, np.broadcast_to(B, (s.size,) + B.shape))
     G = np.einsum("ij,kjl->kil", C, X) + D[None]
     return np.moveaxis(G, 0, -1)
+
+
+def _block_diag(blocks: list[Array]) -> Array:
+    from scipy.linalg import block_diag
+
+    return np.asarray(block_diag(*blocks), dtype=float).reshape(
+        sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)
+    )
 
 
 def _innovation_names(inputs: list[str], outputs: list[str]) -> list[str]:

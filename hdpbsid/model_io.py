@@ -8,7 +8,8 @@ back.  The file is plain JSON (readable by any language):
 key                    value
 =====================  ==========================================================
 ``format``             ``"hdpbsid.StateSpaceModel"``
-``version``            ``2`` (files without it are version 1: no labels)
+``version``            ``3`` (files without it are version 1: no labels; version 2
+                       has no ``delay``)
 ``time``               ``"continuous"``
 ``n``, ``m``, ``l``    states, inputs, outputs (non-negative integers, ``l >= 1``)
 ``A B C D K``          matrices as lists of rows: ``n x n``, ``n x m``, ``l x n``,
@@ -22,6 +23,8 @@ key                    value
 ``time_unit``          the unit of ``t`` (eigenvalues in rad per it), default ``"s"``
 ``input_names``        ``m`` distinct strings; ``output_names``: ``l``
 ``sampling_interval``  median step of the identification record, or ``null``
+``delay``              ``m`` dead times ``>= 0`` (one per input, in ``time_unit``);
+                       absent in files before version 3 (no delay)
 ``options``            the settings the method used (any JSON object)
 =====================  ==========================================================
 
@@ -59,7 +62,7 @@ __all__ = [
 ]
 
 FORMAT = "hdpbsid.StateSpaceModel"
-VERSION = 2
+VERSION = 3
 
 #: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
 #: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
@@ -88,6 +91,7 @@ _OPTIONAL = (
     "input_names",
     "output_names",
     "sampling_interval",
+    "delay",
     "options",
 )
 _KNOWN = _REQUIRED + _OPTIONAL
@@ -174,6 +178,7 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
         "input_names": list(model.input_names or []),
         "output_names": list(model.output_names or []),
         "sampling_interval": model.sampling_interval,
+        "delay": model.delay.tolist(),
         "options": _jsonable(model.options),
     }
 
@@ -488,11 +493,19 @@ def model_from_dict(d: Any) -> StateSpaceModel:
         dt = dt if isinstance(dt, int | float) and not isinstance(dt, bool) and dt > 0 else None
     if dt is not None:
         dt = _number(dt, "sampling_interval")
+    delay = None
+    if "delay" in d:
+        if version < 3:
+            raise ValueError(f"key 'delay': not part of a version-{version} file (version 3 on)")
+        delay = _vector(d["delay"], "delay", m)
+        if np.any(delay < 0):
+            raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
     fields: list[tuple[str, Any]] = [
         ("time_unit", unit),
         ("input_names", inames),
         ("output_names", onames),
         ("sampling_interval", dt),
+        ("delay", delay),
     ]
     try:
         model = StateSpaceModel(

@@ -1,7 +1,8 @@
 """Figures for identified models (matplotlib, Agg; no windows are ever opened).
 
-The CLI writes a figure with the singular values (order selection),
-measured vs simulated output and the Bode magnitude; ``hdpbsid validate`` one with the
+The CLI writes a figure with what decided the order (the held-out error per order beside
+the singular values), the Bode magnitude and phase and the measured vs simulated outputs
+with their fit; ``hdpbsid validate`` one with the
 residual tests (:func:`plot_validation`).  Figures are built on
 :class:`matplotlib.figure.Figure` with an Agg canvas, never through ``pyplot``, so the
 library neither changes the global backend nor keeps figures alive.
@@ -16,12 +17,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .assessment import fit_percent
 from .checks import check_data
+from .criteria import SIGNIFICANCE_Z
 from .model import StateSpaceModel, fit_statistics
 
 __all__ = [
     "new_figure",
     "plot_identification",
+    "order_criterion",
+    "plot_order_criterion",
     "plot_eigenvalues",
     "save_figure",
     "display_fit",
@@ -36,12 +41,18 @@ __all__ = [
 
 @dataclass
 class DisplayFit:
-    """Simulated output for display: ``y_sim (Ns, l)``, ``vaf`` (percent per output) and
-    ``kind`` describing how it was obtained (see :func:`display_fit`)."""
+    """Simulated output for display: ``y_sim (Ns, l)``, ``fit`` (percent per output, the
+    NRMSE fit of MATLAB's ``compare``, :func:`hdpbsid.assessment.fit_percent`), ``vaf``
+    (percent per output, the variance accounted for) and ``kind`` describing how it was
+    obtained (see :func:`display_fit`)."""
 
     y_sim: NDArray[np.float64]
+    fit: NDArray[np.float64]
     vaf: NDArray[np.float64]
     kind: str
+
+    def __repr__(self) -> str:
+        return f"DisplayFit(fit={np.array2string(self.fit, precision=2)} %, {self.kind})"
 
 
 def display_fit(
@@ -59,8 +70,8 @@ def display_fit(
     t, u, y = check_data(t, u, y)
     max_re = float(np.max(model.eigenvalues.real)) if model.n else -1.0
     if max_re <= 0:
-        fit = model.fit(t, u, y)
-        return DisplayFit(fit.y_sim, fit.vaf, "simulation (x0 estimated)")
+        res = model.fit(t, u, y)
+        return DisplayFit(res.y_sim, res.fit, res.vaf, "simulation, x0 estimated")
     t_seg = np.log(growth) / max_re
     edges = np.searchsorted(t, np.arange(t[0], t[-1], t_seg))
     edges = np.unique(np.append(edges, t.size))
@@ -73,7 +84,10 @@ def display_fit(
         y_sim[a:b] = model.fit(t[a:b], u[a:b], y[a:b]).y_sim
     vaf, _ = fit_statistics(y, y_sim)
     return DisplayFit(
-        y_sim, vaf, f"simulation on segments of length {t_seg:.3g}, x0 estimated per segment"
+        y_sim,
+        fit_percent(y, y_sim),
+        vaf,
+        f"simulation on segments of {t_seg:.3g} {model.time_unit}, x0 estimated per segment",
     )
 
 
@@ -131,6 +145,88 @@ def _default_frequencies(model: StateSpaceModel, t: NDArray[np.float64]) -> NDAr
     return np.logspace(np.log10(lo), np.log10(hi), 400)
 
 
+def order_criterion(
+    table: Any,
+) -> tuple[NDArray[np.int64], NDArray[np.float64], float | None] | None:
+    """The held-out criterion per order from a model's ``options["order_selection"]``.
+
+    The table (:func:`hdpbsid.selection.select_model`) has one row per candidate with its
+    held-out error ``error`` (0 = perfect, 1 = no better than the mean) and ``z``, its
+    excess over the best candidate's error in standard errors of that error
+    (:func:`hdpbsid.criteria.choose_smallest_adequate`).  Per order the best candidate's
+    error is returned, with the standard error ``(error - best) / z``: both are the same
+    sums divided by the same held-out output energy, so every row with a finite, nonzero
+    ``z`` gives the same value (their median is returned; ``None`` when no row has one).
+    Returns ``(orders, errors, se)``, or ``None`` when the table is not a list of rows (the
+    order was given, or chosen by the singular values).
+    """
+    if not isinstance(table, list):
+        return None
+    rows = [
+        r
+        for r in table
+        if isinstance(r, dict) and r.get("error") is not None and np.isfinite(r["error"])
+    ]
+    if not rows:
+        return None
+    best: dict[int, float] = {}
+    for r in rows:
+        o = int(r["order"])
+        best[o] = min(best.get(o, np.inf), float(r["error"]))
+    orders = np.array(sorted(best), dtype=np.int64)
+    errors = np.array([best[o] for o in orders])
+    e_min = float(errors.min())
+    ses = [
+        (float(r["error"]) - e_min) / float(r["z"])
+        for r in rows
+        if r.get("z") is not None and np.isfinite(r["z"]) and float(r["z"]) > 0
+    ]
+    return orders, errors, (float(np.median(ses)) if ses else None)
+
+
+def plot_order_criterion(model: StateSpaceModel, ax: Any) -> bool:
+    """Draw on ``ax`` what chose the order (:func:`order_criterion`): per order, the best
+    candidate's held-out error above the best of all, in standard errors of that error
+    (bars: one standard error), the line of the one-standard-error rule (the smallest
+    order below it is chosen) and the model's order marked.  The vertical axis is linear
+    up to 1 and logarithmic beyond, so an order far off and the close calls both show.
+    Without a standard error the errors themselves are drawn (log scale).  Returns
+    ``False`` (drawing a note instead) when the model carries no selection table."""
+    crit = order_criterion(model.options.get("order_selection"))
+    if crit is None:
+        ax.text(
+            0.5,
+            0.5,
+            "order given, or chosen\nwithout a held-out score",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
+        ax.set_axis_off()
+        return False
+    orders, errors, se = crit
+    if se is not None and se > 0:
+        values = (errors - errors.min()) / se
+        ax.errorbar(orders, values, yerr=1.0, fmt="o-", ms=4, capsize=3, label="held-out error")
+        ax.axhline(SIGNIFICANCE_Z, color="0.4", ls=":", lw=1, label="best + 1 SE")
+        ax.set_yscale("symlog", linthresh=1.0)
+        ax.set_ylabel("held-out error - best [SE]")
+    else:
+        values = errors
+        ax.plot(orders, values, "o-", ms=4, label="held-out error")
+        ax.set_yscale("log")
+        ax.set_ylabel("held-out error (1 = mean)")
+    if model.n in set(orders.tolist()):
+        k = int(np.flatnonzero(orders == model.n)[0])
+        ax.plot(model.n, values[k], "o", ms=10, mfc="none", mec="C3", mew=2, label="chosen")
+    ax.set_xticks(orders)
+    ax.set_xlabel("order")
+    ax.set_title("Order: held-out prediction error")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="upper right", fontsize="small")
+    return True
+
+
 def plot_identification(
     model: StateSpaceModel,
     t: Any,
@@ -142,14 +238,16 @@ def plot_identification(
     true_model: StateSpaceModel | None = None,
     title: str | None = None,
 ) -> Any:
-    """Three-panel summary: singular values, measured vs simulated outputs, Bode magnitude.
+    """Summary figure: what decided the order, the frequency response, the fit.
 
-    * singular values of the PBSID SVD step (log scale) with the chosen order marked;
+    * the held-out criterion per order (:func:`plot_order_criterion`: the error above the
+      best in standard errors, the one-standard-error line, the chosen order) beside the singular
+      values of the PBSID SVD step (log scale, the order marked);
+    * Bode magnitude (dB) and phase (degrees) of every input-output pair (``w`` in rad
+      per the model's ``time_unit``; default from the record length to Nyquist), dashed
+      for ``true_model`` if given;
     * each output measured vs simulated (:func:`display_fit`: whole record for a stable
-      model, short segments for an unstable one), VAF in the legend;
-    * ``|G(jw)|`` in dB for every input-output pair (``w`` in rad per the model's
-      ``time_unit``; default from the record length to Nyquist), dashed for
-      ``true_model`` if given.
+      model, short segments for an unstable one), the fit (NRMSE, percent) in the legend.
 
     Channel names default to the model's ``input_names`` / ``output_names``; the axes
     carry its ``time_unit``.  Returns the :class:`matplotlib.figure.Figure` (save it with
@@ -160,24 +258,27 @@ def plot_identification(
     m = u.shape[1]
     onames, inames = _names(model, output_names, input_names, l, m)
     unit = model.time_unit
-    fig = new_figure((10.0, 3.0 + 2.2 * l))
-    gs = fig.add_gridspec(l + 1, 2)
+    fig = new_figure((11.0, 6.4 + 2.2 * l))
+    gs = fig.add_gridspec(l + 2, 2, height_ratios=[1.3, 1.3] + [1.0] * l)
 
-    ax = fig.add_subplot(gs[0, 0])
+    plot_order_criterion(model, fig.add_subplot(gs[0, 0]))
+    ax = fig.add_subplot(gs[0, 1])
     sv = model.singular_values
     if sv is not None and np.size(sv):
         sv = np.asarray(sv, dtype=float)
         idx = np.arange(1, sv.size + 1)
         ax.semilogy(idx, sv, "o-", ms=3)
         ax.axvline(model.n + 0.5, color="C3", ls="--", label=f"order {model.n}")
-        ax.legend(loc="upper right")
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, which="both", alpha=0.3)
     else:
         ax.text(0.5, 0.5, "no singular values recorded", ha="center", transform=ax.transAxes)
     ax.set_xlabel("index")
     ax.set_ylabel("singular value")
-    ax.set_title("Order selection")
+    ax.set_title("Singular values of the subspace step")
 
-    ax = fig.add_subplot(gs[0, 1])
+    ax_mag = fig.add_subplot(gs[1, 0])
+    ax_ph = fig.add_subplot(gs[1, 1], sharex=ax_mag)
     if m:
         wgrid = _default_frequencies(model, t) if w is None else np.asarray(w, dtype=float)
         G = model.frequency_response(wgrid)
@@ -185,31 +286,44 @@ def plot_identification(
         k = 0
         for i in range(l):
             for j in range(m):
-                mag = 20 * np.log10(np.maximum(np.abs(G[i, j]), 1e-300))
-                ax.semilogx(wgrid, mag, color=f"C{k % 10}", label=f"{inames[j]} -> {onames[i]}")
+                color = f"C{k % 10}"
+                _bode_pair(ax_mag, ax_ph, wgrid, G[i, j], color, f"{inames[j]} -> {onames[i]}")
                 if Gt is not None:
-                    magt = 20 * np.log10(np.maximum(np.abs(Gt[i, j]), 1e-300))
-                    ax.semilogx(wgrid, magt, color=f"C{k % 10}", ls="--", lw=1)
+                    _bode_pair(ax_mag, ax_ph, wgrid, Gt[i, j], color, None, ls="--", lw=1)
                 k += 1
-        ax.legend(fontsize="small")
+        ax_mag.legend(fontsize="small")
     else:
-        ax.text(0.5, 0.5, "no inputs", ha="center", transform=ax.transAxes)
-    ax.set_xlabel(f"frequency [rad/{unit}]")
-    ax.set_ylabel("|G| [dB]")
-    ax.set_title("Bode magnitude" + (" (dashed: true)" if true_model is not None else ""))
+        ax_mag.text(0.5, 0.5, "no inputs", ha="center", transform=ax_mag.transAxes)
+    dashed = " (dashed: true)" if true_model is not None else ""
+    for ax, ylabel, name in ((ax_mag, "|G| [dB]", "magnitude"), (ax_ph, "phase [deg]", "phase")):
+        ax.set_xlabel(f"frequency [rad/{unit}]")
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"Bode {name}{dashed}")
+        ax.grid(True, which="both", alpha=0.3)
 
     fit = display_fit(model, t, u, y)
     for i in range(l):
-        ax = fig.add_subplot(gs[i + 1, :])
+        ax = fig.add_subplot(gs[i + 2, :])
         ax.plot(t, y[:, i], color="0.6", lw=0.8, label="measured")
-        ax.plot(t, fit.y_sim[:, i], color="C0", lw=1.0, label=f"simulated, VAF {fit.vaf[i]:.1f} %")
+        ax.plot(t, fit.y_sim[:, i], color="C0", lw=1.0, label=f"simulated, fit {fit.fit[i]:.1f} %")
         ax.set_ylabel(onames[i])
         ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
         if i == l - 1:
             ax.set_xlabel(f"time [{unit}] ({fit.kind})")
     method = model.options.get("method", "?")
     fig.suptitle(title or f"hdpbsid: method {method!r}, order {model.n}")
     return fig
+
+
+def _bode_pair(
+    ax_mag: Any, ax_ph: Any, w: Any, g: Any, color: str, label: str | None, **style: Any
+) -> None:
+    """Magnitude (dB) and unwrapped phase (degrees) of one frequency response."""
+    ax_mag.semilogx(
+        w, 20 * np.log10(np.maximum(np.abs(g), 1e-300)), color=color, label=label, **style
+    )
+    ax_ph.semilogx(w, np.degrees(np.unwrap(np.angle(g))), color=color, **style)
 
 
 def plot_eigenvalues(
@@ -308,6 +422,7 @@ def plot_eigenvalue_scatter(
     true: Any | None = None,
     zoom: float | None = 1.5,
     title: str = "Identified eigenvalues",
+    time_unit: str = "s",
 ) -> Any:
     """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
     true ones (circles), as in the thesis's Figure 1.
@@ -315,6 +430,7 @@ def plot_eigenvalue_scatter(
     ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
     axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
     detail"); points outside are counted in the panel title.  ``None``: autoscale.
+    ``time_unit`` labels the axes (rad per that unit).
     """
     k = max(len(groups), 1)
     fig = new_figure((4.2 * k, 4.2))
@@ -338,8 +454,8 @@ def plot_eigenvalue_scatter(
             ax.plot(tv.real, tv.imag, "o", mfc="none", mec="k", ms=10, mew=1.5, label="true")
         ax.axvline(0.0, color="0.6", lw=0.8)
         ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.set_xlabel("Re")
-        ax.set_ylabel("Im")
+        ax.set_xlabel(f"Re [rad/{time_unit}]")
+        ax.set_ylabel(f"Im [rad/{time_unit}]")
         ax.set_title(f"{label}" + (f"\n({outside} outside the view)" if outside else ""))
         ax.legend(loc="upper right", fontsize="small")
         ax.grid(True, alpha=0.3)

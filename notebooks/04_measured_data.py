@@ -45,8 +45,8 @@ import os
 import warnings
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import numpy as np
+from IPython.display import Image, display
 
 import hdpbsid
 from hdpbsid.assessment import fit_percent
@@ -67,11 +67,14 @@ def find_data() -> Path:
 
 
 def save(fig, name):
-    """Show the figure; also write it as a PNG when HDPBSID_NOTEBOOK_FIGDIR is set."""
+    """Show the figure as a PNG (the package draws on its own figures, outside pyplot);
+    also write it when HDPBSID_NOTEBOOK_FIGDIR is set."""
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=110, bbox_inches="tight")
     if FIGDIR:
         Path(FIGDIR).mkdir(parents=True, exist_ok=True)
-        fig.savefig(Path(FIGDIR) / f"04_{name}.png", dpi=110, bbox_inches="tight")
-    plt.show()
+        (Path(FIGDIR) / f"04_{name}.png").write_bytes(png.getvalue())
+    display(Image(png.getvalue()))
 
 
 rec = read_record(find_data() / "ball-and-beam.csv", ["u"], ["y"], time=None, dt=0.1)

@@ -211,11 +211,11 @@ def test_failures_are_counted_not_raised() -> None:
     assert summary["error_median_fail_inf"] == np.inf  # median of [0.1, inf]
 
 
-def test_readme_section_replaces_only_between_markers(tmp_path: Path) -> None:
-    readme = tmp_path / "README.md"
-    readme.write_text(f"before\n{peers.README_BEGIN}\nold\n{peers.README_END}\nafter\n")
-    peers.write_readme(f"{peers.README_BEGIN}\nnew\n{peers.README_END}", readme)
-    assert readme.read_text() == f"before\n{peers.README_BEGIN}\nnew\n{peers.README_END}\nafter\n"
+def test_results_are_written_where_the_docs_include_them(tmp_path: Path) -> None:
+    assert peers.RESULTS == Path(peers.__file__).resolve().parent / "results"
+    path = peers.write_results("| a |\n|---|", "peers", directory=tmp_path / "results")
+    assert path == tmp_path / "results" / "peers.md"
+    assert path.read_text(encoding="utf-8") == "| a |\n|---|\n"
 
 
 def _transfer(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, s: complex) -> np.ndarray:

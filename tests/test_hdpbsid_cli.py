@@ -62,7 +62,7 @@ def test_identify_round_trip(csv_file: Path, tmp_path: Path, capsys) -> None:
     ]
     assert main(argv) == 0
     text = capsys.readouterr().out
-    assert "eigenvalues" in text and "VAF pos" in text
+    assert "eigenvalues" in text and "100 (1 - NRMSE)" in text and "  pos: " in text
     d = json.loads((out / "model.json").read_text())
     assert d["time"] == "continuous" and (d["n"], d["m"], d["l"]) == (2, 1, 1)
     for key, shape in (("A", (2, 2)), ("B", (2, 1)), ("C", (1, 2)), ("D", (1, 1)), ("K", (2, 1))):
@@ -184,7 +184,7 @@ def test_demo_end_to_end(tmp_path: Path, capsys) -> None:
     argv = ["demo", "--method", "dt", "--snr", "none", "--duration", "10", "--out", str(out)]
     assert main(argv) == 0
     text = capsys.readouterr().out
-    assert "identified" in text and "true" in text and "VAF q" in text
+    assert "identified" in text and "true" in text and "new record q " in text
     d = json.loads((out / "model.json").read_text())
     true = np.sort_complex(np.linalg.eigvals(pitch_model()[0]))
     # noise-free closed loop, total moment as input: dt is exact to ~1e-11 (see

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -153,11 +154,12 @@ def test_robot_arm_identifies_with_dt(tmp_path: Path, capsys) -> None:
     raw = np.loadtxt(path, delimiter=",", skiprows=1)
     np.testing.assert_allclose(d["u0"], [raw[:, 0].mean()], rtol=1e-12)
     np.testing.assert_allclose(d["y0"], [raw[:, 1].mean()], rtol=1e-12)
-    # DT PBSID order 4 on the whole sweep: simulation VAF measured 50.7 %; > 30 % says a
-    # model came out of the file, not noise (the order is not tuned here)
+    # DT PBSID order 4 on the whole sweep: simulation fit measured 29.8 % (VAF 50.7 %);
+    # a fit above 16 % (a VAF above 30 %: 100 (1 - sqrt(0.7))) says a model came out of
+    # the file, not noise (the order is not tuned here)
     text = capsys.readouterr().out
-    vaf = float(text.split("VAF y:")[1].split("%")[0])
-    assert vaf > 30.0, text
+    fit = float(re.search(r"^  y: (-?[\d.]+) %$", text, re.MULTILINE).group(1))
+    assert fit > 16.0, text
 
 
 def test_several_data_files_use_the_list_form(tmp_path: Path, monkeypatch, capsys) -> None:

@@ -94,6 +94,7 @@ from ..checks import is_uniform as checks_is_uniform
 from ..model import StateSpaceModel
 from ..recursion import select_kernels
 from ..runtime import library_call
+from ..uncertainty import COVARIANCE_KEY, covariance_factor, scale_factor
 from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 
 __all__ = [
@@ -897,7 +898,8 @@ def refine_pem(
     Q = _ddlc_basis(lay, theta)
     A, B, C, D, K = _unscale(lay.unpack(theta), ys, us)
     E = record_fit(theta, W=np.eye(model.l)).reshape(model.l, -1)
-    eig_std = _eigenvalue_std(lay, theta, Q, weighted_fit(theta, jac=True, directions=Q)[1], cost)
+    Jq = weighted_fit(theta, jac=True, directions=Q)[1]
+    eig_std = _eigenvalue_std(lay, theta, Q, Jq, cost)
     noise_cov = (ys[:, None] * (E @ E.T / E.shape[1])) * ys[None, :]
     options = dict(model.options)
     options.pop(WARM_START, None)
@@ -918,6 +920,7 @@ def refine_pem(
         refine_parameters=int(Q.shape[1]),
         eigenvalues_before_refine=model.eigenvalues,
         eigenvalue_std=eig_std,
+        **{COVARIANCE_KEY: _abcd_factor(lay, Q, Jq, cost, ys, us)},
     )
     return StateSpaceModel(
         A,
@@ -1027,6 +1030,30 @@ def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float)
         G[:, k] = (evp[idx] - ev0) / step
     var = np.einsum("ik,kl,il->i", G.real, P, G.real) + np.einsum("ik,kl,il->i", G.imag, P, G.imag)
     return np.sqrt(np.maximum(var, 0.0))
+
+
+def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: Array) -> Array:
+    """The covariance factor of ``[vec A, vec B, vec C, vec D]`` in the record's units
+    (:data:`hdpbsid.uncertainty.COVARIANCE_KEY`): ``cov(beta) = s^2 (J^T J)^+`` of the
+    local coordinates (as :func:`_eigenvalue_std`), mapped by ``theta = theta_0 + Q beta``
+    (rows of ``K`` dropped, zero rows for a ``D`` that is not a parameter) and by the
+    unit scaling of :func:`_unscale` (``B / us``, ``ys C``, ``ys D / us``)."""
+    n, m, l = lay.n, lay.m, lay.l
+    F = Q @ covariance_factor(cost * np.linalg.pinv(J.T @ J))
+    s = lay.stops
+    parts = [F[s[0] : s[1]], F[s[1] : s[2]], F[s[2] : s[3]]]
+    parts.append(F[s[3] : s[4]] if lay.feedthrough else np.zeros((l * m, F.shape[1])))
+    Fabcd = np.vstack(parts)
+    inv_us = 1.0 / us if m else us
+    return scale_factor(
+        Fabcd,
+        n,
+        m,
+        l,
+        np.broadcast_to(inv_us[None, :], (n, m)),
+        np.broadcast_to(ys[:, None], (l, n)),
+        ys[:, None] * inv_us[None, :],
+    )
 
 
 def warm_start_option(model: StateSpaceModel) -> dict[str, Any]:

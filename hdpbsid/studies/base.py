@@ -86,6 +86,14 @@ class StudyResult:
         title = f"{self.study.title} ({self.study.source})" if self.study else self.name
         return format_table(self.summary, cols, title=title)
 
+    def __repr__(self) -> str:
+        failed = sum(not r.get("ok", True) for r in self.records)
+        took = "" if self.elapsed is None else f", {self.elapsed:.1f} s"
+        return (
+            f"StudyResult({self.name!r}, {len(self.records)} tasks ({failed} failed), "
+            f"{len(self.summary)} summary rows{took}; .table() prints them)"
+        )
+
     def write(self, out: str | Path, figures: bool = True) -> dict[str, Path]:
         """Write ``summary.csv``, ``summary.json`` (settings + summary + notes),
         ``records.csv`` (one row per task, flattened) and, with ``figures``, the study's

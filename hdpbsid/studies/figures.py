@@ -213,8 +213,8 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     sims = {}
     for o, m in models.items():
         fit = display_fit(m, val.t, val.u, val.y)
-        vaf = "/".join(f"{v:.1f}" for v in fit.vaf)
-        sims[f"order {o} (VAF {vaf} %)"] = fit.y_sim
+        pct = "/".join(f"{v:.1f}" for v in fit.fit)
+        sims[f"order {o} (fit {pct} %)"] = fit.y_sim
     T = float(val.t[-1])
     fig = plot_outputs(
         val.t,

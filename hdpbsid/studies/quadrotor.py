@@ -13,7 +13,7 @@ feedthrough of the moment, so HD-PBSID runs with ``feedthrough=True``.
 400-term basis.  Our simulated plant has three states, so the study records the
 singular values and the order identify chooses (held-out simulation error), and identifies both
 ``orders`` (default 3 and 4): the eigenvalues against the truth (a 4th-order model has
-one extra eigenvalue that the truth does not explain) and the fit (VAF) on the
+one extra eigenvalue that the truth does not explain) and the fit (NRMSE, and VAF) on the
 identification record and on a fresh validation record (same excitation, new noise)
 - the simulated-vs-measured comparison of the thesis's Figure 2.
 
@@ -57,8 +57,8 @@ COLUMNS = (
     "auto order",
     "max err (3 true)",
     "extra eigenvalue",
-    "VAF ident",
-    "VAF valid",
+    "fit ident",
+    "fit valid",
     "eigenvalues",
 )
 
@@ -132,14 +132,18 @@ def _singular_values(r: dict[str, Any]) -> list[float]:
     return [] if sv is None else [float(s) for s in np.ravel(sv)[:12]]
 
 
-def _vaf(model: Any, d: Any) -> list[float]:
+def _fits(model: Any, d: Any) -> tuple[list[float], list[float]]:
+    """The fit (NRMSE, percent) and the VAF (percent) per output of the simulation
+    (:func:`~hdpbsid.plots.display_fit`)."""
     from ..plots import display_fit
 
-    return [float(v) for v in display_fit(model, d.t, d.u, d.y).vaf]
+    shown = display_fit(model, d.t, d.u, d.y)
+    return [float(v) for v in shown.fit], [float(v) for v in shown.vaf]
 
 
 def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-    """Identify every order; eigenvalues vs truth, VAF on both records, singular values."""
+    """Identify every order; eigenvalues vs truth, fit (NRMSE) and VAF on both records,
+    singular values, and the held-out criterion per order of the order choice."""
     r = identify_case(case, rng)
     data, val = r["data"], r["validation"]
     true = data.true_eigenvalues
@@ -149,6 +153,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
         "saturation": data.saturation_fraction,
         "auto_order": None if r["auto"] is None else int(r["auto"].n),
         "singular_values": _singular_values(r),
+        "order_selection": _order_rows(r["auto"]),
         "models": {},
         "order_errors": {str(o): e for o, e in r["errors"].items()},
     }
@@ -160,8 +165,8 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
             est, _ = match_eigenvalues(m.eigenvalues, true)
             extra = [z for z in m.eigenvalues if not np.any(np.isclose(z, est))]
             rec["extra"] = [[float(z.real), float(z.imag)] for z in extra]
-        rec["vaf_identification"] = _vaf(m, data)
-        rec["vaf_validation"] = _vaf(m, val)
+        rec["fit_identification"], rec["vaf_identification"] = _fits(m, data)
+        rec["fit_validation"], rec["vaf_validation"] = _fits(m, val)
         rec["matrices"] = {k: getattr(m, k).tolist() for k in ("A", "B", "C", "D", "K")}
         out["models"][str(o)] = rec
     return out
@@ -186,12 +191,22 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
                     "auto order": res["auto_order"],
                     "max err (3 true)": m.get("max_error"),
                     "extra eigenvalue": ", ".join(_fmt(z) for z in extra) or "-",
-                    "VAF ident": "/".join(f"{v:.1f}" for v in m["vaf_identification"]),
-                    "VAF valid": "/".join(f"{v:.1f}" for v in m["vaf_validation"]),
+                    "fit ident": "/".join(f"{v:.1f}" for v in m["fit_identification"]),
+                    "fit valid": "/".join(f"{v:.1f}" for v in m["fit_validation"]),
                     "eigenvalues": ", ".join(_fmt(z) for z in m["eigenvalues"]),
                 }
             )
     return rows
+
+
+def _order_rows(model: Any) -> list[dict[str, Any]] | None:
+    """The order choice's table as plain rows (order, held-out error, its distance to the
+    best in standard errors), or ``None`` when the order was not chosen on held-out data."""
+    table = None if model is None else model.options.get("order_selection")
+    if not isinstance(table, list):
+        return None
+    keys = ("method", "order", "error", "z")
+    return [{k: r.get(k) for k in keys} for r in table if isinstance(r, dict)]
 
 
 def _fmt(z: list[float]) -> str:
