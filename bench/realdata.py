@@ -1,13 +1,18 @@
 # ruff: noqa: E402  (BLAS thread settings must precede the numpy import)
-"""Every hdpbsid method and the Python peers on two measured DaISy records.
+"""Every hdpbsid method and the Python peers on measured and measured-like records.
 
-Run: ``.venv/bin/python bench/realdata.py [--records robot-arm ball-and-beam]
-[--out DIR] [--results]`` (peers from ``pip install -e ".[bench]"``).
+Run: ``.venv/bin/python bench/realdata.py [--records NAME ...] [--out DIR] [--results]``
+(peers from ``pip install -e ".[bench]"``; ``llsi``, ``pysib`` and ``PSID`` are used when
+they import).
 
 Data (``bench/data/``, from DaISy, the Database for the Identification of Systems, KU
 Leuven, ESAT; see ``bench/data/README.md``): ``robot-arm.csv`` (flexible robot arm, 1024
 samples, sampling time not given: one time unit) and ``ball-and-beam.csv`` (1000 samples,
-0.1 s).
+0.1 s). Besides them, simulated records with the defects of measured ones
+(``bench/measured_like.py``: a direct term with drift and coloured noise, a nonlinear
+level loop with saturation and quantization, a long lightly damped resonance, a stiff
+plant behind a clipping actuator), scored the same way; they judge methods and are never
+used to tune a constant.
 
 Scoring (the way a user judges a model on measured data):
 
@@ -471,7 +476,9 @@ def results_markdown(results: dict[str, list[Entry]], command: str) -> str:
     return "\n".join(
         [
             f"Produced by `{command}` on {peers.machine_line()}. "
-            "Records from DaISy (KU Leuven, ESAT; `bench/data/README.md`). Identified on "
+            "Measured records from DaISy (KU Leuven, ESAT; `bench/data/README.md`); the "
+            "others are simulated with the defects of measured ones "
+            "(`bench/measured_like.py`). Identified on "
             "the first two thirds after removing that part's means, scored on the last "
             "third: simulation from a least-squares initial state, every model in discrete "
             "time at the record's rate (continuous models ZOH-sampled), fit = 100 (1 − "
