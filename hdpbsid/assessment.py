@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import scale_exponents
+from hdpbsid.checks import scale_exponents
 
 __all__ = [
     "Comparison",

@@ -47,13 +47,13 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from . import frequency_cli
-from .checks import check_label, check_names
-from .identify import available_methods, identify, is_available
-from .io import Record, read_columns, read_record
-from .metrics import match_eigenvalues
-from .model import StateSpaceModel, TimeScaleWarning
-from .model_io import load_model, model_from_dict, model_to_dict, save_model
+from hdpbsid import frequency_cli
+from hdpbsid.checks import check_label, check_names
+from hdpbsid.identify import available_methods, identify, is_available
+from hdpbsid.io import Record, read_columns, read_record
+from hdpbsid.metrics import match_eigenvalues
+from hdpbsid.model import StateSpaceModel, TimeScaleWarning
+from hdpbsid.model_io import load_model, model_from_dict, model_to_dict, save_model
 
 __all__ = [
     "main",
@@ -237,7 +237,7 @@ def _print_model(model: StateSpaceModel, out: TextIO) -> None:
 def _print_fit(
     model: StateSpaceModel, t: Any, u: Any, y: Any, names: list[str], out: TextIO
 ) -> None:
-    from .plots import display_fit
+    from hdpbsid.plots import display_fit
 
     fit = display_fit(model, t, u, y)
     print(f"fit ({fit.kind}):", file=out)
@@ -255,7 +255,7 @@ def _check_method(method: str) -> None:
 def _progress(choice: str, records: list[Record]) -> bool:
     """Progress bars (stderr): ``on``, ``off``, or ``auto``: when stderr is a terminal or
     a record is long (:data:`hdpbsid.scaling.LONG_SAMPLES`)."""
-    from .scaling import LONG_SAMPLES
+    from hdpbsid.scaling import LONG_SAMPLES
 
     long = max(r.t.size for r in records) > LONG_SAMPLES
     return choice == "on" or (choice == "auto" and (sys.stderr.isatty() or long))
@@ -332,7 +332,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     path = save_model(model, outdir / "model.json")
     print(f"wrote {path}", file=out)
     if not args.no_plot:
-        from .plots import plot_identification, save_figure
+        from hdpbsid.plots import plot_identification, save_figure
 
         uu = np.zeros((first.t.size, 0)) if first.u is None else first.u
         fig = plot_identification(
@@ -405,7 +405,7 @@ def _validate_record(
         return
     print(report.summary(outputs, inputs), file=out)
     if not args.no_plot:
-        from .plots import plot_validation, save_figure
+        from hdpbsid.plots import plot_validation, save_figure
 
         fig = plot_validation(
             model,
@@ -423,9 +423,9 @@ def _validate_record(
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
-    from . import studies
-    from .studies.data import quadrotor_record
-    from .studies.runner import task_rng
+    from hdpbsid import studies
+    from hdpbsid.studies.data import quadrotor_record
+    from hdpbsid.studies.runner import task_rng
 
     method = best_method() if args.method == "auto" else args.method
     _check_method(method)
@@ -518,8 +518,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     }
     print(f"wrote {save_model(model, outdir / 'model.json')} (order {main_order})", file=out)
     if not args.no_plot:
-        from .plots import plot_identification, save_figure
-        from .studies.figures import quadrotor_figures
+        from hdpbsid.plots import plot_identification, save_figure
+        from hdpbsid.studies.figures import quadrotor_figures
 
         truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
         fig = plot_identification(
@@ -542,7 +542,7 @@ STUDY_NAMES = ("snr", "samples", "basis-order", "operator", "table1", "quadrotor
 
 
 def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
-    from . import studies
+    from hdpbsid import studies
 
     settings = _parse_options(args.set)
     outdir = _check_out(args.out or Path("hdpbsid-study") / args.name, [])

@@ -50,8 +50,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from .model import StateSpaceModel
-from .recursion import forced_responses, matrix_powers
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.recursion import forced_responses, matrix_powers
 
 __all__ = [
     "WindowedError",

@@ -58,8 +58,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
 
-from .assessment import correlation
-from .model import StateSpaceModel
+from hdpbsid.assessment import correlation
+from hdpbsid.model import StateSpaceModel
 
 __all__ = [
     "AR_ORDER",

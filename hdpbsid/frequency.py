@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import as_columns, as_float_array, check_positive_int, check_step
-from .model import StateSpaceModel
+from hdpbsid.checks import as_columns, as_float_array, check_positive_int, check_step
+from hdpbsid.model import StateSpaceModel
 
 __all__ = [
     "FrequencyResponse",
@@ -565,7 +565,7 @@ def identify_frequency(
     >>> bool(np.allclose(np.sort_complex(model.eigenvalues), np.sort_complex(np.linalg.eigvals(A))))
     True
     """
-    from .checks import DEFAULT_MAX_ORDER
+    from hdpbsid.checks import DEFAULT_MAX_ORDER
 
     w_arr, Hc, W, source = _frequency_data(w, H, weight)
     l, m, nf = Hc.shape
@@ -893,7 +893,7 @@ def _fit_order(
 def _select_order(
     w: Array, H: CArray, W: Array, wc: float, max_order: int, feedthrough: bool, refine: bool
 ) -> tuple[int, list[dict[str, Any]]]:
-    from .criteria import WindowedError, choose_smallest_adequate
+    from hdpbsid.criteria import WindowedError, choose_smallest_adequate
 
     l, m, nf = H.shape
     fold = np.arange(nf) % FOLDS

@@ -18,8 +18,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from . import frequency, inputs
-from .io import read_record
+from hdpbsid import frequency, inputs
+from hdpbsid.io import read_record
 
 COMMANDS = ("frf", "input")
 

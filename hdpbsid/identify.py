@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from . import scaling
-from .checks import (
+from hdpbsid import scaling
+from hdpbsid.checks import (
     check_data,
     check_label,
     check_names,
@@ -37,12 +37,18 @@ from .checks import (
     require_joblib,
     scale_exponents,
 )
-from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
-from .feedback import refine_decision
-from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
-from .model import LinearTrend, StateSpaceModel, scale_signals
-from .runtime import library_call
+from hdpbsid.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
+from hdpbsid.feedback import refine_decision
+from hdpbsid.methods.dt import identify_dt
+from hdpbsid.methods.refine import (
+    REFINE_CHOICES,
+    WARM_START,
+    is_uniform,
+    one_step_errors,
+    refine_pem,
+)
+from hdpbsid.model import LinearTrend, StateSpaceModel, scale_signals
+from hdpbsid.runtime import library_call
 
 __all__ = [
     "METHODS",
@@ -573,7 +579,7 @@ def _run(
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
     if order is None and method != "auto" and rule == "held-out":
-        from .selection import select_order
+        from hdpbsid.selection import select_order
 
         return select_order(method, t, u, y, refined=refined, **options)
     if method == "auto":

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import as_columns, check_positive_int, check_step
+from hdpbsid.checks import as_columns, check_positive_int, check_step
 
 __all__ = [
     "InputDesign",
@@ -614,7 +614,7 @@ def hermite_sweep(
     >>> round(float(np.max(np.abs(d.u))), 12)
     1.0
     """
-    from .systems.quadrotor import hermite_sweep_excitation
+    from hdpbsid.systems.quadrotor import hermite_sweep_excitation
 
     n_samples = check_positive_int(n_samples, "n_samples", 2)
     dt = check_step(dt)

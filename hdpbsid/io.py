@@ -515,7 +515,7 @@ def open_chunked(
     ``ValueError`` for an unknown suffix, missing signals, signals of different lengths
     or a bad ``dt`` / ``fs``.
     """
-    from .methods.chunked import ChunkedRecord
+    from hdpbsid.methods.chunked import ChunkedRecord
 
     path = Path(path)
     _check_file(path, "data file")

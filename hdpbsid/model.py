@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .assessment import Comparison, ResidualReport, fit_percent, residual_tests
-from .checks import (
+from hdpbsid.assessment import Comparison, ResidualReport, fit_percent, residual_tests
+from hdpbsid.checks import (
     as_float_array,
     check_label,
     check_names,
@@ -43,9 +43,9 @@ from .checks import (
     is_uniform,
     scale_exponents,
 )
-from .conversion import c2d, d2c, sampled_steps
-from .recursion import linear_recursion
-from .runtime import library_call
+from hdpbsid.conversion import c2d, d2c, sampled_steps
+from hdpbsid.recursion import linear_recursion
+from hdpbsid.runtime import library_call
 
 __all__ = [
     "StateSpaceModel",
@@ -355,7 +355,7 @@ class StateSpaceModel(_ModelBase):
     def save(self, path: Any) -> Any:
         """Write the model to ``path`` as JSON (:func:`hdpbsid.model_io.save_model`);
         :func:`hdpbsid.load_model` reads it back.  Returns the path."""
-        from .model_io import save_model
+        from hdpbsid.model_io import save_model
 
         return save_model(self, path)
 

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import LinearTrend, StateSpaceModel
+from hdpbsid.model import LinearTrend, StateSpaceModel
 
 __all__ = [
     "save_model",

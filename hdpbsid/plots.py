@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_data
-from .model import StateSpaceModel, fit_statistics
+from hdpbsid.checks import check_data
+from hdpbsid.model import StateSpaceModel, fit_statistics
 
 __all__ = [
     "new_figure",

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_data, check_varies, time_resolution
+from hdpbsid.checks import check_data, check_varies, time_resolution
 
 __all__ = ["Record", "as_records", "split_windows", "is_record_list"]
 

@@ -75,10 +75,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .checks import check_data, check_positive_int
+from hdpbsid.checks import check_data, check_positive_int
 
 if TYPE_CHECKING:
-    from .methods.chunked import ChunkedRecord
+    from hdpbsid.methods.chunked import ChunkedRecord
 
 __all__ = [
     "LongRecordPolicy",
@@ -173,7 +173,7 @@ def whole_record_cost(method: str, ns: int, m: int, l: int) -> tuple[float, floa
     superlinear work).
     """
     if method == "dt":
-        from .methods.dt import P_CAP, SAMPLES_PER_REGRESSOR
+        from hdpbsid.methods.dt import P_CAP, SAMPLES_PER_REGRESSOR
 
         c = min(P_CAP, ns // (SAMPLES_PER_REGRESSOR * (m + l))) * (m + l)
         return 16.0 * ns * c, 2.0 * ns * c**2
@@ -425,7 +425,7 @@ def is_long(t: Any, u: Any, y: Any, method: str, policy: Any) -> bool:
     record (or a :class:`~hdpbsid.methods.chunked.ChunkedRecord`) longer than the
     policy's ``long_samples``; ``policy=False`` never."""
     if not isinstance(t, np.ndarray | list | tuple):  # cheap first: no import for arrays
-        from .methods.chunked import ChunkedRecord
+        from hdpbsid.methods.chunked import ChunkedRecord
 
         if isinstance(t, ChunkedRecord):
             return True
@@ -449,7 +449,7 @@ def _policy(policy: Any) -> LongRecordPolicy:
 
 def _levels(rec: ChunkedRecord, progress: _Progress) -> tuple[Array, Array]:
     """Channel means of a chunked record (one pass)."""
-    from .methods.chunked import CHUNK_SAMPLES
+    from hdpbsid.methods.chunked import CHUNK_SAMPLES
 
     su, sy = np.zeros(rec.m), np.zeros(rec.l)
     progress.reading(rec.ns, "means")
@@ -528,12 +528,12 @@ def identify_long(
     >>> m.options["long_record"]["methods"]
     ('hermite', 'laguerre', 'legendre', 'dt')
     """
-    from .identify import _set_levels
-    from .methods.chunked import ChunkedRecord, averaged_spectra
-    from .methods.refine import REFINE_CHOICES, is_uniform
-    from .methods.segments import LOW_FRACTION
-    from .model import LinearTrend
-    from .selection import AUTO_METHODS
+    from hdpbsid.identify import _set_levels
+    from hdpbsid.methods.chunked import ChunkedRecord, averaged_spectra
+    from hdpbsid.methods.refine import REFINE_CHOICES, is_uniform
+    from hdpbsid.methods.segments import LOW_FRACTION
+    from hdpbsid.model import LinearTrend
+    from hdpbsid.selection import AUTO_METHODS
 
     policy = _policy(long_record)
     if refine not in REFINE_CHOICES:
@@ -557,7 +557,7 @@ def identify_long(
             rec = dataclasses.replace(raw, read=_Centred(raw.read, u0, y0))
             op_info: Any = {"u0": u0.tolist(), "y0": y0.tolist(), "samples": raw.ns}
         else:
-            from .detrend import detrend_record
+            from hdpbsid.detrend import detrend_record
 
             tt, ua, yy = check_data(t, u, y)
             if not is_uniform(tt):
@@ -577,7 +577,7 @@ def identify_long(
         # 1. spectrum
         bar.stage("spectrum")
         bar.reading(rec.ns, "spectrum")
-        from .methods.basis_domain import spectra_data_bandwidth, spectrum_bandwidth
+        from hdpbsid.methods.basis_domain import spectra_data_bandwidth, spectrum_bandwidth
 
         w, Pu, Py = averaged_spectra(reading, min(rec.ns, 2**16))
         bar.end_reading()
@@ -587,7 +587,7 @@ def identify_long(
         opts = dict(options)
         asked = opts.pop("methods", None)
         if asked is None:
-            from .identify import is_available
+            from hdpbsid.identify import is_available
 
             asked = [m for m in AUTO_METHODS if is_available(m)]
         plan = policy.plan(
@@ -607,7 +607,7 @@ def identify_long(
             )
         # 3. selection on the segment
         bar.stage(f"selection on {plan.selection[1] - plan.selection[0]} samples")
-        from .selection import identify_auto
+        from hdpbsid.selection import identify_auto
 
         seg = _segment(rec, *plan.selection)
         t_sel = time.perf_counter()
@@ -682,13 +682,13 @@ def _whole_record(
 ) -> Any:
     """``method`` at order ``n`` on the whole record: the method itself (in memory), or
     HD-PBSID's streamed core when the plan says so."""
-    from .identify import get_method
-    from .selection import refit_keeps
+    from hdpbsid.identify import get_method
+    from hdpbsid.selection import refit_keeps
 
     given = {**{k: v for k, v in opts.items() if k not in _AUTO_ONLY}}
     given.update((opts.get("method_options") or {}).get(method, {}))
     if method in plan.streamed:
-        from .methods.chunked import identify_chunked
+        from hdpbsid.methods.chunked import identify_chunked
 
         bar.reading(3 * rec.ns, "whole record (3 passes)")
         given.pop("window", None) if given.get("window") == "auto" else None
@@ -725,10 +725,10 @@ def _refine(
 ) -> Any:
     """The refinement on a bounded part and the choice between it and ``model``
     (module docstring); what was done goes to ``info``."""
-    from .criteria import choose_smallest_adequate, default_windows
-    from .feedback import refine_decision
-    from .methods.refine import WARM_START, refine_pem, warm_start_option
-    from .selection import score_model
+    from hdpbsid.criteria import choose_smallest_adequate, default_windows
+    from hdpbsid.feedback import refine_decision
+    from hdpbsid.methods.refine import WARM_START, refine_pem, warm_start_option
+    from hdpbsid.selection import score_model
 
     t0 = time.perf_counter()
     a, b = plan.selection
@@ -807,7 +807,7 @@ def _refine(
 def _with_warm(model: Any, warm: dict[str, Any] | None) -> Any:
     """A copy of ``model`` offering ``warm`` (:func:`~hdpbsid.methods.refine.warm_start_option`
     of a prediction-error fit) to the refinement as a starting point."""
-    from .methods.refine import WARM_START
+    from hdpbsid.methods.refine import WARM_START
 
     start = copy.copy(model)
     start.options = dict(model.options)

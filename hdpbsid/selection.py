@@ -85,8 +85,8 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_data, check_positive_int
-from .criteria import (
+from hdpbsid.checks import check_data, check_positive_int
+from hdpbsid.criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
     SIGNIFICANCE_Z,
@@ -97,8 +97,8 @@ from .criteria import (
     windowed_prediction_error,
     windowed_simulation_error,
 )
-from .model import StateSpaceModel
-from .runtime import library_call
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.runtime import library_call
 
 __all__ = [
     "identify_auto",
@@ -315,7 +315,7 @@ def _refine_and_score(
     """``model`` refined on ``est`` (:func:`hdpbsid.methods.refine.refine_pem`; None when
     the refinement fails or does not converge) and the held-out score
     (:func:`score_model`) of the refined model, or of ``model`` itself without one."""
-    from .methods.refine import refine_pem
+    from hdpbsid.methods.refine import refine_pem
 
     refined = None
     with warnings.catch_warnings():
@@ -365,8 +365,8 @@ def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
     one-step prediction errors of ``model`` on ``rec = (t, u, y)`` correlated with the
     prewhitened input at positive lags) declares the record closed loop; False when it
     cannot be computed (the predictor diverges on the record)."""
-    from .feedback import feedback_statistics
-    from .methods.refine import one_step_errors
+    from hdpbsid.feedback import feedback_statistics
+    from hdpbsid.methods.refine import one_step_errors
 
     t, u, y = rec
     try:
@@ -435,7 +435,7 @@ def rejudge_refined(
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
     """
-    from .methods.refine import is_uniform
+    from hdpbsid.methods.refine import is_uniform
 
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
@@ -628,7 +628,7 @@ def _first_that_holds(
         if holds:
             warm = chosen.get("refined_model")
             if warm is not None:
-                from .methods.refine import WARM_START, warm_start_option
+                from hdpbsid.methods.refine import WARM_START, warm_start_option
 
                 # the candidate refined on the estimation part: a starting point of the
                 # refinement of the refit (hdpbsid.methods.refine.refine_pem)
@@ -703,8 +703,8 @@ def select_model(
     Raises ``ValueError`` when the record is too short to hold out enough scoring windows
     (the message says what would work) or when no candidate can be identified.
     """
-    from .identify import get_method  # the registry lives in the front end
-    from .records import as_records, is_record_list
+    from hdpbsid.identify import get_method
+    from hdpbsid.records import as_records, is_record_list
 
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
@@ -819,9 +819,9 @@ def identify_auto(
     it raises ``TypeError``).  ``model.options["selection"]`` lists every candidate,
     ``options["order_selection"]`` the chosen method's.
     """
-    from .identify import get_method, is_available
-    from .methods.refine import is_uniform
-    from .records import as_records
+    from hdpbsid.identify import get_method, is_available
+    from hdpbsid.methods.refine import is_uniform
+    from hdpbsid.records import as_records
 
     recs = as_records(t, u, y)
     if len(recs) == 1:
@@ -874,7 +874,7 @@ def select_order(
     (from its singular values) and ``options["order_selection"]`` says so.
     """
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    from .identify import get_method
+    from hdpbsid.identify import get_method
 
     try:
         model, table, rule = select_model(

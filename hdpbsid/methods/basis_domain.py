@@ -32,14 +32,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 import slbasis
-
-from ..checks import check_positive_int
-from ..core.blocks import BlockLag, BlockPseudo, best_window, pbsid_core_blocks
-from ..core.pbsid import CoreResult
-from ..core.varx import CachedPowers
-from ..model import StateSpaceModel
-from .memo import digest, memoize, past_window_aic, varx_stage
-from .settings import INPUT_HOLDS, BasisSettings
+from hdpbsid.checks import check_positive_int
+from hdpbsid.core.blocks import BlockLag, BlockPseudo, best_window, pbsid_core_blocks
+from hdpbsid.core.pbsid import CoreResult
+from hdpbsid.core.varx import CachedPowers
+from hdpbsid.methods.memo import digest, memoize, past_window_aic, varx_stage
+from hdpbsid.methods.settings import INPUT_HOLDS, BasisSettings
+from hdpbsid.model import StateSpaceModel
 
 __all__ = [
     "SolveLag",

@@ -46,13 +46,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 import slbasis
-
-from ..checks import check_order, check_positive_int
-from ..core import streamed
-from ..core.blocks import BlockLag, BlockPseudo
-from ..model import StateSpaceModel
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.checks import check_order, check_positive_int
+from hdpbsid.core import streamed
+from hdpbsid.core.blocks import BlockLag, BlockPseudo
+from hdpbsid.methods.basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
     RIDGE_FLOOR,
@@ -66,9 +63,11 @@ from .basis_domain import (
     spectra_data_bandwidth,
     spectrum_bandwidth,
 )
-from .hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
-from .segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.methods.hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
+from hdpbsid.methods.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
+from hdpbsid.methods.settings import BasisSettings, resolve_settings
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.runtime import library_call
 
 __all__ = ["ChunkedRecord", "identify_chunked", "SPECTRUM_SAMPLES", "CHUNK_SAMPLES"]
 

@@ -36,14 +36,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import (
+from hdpbsid.checks import (
     check_method_args,
     check_signal,
     check_uniform,
 )
-from ..core.blocks import BlockLag
-from ..core.pbsid import SubspaceStage, pbsid_core, subspace_stage
-from ..core.varx import (
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.core.pbsid import SubspaceStage, pbsid_core, subspace_stage
+from hdpbsid.core.varx import (
     WINDOW_SEARCH_GROWTH,
     LagOperator,
     SampleShift,
@@ -51,10 +51,10 @@ from ..core.varx import (
     select_past_window,
     windows_searched,
 )
-from ..model import DiscreteModel, StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .memo import memoize
+from hdpbsid.methods.memo import memoize
+from hdpbsid.model import DiscreteModel, StateSpaceModel
+from hdpbsid.records import as_records
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
 

@@ -35,12 +35,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgttrf, dgttrs
 
-from ..checks import check_data, check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.checks import check_data, check_order, check_positive_int
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.methods.basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
@@ -51,22 +48,25 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite_iv import reference_instruments, with_reference
-from .operator_scale import (
+from hdpbsid.methods.hermite_iv import reference_instruments, with_reference
+from hdpbsid.methods.operator_scale import (
     MODE_ENERGY_FRACTION,
     alpha_from_dynamics,
     held_out_check,
     held_out_comparison,
     in_sample_screen,
 )
-from .segments import (
+from hdpbsid.methods.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.methods.settings import BasisSettings, resolve_settings
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.records import as_records
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 

@@ -78,8 +78,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.blocks import BlockLag
-from ..records import Record
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.records import Record
 
 __all__ = [
     "ESTIMATORS",

@@ -38,13 +38,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..core.varx import SampleShift
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.checks import check_order, check_positive_int
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.core.varx import SampleShift
+from hdpbsid.methods.basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
     basis_values,
@@ -53,15 +50,18 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite import _real
-from .segments import (
+from hdpbsid.methods.hermite import _real
+from hdpbsid.methods.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.methods.settings import BasisSettings, resolve_settings
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.records import as_records
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
 

@@ -31,8 +31,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..core.blocks import BlockPseudo, VarxStage, select_past_window_blocks, varx_stage_blocks
-from ..core.varx import LagOperator
+from hdpbsid.core.blocks import BlockPseudo, VarxStage, select_past_window_blocks, varx_stage_blocks
+from hdpbsid.core.varx import LagOperator
 
 __all__ = [
     "memoize",

@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..criteria import (
+from hdpbsid.criteria import (
     MIN_WINDOWS,
     WindowedError,
     choose_smallest_adequate,

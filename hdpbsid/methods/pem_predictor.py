@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from ..recursion import modal_filter
+from hdpbsid.recursion import modal_filter
 
 __all__ = ["Predictor", "sampled_predictor", "conjugate_representatives", "modal_filter"]
 

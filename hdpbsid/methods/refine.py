@@ -89,12 +89,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 
-from ..checks import check_data
-from ..checks import is_uniform as checks_is_uniform
-from ..model import StateSpaceModel
-from ..recursion import select_kernels
-from ..runtime import library_call
-from .pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
+from hdpbsid.checks import check_data
+from hdpbsid.checks import is_uniform as checks_is_uniform
+from hdpbsid.methods.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.recursion import select_kernels
+from hdpbsid.runtime import library_call
 
 __all__ = [
     "refine_pem",
@@ -558,7 +558,7 @@ class _Workspace:
 
 
 def _load_kernels() -> ModuleType:
-    from . import pem_kernels
+    from hdpbsid.methods import pem_kernels
 
     return pem_kernels
 

@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import is_uniform
-from ..records import Record, split_windows
-from .basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
-from .memo import memoize
-from .settings import check_window
+from hdpbsid.checks import is_uniform
+from hdpbsid.methods.basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from hdpbsid.methods.memo import memoize
+from hdpbsid.methods.settings import check_window
+from hdpbsid.records import Record, split_windows
 
 __all__ = [
     "default_window",

@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import DEFAULT_MAX_ORDER, check_positive_int, require_joblib
-from ..core.varx import parse_regularize
+from hdpbsid.checks import DEFAULT_MAX_ORDER, check_positive_int, require_joblib
+from hdpbsid.core.varx import parse_regularize
 
 __all__ = ["BasisSettings", "INPUT_HOLDS", "SETTING_NAMES", "check_window", "resolve_settings"]
 

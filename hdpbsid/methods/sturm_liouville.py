@@ -54,14 +54,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import slbasis
-from slbasis.numeric import operators
-
-from ..checks import check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.checks import check_order, check_positive_int
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.methods.basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
@@ -72,16 +67,20 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite import _real
-from .memo import memoize
-from .segments import (
+from hdpbsid.methods.hermite import _real
+from hdpbsid.methods.memo import memoize
+from hdpbsid.methods.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.methods.settings import BasisSettings, resolve_settings
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.records import as_records
+from hdpbsid.runtime import library_call
+from slbasis.numeric import operators
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ..metrics import match_eigenvalues
-from .runner import TaskFunc, _plain
+from hdpbsid.metrics import match_eigenvalues
+from hdpbsid.studies.runner import TaskFunc, _plain
 
 __all__ = [
     "Study",

@@ -17,9 +17,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model import StateSpaceModel
-from ..systems import add_noise, second_order
-from ..systems.quadrotor import PitchData, hermite_sweep_excitation, simulate_pitch_closed_loop
+from hdpbsid.model import StateSpaceModel
+from hdpbsid.systems import add_noise, second_order
+from hdpbsid.systems.quadrotor import (
+    PitchData,
+    hermite_sweep_excitation,
+    simulate_pitch_closed_loop,
+)
 
 __all__ = ["Record", "second_order_record", "quadrotor_record", "SECOND_ORDER_TRUE"]
 

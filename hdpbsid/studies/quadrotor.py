@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from ..systems.quadrotor import pitch_output_matrices
-from .base import Study, model_record
-from .data import quadrotor_record
-from .methods import check_methods, identify_with
+from hdpbsid.studies.base import Study, model_record
+from hdpbsid.studies.data import quadrotor_record
+from hdpbsid.studies.methods import check_methods, identify_with
+from hdpbsid.systems.quadrotor import pitch_output_matrices
 
 __all__ = ["STUDY", "DEFAULTS", "make_cases", "task", "identify_case", "validation_rng"]
 
@@ -133,7 +133,7 @@ def _singular_values(r: dict[str, Any]) -> list[float]:
 
 
 def _vaf(model: Any, d: Any) -> list[float]:
-    from ..plots import display_fit
+    from hdpbsid.plots import display_fit
 
     return [float(v) for v in display_fit(model, d.t, d.u, d.y).vaf]
 
@@ -155,7 +155,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     for o, m in r["models"].items():
         rec = model_record(m, true)
         if m.n > true.size:
-            from ..metrics import match_eigenvalues
+            from hdpbsid.metrics import match_eigenvalues
 
             est, _ = match_eigenvalues(m.eigenvalues, true)
             extra = [z for z in m.eigenvalues if not np.any(np.isclose(z, est))]
@@ -200,7 +200,7 @@ def _fmt(z: list[float]) -> str:
 
 
 def _figures(result: Any, out: Any) -> dict[str, Any]:
-    from .figures import quadrotor_figures
+    from hdpbsid.studies.figures import quadrotor_figures
 
     return quadrotor_figures(result, out)
 
