@@ -12,7 +12,7 @@ cores for large factorisations and the compiled projection (:mod:`hdpbsid.runtim
 
 from typing import Any
 
-from hdpbsid.conversion import c2d, d2c
+from hdpbsid.bases.settings import BasisSettings
 from hdpbsid.core.pbsid import pbsid_core
 from hdpbsid.core.varx import LagOperator, MatrixLag, SampleShift
 from hdpbsid.identify import (
@@ -24,10 +24,10 @@ from hdpbsid.identify import (
     register_method,
 )
 from hdpbsid.methods.dt import identify_discrete, identify_dt
-from hdpbsid.methods.settings import BasisSettings
-from hdpbsid.metrics import eigenvalue_errors, match_eigenvalues
-from hdpbsid.model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
-from hdpbsid.model_io import load_model, save_model
+from hdpbsid.models.conversion import c2d, d2c
+from hdpbsid.models.metrics import eigenvalue_errors, match_eigenvalues
+from hdpbsid.models.model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
+from hdpbsid.models.model_io import load_model, save_model
 from hdpbsid.runtime import num_threads
 from hdpbsid.systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 

@@ -4,10 +4,10 @@
 [--fit [--order N]]``: the frequency response and coherence of a record (Welch H1, from a
 reference in closed loop, or the exact lines of a periodic record), written to
 ``OUT/frf.csv`` with its 95 % region, a Bode figure ``OUT/frf.png`` and, with ``--fit``, a
-model identified from it (:func:`hdpbsid.frequency.identify_frequency`) drawn over it.
+model identified from it (:func:`hdpbsid.frequency.fit.identify_frequency`) drawn over it.
 
 ``hdpbsid input KIND --dt DT --samples N ...``: an input design from
-:mod:`hdpbsid.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
+:mod:`hdpbsid.design.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
 """
 
 from __future__ import annotations
@@ -18,8 +18,9 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hdpbsid import frequency, inputs
-from hdpbsid.io import read_record
+from hdpbsid.data.io import read_record
+from hdpbsid.design import inputs
+from hdpbsid.frequency import fit as frequency
 
 COMMANDS = ("frf", "input")
 
@@ -62,7 +63,7 @@ def add_parsers(sub: Any) -> None:
     i = sub.add_parser(
         "input",
         help="design an input signal (PRBS, random binary, multisine, chirp, Hermite sweep)",
-        description="Write an input design of hdpbsid.inputs to OUT/input.csv.",
+        description="Write an input design of hdpbsid.design.inputs to OUT/input.csv.",
     )
     i.add_argument(
         "kind", choices=("prbs", "rbs", "multisine", "chirp", "logchirp", "hermite-sweep")

@@ -27,8 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid import scaling
-from hdpbsid.checks import (
+from hdpbsid.data.checks import (
     check_data,
     check_label,
     check_names,
@@ -37,18 +36,19 @@ from hdpbsid.checks import (
     require_joblib,
     scale_exponents,
 )
-from hdpbsid.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
-from hdpbsid.feedback import refine_decision
+from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from hdpbsid.methods.dt import identify_dt
-from hdpbsid.methods.refine import (
+from hdpbsid.models.model import LinearTrend, StateSpaceModel, scale_signals
+from hdpbsid.refine.pem import (
     REFINE_CHOICES,
     WARM_START,
     is_uniform,
     one_step_errors,
     refine_pem,
 )
-from hdpbsid.model import LinearTrend, StateSpaceModel, scale_signals
 from hdpbsid.runtime import library_call
+from hdpbsid.selection import long_records as scaling
+from hdpbsid.selection.feedback import refine_decision
 
 __all__ = [
     "METHODS",
@@ -73,7 +73,7 @@ LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
     "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
     "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
     "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
-    "auto": (("hdpbsid.selection", "identify_auto"),),
+    "auto": (("hdpbsid.selection.auto", "identify_auto"),),
 }
 
 
@@ -81,7 +81,7 @@ def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> I
     """Register ``func`` under ``name`` in :data:`METHODS`; returns ``func``.
 
     ``func(t, u, y, order=None, **options)`` must return a
-    :class:`~hdpbsid.model.StateSpaceModel`.  Re-registering a name with a different
+    :class:`~hdpbsid.models.model.StateSpaceModel`.  Re-registering a name with a different
     function raises ``ValueError`` unless ``overwrite=True`` (registering the same
     function twice is harmless, so a module may register itself on import).
     """
@@ -207,16 +207,16 @@ def identify(
     left out); every record is detrended on its own and the list is passed to the
     method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
     ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
-    prediction error (:func:`hdpbsid.selection.identify_auto`; with several records the
+    prediction error (:func:`hdpbsid.selection.auto.identify_auto`; with several records the
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
     ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (see :func:`available_methods`).
     ``options`` go to the method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for
     ``"dt"``); with ``"auto"`` they go to every method tried (e.g. ``feedthrough=True``),
     besides ``methods=``, ``max_order=``, ``n_jobs=`` (the methods swept in parallel) and
-    ``method_options=`` (per method) of :func:`~hdpbsid.selection.identify_auto`.
+    ``method_options=`` (per method) of :func:`~hdpbsid.selection.auto.identify_auto`.
 
     ``order=None`` chooses the order from the identified *models*
-    (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
+    (:func:`hdpbsid.selection.auto.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
     one-step prediction error on the last third (the better of the predictors with the
     model's ``K`` and with ``K = 0``, i.e. the simulation error; the prediction error is
@@ -227,7 +227,7 @@ def identify(
     ``options["order_selection"]``).  A constant input column raises a ``UserWarning``
     (not persistently exciting).
 
-    ``detrend`` sets the operating point (:mod:`hdpbsid.detrend`): ``"mean"`` (default)
+    ``detrend`` sets the operating point (:mod:`hdpbsid.data.detrend`): ``"mean"`` (default)
     removes each channel's mean before the method runs, ``"linear"`` its least-squares
     line in ``t``, ``None`` nothing (with a ``UserWarning`` when a channel's level
     outweighs its variation, ``|mean| > std``).  The removed levels are stored in the
@@ -238,15 +238,15 @@ def identify(
     sample-weighted mean level ``sum N_i x0_i / sum N_i`` (and no trend); each record's
     own levels are in ``model.options["operating_points"]``.  Removing the means makes
     the estimate invariant to constant shifts of the data; the price is an O(1/T) level
-    error on records that start at rest (see :mod:`hdpbsid.detrend`).
+    error on records that start at rest (see :mod:`hdpbsid.data.detrend`).
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
-    model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
+    model (:func:`hdpbsid.refine.pem.refine_pem`: efficient, consistent in closed loop,
     reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, about 0.1 s
     on 7500 samples; one record only); ``None`` returns the subspace model as the method
     produced it; ``"auto"`` (default) refines every single uniformly sampled record
     whose first-pass one-step predictor does not diverge
-    (:func:`hdpbsid.feedback.refine_decision`): the subspace model is the start, the
+    (:func:`hdpbsid.selection.feedback.refine_decision`): the subspace model is the start, the
     prediction-error model the answer (efficient in open loop, consistent in closed loop
     where the basis-domain least squares is biased).  A chi-square feedback test of the
     first-pass residuals against the prewhitened input is reported with the rule in
@@ -267,10 +267,10 @@ def identify(
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
     :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t``) take a bounded path
-    (:mod:`hdpbsid.scaling`): methods and orders chosen on a segment, the chosen one
+    (:mod:`hdpbsid.selection.long_records`): methods and orders chosen on a segment, the chosen one
     fitted on the whole record, refined on a bounded part; ``long_record=`` a
-    :class:`~hdpbsid.scaling.LongRecordPolicy` (or False: off), ``progress=True`` shows
-    progress bars.
+    :class:`~hdpbsid.selection.long_records.LongRecordPolicy` (or False: off),
+    ``progress=True`` shows progress bars.
 
     ``input_names``, ``output_names`` (``m`` and ``l`` distinct strings; default ``u1``,
     ... and ``y1``, ...) and ``time_unit`` (the unit of ``t``, default ``"s"``; the
@@ -292,7 +292,9 @@ def identify(
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     in_memory = isinstance(t, np.ndarray | list | tuple)
     labels = _Labels(input_names, output_names, time_unit, t, u, y) if in_memory else None
-    if scaling.is_long(t, u, y, method, long_record):  # bounded work: hdpbsid.scaling
+    if scaling.is_long(
+        t, u, y, method, long_record
+    ):  # bounded work: hdpbsid.selection.long_records
         model = scaling.identify_long(t, u, y, order, refine, detrend, long_record=long_record,
                                       progress=progress, **options)  # fmt: skip
         if labels is not None:
@@ -389,7 +391,7 @@ def identify(
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
     """The model's one-step prediction errors on a uniformly sampled record for the
     feedback test, by the refinement's compiled predictor
-    (:func:`~hdpbsid.methods.refine.one_step_errors`: the numbers of ``model.predict``,
+    (:func:`~hdpbsid.refine.pem.one_step_errors`: the numbers of ``model.predict``,
     10^4 samples 0.6 instead of 4.4 ms), with the model's input hold; None when its
     sampled predictor is unstable (the test then takes ``predict``'s, whose overflow
     it reports)."""
@@ -444,7 +446,7 @@ class _Labels:
 
 class _Scaling:
     """Channels far outside the float64 comfort band, scaled by powers of two for the
-    identification and the model scaled back (:func:`~hdpbsid.checks.scale_exponents`):
+    identification and the model scaled back (:func:`~hdpbsid.data.checks.scale_exponents`):
     the result is the model of the unscaled record, since a power-of-two scaling is
     exact and the methods are invariant to the signals' units.  The state takes the
     inputs' scale, so ``B`` keeps moderate entries and ``C``, ``D`` carry the gain."""
@@ -572,14 +574,14 @@ def _run(
     refined: bool = False,
 ) -> StateSpaceModel:
     """Run ``method`` on one record; ``order=None`` goes through the held-out order choice
-    (:func:`hdpbsid.selection.select_order`) unless ``order_rule="svd"``.  ``refined``:
+    (:func:`hdpbsid.selection.auto.select_order`) unless ``order_rule="svd"``.  ``refined``:
     the result will be refined, so the held-out choice is told (it then decides close
-    orders between refined candidates, :func:`hdpbsid.selection.rejudge_refined`)."""
+    orders between refined candidates, :func:`hdpbsid.selection.auto.rejudge_refined`)."""
     rule = options.pop("order_rule", "held-out")
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
     if order is None and method != "auto" and rule == "held-out":
-        from hdpbsid.selection import select_order
+        from hdpbsid.selection.auto import select_order
 
         return select_order(method, t, u, y, refined=refined, **options)
     if method == "auto":

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import check_data
-from hdpbsid.model import StateSpaceModel, fit_statistics
+from hdpbsid.data.checks import check_data
+from hdpbsid.models.model import StateSpaceModel, fit_statistics
 
 __all__ = [
     "new_figure",
@@ -401,9 +401,9 @@ def plot_validation(
     * per output: autocorrelation of the one-step prediction errors over lags ``1..M``
       with the 99 % band ``+-2.58 / sqrt(N)`` and the Ljung-Box verdict;
     * per output and input: residual-input cross-correlation over lags ``-M..M`` with its
-      99 % band (:mod:`hdpbsid.assessment`).
+      99 % band (:mod:`hdpbsid.models.assessment`).
 
-    ``report``: a :class:`~hdpbsid.assessment.ResidualReport` already computed (else
+    ``report``: a :class:`~hdpbsid.models.assessment.ResidualReport` already computed (else
     :meth:`StateSpaceModel.residuals` with ``max_lag``).  Channel names default to the
     model's; the time axis carries its ``time_unit``.  Returns the figure.
     """

@@ -22,7 +22,7 @@ sys.path.insert(0, str(BENCH))
 import cases  # noqa: E402
 import peers  # noqa: E402
 
-from hdpbsid.conversion import c2d  # noqa: E402
+from hdpbsid.models.conversion import c2d  # noqa: E402
 
 SECOND_ORDER = np.array([-0.4 + np.sqrt(3.84) * 1j, -0.4 - np.sqrt(3.84) * 1j])
 PBSID = 0.67 * np.array([1 + 1j, 1 - 1j, -1 + 1j, -1 - 1j])

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdpbsid.bases.basis_domain import SolveLag
 from hdpbsid.core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks, select_past_window_blocks
-from hdpbsid.methods.basis_domain import SolveLag
 
 NCOLS = 300
 FLOOR = 1e-12  # select_past_window_blocks' default rel_floor

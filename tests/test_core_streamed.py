@@ -143,7 +143,7 @@ def test_factors_do_not_grow_with_the_blocks() -> None:
 
 
 def test_lags_that_invalidate_columns_are_refused() -> None:
-    from hdpbsid.methods.basis_domain import BlockShift
+    from hdpbsid.bases.basis_domain import BlockShift
 
     U, Y, _, P = _blocks()
     bl = BlockLag([BlockShift(N_BLOCK)], [U.shape[1]])

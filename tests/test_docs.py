@@ -50,7 +50,7 @@ def test_doc_examples_run(page: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 @pytest.mark.parametrize(
-    "module", ["slbasis.symbolic.problem", "slbasis.families", "hdpbsid.methods.settings"]
+    "module", ["slbasis.symbolic.problem", "slbasis.families", "hdpbsid.bases.settings"]
 )
 def test_docstring_examples_of_the_api_pages_run(module: str) -> None:
     """The ``Examples`` of the docstrings the API reference shows (doctest)."""

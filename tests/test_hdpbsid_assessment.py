@@ -1,4 +1,4 @@
-"""Model validation (hdpbsid.assessment, model.compare / residuals, validate command)."""
+"""Model validation (hdpbsid.models.assessment, model.compare / residuals, validate command)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from hdpbsid.assessment import fit_percent, residual_tests
 from hdpbsid.cli import main, model_from_dict, model_to_dict, write_model_json
 from hdpbsid.identify import identify
-from hdpbsid.model import LinearTrend, StateSpaceModel
+from hdpbsid.models.assessment import fit_percent, residual_tests
+from hdpbsid.models.model import LinearTrend, StateSpaceModel
 from hdpbsid.plots import plot_validation, save_figure
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 

@@ -18,7 +18,7 @@ import pytest
 
 import hdpbsid
 from hdpbsid.cli import main
-from hdpbsid.io import read_record
+from hdpbsid.data.io import read_record
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,7 +15,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 from scipy.signal import butter, chirp, filtfilt
 
-from hdpbsid.methods.basis_domain import (
+from hdpbsid.bases.basis_domain import (
     BlockShift,
     SolveLag,
     _power_spectra,
@@ -25,8 +25,8 @@ from hdpbsid.methods.basis_domain import (
     noise_floor,
 )
 from hdpbsid.methods.hermite import identify_hermite
-from hdpbsid.metrics import eigenvalue_errors
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.systems import add_noise, random_steps, second_order
 from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 

@@ -100,7 +100,7 @@ def test_monte_carlo_bias_and_std() -> None:
 
 @pytest.mark.parametrize("ns", [2001, 2000])  # odd / even node counts: with / without a centre
 def test_mirrored_nodes_projected_once_same_coefficients(ns: int) -> None:
-    import hdpbsid.methods.basis_domain as bd
+    import hdpbsid.bases.basis_domain as bd
     import slbasis
 
     rng = np.random.default_rng(ns)

@@ -1,4 +1,4 @@
-"""Records read in chunks (hdpbsid.methods.chunked, hdpbsid.io.open_chunked).
+"""Records read in chunks (hdpbsid.methods.chunked, hdpbsid.data.io.open_chunked).
 
 Oracles: the in-memory HD-PBSID (identify_hermite, a separate code path: whole-record
 spectra, split_windows, project_blocks) on the same samples, and the true eigenvalues of
@@ -16,18 +16,18 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import signal
 
-from hdpbsid.conversion import c2d
+from hdpbsid.bases.basis_domain import data_bandwidth
+from hdpbsid.bases.segments import window_rule
 from hdpbsid.core import streamed
-from hdpbsid.io import open_chunked
-from hdpbsid.methods.basis_domain import data_bandwidth
+from hdpbsid.data.io import open_chunked
 from hdpbsid.methods.chunked import (
     ChunkedRecord,
     averaged_spectra,
     identify_chunked,
 )
 from hdpbsid.methods.hermite import identify_hermite
-from hdpbsid.methods.segments import window_rule
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.conversion import c2d
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import add_noise
 
 FS, F_RES, ZETA, F_BAND = 1000.0, 5.0, 0.05, 20.0
@@ -154,7 +154,7 @@ def test_averaged_spectrum_bandwidth_close_to_whole_record() -> None:
     t, u, y = _record(2**17, seed=3)
     rec = ChunkedRecord.from_arrays(u, y, 1.0 / FS)
     w, Pu, Py = averaged_spectra(rec, spectrum_samples=2**14)
-    from hdpbsid.methods.basis_domain import spectra_data_bandwidth
+    from hdpbsid.bases.basis_domain import spectra_data_bandwidth
 
     whole = data_bandwidth(t, u, y)
     chunked = spectra_data_bandwidth(w, Pu, w, Py)
@@ -166,8 +166,8 @@ def test_averaged_spectrum_bandwidth_close_to_whole_record() -> None:
 
 def test_window_rule_is_the_in_memory_rule(data) -> None:
     t, u, y = data
-    from hdpbsid.methods.segments import default_window
-    from hdpbsid.records import as_records
+    from hdpbsid.bases.segments import default_window
+    from hdpbsid.data.records import as_records
 
     recs = as_records(t, u, y)
     expected = default_window(recs, 300.0, 3, 4)

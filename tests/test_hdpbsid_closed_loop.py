@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from hdpbsid import identify
-from hdpbsid.feedback import feedback_statistics, refine_decision
 from hdpbsid.methods.hermite import identify_hermite
-from hdpbsid.metrics import match_eigenvalues
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.metrics import match_eigenvalues
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.selection.feedback import feedback_statistics, refine_decision
 from hdpbsid.studies.data import quadrotor_record, second_order_record
 from hdpbsid.systems.linear import add_noise, random_steps, simulate_zoh
 from hdpbsid.systems.quadrotor import pitch_model
@@ -183,7 +183,7 @@ def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge(
 ) -> None:
     """A budget too small to converge (the fit needs ~30 evaluations here): the iterate
     cut off on its way is dropped and the subspace model returned unchanged."""
-    import hdpbsid.methods.refine as refine_module
+    import hdpbsid.refine.pem as refine_module
 
     monkeypatch.setattr(refine_module, "DEFAULT_MAX_NFEV", 4)
     d = quadrotor_record(
@@ -221,7 +221,7 @@ def test_prewhitening_is_the_least_squares_ar_fit(kind: str) -> None:
     ``order`` lags in the sample."""
     from scipy.signal import butter, lfilter
 
-    from hdpbsid.feedback import _prewhiten
+    from hdpbsid.selection.feedback import _prewhiten
 
     rng = np.random.default_rng(5)
     ns, order = 4000, 40

@@ -9,7 +9,7 @@ from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
 from hdpbsid import c2d, d2c
-from hdpbsid.conversion import check_log_exists, sampled_steps
+from hdpbsid.models.conversion import check_log_exists, sampled_steps
 from hdpbsid.systems import second_order
 
 
@@ -120,7 +120,7 @@ def test_logarithm_by_eigenvalues_is_the_generic_logm(seed, n, k, integrator):
         A[:, 0] = 0.0  # a zero eigenvalue of A: Ad has the eigenvalue 1 exactly
     Ad = expm(A * dt)
     G = rng.standard_normal((n, k))
-    from hdpbsid.conversion import MAX_LOG_CONDITION
+    from hdpbsid.models.conversion import MAX_LOG_CONDITION
 
     cond = np.linalg.cond(np.linalg.eig(Ad)[1])
     Ab, Gb = (d2c(Ad, G, np.ones((1, n)), None, None, dt)[i] * dt for i in (0, 1))
@@ -136,7 +136,7 @@ def test_logarithm_by_eigenvalues_is_the_generic_logm(seed, n, k, integrator):
 def test_nearly_defective_ad_takes_the_generic_logarithm():
     # a Jordan block perturbed by 1e-14: eigenvectors nearly parallel, cond(V) ~ 1e7
     Ad = np.array([[0.9, 1.0], [1e-14, 0.9]])
-    from hdpbsid.conversion import MAX_LOG_CONDITION
+    from hdpbsid.models.conversion import MAX_LOG_CONDITION
 
     assert np.linalg.cond(np.linalg.eig(Ad)[1]) > MAX_LOG_CONDITION  # the premise
     G = np.array([[0.0], [1.0]])
@@ -151,7 +151,7 @@ def test_checked_eigenvalue_route_beyond_the_a_priori_bound(monkeypatch):
     """A nearly defective Ad whose eigenvalue route is still exact (cond(V) ~ 1e5): kept by
     the backward check without the generic logarithm, and equal to it; a Jordan-like Ad
     (cond(V) ~ 1e7) fails the check and still gets the generic one."""
-    import hdpbsid.conversion as cv
+    import hdpbsid.models.conversion as cv
 
     # two eigenvalues 0.9 and 0.9 + 2e-5: eigenvectors nearly parallel, cond(V) ~ 1e5
     Ad = np.array([[0.9, 1.0], [0.0, 0.90002]])

@@ -5,7 +5,7 @@ import pytest
 
 from hdpbsid import identify_discrete, pbsid_core
 from hdpbsid.core.pbsid import gamma_l, select_order
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import pbsid_example, simulate_pbsid_closed_loop
 
 

@@ -5,7 +5,7 @@ import pytest
 
 import hdpbsid
 from hdpbsid import StateSpaceModel, identify_dt
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
 TRUE = np.array([-0.4 + np.sqrt(3.84) * 1j, -0.4 - np.sqrt(3.84) * 1j])  # -0.4 +- 1.9596i

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import hdpbsid
-from hdpbsid import frequency, inputs
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.design import inputs
+from hdpbsid.frequency import fit as frequency
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.systems import add_noise, second_order, simulate_zoh
 
 DT = 0.01

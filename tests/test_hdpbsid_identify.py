@@ -14,7 +14,7 @@ import pytest
 import hdpbsid
 from hdpbsid import identify, identify_dt
 from hdpbsid.identify import LAZY_METHODS, METHODS, get_method, is_available, register_method
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
 # the package attribute hdpbsid.identify is the function; the module is in sys.modules

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdpbsid import inputs
+from hdpbsid.design import inputs
 
 
 def circular_autocorrelation(x: np.ndarray) -> np.ndarray:

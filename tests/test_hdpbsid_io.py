@@ -1,4 +1,4 @@
-"""Reading measured records (hdpbsid.io) and the CLI on them: formats, bad files, --dt."""
+"""Reading measured records (hdpbsid.data.io) and the CLI on them: formats, bad files, --dt."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import pytest
 from scipy.io import savemat
 
 from hdpbsid.cli import main
-from hdpbsid.io import read_columns, read_record
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.data.io import read_columns, read_record
+from hdpbsid.models.model import StateSpaceModel
 
 REG = sys.modules["hdpbsid.identify"]
 DATA = Path(__file__).resolve().parent.parent / "bench" / "data"

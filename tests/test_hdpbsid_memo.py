@@ -1,9 +1,9 @@
-"""Content-keyed memoisation of the order-independent steps (hdpbsid.methods.memo)."""
+"""Content-keyed memoisation of the order-independent steps (hdpbsid.bases.memo)."""
 
 import numpy as np
 import pytest
 
-from hdpbsid.methods.memo import clear_caches, memoize
+from hdpbsid.bases.memo import clear_caches, memoize
 
 
 def test_cache_is_keyed_on_contents_not_identity():
@@ -59,7 +59,7 @@ def test_digest_is_the_contents_shape_and_dtype():
     """Arrays are hashed by their bytes without a copy: a strided view and its contiguous
     copy share a key; the same bytes under another shape or dtype, or one element
     changed, do not."""
-    from hdpbsid.methods.memo import digest
+    from hdpbsid.bases.memo import digest
 
     a = np.arange(24.0).reshape(4, 6)
     view = a[:, ::2]
@@ -99,7 +99,7 @@ def test_shared_basis_is_one_object_per_arguments_and_its_values_are_read_only()
     import pytest
 
     import slbasis
-    from hdpbsid.methods.basis_domain import basis_values, shared_basis
+    from hdpbsid.bases.basis_domain import basis_values, shared_basis
 
     a = shared_basis("laguerre", 40, (0.0, 10.0), scale=2.0)
     assert shared_basis("laguerre", 40, (0.0, 10.0), scale=2.0) is a

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 import hdpbsid
 from hdpbsid import StateSpaceModel, load_model
-from hdpbsid.model import LinearTrend
-from hdpbsid.model_io import MAX_DEPTH, model_to_dict
+from hdpbsid.models.model import LinearTrend
+from hdpbsid.models.model_io import MAX_DEPTH, model_to_dict
 
 # written by the version-1 writer (hdpbsid.cli.write_model_json before the labels were
 # stored), verbatim: such files must keep loading

@@ -11,7 +11,7 @@ import pytest
 
 from hdpbsid.identify import METHODS, identify
 from hdpbsid.methods.dt import identify_dt
-from hdpbsid.model import LinearTrend, StateSpaceModel
+from hdpbsid.models.model import LinearTrend, StateSpaceModel
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
 REG = sys.modules["hdpbsid.identify"]
@@ -78,7 +78,7 @@ def test_levels_stored_and_used_by_simulate_fit_predict() -> None:
 
 def test_predict_one_step_equals_kalman_recursion_and_large_k_simulation() -> None:
     # an oracle written out by hand: discrete predictor from c2d of (A, B, K)
-    from hdpbsid.conversion import c2d
+    from hdpbsid.models.conversion import c2d
 
     A, B, C, D = second_order()
     K = np.array([[0.3], [0.5]])

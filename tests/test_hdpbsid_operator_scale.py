@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.linalg import block_diag
 
-import hdpbsid.methods.operator_scale as opscale
+import hdpbsid.bases.operator_scale as opscale
 from hdpbsid.methods.hermite import identify_hermite
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import add_noise, random_steps, simulate_zoh
 
 # -- the contraction factor and the minimax alpha (analytic oracles) ------------------

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hdpbsid import identify_dt
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems.quadrotor import (
     PitchData,
     pitch_excitation,

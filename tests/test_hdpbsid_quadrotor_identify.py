@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 import slbasis
+from hdpbsid.bases.basis_domain import project_record
 from hdpbsid.identify import identify
-from hdpbsid.methods.basis_domain import project_record
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 

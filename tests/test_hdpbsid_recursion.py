@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdpbsid.recursion import (
+from hdpbsid.models.recursion import (
     MAX_MODAL_CONDITION,
     forced_responses,
     linear_recursion,
@@ -15,7 +15,7 @@ from hdpbsid.recursion import (
 )
 
 try:
-    import hdpbsid.recursion_kernels  # noqa: F401
+    import hdpbsid.models.recursion_kernels  # noqa: F401
 
     ENGINES = ["numpy", "numba"]
 except ImportError:  # the extra "fast" is not installed: the numpy engine only

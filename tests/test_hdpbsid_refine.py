@@ -1,4 +1,4 @@
-"""Prediction-error refinement (hdpbsid.methods.refine, identify(..., refine=...)).
+"""Prediction-error refinement (hdpbsid.refine.pem, identify(..., refine=...)).
 
 Oracles: simulated systems with known truth (noise-free: exact recovery from a perturbed
 start; noisy: the spread over seeds against the reported asymptotic standard deviation;
@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 from hdpbsid import identify
-from hdpbsid.methods.refine import refine_pem
-from hdpbsid.metrics import eigenvalue_errors
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.refine.pem import refine_pem
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
@@ -213,7 +213,7 @@ def test_start_screen_reaches_the_best_minimum_of_all_starts(case: str) -> None:
     convergence and keeps the lowest cost.  The screened fit must not end above it
     beyond the statistical resolution (its cost is the mean of n_r whitened squares:
     a difference below 1/n_r relative is no evidence of a better minimum)."""
-    from hdpbsid.methods import refine as R
+    from hdpbsid.refine import pem as R
 
     rng = np.random.default_rng(11)
     if case == "open loop":
@@ -254,7 +254,7 @@ def test_one_step_errors_are_the_model_predictions(hold: str) -> None:
     """The compiled one-step errors against ``StateSpaceModel.predict`` (the numpy
     predictor, initial state fitted), with a direct term, a gain and an operating point;
     an unstable predictor gives None."""
-    from hdpbsid.methods.refine import one_step_errors
+    from hdpbsid.refine.pem import one_step_errors
 
     rng = np.random.default_rng(9)
     t = np.arange(0.0, 20.0, 0.01)
@@ -298,7 +298,7 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     on the estimation part): the screen ranks it with the method's own starts, the fit
     reaches the same minimum as without it, and the option is not carried to the
     result; a start of other dimensions is ignored."""
-    from hdpbsid.methods.refine import WARM_START, WARM_START_NAME, warm_start_option
+    from hdpbsid.refine.pem import WARM_START, WARM_START_NAME, warm_start_option
 
     rng = np.random.default_rng(3)
     t = np.arange(0.0, 40.0, 0.01)

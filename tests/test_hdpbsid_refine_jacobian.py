@@ -1,5 +1,5 @@
 """Two-stage least squares of the core (hdpbsid.core.varx.two_stage_ls) and the exact
-Jacobian of the prediction-error refinement (hdpbsid.methods.pem_predictor).
+Jacobian of the prediction-error refinement (hdpbsid.refine.pem_predictor).
 
 Oracles: known regression coefficients (errors-in-variables regression), the simulated
 closed-loop quadrotor with known open-loop eigenvalues, central finite differences of
@@ -14,9 +14,9 @@ from scipy.linalg import expm
 
 from hdpbsid import identify
 from hdpbsid.core.varx import two_stage_ls
-from hdpbsid.methods.pem_predictor import sampled_predictor
-from hdpbsid.methods.refine import _Layout, _residuals
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.refine.pem import _Layout, _residuals
+from hdpbsid.refine.pem_predictor import sampled_predictor
 from hdpbsid.studies.data import quadrotor_record
 from hdpbsid.systems.quadrotor import pitch_model
 

@@ -1,4 +1,5 @@
-"""Defaults that scale (hdpbsid.scaling): the bounded path of ``identify`` on long records.
+"""Defaults that scale (hdpbsid.selection.long_records): the bounded path of ``identify``
+on long records.
 
 Small synthetic stand-ins of long records: the policy's thresholds are lowered through a
 :class:`LongRecordPolicy` passed as ``long_record=`` (no constant is patched).  Oracles:
@@ -15,10 +16,10 @@ import pytest
 from test_hdpbsid_chunked import _record, _resonance
 
 from hdpbsid import identify
+from hdpbsid.bases.segments import WINDOW_PERIODS
 from hdpbsid.methods.chunked import ChunkedRecord
-from hdpbsid.methods.segments import WINDOW_PERIODS
-from hdpbsid.metrics import eigenvalue_errors
-from hdpbsid.scaling import (
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.selection.long_records import (
     SELECTION_PERIODS,
     LongRecordPolicy,
     SkipReason,
@@ -206,8 +207,8 @@ def test_chunked_record_rejects_linear_detrend(record):
 
 def test_cli_progress_is_automatic_for_long_records():
     from hdpbsid.cli import _progress
-    from hdpbsid.io import Record
-    from hdpbsid.scaling import LONG_SAMPLES
+    from hdpbsid.data.io import Record
+    from hdpbsid.selection.long_records import LONG_SAMPLES
 
     def rec(ns):
         return Record(np.arange(ns) * 1e-3, None, np.zeros((ns, 1)), [], ["y"], "t", "x")

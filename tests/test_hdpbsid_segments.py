@@ -1,5 +1,5 @@
-"""Several records and windows of one record in one PBSID problem (hdpbsid.records,
-hdpbsid.core.blocks, hdpbsid.methods.segments), and Unix-time stamps."""
+"""Several records and windows of one record in one PBSID problem (hdpbsid.data.records,
+hdpbsid.core.blocks, hdpbsid.bases.segments), and Unix-time stamps."""
 
 from __future__ import annotations
 
@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 from test_hdpbsid_basis_common import eig_error, make_data
 
+from hdpbsid.bases.basis_domain import SolveLag
 from hdpbsid.core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks
 from hdpbsid.core.pbsid import pbsid_core
 from hdpbsid.core.varx import SampleShift
+from hdpbsid.data.records import as_records
 from hdpbsid.identify import identify
-from hdpbsid.methods.basis_domain import SolveLag
 from hdpbsid.methods.dt import identify_dt
 from hdpbsid.methods.hermite import hermite_lag, identify_hermite
 from hdpbsid.methods.laguerre import identify_laguerre
 from hdpbsid.methods.sturm_liouville import identify_legendre
-from hdpbsid.records import as_records
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
 

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 import hdpbsid
-from hdpbsid.criteria import (
+from hdpbsid.models.criteria import (
     WindowedError,
     choose_smallest_adequate,
     windowed_prediction_error,
     windowed_simulation_error,
 )
-from hdpbsid.model import StateSpaceModel
-from hdpbsid.selection import beats_the_mean
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.selection.auto import beats_the_mean
 from hdpbsid.systems import (
     add_noise,
     random_steps,
@@ -85,7 +85,7 @@ def test_auto_is_deterministic_and_reports_every_candidate():
 def test_auto_in_parallel_is_the_serial_run():
     from threadpoolctl import threadpool_limits
 
-    from hdpbsid.methods.memo import clear_caches
+    from hdpbsid.bases.memo import clear_caches
 
     t, u, y, _ = _record(2)
     kw = {"method": "auto", "methods": ("hermite", "dt"), "max_order": 3, "refine": None}
@@ -367,7 +367,7 @@ def test_tie_is_broken_by_the_whole_held_out_simulation():
     the difference (the windowed errors are within one standard error, the wrong model
     even slightly ahead), the simulation over the whole record from one initial state
     does not, and the tie-break keeps the true model."""
-    from hdpbsid.selection import break_tie
+    from hdpbsid.selection.auto import break_tie
 
     def model(p: float) -> StateSpaceModel:
         A = np.array([[p, 0.0], [0.0, -5.0]])
@@ -402,7 +402,7 @@ def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data(
 def test_auto_refits_a_dt_candidate_with_the_windows_it_was_judged_with(monkeypatch):
     import hdpbsid.methods.dt as dtm
     from hdpbsid.identify import METHODS
-    from hdpbsid.selection import refit_keeps
+    from hdpbsid.selection.auto import refit_keeps
 
     t, u, y, _ = _record(2)
     calls = []
@@ -427,8 +427,8 @@ def test_auto_refits_a_dt_candidate_with_the_windows_it_was_judged_with(monkeypa
 def _rejudge_rows(t, u, y, true):
     """Two candidates on the first two thirds: order 2, the truth with a 10 % error in
     its dynamics (a biased estimate), and order 3, a fitted model; their held-out scores."""
-    from hdpbsid.criteria import default_windows
-    from hdpbsid.selection import score_model
+    from hdpbsid.models.criteria import default_windows
+    from hdpbsid.selection.auto import score_model
 
     split = int(round(t.size * 2 / 3))
     est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
@@ -443,7 +443,7 @@ def _rejudge_rows(t, u, y, true):
 
 
 def test_rejudge_refined_lowers_the_order_a_biased_candidate_lost():
-    from hdpbsid.selection import REJUDGE_Z, rejudge_refined
+    from hdpbsid.selection.auto import REJUDGE_Z, rejudge_refined
 
     t, u, y, true = _record(3, snr=20.0)
     rows, est, val, windows = _rejudge_rows(t, u, y, true)
@@ -462,7 +462,7 @@ def test_rejudge_refined_lowers_the_order_a_biased_candidate_lost():
 
 
 def test_rejudge_refined_needs_uniform_samples():
-    from hdpbsid.selection import rejudge_refined
+    from hdpbsid.selection.auto import rejudge_refined
 
     t, u, y, true = _record(3, snr=20.0)
     rows, est, val, windows = _rejudge_rows(t, u, y, true)
@@ -475,7 +475,7 @@ def test_rejudge_refined_needs_uniform_samples():
 def test_sweep_settings_are_the_first_pass_of_a_held_out_judgement_unless_given():
     from hdpbsid.methods.dt import identify_dt
     from hdpbsid.methods.hermite import SWEEP_SETTINGS, identify_hermite
-    from hdpbsid.selection import sweep_settings
+    from hdpbsid.selection.auto import sweep_settings
 
     # HD-PBSID judges its operator scale on held-out data: its candidates take the first pass
     assert sweep_settings(identify_hermite, {}) == SWEEP_SETTINGS == {"alpha": "basis"}
@@ -502,7 +502,7 @@ def test_auto_judges_the_operator_scale_of_the_candidate_it_chooses_only():
 
 
 def test_feedback_test_tells_the_closed_loop_record_from_the_open_loop_one():
-    from hdpbsid.selection import looks_closed_loop
+    from hdpbsid.selection.auto import looks_closed_loop
     from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
     t, u, y, _ = _record(0, snr=20.0)
@@ -523,7 +523,7 @@ def test_auto_raises_the_order_where_the_closed_loop_bias_hid_it():
     sys.path.insert(0, str(BENCH_DATA.parent))
     from cases import make_case
 
-    from hdpbsid.metrics import eigenvalue_errors
+    from hdpbsid.models.metrics import eigenvalue_errors
 
     case = make_case("table2-closed-loop-rate", 0, 20.0)
     rec = case.estimation
@@ -531,7 +531,7 @@ def test_auto_raises_the_order_where_the_closed_loop_bias_hid_it():
     assert m.n == case.order == 4
     assert "closed loop (feedback test)" in m.options["selection_rule"]
     # the chosen candidate refined on the estimation part was offered to the refinement
-    from hdpbsid.methods.refine import WARM_START, WARM_START_NAME
+    from hdpbsid.refine.pem import WARM_START, WARM_START_NAME
 
     assert WARM_START_NAME in m.options["refine_start_predicted"]
     assert WARM_START not in m.options
@@ -542,7 +542,7 @@ def test_auto_raises_the_order_where_the_closed_loop_bias_hid_it():
 def test_rejudgement_in_parallel_is_the_serial_run():
     from threadpoolctl import threadpool_limits
 
-    from hdpbsid.methods.memo import clear_caches
+    from hdpbsid.bases.memo import clear_caches
     from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
 
     d = simulate_pitch_closed_loop(np.random.default_rng(0), snr_db=20.0)
@@ -592,7 +592,7 @@ def test_nonuniform_window_errors_are_those_of_the_uniform_grid():
     window, ``StateSpaceModel.fit``) run on a uniform record gives the uniform path's
     numbers: the same fitted initial states and the same degrees-of-freedom correction
     (a model with more states must not fit each window's noise better)."""
-    from hdpbsid.criteria import _windowed_nonuniform
+    from hdpbsid.models.criteria import _windowed_nonuniform
 
     t, u, y, true = _record(8, snr=20.0)
     u2, y2 = u.reshape(t.size, -1), y.reshape(t.size, -1)

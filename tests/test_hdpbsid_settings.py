@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from hdpbsid import BasisSettings
+from hdpbsid.bases.settings import SETTING_NAMES, resolve_settings
 from hdpbsid.methods.hermite import identify_hermite
 from hdpbsid.methods.laguerre import identify_laguerre
-from hdpbsid.methods.settings import SETTING_NAMES, resolve_settings
 from hdpbsid.methods.sturm_liouville import identify_legendre
 from hdpbsid.systems import add_noise, second_order, simulate_zoh
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hdpbsid import StateSpaceModel, c2d, identify_discrete, identify_dt
-from hdpbsid.checks import check_data, check_state_space, check_uniform
+from hdpbsid.data.checks import check_data, check_state_space, check_uniform
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
 

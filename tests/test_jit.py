@@ -60,7 +60,7 @@ print(json.dumps({"same": bool(np.array_equal(auto, ref)), "started": started, "
 def test_warm_fills_the_cache_the_next_process_uses(tmp_path):
     """After :func:`jit.warm` of a module, a fresh process finds it ready and its calls
     compile nothing (numba's compile events counted)."""
-    module = "hdpbsid.recursion_kernels"
+    module = "hdpbsid.models.recursion_kernels"
     before = _run(
         "import json, importlib\nfrom slbasis.numeric import jit\n"
         f"m = importlib.import_module({module!r})\n"
@@ -74,7 +74,7 @@ def test_warm_fills_the_cache_the_next_process_uses(tmp_path):
 import json
 import numpy as np
 from numba.core import event
-import hdpbsid.recursion as rec
+import hdpbsid.models.recursion as rec
 from slbasis.numeric import jit
 compiles = []
 class Count(event.Listener):
@@ -101,8 +101,8 @@ def test_warm_signatures_cover_the_library_calls(monkeypatch):
     several threads, an identification with its refinement, systems with real and with
     complex modes."""
     import hdpbsid
-    import hdpbsid.methods.pem_kernels as pem
-    import hdpbsid.recursion_kernels as recursion
+    import hdpbsid.models.recursion_kernels as recursion
+    import hdpbsid.refine.pem_kernels as pem
     import slbasis
     import slbasis.numeric.compiled as compiled
     from hdpbsid.systems import second_order, simulate_zoh

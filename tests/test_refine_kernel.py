@@ -1,5 +1,5 @@
-"""The compiled evaluation of the prediction-error refinement (hdpbsid.methods.pem_kernels
-through hdpbsid.methods.refine._residuals) against the numpy evaluation and against
+"""The compiled evaluation of the prediction-error refinement (hdpbsid.refine.pem_kernels
+through hdpbsid.refine.pem._residuals) against the numpy evaluation and against
 finite differences.
 
 Oracles: the numpy evaluation (modal coordinates, scipy.signal.lfilter: an independent
@@ -16,9 +16,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdpbsid.methods import pem_kernels  # noqa: F401  (numba is part of `make test`)
-from hdpbsid.methods.pem_predictor import sampled_predictor
-from hdpbsid.methods.refine import (
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.refine import pem_kernels  # noqa: F401  (numba is part of `make test`)
+from hdpbsid.refine.pem import (
     STALL_SD,
     _kernels,
     _Layout,
@@ -27,7 +27,7 @@ from hdpbsid.methods.refine import (
     _Workspace,
     refine_pem,
 )
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.refine.pem_predictor import sampled_predictor
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
 EPS = np.finfo(float).eps

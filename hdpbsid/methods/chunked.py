@@ -2,7 +2,7 @@
 
 A uniformly sampled record that does not fit in memory is described by a
 :class:`ChunkedRecord`: its length, sampling interval and a reader ``read(a, b) ->
-(u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.io.open_chunked`;
+(u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.data.io.open_chunked`;
 any sliceable arrays, e.g. ``dask.array`` or ``zarr``: :meth:`ChunkedRecord.from_arrays`).
 :func:`identify_chunked` runs method ``"hermite"`` (:mod:`hdpbsid.methods.hermite`) on it
 in three passes over the data, never holding more than one batch of samples:
@@ -11,9 +11,9 @@ in three passes over the data, never holding more than one batch of samples:
    ``N`` and of the window) from periodograms averaged over chunks of
    ``spectrum_samples`` samples (Welch's method: Welch, *IEEE Trans. Audio
    Electroacoust.* 15 (1967) 70-73; each chunk detrended and Hann-windowed as in
-   :func:`~hdpbsid.methods.basis_domain.bandwidth`).  A record of at most
+   :func:`~hdpbsid.bases.basis_domain.bandwidth`).  A record of at most
    ``spectrum_samples`` samples is one chunk: the estimate is then the in-memory one;
-2. the record is cut into the windows of :func:`hdpbsid.records.split_windows` (same
+2. the record is cut into the windows of :func:`hdpbsid.data.records.split_windows` (same
    edges); batches of windows (about ``chunk_samples`` samples each) are read, projected
    on their basis and reduced to the first-pass factors of the core
    (:func:`hdpbsid.core.streamed.varx_factors`: the AIC of every candidate ``p`` and the
@@ -46,10 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import slbasis
-from hdpbsid.checks import check_order, check_positive_int
-from hdpbsid.core import streamed
-from hdpbsid.core.blocks import BlockLag, BlockPseudo
-from hdpbsid.methods.basis_domain import (
+from hdpbsid.bases.basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
     RIDGE_FLOOR,
@@ -63,10 +60,13 @@ from hdpbsid.methods.basis_domain import (
     spectra_data_bandwidth,
     spectrum_bandwidth,
 )
+from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core import streamed
+from hdpbsid.core.blocks import BlockLag, BlockPseudo
+from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.methods.hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
-from hdpbsid.methods.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
-from hdpbsid.methods.settings import BasisSettings, resolve_settings
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
 __all__ = ["ChunkedRecord", "identify_chunked", "SPECTRUM_SAMPLES", "CHUNK_SAMPLES"]
@@ -103,7 +103,7 @@ class ChunkedRecord:
     ``read(a, b)`` returns ``(u, y)`` of samples ``a..b-1`` as ``(b-a, m)`` and ``(b-a,
     l)`` float arrays; ``ns`` samples, ``m`` inputs, ``l`` outputs, sampling interval
     ``dt`` and absolute start ``t0``.  ``read`` must be picklable for ``use_dask`` on a
-    distributed cluster (the readers of :func:`hdpbsid.io.open_chunked` are).
+    distributed cluster (the readers of :func:`hdpbsid.data.io.open_chunked` are).
     """
 
     read: Callable[[int, int], tuple[Array, Array]]
@@ -200,7 +200,7 @@ def _add_spectra(a: tuple[Array, Array, Array], b: tuple[Array, Array, Array]):
 
 
 def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
-    """Edges of :func:`hdpbsid.records.split_windows` (one window: the whole record)."""
+    """Edges of :func:`hdpbsid.data.records.split_windows` (one window: the whole record)."""
     if length is None or rec.duration < 2 * length:
         return np.array([0, rec.ns - 1])
     K = max(1, int(np.floor(rec.duration / length + 1e-9)))
@@ -353,7 +353,7 @@ def _tightest(
 def _p_plan(
     kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[list[int], int | None, int, int, str]:
-    """The past windows to try, as :func:`~hdpbsid.methods.basis_domain.run_core` rules
+    """The past windows to try, as :func:`~hdpbsid.bases.basis_domain.run_core` rules
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
     need = order if order is not None else 3
     f_min = -(-need // l)
@@ -402,7 +402,7 @@ def _hold_windows(
     kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings
 ) -> list[int]:
     """The past windows the input-hold criterion compares the holds over, as
-    :func:`~hdpbsid.methods.basis_domain.hold_criterion` rules them: the given ``p``, or
+    :func:`~hdpbsid.bases.basis_domain.hold_criterion` rules them: the given ``p``, or
     the preferred range capped at ``p (m + q + l) <= N / 6`` (empty when nothing fits)."""
     if st.p is not None:
         return [st.p]
@@ -412,7 +412,7 @@ def _hold_windows(
 
 
 def _streamed_hold_criterion(vf: Any, m: int, l: int, windows: list[int], normalize: bool) -> float:
-    """:func:`~hdpbsid.methods.basis_domain.hold_criterion` from first-pass factors: the
+    """:func:`~hdpbsid.bases.basis_domain.hold_criterion` from first-pass factors: the
     smallest VARX AIC over ``windows`` (``inf`` when none fits)."""
     if not windows:
         return float("inf")
@@ -426,8 +426,8 @@ def _streamed_hold_criterion(vf: Any, m: int, l: int, windows: list[int], normal
 def _best_hold_streamed(
     ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.methods.basis_domain.best_hold` with
-    :func:`~hdpbsid.methods.basis_domain.run_core` replaced by the streamed core
+    """:func:`~hdpbsid.bases.basis_domain.best_hold` with
+    :func:`~hdpbsid.bases.basis_domain.run_core` replaced by the streamed core
     (:mod:`hdpbsid.core.streamed`): two passes over the batches, factors reduced; the
     hold chosen from the first pass's factors by the same VARX criterion, and the second
     pass made for that hold only."""
@@ -510,7 +510,7 @@ def _best_hold_streamed(
 def _best_hold_in_memory(
     ctx: _Batches, sizes: Array, core_options: dict[str, Any]
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.methods.basis_domain.best_hold` on every window's coefficients at
+    """:func:`~hdpbsid.bases.basis_domain.best_hold` on every window's coefficients at
     once (the settings the streamed core does not cover)."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     results = ctx.gather()
@@ -561,9 +561,9 @@ def identify_chunked(
 ) -> StateSpaceModel:
     """HD-PBSID (method ``"hermite"``) of a record read in chunks (module docstring).
 
-    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.io.open_chunked` for HDF5,
+    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.data.io.open_chunked` for HDF5,
     Parquet and ``.npy`` files).  ``order``, ``N`` and the shared settings (keywords or
-    ``settings=`` :class:`~hdpbsid.methods.settings.BasisSettings`; ``n_jobs`` is not
+    ``settings=`` :class:`~hdpbsid.bases.settings.BasisSettings`; ``n_jobs`` is not
     used: batches run serially or on Dask) as in
     :func:`~hdpbsid.methods.hermite.identify_hermite`, with ``alpha = 4 scale``,
     ``beta = gamma = 1``.  No mean is removed: pass deviations from the operating

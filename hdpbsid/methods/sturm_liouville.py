@@ -54,9 +54,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import slbasis
-from hdpbsid.checks import check_order, check_positive_int
-from hdpbsid.core.blocks import BlockLag
-from hdpbsid.methods.basis_domain import (
+from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
@@ -67,18 +65,20 @@ from hdpbsid.methods.basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from hdpbsid.methods.hermite import _real
-from hdpbsid.methods.memo import memoize
-from hdpbsid.methods.segments import (
+from hdpbsid.bases.memo import memoize
+from hdpbsid.bases.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from hdpbsid.methods.settings import BasisSettings, resolve_settings
-from hdpbsid.model import StateSpaceModel
-from hdpbsid.records import as_records
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.data.checks import check_order, check_positive_int
+from hdpbsid.data.records import as_records
+from hdpbsid.methods.hermite import _real
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 from slbasis.numeric import operators
 
@@ -308,7 +308,7 @@ def identify_sl(
       considers orders ``1..min(max_order, f l - 1)``; pass ``p`` for more); ``f = p``;
     * ``input_hold="auto"``: ``zoh`` or ``foh``, whichever VARX fit has the smaller AIC
       over the past windows of HD-PBSID's preferred range
-      (:func:`~hdpbsid.methods.basis_domain.hold_criterion`; one decision for every
+      (:func:`~hdpbsid.bases.basis_domain.hold_criterion`; one decision for every
       order): a test of the input's interpolant, for which a longer VARX approximates
       the innovations better, not the variance choice of this method's own ``p``;
     * ``order``: largest log-gap of the singular values.

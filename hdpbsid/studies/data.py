@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.systems import add_noise, second_order
 from hdpbsid.systems.quadrotor import (
     PitchData,

@@ -166,7 +166,7 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     truth, measured vs simulated outputs on the validation record (the thesis's
     Figure 2 style), Bode true vs identified.  The models come from the record's matrices and the
     records are re-simulated from the seed (exactly; cached in the same process)."""
-    from hdpbsid.model import StateSpaceModel
+    from hdpbsid.models.model import StateSpaceModel
     from hdpbsid.plots import display_fit
     from hdpbsid.studies.data import quadrotor_record
     from hdpbsid.studies.quadrotor import validation_rng

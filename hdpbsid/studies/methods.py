@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from hdpbsid.identify import identify
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 
 __all__ = ["METHODS", "identify_with", "check_methods"]
 

@@ -155,7 +155,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     for o, m in r["models"].items():
         rec = model_record(m, true)
         if m.n > true.size:
-            from hdpbsid.metrics import match_eigenvalues
+            from hdpbsid.models.metrics import match_eigenvalues
 
             est, _ = match_eigenvalues(m.eigenvalues, true)
             extra = [z for z in m.eigenvalues if not np.any(np.isclose(z, est))]

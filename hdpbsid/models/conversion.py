@@ -47,8 +47,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, logm
 
-from hdpbsid.checks import check_state_space
-from hdpbsid.recursion import modal_form
+from hdpbsid.data.checks import check_state_space
+from hdpbsid.models.recursion import modal_form
 
 __all__ = [
     "c2d",

@@ -16,7 +16,7 @@ The PBSID core's order-independent stages are memoised here as well
 (:func:`past_window_aic`, :func:`varx_stage`): the VARX regression and the singular value
 decomposition of ``Gamma_f L_p Z_p`` depend on the data, the lag operator, ``p`` and
 ``f``, not on the order, which only truncates the decomposition.  An order sweep of one
-method (``method="auto"``, :func:`hdpbsid.selection.select_order`) therefore runs them
+method (``method="auto"``, :func:`hdpbsid.selection.auto.select_order`) therefore runs them
 once per distinct ``(lag, p)``, and every order gets the numbers it would get alone.
 """
 

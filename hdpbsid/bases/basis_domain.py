@@ -32,13 +32,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 import slbasis
-from hdpbsid.checks import check_positive_int
+from hdpbsid.bases.memo import digest, memoize, past_window_aic, varx_stage
+from hdpbsid.bases.settings import INPUT_HOLDS, BasisSettings
 from hdpbsid.core.blocks import BlockLag, BlockPseudo, best_window, pbsid_core_blocks
 from hdpbsid.core.pbsid import CoreResult
 from hdpbsid.core.varx import CachedPowers
-from hdpbsid.methods.memo import digest, memoize, past_window_aic, varx_stage
-from hdpbsid.methods.settings import INPUT_HOLDS, BasisSettings
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.data.checks import check_positive_int
+from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "SolveLag",
@@ -154,7 +154,7 @@ class SolveLag(CachedPowers):
         self._steps: OrderedDict[bytes, Array] = OrderedDict()
 
     def cache_key(self) -> Any:
-        """What defines ``M`` exactly (:mod:`hdpbsid.methods.memo`), or None; a digest
+        """What defines ``M`` exactly (:mod:`hdpbsid.bases.memo`), or None; a digest
         of ``key``, computed once (a dense ``M`` would otherwise be hashed every call)."""
         if self._cache_key is not None and not isinstance(self._cache_key, bytes):
             self._cache_key = digest(self._cache_key)
@@ -193,7 +193,7 @@ class BlockShift:
         self.block = check_positive_int(block, "block")
 
     def cache_key(self) -> Any:
-        """The block length defines the operator (:mod:`hdpbsid.methods.memo`)."""
+        """The block length defines the operator (:mod:`hdpbsid.bases.memo`)."""
         return self.block
 
     def apply(self, W: Array, j: int) -> Array:
@@ -244,7 +244,7 @@ SPECTRA_CACHE_SIZE = 8
 @memoize(size=SPECTRA_CACHE_SIZE)
 def _record_spectra(t: Array, x: Array) -> tuple[Array, Array]:
     """:func:`_power_spectra`, memoised by the contents of ``t`` and ``x``
-    (:mod:`hdpbsid.methods.memo`; the arrays returned are read-only)."""
+    (:mod:`hdpbsid.bases.memo`; the arrays returned are read-only)."""
     return _power_spectra(t, x)
 
 
@@ -484,7 +484,7 @@ def _project_nodes(basis: Any, tn: Array, wn: Array, S: Array) -> Array:
 
 def resolve_holds(input_hold: Any, m: int) -> tuple[str, ...]:
     """The holds to project for ``input_hold`` (``"auto"``: both ``zoh`` and ``foh``;
-    validated by :class:`~hdpbsid.methods.settings.BasisSettings`)."""
+    validated by :class:`~hdpbsid.bases.settings.BasisSettings`)."""
     if input_hold == "auto":
         return ("zoh", "foh") if m else ("foh",)
     return (input_hold,)

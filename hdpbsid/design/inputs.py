@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import as_columns, check_positive_int, check_step
+from hdpbsid.data.checks import as_columns, check_positive_int, check_step
 
 __all__ = [
     "InputDesign",

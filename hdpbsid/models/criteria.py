@@ -38,7 +38,7 @@ Identification*, 2nd ed., sec. 4.3: ``A - K C`` stable is the condition for the
 predictor to exist), so only models whose estimated ``K`` is unusable lose this score.
 
 Simulation uses the exact sampled model for the hold of the input (``zoh``: held
-between samples, ``foh``: linear), as :meth:`hdpbsid.model.StateSpaceModel.simulate`.
+between samples, ``foh``: linear), as :meth:`hdpbsid.models.model.StateSpaceModel.simulate`.
 """
 
 from __future__ import annotations
@@ -50,8 +50,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from hdpbsid.model import StateSpaceModel
-from hdpbsid.recursion import forced_responses, matrix_powers
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.recursion import forced_responses, matrix_powers
 
 __all__ = [
     "WindowedError",
@@ -121,7 +121,7 @@ def _sampled(
 ) -> tuple[Array, Array, Array | None, Array]:
     """Exact one-step matrices ``(Phi, G1, G2, Gk)`` for step ``h`` (``G2`` only for foh;
     ``Gk`` multiplies the innovation held over the step, the convention of
-    :meth:`hdpbsid.model.StateSpaceModel.predict`)."""
+    :meth:`hdpbsid.models.model.StateSpaceModel.predict`)."""
     n, m, l = model.n, model.m, model.l
     mu = m + (m if hold == "foh" else 0)
     size = n + mu + l
@@ -170,7 +170,7 @@ def windowed_prediction_error(
     As :func:`windowed_simulation_error`, but the output is predicted one sample ahead
     by the model's sampled innovation predictor (Ljung, *System Identification*, 2nd
     ed., eq. 4.87; the innovation held over each step as in
-    :meth:`hdpbsid.model.StateSpaceModel.predict`),
+    :meth:`hdpbsid.models.model.StateSpaceModel.predict`),
 
         x_{k+1|k} = Phi x_{k|k-1} + G1 u_k [+ G2 (u_{k+1} - u_k)] + Gk (y_k - C x_{k|k-1} - D u_k),
 
@@ -244,7 +244,7 @@ def _windowed_error(
         # not a predictor on held-out data (module docstring): no score
         return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
     # forced response in every window from a zero state, all windows at once, and the
-    # free response C F^k of the window's initial state (hdpbsid.recursion)
+    # free response C F^k of the window's initial state (hdpbsid.models.recursion)
     with np.errstate(over="ignore", invalid="ignore"):
         drive = uw[:, :-1] @ G1.T
         if G2 is not None:

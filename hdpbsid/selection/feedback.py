@@ -5,7 +5,7 @@ consistent in open loop but not efficient: its covariance is larger than the
 Cramer-Rao bound, by a factor that does not shrink with the record length or the SNR.
 In closed loop the basis-domain least squares is also biased (docs/theory.md, "Closed
 loop in the basis domain").  The prediction-error estimate
-(:func:`hdpbsid.methods.refine.refine_pem`) is consistent in open and closed loop (Ljung,
+(:func:`hdpbsid.refine.pem.refine_pem`) is consistent in open and closed loop (Ljung,
 *System Identification*, 2nd ed., sec. 8.3 and 13.4, the direct approach) and
 asymptotically efficient for Gaussian innovations (sec. 9.3), and Gauss-Newton started at
 a consistent estimate converges to it in a few iterations (from a ``sqrt(Ns)``-consistent
@@ -34,7 +34,7 @@ its own past: so ``E[e_k w_{k+tau}] = 0`` for ``tau >= 1`` whatever the model er
 feedback, ``u_{k+tau}`` responds to ``y_k`` and therefore to ``e_k``, and the correlation
 at positive lags is the controller's response to the noise.  With the normalised cross
 correlations ``r_ij(tau)`` of ``e_i`` and ``w_j`` over ``Ns`` samples
-(:func:`hdpbsid.assessment.correlation`) and ``w`` white,
+(:func:`hdpbsid.models.assessment.correlation`) and ``w`` white,
 ``Ns r_ij(tau)^2`` are asymptotically independent ``chi^2(1)`` under open loop
 (Bartlett's formula: the variance of a cross-correlation is ``(1/Ns) sum_k rho_e(k)
 rho_w(k)``, ``1/Ns`` when one of the two is white), so
@@ -58,8 +58,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
 
-from hdpbsid.assessment import correlation
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.assessment import correlation
+from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "AR_ORDER",
@@ -138,8 +138,8 @@ def feedback_statistics(
 
     ``errors``: the model's one-step prediction errors on the record, ``(Ns, l)``, when
     the caller has them (the front end computes them with the refinement's compiled
-    predictor, :func:`hdpbsid.methods.refine.one_step_errors`); default: from
-    :meth:`~hdpbsid.model.StateSpaceModel.predict`.
+    predictor, :func:`hdpbsid.refine.pem.one_step_errors`); default: from
+    :meth:`~hdpbsid.models.model.StateSpaceModel.predict`.
 
     Returns ``{"statistic": S, "threshold": chi2 quantile, "dof": lags m l,
     "feedback": S > threshold, "residual_ratio": rho, "residual_ratio_x_samples":

@@ -10,7 +10,7 @@ ch. 7), so :func:`linear_recursion` falls back to the loop when ``cond(V)`` exce
 :data:`MAX_MODAL_CONDITION` (nearly defective ``F``).
 
 With numba installed (and ``SLBASIS_NO_NUMBA`` unset) the loop itself runs compiled
-(:mod:`hdpbsid.recursion_kernels`), about 20 times faster than the modal filters on the
+(:mod:`hdpbsid.models.recursion_kernels`), about 20 times faster than the modal filters on the
 short windows of the held-out scores and without their rounding amplification; the
 modal filters are then the fallback (``engine="numpy"``).
 """
@@ -40,7 +40,7 @@ __all__ = [
 Array = NDArray[np.float64]
 
 # compiled ahead of their first use, in the background, by slbasis.numeric.jit
-jit.register("hdpbsid.recursion_kernels", "hdpbsid.methods.pem_kernels")
+jit.register("hdpbsid.models.recursion_kernels", "hdpbsid.refine.pem_kernels")
 
 #: largest eigenvector condition number for the modal form: rounding errors of order
 #: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
@@ -67,7 +67,7 @@ def select_kernels(engine: str, load: Callable[[], Any]) -> Any:
 
 
 def _load_kernels() -> Any:
-    import hdpbsid.recursion_kernels as kernels
+    import hdpbsid.models.recursion_kernels as kernels
 
     return kernels
 

@@ -30,8 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.assessment import Comparison, ResidualReport, fit_percent, residual_tests
-from hdpbsid.checks import (
+from hdpbsid.data.checks import (
     as_float_array,
     check_label,
     check_names,
@@ -43,8 +42,9 @@ from hdpbsid.checks import (
     is_uniform,
     scale_exponents,
 )
-from hdpbsid.conversion import c2d, d2c, sampled_steps
-from hdpbsid.recursion import linear_recursion
+from hdpbsid.models.assessment import Comparison, ResidualReport, fit_percent, residual_tests
+from hdpbsid.models.conversion import c2d, d2c, sampled_steps
+from hdpbsid.models.recursion import linear_recursion
 from hdpbsid.runtime import library_call
 
 __all__ = [
@@ -87,7 +87,7 @@ def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
     """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``.
 
     Both are ratios, computed on the columns scaled by the power of two of
-    :func:`~hdpbsid.checks.scale_exponents` (exact), so that the squares of a record in
+    :func:`~hdpbsid.data.checks.scale_exponents` (exact), so that the squares of a record in
     extreme units (1e-200) neither underflow nor overflow."""
     p = scale_exponents(y, "y")
     y, y_sim = np.ldexp(y, p), np.ldexp(y_sim, p)
@@ -314,7 +314,7 @@ def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     """``(h, h_groups, inv)``: the steps ``h = diff(t)``, one representative per group of
     steps equal to 1e-12 relative, and each step's group index (``h ~ h_groups[inv]``).
 
-    A uniformly sampled ``t`` (:func:`~hdpbsid.checks.check_uniform`: spacing equal to
+    A uniformly sampled ``t`` (:func:`~hdpbsid.data.checks.check_uniform`: spacing equal to
     1e-6 relative plus the stamps' own rounding) is one group with the mean spacing:
     ``arange(Ns) * dt`` has steps that differ in their last bits, which would otherwise
     split it into several groups and the recursions into a loop over the samples.
@@ -336,7 +336,7 @@ class StateSpaceModel(_ModelBase):
     setting actually used, defaults included), ``noise_covariance`` (innovation
     covariance estimate, ``None`` if unknown) and ``discrete`` (the sampled model it was
     converted from, if any).  ``K`` follows the hold convention of
-    :mod:`hdpbsid.conversion`.
+    :mod:`hdpbsid.models.conversion`.
 
     Labels: ``time_unit`` (the unit of the times ``t``, default ``"s"``; the eigenvalues
     are in rad per that unit), ``input_names`` and ``output_names`` (default ``u1, ...``
@@ -353,9 +353,9 @@ class StateSpaceModel(_ModelBase):
         self.sampling_interval = _check_interval(self.sampling_interval, "sampling_interval")
 
     def save(self, path: Any) -> Any:
-        """Write the model to ``path`` as JSON (:func:`hdpbsid.model_io.save_model`);
+        """Write the model to ``path`` as JSON (:func:`hdpbsid.models.model_io.save_model`);
         :func:`hdpbsid.load_model` reads it back.  Returns the path."""
-        from hdpbsid.model_io import save_model
+        from hdpbsid.models.model_io import save_model
 
         return save_model(self, path)
 
@@ -406,7 +406,8 @@ class StateSpaceModel(_ModelBase):
         ``expm([[A h, B h, 0, K h], [0, 0, I, 0], [0, 0, 0, 0], [0, 0, 0, 0]])``.  ``G1``
         multiplies ``u_k``; ``G2`` (FOH only, else ``None``) multiplies ``u_{k+1} - u_k``;
         ``Gk`` (``with_k`` only) multiplies the innovation held over the step, the hold
-        convention of :mod:`hdpbsid.conversion` (:func:`~hdpbsid.conversion.sampled_steps`).
+        convention of :mod:`hdpbsid.models.conversion`
+        (:func:`~hdpbsid.models.conversion.sampled_steps`).
         """
         return sampled_steps(self.A, self.B, self.K if with_k else None, h, method)
 
@@ -640,7 +641,7 @@ class StateSpaceModel(_ModelBase):
     ) -> Array:
         """``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
 
-        The sampled innovation model (hold convention of :mod:`hdpbsid.conversion`: ``u``
+        The sampled innovation model (hold convention of :mod:`hdpbsid.models.conversion`: ``u``
         and ``e`` held over each step, exact exponentials per step, so ``t`` need not be
         uniform) gives the one-step predictor (Ljung, *System Identification*, 2nd ed.,
         eq. 4.87)
@@ -677,7 +678,7 @@ class StateSpaceModel(_ModelBase):
         prediction (:meth:`predict`, initial state by least squares).  ``time_unit``: the
         unit of ``t``, if known; a record whose time scale does not match the model's
         draws a :class:`TimeScaleWarning` (:meth:`check_record`).  Returns a
-        :class:`~hdpbsid.assessment.Comparison`.
+        :class:`~hdpbsid.models.assessment.Comparison`.
         """
         self.check_record(t, time_unit)
         if k is None:
@@ -704,7 +705,7 @@ class StateSpaceModel(_ModelBase):
         (:meth:`predict` with ``k=1``, initial state by least squares) against the input
         ``u``: whiteness (autocorrelation, Ljung-Box) and independence from the input
         (cross-correlation) over lags up to ``max_lag``; see
-        :func:`hdpbsid.assessment.residual_tests`.  ``time_unit``: as in :meth:`compare`.
+        :func:`hdpbsid.models.assessment.residual_tests`.  ``time_unit``: as in :meth:`compare`.
         """
         self.check_record(t, time_unit)
         y_hat, _, y_meas = self._predict(t, u, y, 1, "estimate", method)
@@ -724,7 +725,7 @@ class StateSpaceModel(_ModelBase):
         return _transfer(self.A, self.B, self.C, self.D, s)
 
     def to_discrete(self, dt: float) -> DiscreteModel:
-        """ZOH sampling (:func:`hdpbsid.conversion.c2d`, ``K`` by the hold convention)."""
+        """ZOH sampling (:func:`hdpbsid.models.conversion.c2d`, ``K`` by the hold convention)."""
         Ad, Bd, C, D, Kd = c2d(self.A, self.B, self.C, self.D, self.K, dt)
         return DiscreteModel(
             Ad,
@@ -808,7 +809,7 @@ class DiscreteModel(_ModelBase):
         return _transfer(self.A, self.B, self.C, self.D, np.exp(1j * w * self.dt))
 
     def to_continuous(self) -> StateSpaceModel:
-        """Exact ZOH inverse (:func:`hdpbsid.conversion.d2c`)."""
+        """Exact ZOH inverse (:func:`hdpbsid.models.conversion.d2c`)."""
         A, B, C, D, K = d2c(self.A, self.B, self.C, self.D, self.K, self.dt)
         return StateSpaceModel(
             A,

@@ -1,7 +1,7 @@
 """One-step predictor of a sampled continuous-time innovation model, with its exact
-parameter derivatives (for the prediction-error refinement, :mod:`hdpbsid.methods.refine`).
+parameter derivatives (for the prediction-error refinement, :mod:`hdpbsid.refine.pem`).
 
-Sampling (uniform step ``h``, :mod:`hdpbsid.conversion`): with the block matrix
+Sampling (uniform step ``h``, :mod:`hdpbsid.models.conversion`): with the block matrix
 
     Mb = [[A h, B h, K h, 0], [0, 0, 0, I (foh only)], [0 ...]],    E = expm(Mb),
 
@@ -26,7 +26,7 @@ sensitivities run through the same ``n`` modal first-order recursions as the pre
 (:func:`scipy.signal.lfilter` on a ``P x Ns`` block per eigenvalue): the cost of the
 exact Jacobian is that of ``P`` filtered signals, not ``P`` extra evaluations of the
 cost as with finite differences.  The compiled evaluation
-(:mod:`hdpbsid.methods.pem_kernels`) goes further: ``s`` is linear in the drive matrix
+(:mod:`hdpbsid.refine.pem_kernels`) goes further: ``s`` is linear in the drive matrix
 ``[dF, dG, dKd]``, so the ``n (n + m + l)`` modal filters of ``[xi; u; y]`` carry the
 sensitivities of every direction, which enter only through one matrix product.
 """
@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from hdpbsid.recursion import modal_filter
+from hdpbsid.models.recursion import modal_filter
 
 __all__ = ["Predictor", "sampled_predictor", "conjugate_representatives", "modal_filter"]
 

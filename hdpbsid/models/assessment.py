@@ -3,7 +3,7 @@
 The statistics here work on arrays (prediction errors, inputs); the models produce those
 arrays (:meth:`hdpbsid.StateSpaceModel.compare` and
 :meth:`~hdpbsid.StateSpaceModel.residuals` call into this module, which imports nothing
-from :mod:`hdpbsid.model`).
+from :mod:`hdpbsid.models.model`).
 
 **Residual analysis** follows Ljung, *System Identification: Theory for the User*, 2nd
 ed. (1999), sec. 16.6, as MATLAB's ``resid`` does.  For the one-step prediction errors
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import scale_exponents
+from hdpbsid.data.checks import scale_exponents
 
 __all__ = [
     "Comparison",
@@ -57,7 +57,7 @@ def fit_percent(y: Array, y_hat: Array) -> Array:
     """MATLAB's ``compare`` fit per output column:
     ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent (``-inf`` is possible: a model
     worse than the mean; ``nan`` for a constant output).  The columns are scaled by a
-    power of two first (exact; :func:`~hdpbsid.checks.scale_exponents`), so the norms of
+    power of two first (exact; :func:`~hdpbsid.data.checks.scale_exponents`), so the norms of
     a record in extreme units neither underflow nor overflow."""
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)

@@ -1,9 +1,9 @@
-"""Compiled (numba) state recursions for :mod:`hdpbsid.recursion`.
+"""Compiled (numba) state recursions for :mod:`hdpbsid.models.recursion`.
 
 The plain recursions ``x_{k+1} = F x_k + w_k`` and ``P_k = F^k`` written as loops over
 the samples and compiled: ``n^2`` multiply-adds a step, no change of coordinates, so
 they are the loop of the module's docstring in IEEE double precision (compiled without
-fast-math flags) and need no condition test.  :mod:`hdpbsid.recursion` calls them when
+fast-math flags) and need no condition test.  :mod:`hdpbsid.models.recursion` calls them when
 numba is installed (the extra ``fast``) and not switched off by ``SLBASIS_NO_NUMBA``;
 the modal filters there are the fallback.  Measured on the held-out scoring of
 ``method="auto"`` (16 windows of 83 samples, ``n = 4``): 20 us against 480 us for the
@@ -58,6 +58,6 @@ def powers(F: np.ndarray, P: np.ndarray) -> None:
 
 _F8 = numba.types.float64
 _M, _T = _array(_F8, 2), _array(_F8, 3)
-#: the argument types :mod:`hdpbsid.recursion` passes, compiled ahead of the first call
+#: the argument types :mod:`hdpbsid.models.recursion` passes, compiled ahead of the first call
 #: by :mod:`slbasis.numeric.jit`
 WARM_SIGNATURES = {"recursions": [(_M, _T, _M, _T)], "powers": [(_M, _T)]}

@@ -9,14 +9,14 @@ innovation model, so it is exact for sampled data and consistent in closed loop
 (Ljung sec. 13.4, "direct approach"): the predictor uses only past samples.
 
 Sampling (uniform step ``h``): the innovation ``e`` is held over each interval as in
-:mod:`hdpbsid.conversion` (``Kd = int_0^h e^{A s} ds K``), the input ``u`` with the hold
+:mod:`hdpbsid.models.conversion` (``Kd = int_0^h e^{A s} ds K``), the input ``u`` with the hold
 the method detected (``"zoh"``; ``"foh"``: linear between samples, handled with the
 state ``xi_k = x_k - G2 u_k`` of Franklin, Powell & Workman, *Digital Control*, sec. 6.3,
 which gives the feedthrough ``C G2 + D``).  The predictor
 
     xi_{k+1} = (Phi - Kd C) xi_k + (Gu - Kd Du) u_k + Kd y_k,   yhat_k = C xi_k + Du u_k,
 
-is run by the compiled passes of :mod:`hdpbsid.methods.pem_kernels` (numba), or without
+is run by the compiled passes of :mod:`hdpbsid.refine.pem_kernels` (numba), or without
 numba in its modal coordinates with :func:`scipy.signal.lfilter` (one first-order
 recursion per eigenvalue); the unknown initial state enters linearly and is eliminated by
 least squares at every evaluation (variable projection).  Residuals are weighted by the
@@ -26,7 +26,7 @@ The parametrisation is full (``n^2`` similarity directions are free); the search
 the data-driven local coordinates (the directions that change the predictor), re-centred
 every few Levenberg-Marquardt steps (:func:`scipy.optimize.least_squares`,
 ``method="lm"``), with the exact Jacobian of the prediction errors (sensitivity
-recursions, :mod:`hdpbsid.methods.pem_predictor`) instead of finite differences.
+recursions, :mod:`hdpbsid.refine.pem_predictor`) instead of finite differences.
 Local minima: the fit starts from the method's ``K`` and from the Kalman gain of a
 sensor-noise-only model; the start whose Gauss-Newton step predicts the lower cost is
 fitted to convergence, with the method's input hold, and the other only when its own
@@ -89,11 +89,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 
-from hdpbsid.checks import check_data
-from hdpbsid.checks import is_uniform as checks_is_uniform
-from hdpbsid.methods.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
-from hdpbsid.model import StateSpaceModel
-from hdpbsid.recursion import select_kernels
+from hdpbsid.data.checks import check_data
+from hdpbsid.data.checks import is_uniform as checks_is_uniform
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.recursion import select_kernels
+from hdpbsid.refine.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 from hdpbsid.runtime import library_call
 
 __all__ = [
@@ -183,7 +183,7 @@ OE_PROCESS_NOISE = 1e-6
 
 def is_uniform(t: Array, rtol: float = UNIFORM_RTOL) -> bool:
     """True when ``max |diff(t) - h| <= rtol * h`` plus the resolution of the stamps
-    (:func:`hdpbsid.checks.is_uniform`: computed on ``t - t[0]``, so Unix-time stamps
+    (:func:`hdpbsid.data.checks.is_uniform`: computed on ``t - t[0]``, so Unix-time stamps
     pass)."""
     return checks_is_uniform(np.asarray(t, dtype=float), rtol)
 
@@ -435,7 +435,7 @@ def _kalman_gain(A: Array, C: Array, h: float, q: float) -> Array:
     """Continuous ``K`` of the steady-state Kalman predictor of the sampled model with
     process noise ``q I`` and unit measurement noise (filter DARE; stable whenever
     ``(A, C)`` is detectable), mapped back with ``Kd = int_0^h e^{A s} ds K``
-    (:mod:`hdpbsid.conversion`)."""
+    (:mod:`hdpbsid.models.conversion`)."""
     n, l = A.shape[0], C.shape[0]
     E = expm(np.block([[A * h, np.eye(n) * h], [np.zeros((n, 2 * n))]]))
     Phi, Psi = E[:n, :n], E[:n, n:]
@@ -518,7 +518,7 @@ def _residuals(
     and with ``jac=True`` their Jacobian (:func:`_residuals_numpy`).
 
     ``engine``: ``"numba"`` runs the passes over the samples compiled
-    (:mod:`hdpbsid.methods.pem_kernels`, :func:`_residuals_compiled`), ``"numpy"`` with
+    (:mod:`hdpbsid.refine.pem_kernels`, :func:`_residuals_compiled`), ``"numpy"`` with
     :func:`scipy.signal.lfilter` (:func:`_residuals_numpy`); ``"auto"`` is ``"numba"``
     when numba is installed and not switched off (``SLBASIS_NO_NUMBA``).  The two agree
     to rounding.  ``workspace``: buffers the compiled evaluation reuses between calls
@@ -558,7 +558,7 @@ class _Workspace:
 
 
 def _load_kernels() -> ModuleType:
-    from hdpbsid.methods import pem_kernels
+    from hdpbsid.refine import pem_kernels
 
     return pem_kernels
 
@@ -585,7 +585,7 @@ def _residuals_numpy(
     along the columns of ``directions`` (``P x q``: ``(l Ns, q)``, the derivative matrices
     are combined first, so only ``q`` sensitivities are filtered):
     the exact derivative of the errors at the fitted initial state ``x0``
-    (:mod:`hdpbsid.methods.pem_predictor`), projected on the orthogonal complement of the
+    (:mod:`hdpbsid.refine.pem_predictor`), projected on the orthogonal complement of the
     free-response columns.  That is Kaufman's form of the variable-projection Jacobian
     (Golub & Pereyra, *Inverse Problems* 19 (2003), sec. 3), and ``J^T J`` equals the
     Schur complement of the joint ``(theta, x0)`` information, so the covariance of
@@ -670,10 +670,10 @@ def _residuals_compiled(
     ws: _Workspace,
 ) -> Array | tuple[Array, Array]:
     """:func:`_residuals_numpy` with the passes over the samples compiled
-    (:mod:`hdpbsid.methods.pem_kernels`): the same predictor, the same stability rule,
+    (:mod:`hdpbsid.refine.pem_kernels`): the same predictor, the same stability rule,
     the same variable projection; the sensitivities of all directions from the ``n p``
     modal filters of ``w = [xi; u; y]`` and one ``(Ns, n p + p) x (n p + p, q)`` product
-    per output (the factorisation in :mod:`hdpbsid.methods.pem_kernels`)."""
+    per output (the factorisation in :mod:`hdpbsid.refine.pem_kernels`)."""
     A, B, C, D, K = lay.unpack(theta)
     ns, n, l = y.shape[0], lay.n, lay.l
     u = np.ascontiguousarray(u, dtype=float)
@@ -785,7 +785,7 @@ def refine_pem(
     matrices ``{"A", "B", "C", "D", "K"}`` of a model of the same dimensions (and its
     ``"input_hold"``, then the hold fitted first: a prediction-error fit chose it), that model
     (:data:`WARM_START`; ``method="auto"`` passes its chosen candidate refined on the
-    estimation part, :func:`hdpbsid.selection.rejudge_refined`): a prediction-error fit
+    estimation part, :func:`hdpbsid.selection.auto.rejudge_refined`): a prediction-error fit
     on part of the record is a consistent estimate close to the fit on all of it, where
     one Gauss-Newton step is already efficient, and the screen of :func:`_fit_starts`
     fits the most promising start first.  The option is not carried to the result.
@@ -937,7 +937,7 @@ def one_step_errors(
 ) -> Array | None:
     """One-step prediction errors ``y_k - yhat(t_k | t_{k-1})`` of ``model`` on a uniformly
     sampled record, ``(Ns, l)``, the initial state fitted by least squares: the numbers
-    of :meth:`~hdpbsid.model.StateSpaceModel.predict` (``k=1``, ``x0="estimate"``,
+    of :meth:`~hdpbsid.models.model.StateSpaceModel.predict` (``k=1``, ``x0="estimate"``,
     ``method=hold``), computed by the compiled passes of the refinement
     (:func:`_residuals`).  ``hold``: default the model's ``options["input_hold"]``
     (``"zoh"`` when it has none of :data:`HOLDS`).  ``None`` when the sampled predictor

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import check_data, check_varies, time_resolution
+from hdpbsid.data.checks import check_data, check_varies, time_resolution
 
 __all__ = ["Record", "as_records", "split_windows", "is_record_list"]
 
@@ -33,7 +33,7 @@ Array = NDArray[np.float64]
 class Record:
     """One record: ``t`` relative to its first sample (``t[0] = 0``), ``u (Ns, m)``,
     ``y (Ns, l)``, the absolute start ``t0`` and the resolution of the original stamps
-    (:func:`hdpbsid.checks.time_resolution`)."""
+    (:func:`hdpbsid.data.checks.time_resolution`)."""
 
     t: Array
     u: Array
@@ -70,8 +70,8 @@ def _one(t: Any, u: Any, y: Any, min_samples: int) -> Record:
 def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> list[Record]:
     """Normalise ``(t, u, y)`` or a list of ``(t_i, u_i, y_i)`` tuples to records.
 
-    Each record is checked with :func:`hdpbsid.checks.check_data` and
-    :func:`hdpbsid.checks.check_varies`; errors name the record index.  All records must
+    Each record is checked with :func:`hdpbsid.data.checks.check_data` and
+    :func:`hdpbsid.data.checks.check_varies`; errors name the record index.  All records must
     have the same numbers of input and output channels.  With a list, ``u`` and ``y``
     must be ``None`` (``TypeError`` otherwise).
     """

@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.criteria import (
+from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     WindowedError,
     choose_smallest_adequate,
@@ -211,7 +211,7 @@ def held_out_check(
     20 dB against 0.06-0.10 % at the basis rule's ``0.7 |lambda|``, with held-out fits
     equal to four digits), nor modes the first pass got wrong; the held-out data see all
     of them, and where they cannot tell the two apart the basis rule stands.  A record
-    too short to hold out :data:`~hdpbsid.criteria.MIN_WINDOWS` windows keeps
+    too short to hold out :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps
     ``alpha_old``.  Returns ``(take_new, how)``.
     """
     ns = t.shape[0]
@@ -243,12 +243,12 @@ def held_out_comparison(
     record ``held_out = (t, u, y)`` better than ``old`` (``alphas[0]``), both fitted
     without it; a model that is None (its fit failed) scores infinity.
 
-    The criterion is the windowed simulation error (:mod:`hdpbsid.criteria`, as
+    The criterion is the windowed simulation error (:mod:`hdpbsid.models.criteria`, as
     ``method="auto"`` scores).  The burden of proof is on the change: ``new`` is taken
     only when its error is smaller than ``old``'s by more than one standard error of the
     held-out windows (the one-standard-error rule of
-    :func:`~hdpbsid.criteria.choose_smallest_adequate` with ``old`` listed first).  A
-    held-out record too short for :data:`~hdpbsid.criteria.MIN_WINDOWS` windows keeps
+    :func:`~hdpbsid.models.criteria.choose_smallest_adequate` with ``old`` listed first).  A
+    held-out record too short for :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps
     ``old``.  ``label`` names the data in ``how``.  Returns ``(take_new, how)``.
     """
     t, u, y = held_out

@@ -2,12 +2,12 @@
 
 Two loops over the ``Ns`` samples of a record replace the modal filters
 (:func:`scipy.signal.lfilter`) and the ``(q n_modes) x Ns`` complex products of the
-numpy evaluation in :mod:`hdpbsid.methods.refine`; the refinement calls them through
+numpy evaluation in :mod:`hdpbsid.refine.pem`; the refinement calls them through
 ``_residuals`` when numba is installed (the extra ``fast``) and not switched off by
 ``SLBASIS_NO_NUMBA``, and the numpy evaluation is the fallback and the oracle of the tests.
 
 Prediction errors (:func:`weighted_errors`).  The predictor of
-:mod:`hdpbsid.methods.pem_predictor`, ``xi_{k+1} = F xi_k + G u_k + Kd y_k``, run from
+:mod:`hdpbsid.refine.pem_predictor`, ``xi_{k+1} = F xi_k + G u_k + Kd y_k``, run from
 ``xi_0 = 0`` in real arithmetic (``n^2 + n (m + l)`` operations a sample), with the
 weighted errors ``W (y_k - C xi_k - Du u_k)`` and the weighted free response
 ``W C F^k`` (the columns of the initial state, eliminated by least squares by the
@@ -200,7 +200,7 @@ def sensitivity_regressors(
 
 _F8, _B1 = numba.types.float64, numba.types.boolean
 _M, _V = _array(_F8, 2), _array(_F8, 1)
-#: the argument types :mod:`hdpbsid.methods.refine` passes, compiled ahead of the first
+#: the argument types :mod:`hdpbsid.refine.pem` passes, compiled ahead of the first
 #: call by :mod:`slbasis.numeric.jit` (``lam_im`` is read-only when every mode is real:
 #: numpy's ``.imag`` of a real array)
 WARM_SIGNATURES = {

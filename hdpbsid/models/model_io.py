@@ -1,7 +1,7 @@
 """Saving and loading identified models: :func:`save_model` / :func:`load_model` (JSON).
 
 ``model.save("model.json")`` writes everything needed to rebuild a
-:class:`~hdpbsid.model.StateSpaceModel`; ``hdpbsid.load_model("model.json")`` reads it
+:class:`~hdpbsid.models.model.StateSpaceModel`; ``hdpbsid.load_model("model.json")`` reads it
 back.  The file is plain JSON (readable by any language):
 
 =====================  ==========================================================
@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid.model import LinearTrend, StateSpaceModel
+from hdpbsid.models.model import LinearTrend, StateSpaceModel
 
 __all__ = [
     "save_model",
@@ -135,7 +135,7 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
     Raises
     ------
     TypeError
-        When ``model`` is not a :class:`~hdpbsid.model.StateSpaceModel`.
+        When ``model`` is not a :class:`~hdpbsid.models.model.StateSpaceModel`.
 
     Examples
     --------
@@ -198,7 +198,7 @@ def save_model(model: StateSpaceModel, path: str | Path) -> Path:
     ValueError
         When ``path`` is an existing directory.
     TypeError
-        When ``model`` is not a :class:`~hdpbsid.model.StateSpaceModel`.
+        When ``model`` is not a :class:`~hdpbsid.models.model.StateSpaceModel`.
 
     Examples
     --------

@@ -3,7 +3,7 @@
 Several experiments, or windows of one long record, are each projected on their own
 basis (own ``N`` by the band rule, own scale) with their own boundary and truncation
 pseudo-inputs, and their coefficient columns are stacked side by side in one PBSID
-problem (:func:`hdpbsid.methods.basis_domain.run_core`; the pseudo-inputs of each block
+problem (:func:`hdpbsid.bases.basis_domain.run_core`; the pseudo-inputs of each block
 are eliminated there, so the regression does not grow with the number of blocks).
 
 Windows (:func:`default_window`) make the cost linear in the number of samples: one
@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import is_uniform
-from hdpbsid.methods.basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
-from hdpbsid.methods.memo import memoize
-from hdpbsid.methods.settings import check_window
-from hdpbsid.records import Record, split_windows
+from hdpbsid.bases.basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from hdpbsid.bases.memo import memoize
+from hdpbsid.bases.settings import check_window
+from hdpbsid.data.checks import is_uniform
+from hdpbsid.data.records import Record, split_windows
 
 __all__ = [
     "default_window",
@@ -56,7 +56,7 @@ MAP_BYTES = 256 * 2**20
 
 
 def records_bandwidth(records: Sequence[Record]) -> float:
-    """Largest :func:`~hdpbsid.methods.basis_domain.data_bandwidth` over the records (the
+    """Largest :func:`~hdpbsid.bases.basis_domain.data_bandwidth` over the records (the
     basis of every block must cover the band of all)."""
     return max(data_bandwidth(r.t, r.u, r.y) for r in records)
 
@@ -84,7 +84,7 @@ def default_window(
       of the slowest significant component the window's forced response resolves it.
 
     A record is split only when it is at least twice ``T_w`` long (windows are between
-    ``T_w`` and ``2 T_w``, :func:`hdpbsid.records.split_windows`), so short records are
+    ``T_w`` and ``2 T_w``, :func:`hdpbsid.data.records.split_windows`), so short records are
     identified on one basis as before.  Returns ``(T_w or None, info)``.
     """
     w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
@@ -162,7 +162,7 @@ def shared_keys(segs: Sequence[Record]) -> list[int]:
 
 
 def _maps(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
-    """The linear maps of :func:`~hdpbsid.methods.basis_domain.project_record`: samples
+    """The linear maps of :func:`~hdpbsid.bases.basis_domain.project_record`: samples
     ``(Ns,)`` -> coefficients ``(N,)`` per input hold, and for the outputs (``foh``)."""
     x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
     h = np.diff(t)
@@ -203,7 +203,7 @@ MAP_CACHE_SIZE = 4
 @memoize(size=MAP_CACHE_SIZE)
 def _maps_memoised(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
     """:func:`_maps`, memoised by the basis and the contents of ``t``
-    (:mod:`hdpbsid.methods.memo`; the arrays returned are read-only)."""
+    (:mod:`hdpbsid.bases.memo`; the arrays returned are read-only)."""
     return _maps(basis, t, holds)
 
 
@@ -220,7 +220,7 @@ def project_blocks(
 
     Segments with the same basis object and time axis (windows of equal sample count on
     a uniform grid) share the projection map (:func:`_maps`, identical to
-    :func:`~hdpbsid.methods.basis_domain.project_record` up to summation order), applied
+    :func:`~hdpbsid.bases.basis_domain.project_record` up to summation order), applied
     to all of them by one matrix product; others are projected one by one, in parallel
     with ``joblib`` when ``n_jobs`` is given.
     """

@@ -11,7 +11,7 @@ once when it is made; each method keeps its own basis keywords (``N``, ``alpha``
 (``identify_hermite(t, u, y, settings=BasisSettings(p=3))``); keywords override the
 object's fields.
 
->>> from hdpbsid.methods.settings import BasisSettings
+>>> from hdpbsid.bases.settings import BasisSettings
 >>> s = BasisSettings(p=3, window=None)
 >>> s.f is None, s.max_order
 (True, 10)
@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid.checks import DEFAULT_MAX_ORDER, check_positive_int, require_joblib
 from hdpbsid.core.varx import parse_regularize
+from hdpbsid.data.checks import DEFAULT_MAX_ORDER, check_positive_int, require_joblib
 
 __all__ = ["BasisSettings", "INPUT_HOLDS", "SETTING_NAMES", "check_window", "resolve_settings"]
 
@@ -140,7 +140,7 @@ class BasisSettings:
         put("n_jobs", _check_n_jobs(self.n_jobs))
 
     def core_options(self, order: int | None) -> dict[str, Any]:
-        """The keywords of :func:`hdpbsid.methods.basis_domain.run_core`."""
+        """The keywords of :func:`hdpbsid.bases.basis_domain.run_core`."""
         return {
             "order": order,
             "p": self.p,

@@ -24,7 +24,7 @@ its estimated variance).  Coherence bounds use Fisher's ``z = atanh|gamma|``
 (:meth:`FrequencyResponse.coherence_bounds`; Bendat & Piersol sec. 9.2.3; Carter, Knapp &
 Nuttall, IEEE Trans. Audio Electroacoust. 21(4), 1973).
 
-:func:`identify_frequency` fits a continuous-time :class:`~hdpbsid.model.StateSpaceModel`
+:func:`identify_frequency` fits a continuous-time :class:`~hdpbsid.models.model.StateSpaceModel`
 to frequency-response data (see its docstring); :func:`estimate_delay` estimates an
 input-output dead time.
 """
@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import as_columns, as_float_array, check_positive_int, check_step
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.data.checks import as_columns, as_float_array, check_positive_int, check_step
+from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "FrequencyResponse",
@@ -67,7 +67,7 @@ class FrequencyResponse:
     ----------
     w : (nf,) angular frequencies (rad/s).
     H : (l, m, nf) complex response (python-control layout, as
-        :meth:`hdpbsid.model.StateSpaceModel.frequency_response`); ``nan`` where an input
+        :meth:`hdpbsid.models.model.StateSpaceModel.frequency_response`); ``nan`` where an input
         does not excite a line (orthogonal multi-input periodic designs).
     coherence : (l, nf) multiple coherence of each output with the inputs (or, closed
         loop, with the reference), or ``None``.
@@ -342,7 +342,7 @@ def frf_periodic(
     usual estimate over the ``P`` periods.
 
     Multiple inputs must be orthogonal in frequency (each line excited by one input, as
-    :func:`hdpbsid.inputs.multisine` designs them): ``H[:, j, k]`` is ``nan`` on the lines
+    :func:`hdpbsid.design.inputs.multisine` designs them): ``H[:, j, k]`` is ``nan`` on the lines
     input ``j`` does not excite.
 
     Parameters
@@ -400,7 +400,7 @@ def frf_periodic(
         if np.any(owner[lj] >= 0):
             raise ValueError(
                 "a line is excited by two inputs: frf_periodic needs inputs orthogonal in "
-                "frequency (e.g. hdpbsid.inputs.multisine with channels=m)"
+                "frequency (e.g. hdpbsid.design.inputs.multisine with channels=m)"
             )
         owner[lj] = j
     nf = all_lines.size
@@ -515,7 +515,7 @@ def identify_frequency(
        thirds of the lines and scored on the held-out third, for three interleaved folds,
        so every line is scored once by a model that did not see it; the order is the
        smallest whose total held-out weighted error is within one standard error of the
-       best (:func:`hdpbsid.criteria.choose_smallest_adequate`, the rule the time-domain
+       best (:func:`hdpbsid.models.criteria.choose_smallest_adequate`, the rule the time-domain
        selection uses).  Held-out lines judge what the data support without a noise level
        or a penalty to choose (an AIC needs the noise variance; singular-value gaps vanish
        in noise), and the interleaving keeps every fold over the whole band.
@@ -537,7 +537,7 @@ def identify_frequency(
     order : model order, or ``None`` to choose it.
     weight : see above.
     max_order : largest order tried (default
-        :data:`hdpbsid.checks.DEFAULT_MAX_ORDER`, at most what the lines support).
+        :data:`hdpbsid.data.checks.DEFAULT_MAX_ORDER`, at most what the lines support).
     feedthrough : fit ``D`` (default: strictly proper, ``D = 0``).
     refine : run the nonlinear refinement (else the subspace start is returned).
 
@@ -565,7 +565,7 @@ def identify_frequency(
     >>> bool(np.allclose(np.sort_complex(model.eigenvalues), np.sort_complex(np.linalg.eigvals(A))))
     True
     """
-    from hdpbsid.checks import DEFAULT_MAX_ORDER
+    from hdpbsid.data.checks import DEFAULT_MAX_ORDER
 
     w_arr, Hc, W, source = _frequency_data(w, H, weight)
     l, m, nf = Hc.shape
@@ -666,7 +666,7 @@ def _weights(weight: Any, H: CArray, frf: FrequencyResponse | None) -> tuple[Arr
 
 def _transfer(A: Array, B: Array, C: Array, D: Array, s: CArray) -> CArray:
     """``C (sI - A)^{-1} B + D`` at every ``s``: (l, m, ns), as
-    :meth:`hdpbsid.model.StateSpaceModel.frequency_response` lays it out."""
+    :meth:`hdpbsid.models.model.StateSpaceModel.frequency_response` lays it out."""
     n = A.shape[0]
     X = np.linalg.solve(
         s[:, None, None] * np.eye(n)[None] - A[None], np.broadcast_to(B, (s.size,) + B.shape)
@@ -893,7 +893,7 @@ def _fit_order(
 def _select_order(
     w: Array, H: CArray, W: Array, wc: float, max_order: int, feedthrough: bool, refine: bool
 ) -> tuple[int, list[dict[str, Any]]]:
-    from hdpbsid.criteria import WindowedError, choose_smallest_adequate
+    from hdpbsid.models.criteria import WindowedError, choose_smallest_adequate
 
     l, m, nf = H.shape
     fold = np.arange(nf) % FOLDS

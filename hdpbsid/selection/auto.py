@@ -2,7 +2,7 @@
 
 Every candidate ``(method, order)`` is identified on the first part of the record
 (``1 - holdout`` of the samples) and scored on the rest by the **windowed one-step
-prediction error of the candidate's own predictor** (:mod:`hdpbsid.criteria`: initial
+prediction error of the candidate's own predictor** (:mod:`hdpbsid.models.criteria`: initial
 state fitted in each window, outputs weighted by their variance), computed identically
 for every method:
 
@@ -25,10 +25,10 @@ for every method:
   estimation part instead, where ``K`` was fitted, kept ``K`` for models it then made
   worse on the held-out part: the closed-loop quadrotor's order 3 lost to order 4.)
   A predictor ``A - K C`` that is unstable in sampled form is not scored with ``K``
-  (:func:`hdpbsid.criteria.predictor_is_stable`: with each window's fitted initial state
+  (:func:`hdpbsid.models.criteria.predictor_is_stable`: with each window's fitted initial state
   it would use the window's later outputs); such a model is scored by its simulation.
 
-The rule of :func:`hdpbsid.criteria.choose_smallest_adequate` keeps, among all
+The rule of :func:`hdpbsid.models.criteria.choose_smallest_adequate` keeps, among all
 candidates ordered by order, the first one whose error is within one standard error of
 the best candidate's.  Among the candidates of that order within one standard error
 (ties at the resolution of the held-out data), the one with the smallest simulation
@@ -63,7 +63,7 @@ refit's cost): the held-out part judged the candidate's predictor with them.
 
 The expensive order-independent steps of the methods (projection of the record, basis
 operators, the past-window criterion of ``dt``) are memoised
-(:mod:`hdpbsid.methods.memo`), so the orders of one method share them.
+(:mod:`hdpbsid.bases.memo`), so the orders of one method share them.
 
 The comparison is reported in ``model.options["selection"]``: one row per candidate
 with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
@@ -85,8 +85,8 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid.checks import check_data, check_positive_int
-from hdpbsid.criteria import (
+from hdpbsid.data.checks import check_data, check_positive_int
+from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
     SIGNIFICANCE_Z,
@@ -97,7 +97,7 @@ from hdpbsid.criteria import (
     windowed_prediction_error,
     windowed_simulation_error,
 )
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
 __all__ = [
@@ -268,7 +268,7 @@ def _sweep_method(
     options: dict,
 ) -> list[dict[str, Any]]:
     """Every order of one method, upwards (the orders share the method's memoised
-    order-independent steps, :mod:`hdpbsid.methods.memo`)."""
+    order-independent steps, :mod:`hdpbsid.bases.memo`)."""
     return [_fit_one(get_method, method, n, est, val, windows, options) for n in orders]
 
 
@@ -312,10 +312,10 @@ def _sweep(
 def _refine_and_score(
     model: StateSpaceModel, est: tuple, val: tuple, windows: int
 ) -> tuple[StateSpaceModel | None, WindowedError]:
-    """``model`` refined on ``est`` (:func:`hdpbsid.methods.refine.refine_pem`; None when
+    """``model`` refined on ``est`` (:func:`hdpbsid.refine.pem.refine_pem`; None when
     the refinement fails or does not converge) and the held-out score
     (:func:`score_model`) of the refined model, or of ``model`` itself without one."""
-    from hdpbsid.methods.refine import refine_pem
+    from hdpbsid.refine.pem import refine_pem
 
     refined = None
     with warnings.catch_warnings():
@@ -361,12 +361,12 @@ def _refine_rows(
 
 
 def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
-    """Whether the feedback test (:func:`hdpbsid.feedback.feedback_statistics`: the
+    """Whether the feedback test (:func:`hdpbsid.selection.feedback.feedback_statistics`: the
     one-step prediction errors of ``model`` on ``rec = (t, u, y)`` correlated with the
     prewhitened input at positive lags) declares the record closed loop; False when it
     cannot be computed (the predictor diverges on the record)."""
-    from hdpbsid.feedback import feedback_statistics
-    from hdpbsid.methods.refine import one_step_errors
+    from hdpbsid.refine.pem import one_step_errors
+    from hdpbsid.selection.feedback import feedback_statistics
 
     t, u, y = rec
     try:
@@ -424,7 +424,7 @@ def rejudge_refined(
     (:func:`looks_closed_loop`, on the chosen candidate's errors over the estimation part;
     in open loop the subspace candidates are consistent and the ranking is not biased):
     then the next larger order is refined too and replaces the decision when it beats it
-    by more than one standard error (:func:`~hdpbsid.criteria.choose_smallest_adequate`
+    by more than one standard error (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`
     with the smaller order listed first: the burden of proof on the larger order), and so
     on upwards.  Without the symptom no larger order is refined (closed-loop quadrotor,
     seeds 0-5: the refit of the chosen order 3 within 0.22 standard errors of its subspace
@@ -435,7 +435,7 @@ def rejudge_refined(
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
     """
-    from hdpbsid.methods.refine import is_uniform
+    from hdpbsid.refine.pem import is_uniform
 
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
@@ -557,7 +557,7 @@ def refit_holds(
     :func:`score_model`) is an in-sample error, and a correct refit of the same model
     structure scores no worse than the candidate did out of sample, up to the noise of
     the criterion.  More than one standard error of the candidate's held-out windows
-    worse (the one-standard-error rule of :func:`~hdpbsid.criteria.choose_smallest_adequate`
+    worse (the one-standard-error rule of :func:`~hdpbsid.models.criteria.choose_smallest_adequate`
     with the refit listed first) means the refit is not the model that was chosen: the
     method's data-driven settings (operator scale, past window, basis size, input hold)
     are chosen again on the whole record and can change with it.  Such a refit is not
@@ -628,10 +628,10 @@ def _first_that_holds(
         if holds:
             warm = chosen.get("refined_model")
             if warm is not None:
-                from hdpbsid.methods.refine import WARM_START, warm_start_option
+                from hdpbsid.refine.pem import WARM_START, warm_start_option
 
                 # the candidate refined on the estimation part: a starting point of the
-                # refinement of the refit (hdpbsid.methods.refine.refine_pem)
+                # refinement of the refit (hdpbsid.refine.pem.refine_pem)
                 model.options[WARM_START] = warm_start_option(warm)
             carried = chosen["model"].options.get("refit_settings")
             if carried:
@@ -645,7 +645,7 @@ def _first_that_holds(
                 model.options["refit_kept"] = kept
                 model.options["refit_kept_rule"] = (
                     "the candidate's own values, judged with it on the held-out part "
-                    "(hdpbsid.selection.refit_keeps)"
+                    "(hdpbsid.selection.auto.refit_keeps)"
                 )
             return model, failures
         failures.append(("refit", f"{name}: {how}"))
@@ -703,8 +703,8 @@ def select_model(
     Raises ``ValueError`` when the record is too short to hold out enough scoring windows
     (the message says what would work) or when no candidate can be identified.
     """
+    from hdpbsid.data.records import as_records, is_record_list
     from hdpbsid.identify import get_method
-    from hdpbsid.records import as_records, is_record_list
 
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
@@ -819,9 +819,9 @@ def identify_auto(
     it raises ``TypeError``).  ``model.options["selection"]`` lists every candidate,
     ``options["order_selection"]`` the chosen method's.
     """
+    from hdpbsid.data.records import as_records
     from hdpbsid.identify import get_method, is_available
-    from hdpbsid.methods.refine import is_uniform
-    from hdpbsid.records import as_records
+    from hdpbsid.refine.pem import is_uniform
 
     recs = as_records(t, u, y)
     if len(recs) == 1:

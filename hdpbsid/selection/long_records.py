@@ -10,7 +10,7 @@ VARX regressor of up to 200 lags).  On a *long* record -- more samples than
 1. **Spectrum** of the whole record, periodograms averaged over chunks
    (:func:`hdpbsid.methods.chunked.averaged_spectra`: Welch's method, one pass, memory of
    one chunk): the data bandwidth and the lowest significant output frequency
-   ``f_low`` (below it lies :data:`~hdpbsid.methods.segments.LOW_FRACTION` of the output
+   ``f_low`` (below it lies :data:`~hdpbsid.bases.segments.LOW_FRACTION` of the output
    energy above the noise floor), the quantities HD-PBSID's own window rule uses.
 2. **Which methods can run** (:meth:`LongRecordPolicy.plan`): the final model is fitted
    on the whole record, so a method is a candidate only if that fit is possible --
@@ -18,11 +18,11 @@ VARX regressor of up to 200 lags).  On a *long* record -- more samples than
    a record read in chunks, a streamed core (HD-PBSID, :mod:`hdpbsid.methods.chunked`).
    Every other method is skipped before anything runs, with a typed reason
    (:class:`SkipReason`) in the selection table: none is left to run out of memory.
-3. **Selection** (:func:`hdpbsid.selection.identify_auto`) on one contiguous segment from
+3. **Selection** (:func:`hdpbsid.selection.auto.identify_auto`) on one contiguous segment from
    the middle of the record (away from start-up transients) of
    :meth:`LongRecordPolicy.selection_samples` samples: ``SELECTION_PERIODS =
    3 * WINDOW_PERIODS`` periods of ``f_low`` -- the estimation part (two thirds) then
-   holds two of HD-PBSID's default windows (:data:`~hdpbsid.methods.segments.WINDOW_PERIODS`
+   holds two of HD-PBSID's default windows (:data:`~hdpbsid.bases.segments.WINDOW_PERIODS`
    periods each, the length over which a window's forced response resolves the slowest
    significant component) and the held-out third one; at least
    :data:`MIN_SELECTION_SAMPLES` (the held-out third then estimates the residual
@@ -35,7 +35,7 @@ VARX regressor of up to 200 lags).  On a *long* record -- more samples than
    the method itself when its memory estimate fits, else with HD-PBSID's streamed core
    (:func:`hdpbsid.methods.chunked.identify_chunked`: memory of one batch of samples).
    The cost of every such fit is linear in the samples.
-5. **Refinement** (``refine="auto"`` or ``"pem"``; :func:`hdpbsid.methods.refine.refine_pem`)
+5. **Refinement** (``refine="auto"`` or ``"pem"``; :func:`hdpbsid.refine.pem.refine_pem`)
    on a contiguous part of the record, started from the whole-record model (and the
    selection's refined candidate, when there is one).  The prediction-error estimate's
    covariance falls as ``1 / N`` (Ljung, *System Identification*, 2nd ed., sec. 9.3), so
@@ -45,9 +45,9 @@ VARX regressor of up to 200 lags).  On a *long* record -- more samples than
    ``s`` exceeds the target, again on ``N s^2 / target^2`` samples (capped by
    :data:`MAX_REFINE_SAMPLES` and the record).  The whole-record model and the refined
    one are then scored on a segment of the record outside the refinement part
-   (:func:`hdpbsid.selection.score_model`); the whole-record model is returned unless the
+   (:func:`hdpbsid.selection.auto.score_model`); the whole-record model is returned unless the
    refined one predicts that segment better by more than one standard error
-   (:func:`~hdpbsid.criteria.choose_smallest_adequate`, the whole-record model listed
+   (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`, the whole-record model listed
    first).  Why this way round: in open loop the subspace fit on all ``Ns`` samples is
    consistent and its variance falls with ``Ns``, while the refinement saw a part; the
    refinement earns its place where the subspace estimate is biased (closed loop), which
@@ -75,7 +75,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.checks import check_data, check_positive_int
+from hdpbsid.data.checks import check_data, check_positive_int
 
 if TYPE_CHECKING:
     from hdpbsid.methods.chunked import ChunkedRecord
@@ -105,7 +105,7 @@ Array = NDArray[np.float64]
 #: thirds of the record; ``dt``'s past-window criterion and the refinement on all of it)
 LONG_SAMPLES = 50_000
 #: periods of the lowest significant output frequency in the selection segment: two of
-#: HD-PBSID's default windows (``WINDOW_PERIODS = 10`` of :mod:`hdpbsid.methods.segments`
+#: HD-PBSID's default windows (``WINDOW_PERIODS = 10`` of :mod:`hdpbsid.bases.segments`
 #: each) to estimate, one to score (module docstring)
 SELECTION_PERIODS = 30.0
 #: fewest samples of the selection segment (module docstring: held-out variance to 4 %)
@@ -487,7 +487,7 @@ def identify_long(
     t, u, y
         One uniformly sampled record as :func:`hdpbsid.identify` takes it, or a
         :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t`` (``u``, ``y`` None; e.g.
-        :func:`hdpbsid.io.open_chunked`), read in pieces.
+        :func:`hdpbsid.data.io.open_chunked`), read in pieces.
     order
         The model order, or None to choose it (on the selection segment).
     refine
@@ -499,7 +499,7 @@ def identify_long(
     progress
         Show progress bars (tqdm).
     **options
-        As :func:`hdpbsid.selection.identify_auto` takes them (``methods=``,
+        As :func:`hdpbsid.selection.auto.identify_auto` takes them (``methods=``,
         ``max_order=``, ``method_options=``, settings shared by every method).
 
     Returns
@@ -519,7 +519,7 @@ def identify_long(
     Examples
     --------
     >>> import numpy as np, hdpbsid
-    >>> from hdpbsid.scaling import LongRecordPolicy
+    >>> from hdpbsid.selection.long_records import LongRecordPolicy
     >>> rng = np.random.default_rng(0)
     >>> t = np.arange(20_000) * 0.01
     >>> u = rng.standard_normal(t.size)
@@ -528,12 +528,12 @@ def identify_long(
     >>> m.options["long_record"]["methods"]
     ('hermite', 'laguerre', 'legendre', 'dt')
     """
+    from hdpbsid.bases.segments import LOW_FRACTION
     from hdpbsid.identify import _set_levels
     from hdpbsid.methods.chunked import ChunkedRecord, averaged_spectra
-    from hdpbsid.methods.refine import REFINE_CHOICES, is_uniform
-    from hdpbsid.methods.segments import LOW_FRACTION
-    from hdpbsid.model import LinearTrend
-    from hdpbsid.selection import AUTO_METHODS
+    from hdpbsid.models.model import LinearTrend
+    from hdpbsid.refine.pem import REFINE_CHOICES, is_uniform
+    from hdpbsid.selection.auto import AUTO_METHODS
 
     policy = _policy(long_record)
     if refine not in REFINE_CHOICES:
@@ -557,7 +557,7 @@ def identify_long(
             rec = dataclasses.replace(raw, read=_Centred(raw.read, u0, y0))
             op_info: Any = {"u0": u0.tolist(), "y0": y0.tolist(), "samples": raw.ns}
         else:
-            from hdpbsid.detrend import detrend_record
+            from hdpbsid.data.detrend import detrend_record
 
             tt, ua, yy = check_data(t, u, y)
             if not is_uniform(tt):
@@ -577,7 +577,7 @@ def identify_long(
         # 1. spectrum
         bar.stage("spectrum")
         bar.reading(rec.ns, "spectrum")
-        from hdpbsid.methods.basis_domain import spectra_data_bandwidth, spectrum_bandwidth
+        from hdpbsid.bases.basis_domain import spectra_data_bandwidth, spectrum_bandwidth
 
         w, Pu, Py = averaged_spectra(reading, min(rec.ns, 2**16))
         bar.end_reading()
@@ -607,7 +607,7 @@ def identify_long(
             )
         # 3. selection on the segment
         bar.stage(f"selection on {plan.selection[1] - plan.selection[0]} samples")
-        from hdpbsid.selection import identify_auto
+        from hdpbsid.selection.auto import identify_auto
 
         seg = _segment(rec, *plan.selection)
         t_sel = time.perf_counter()
@@ -683,7 +683,7 @@ def _whole_record(
     """``method`` at order ``n`` on the whole record: the method itself (in memory), or
     HD-PBSID's streamed core when the plan says so."""
     from hdpbsid.identify import get_method
-    from hdpbsid.selection import refit_keeps
+    from hdpbsid.selection.auto import refit_keeps
 
     given = {**{k: v for k, v in opts.items() if k not in _AUTO_ONLY}}
     given.update((opts.get("method_options") or {}).get(method, {}))
@@ -725,10 +725,10 @@ def _refine(
 ) -> Any:
     """The refinement on a bounded part and the choice between it and ``model``
     (module docstring); what was done goes to ``info``."""
-    from hdpbsid.criteria import choose_smallest_adequate, default_windows
-    from hdpbsid.feedback import refine_decision
-    from hdpbsid.methods.refine import WARM_START, refine_pem, warm_start_option
-    from hdpbsid.selection import score_model
+    from hdpbsid.models.criteria import choose_smallest_adequate, default_windows
+    from hdpbsid.refine.pem import WARM_START, refine_pem, warm_start_option
+    from hdpbsid.selection.auto import score_model
+    from hdpbsid.selection.feedback import refine_decision
 
     t0 = time.perf_counter()
     a, b = plan.selection
@@ -805,9 +805,9 @@ def _refine(
 
 
 def _with_warm(model: Any, warm: dict[str, Any] | None) -> Any:
-    """A copy of ``model`` offering ``warm`` (:func:`~hdpbsid.methods.refine.warm_start_option`
+    """A copy of ``model`` offering ``warm`` (:func:`~hdpbsid.refine.pem.warm_start_option`
     of a prediction-error fit) to the refinement as a starting point."""
-    from hdpbsid.methods.refine import WARM_START
+    from hdpbsid.refine.pem import WARM_START
 
     start = copy.copy(model)
     start.options = dict(model.options)
