@@ -15,6 +15,7 @@ What is measured (statically, from the sources; nothing is imported):
   also those inside functions: a lazy import defers the load, not the dependency);
   ``from pkg import name`` points at the submodule ``pkg.name`` when it is one, else at
   ``pkg``; a package's ``__init__`` is not implied by importing one of its submodules;
+  imports under ``if TYPE_CHECKING:`` (annotations only, never run) do not count;
 * **module-level numeric constants**: assignments at module level whose value is a number
   (a literal, a signed one, or arithmetic of literals), dunder names excluded;
 * **``options`` keys read** by library code: ``x.options[key]``, ``x.options.get(key)``
@@ -74,7 +75,7 @@ def imports_of(tree: ast.AST, name: str, is_package: bool, known: set[str]) -> s
     """Modules of ``known`` that the module ``name`` imports anywhere in its body."""
     here = name.split(".") if is_package else name.split(".")[:-1]
     out: set[str] = set()
-    for node in ast.walk(tree):
+    for node in walk_runtime(tree):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = here[: len(here) - node.level + 1]
@@ -91,6 +92,19 @@ def imports_of(tree: ast.AST, name: str, is_package: bool, known: set[str]) -> s
             out.update(a.name for a in node.names if a.name in known)
     out.discard(name)
     return out
+
+
+def walk_runtime(tree: ast.AST):
+    """``ast.walk`` without the bodies of ``if TYPE_CHECKING:`` (imports for annotations
+    only, never executed)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, ast.If) and ast.unparse(node.test).endswith("TYPE_CHECKING"):
+            todo.extend(node.orelse)
+            continue
+        todo.extend(ast.iter_child_nodes(node))
 
 
 def strongly_connected(graph: dict[str, set[str]]) -> list[list[str]]:

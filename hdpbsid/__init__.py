@@ -15,15 +15,15 @@ from typing import Any
 from hdpbsid.bases.settings import BasisSettings
 from hdpbsid.core.pbsid import pbsid_core
 from hdpbsid.core.varx import LagOperator, MatrixLag, SampleShift
-from hdpbsid.identify import (
+from hdpbsid.identify import identify
+from hdpbsid.methods.dt import identify_discrete, identify_dt
+from hdpbsid.methods.registry import (
     METHODS,
     available_methods,
     get_method,
-    identify,
     is_available,
     register_method,
 )
-from hdpbsid.methods.dt import identify_discrete, identify_dt
 from hdpbsid.models.conversion import c2d, d2c
 from hdpbsid.models.metrics import eigenvalue_errors, match_eigenvalues
 from hdpbsid.models.model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning

@@ -50,7 +50,8 @@ import numpy as np
 from hdpbsid import frequency_cli
 from hdpbsid.data.checks import check_label, check_names
 from hdpbsid.data.io import Record, read_columns, read_record
-from hdpbsid.identify import available_methods, identify, is_available
+from hdpbsid.identify import identify
+from hdpbsid.methods.registry import available_methods, is_available
 from hdpbsid.models.metrics import match_eigenvalues
 from hdpbsid.models.model import StateSpaceModel, TimeScaleWarning
 from hdpbsid.models.model_io import load_model, model_from_dict, model_to_dict, save_model

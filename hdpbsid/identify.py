@@ -1,28 +1,16 @@
 """``hdpbsid.identify``: one entry point for every identification method.
 
 ``m = hdpbsid.identify(t, u, y, order=4, method="hermite")`` with ``method`` one of
-``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md). Methods
-live in a registry :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
-order=None, **options) -> StateSpaceModel``).
-
-* ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered on import;
-* the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
-  time ``"hermite"`` (:mod:`hdpbsid.methods.hermite`), ``"laguerre"``
-  (:mod:`hdpbsid.methods.laguerre`),
-  ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
-  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
-  is imported and its ``identify_<name>`` function registered.  A module may also call
-  :func:`register_method` itself when imported;
-* anything else can be added with :func:`register_method` (a user's own method, a
-  wrapper around another tool for comparisons).
+``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md): the
+record is checked, scaled and detrended here, the method is taken from the registry
+(:mod:`hdpbsid.methods.registry`; ``"dt"``, :func:`hdpbsid.methods.dt.identify_dt`, is
+registered on import), and the model refined and given its operating point.
 """
 
 from __future__ import annotations
 
-import importlib
 import time
 import warnings
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,7 +26,12 @@ from hdpbsid.data.checks import (
 )
 from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from hdpbsid.methods.dt import identify_dt
-from hdpbsid.models.model import LinearTrend, StateSpaceModel, scale_signals
+from hdpbsid.methods.registry import (
+    IdentifyFunc,
+    get_method,
+    register_method,
+)
+from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
 from hdpbsid.refine.pem import (
     REFINE_CHOICES,
     WARM_START,
@@ -50,107 +43,7 @@ from hdpbsid.runtime import library_call
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_decision
 
-__all__ = [
-    "METHODS",
-    "LAZY_METHODS",
-    "identify",
-    "register_method",
-    "available_methods",
-    "is_available",
-    "get_method",
-]
-
-IdentifyFunc = Callable[..., StateSpaceModel]
-
-#: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
-METHODS: dict[str, IdentifyFunc] = {}
-
-#: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
-#: tried in order (the first module that imports and has the function wins).
-LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
-    "hermite": (("hdpbsid.methods.hermite", "identify_hermite"),),
-    "laguerre": (("hdpbsid.methods.laguerre", "identify_laguerre"),),
-    "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
-    "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
-    "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
-    "auto": (("hdpbsid.selection.auto", "identify_auto"),),
-}
-
-
-def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> IdentifyFunc:
-    """Register ``func`` under ``name`` in :data:`METHODS`; returns ``func``.
-
-    ``func(t, u, y, order=None, **options)`` must return a
-    :class:`~hdpbsid.models.model.StateSpaceModel`.  Re-registering a name with a different
-    function raises ``ValueError`` unless ``overwrite=True`` (registering the same
-    function twice is harmless, so a module may register itself on import).
-    """
-    if not isinstance(name, str) or not name:
-        raise TypeError(f"name must be a non-empty string, got {name!r}")
-    if not callable(func):
-        raise TypeError(f"func must be callable, got {type(func).__name__}")
-    old = METHODS.get(name)
-    if old is not None and old is not func and not overwrite:
-        raise ValueError(
-            f"method {name!r} is already registered ({getattr(old, '__qualname__', old)}); "
-            f"pass overwrite=True to replace it"
-        )
-    METHODS[name] = func
-    return func
-
-
-def _load_lazy(name: str) -> IdentifyFunc | None:
-    """Import a lazily registered method; ``None`` if none of its modules exists."""
-    for module_name, func_name in LAZY_METHODS[name]:
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name == module_name:
-                continue
-            raise  # the module exists but one of *its* imports is missing: show that
-        if name in METHODS:  # the module registered itself on import
-            return METHODS[name]
-        func = getattr(module, func_name, None)
-        if func is not None:
-            return register_method(name, func)
-    return METHODS.get(name)
-
-
-def get_method(name: str) -> IdentifyFunc:
-    """The callable registered for ``name`` (importing a lazy method on first use).
-
-    Raises ``TypeError`` for a non-string and ``ValueError`` for an unknown or
-    unavailable name (the message lists the available ones).
-    """
-    if not isinstance(name, str):
-        raise TypeError(f"method must be a string, got {type(name).__name__}")
-    if name in METHODS:
-        return METHODS[name]
-    if name in LAZY_METHODS:
-        func = _load_lazy(name)
-        if func is not None:
-            return func
-        where = " or ".join(f"{mod}.{fn}" for mod, fn in LAZY_METHODS[name])
-        raise ValueError(
-            f"method {name!r} is not available: {where} could not be imported; "
-            f"available methods: {available_methods()}"
-        )
-    raise ValueError(f"unknown method {name!r}; known methods: {available_methods()}")
-
-
-def is_available(name: str) -> bool:
-    """``True`` if ``name`` is registered or its lazy module imports."""
-    if name in METHODS:
-        return True
-    return name in LAZY_METHODS and _load_lazy(name) is not None
-
-
-def available_methods() -> list[str]:
-    """Sorted names of the methods that can be used now (lazy ones are tried)."""
-    for name in LAZY_METHODS:
-        if name not in METHODS:
-            _load_lazy(name)
-    return sorted(METHODS)
+__all__ = ["identify"]
 
 
 def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
@@ -266,7 +159,7 @@ def identify(
     benchmark (``dt``, order 3) 1.5-8.3 % -> 0.34-0.65 % at 20 dB.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
-    :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t``) take a bounded path
+    :class:`~hdpbsid.data.chunked.ChunkedRecord` in ``t``) take a bounded path
     (:mod:`hdpbsid.selection.long_records`): methods and orders chosen on a segment, the chosen one
     fitted on the whole record, refined on a bounded part; ``long_record=`` a
     :class:`~hdpbsid.selection.long_records.LongRecordPolicy` (or False: off),
@@ -400,20 +293,6 @@ def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
             return one_step_errors(model, t, u, y)
     except (np.linalg.LinAlgError, ValueError):
         return None  # the test falls back to predict, whose failure it reports
-
-
-def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:
-    """Store the operating point in ``model`` (and its sampled model, if it has one)."""
-    u0 = np.asarray(u0, dtype=float).reshape(-1)
-    y0 = np.asarray(y0, dtype=float).reshape(-1)
-    if u0.size != model.m or y0.size != model.l:
-        raise TypeError(
-            f"the method returned a model with {model.m} input(s) and {model.l} output(s) "
-            f"for data with {u0.size} and {y0.size}"
-        )
-    for mod in (model, model.discrete):
-        if mod is not None:
-            mod.u0, mod.y0, mod.trend = u0.copy(), y0.copy(), trend
 
 
 class _Labels:

@@ -19,12 +19,9 @@ from scipy import signal
 from hdpbsid.bases.basis_domain import data_bandwidth
 from hdpbsid.bases.segments import window_rule
 from hdpbsid.core import streamed
+from hdpbsid.data.chunked import ChunkedRecord
 from hdpbsid.data.io import open_chunked
-from hdpbsid.methods.chunked import (
-    ChunkedRecord,
-    averaged_spectra,
-    identify_chunked,
-)
+from hdpbsid.methods.chunked import averaged_spectra, identify_chunked
 from hdpbsid.methods.hermite import identify_hermite
 from hdpbsid.models.conversion import c2d
 from hdpbsid.models.metrics import eigenvalue_errors

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hdpbsid.cli import best_method, main, model_from_dict, model_to_dict, read_model_json
-from hdpbsid.identify import is_available
+from hdpbsid.methods.registry import is_available
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 from hdpbsid.systems.quadrotor import pitch_model
 

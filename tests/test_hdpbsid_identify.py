@@ -13,12 +13,18 @@ import pytest
 
 import hdpbsid
 from hdpbsid import identify, identify_dt
-from hdpbsid.identify import LAZY_METHODS, METHODS, get_method, is_available, register_method
+from hdpbsid.methods.registry import (
+    LAZY_METHODS,
+    METHODS,
+    get_method,
+    is_available,
+    register_method,
+)
 from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
 # the package attribute hdpbsid.identify is the function; the module is in sys.modules
-REG = sys.modules["hdpbsid.identify"]
+REG = sys.modules["hdpbsid.methods.registry"]
 
 TRUE_EIGS = np.array([-0.4 + np.sqrt(3.84) * 1j, -0.4 - np.sqrt(3.84) * 1j])
 

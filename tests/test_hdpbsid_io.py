@@ -17,7 +17,7 @@ from hdpbsid.cli import main
 from hdpbsid.data.io import read_columns, read_record
 from hdpbsid.models.model import StateSpaceModel
 
-REG = sys.modules["hdpbsid.identify"]
+REG = sys.modules["hdpbsid.methods.registry"]
 DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
 
 RNG = np.random.default_rng(7)

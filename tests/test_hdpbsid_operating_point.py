@@ -9,12 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdpbsid.identify import METHODS, identify
+from hdpbsid.identify import identify
 from hdpbsid.methods.dt import identify_dt
+from hdpbsid.methods.registry import METHODS
 from hdpbsid.models.model import LinearTrend, StateSpaceModel
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
-REG = sys.modules["hdpbsid.identify"]
+REG = sys.modules["hdpbsid.methods.registry"]
 DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
 
 

@@ -17,7 +17,7 @@ from test_hdpbsid_chunked import _record, _resonance
 
 from hdpbsid import identify
 from hdpbsid.bases.segments import WINDOW_PERIODS
-from hdpbsid.methods.chunked import ChunkedRecord
+from hdpbsid.data.chunked import ChunkedRecord
 from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.selection.long_records import (
     SELECTION_PERIODS,

@@ -103,7 +103,7 @@ def test_auto_in_parallel_is_the_serial_run():
 
 
 def test_a_refit_worse_than_its_candidate_is_not_returned(monkeypatch):
-    from hdpbsid.identify import METHODS
+    from hdpbsid.methods.registry import METHODS
 
     t, u, y, true = _record(3)
     n_whole = t.size
@@ -182,7 +182,7 @@ def test_auto_gives_shared_settings_to_every_method():
 
 
 def test_when_no_candidate_beats_the_mean_the_windowed_ranking_stands(monkeypatch):
-    from hdpbsid.identify import METHODS
+    from hdpbsid.methods.registry import METHODS
 
     t, u, y, true = _record(6)
     # the truth plus a mode growing by e^150 over the held-out 10 s: no candidate can be
@@ -200,7 +200,7 @@ def test_when_no_candidate_beats_the_mean_the_windowed_ranking_stands(monkeypatc
 
 
 def test_a_refit_that_diverges_over_the_held_out_part_is_not_returned(monkeypatch):
-    from hdpbsid.identify import METHODS
+    from hdpbsid.methods.registry import METHODS
 
     t, u, y, true = _record(6)
     # the refit on the whole record adds a weakly driven mode growing at +5 /s: within a
@@ -401,7 +401,7 @@ def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data(
 
 def test_auto_refits_a_dt_candidate_with_the_windows_it_was_judged_with(monkeypatch):
     import hdpbsid.methods.dt as dtm
-    from hdpbsid.identify import METHODS
+    from hdpbsid.methods.registry import METHODS
     from hdpbsid.selection.auto import refit_keeps
 
     t, u, y, _ = _record(2)

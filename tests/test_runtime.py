@@ -16,8 +16,8 @@ from threadpoolctl import threadpool_info, threadpool_limits
 import hdpbsid
 import slbasis.runtime as runtime
 from hdpbsid.bases.memo import clear_caches
-from hdpbsid.identify import METHODS
 from hdpbsid.methods.dt import identify_dt
+from hdpbsid.methods.registry import METHODS
 from hdpbsid.systems import second_order, simulate_zoh
 
 #: the caller's BLAS threads in these tests: above one, whatever the machine

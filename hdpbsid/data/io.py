@@ -506,7 +506,7 @@ def open_chunked(
 ) -> Any:
     """A uniformly sampled record in a file, read chunk by chunk during identification.
 
-    Returns a :class:`hdpbsid.methods.chunked.ChunkedRecord` for
+    Returns a :class:`hdpbsid.data.chunked.ChunkedRecord` for
     :func:`hdpbsid.methods.chunked.identify_chunked`; nothing but the lengths is read
     here.  ``.h5 .hdf5 .hdf``: ``inputs``/``outputs`` name vector datasets (paths
     ``group/name``); ``.parquet .pq``: column names (rows are read by row group);
@@ -515,7 +515,7 @@ def open_chunked(
     ``ValueError`` for an unknown suffix, missing signals, signals of different lengths
     or a bad ``dt`` / ``fs``.
     """
-    from hdpbsid.methods.chunked import ChunkedRecord
+    from hdpbsid.data.chunked import ChunkedRecord
 
     path = Path(path)
     _check_file(path, "data file")

@@ -65,97 +65,17 @@ from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core import streamed
 from hdpbsid.core.blocks import BlockLag, BlockPseudo
 from hdpbsid.data.checks import check_order, check_positive_int
+from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
 from hdpbsid.methods.hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["ChunkedRecord", "identify_chunked", "SPECTRUM_SAMPLES", "CHUNK_SAMPLES"]
+__all__ = ["identify_chunked", "averaged_spectra", "SPECTRUM_SAMPLES"]
 
 Array = NDArray[np.float64]
 
 #: samples per periodogram of the averaged spectrum (frequency resolution ``fs / 2^20``)
 SPECTRUM_SAMPLES = 2**20
-#: samples read and projected per batch of windows
-CHUNK_SAMPLES = 2**20
-
-
-class _ArrayReader:
-    """``read(a, b)`` of sliceable ``u`` (or None), ``y`` (``np.memmap``, ``h5py``
-    datasets, ``zarr`` or ``dask`` arrays: anything ``np.asarray(x[a:b])`` accepts)."""
-
-    def __init__(self, u: Any, y: Any) -> None:
-        self.u, self.y = u, y
-
-    def __call__(self, a: int, b: int) -> tuple[Array, Array]:
-        y = _two_d(np.asarray(self.y[a:b], dtype=float))
-        u = np.zeros((b - a, 0)) if self.u is None else _two_d(np.asarray(self.u[a:b], float))
-        return u, y
-
-
-def _two_d(x: Array) -> Array:
-    return x[:, None] if x.ndim == 1 else x
-
-
-@dataclass(frozen=True)
-class ChunkedRecord:
-    """A uniformly sampled record read in pieces.
-
-    ``read(a, b)`` returns ``(u, y)`` of samples ``a..b-1`` as ``(b-a, m)`` and ``(b-a,
-    l)`` float arrays; ``ns`` samples, ``m`` inputs, ``l`` outputs, sampling interval
-    ``dt`` and absolute start ``t0``.  ``read`` must be picklable for ``use_dask`` on a
-    distributed cluster (the readers of :func:`hdpbsid.data.io.open_chunked` are).
-    """
-
-    read: Callable[[int, int], tuple[Array, Array]]
-    ns: int
-    m: int
-    l: int
-    dt: float
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        check_positive_int(self.ns, "ns", 3)
-        if isinstance(self.dt, bool) or not isinstance(self.dt, int | float | np.number):
-            raise TypeError(f"dt must be a positive number, got {type(self.dt).__name__}")
-        if not (np.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive finite sampling interval, got {self.dt}")
-        if self.l < 1 or self.m < 0:
-            raise ValueError(f"need m >= 0 inputs and l >= 1 outputs, got m={self.m}, l={self.l}")
-
-    @classmethod
-    def from_arrays(cls, u: Any, y: Any, dt: float, t0: float = 0.0) -> ChunkedRecord:
-        """A record over sliceable arrays ``u`` (``(Ns,)``, ``(Ns, m)`` or None) and ``y``
-        (``(Ns,)`` or ``(Ns, l)``): ``np.memmap``, ``h5py`` datasets, ``zarr`` or
-        ``dask.array`` arrays; nothing is read until identification."""
-        ys = tuple(np.shape(y))
-        if len(ys) not in (1, 2):
-            raise ValueError(f"y must be (Ns,) or (Ns, l), got shape {ys}")
-        m = 0
-        if u is not None:
-            us = tuple(np.shape(u))
-            if len(us) not in (1, 2) or us[0] != ys[0]:
-                raise ValueError(f"u must be (Ns,) or (Ns, m) with Ns = {ys[0]}, got {us}")
-            m = 1 if len(us) == 1 else us[1]
-        return cls(_ArrayReader(u, y), int(ys[0]), m, 1 if len(ys) == 1 else ys[1], dt, t0)
-
-    @property
-    def duration(self) -> float:
-        """``(Ns - 1) dt``."""
-        return float((self.ns - 1) * self.dt)
-
-    def checked(self, a: int, b: int) -> tuple[Array, Array]:
-        """``read(a, b)`` with the shapes and finiteness checked."""
-        u, y = self.read(a, b)
-        if u.shape != (b - a, self.m) or y.shape != (b - a, self.l):
-            raise ValueError(
-                f"the reader returned u {u.shape}, y {y.shape} for samples {a}..{b - 1}; "
-                f"expected ({b - a}, {self.m}) and ({b - a}, {self.l})"
-            )
-        for name, x in (("u", u), ("y", y)):
-            if not np.all(np.isfinite(x)):
-                k = a + int(np.flatnonzero(~np.isfinite(x).all(axis=1))[0])
-                raise ValueError(f"{name} has a NaN or infinite value at sample {k}")
-        return u, y
 
 
 def _spectra(rec: ChunkedRecord, a: int, b: int) -> tuple[Array, Array, Array]:

@@ -355,9 +355,9 @@ class StateSpaceModel(_ModelBase):
     def save(self, path: Any) -> Any:
         """Write the model to ``path`` as JSON (:func:`hdpbsid.models.model_io.save_model`);
         :func:`hdpbsid.load_model` reads it back.  Returns the path."""
-        from hdpbsid.models.model_io import save_model
+        from hdpbsid.models.model_file import write_model
 
-        return save_model(self, path)
+        return write_model(self, path)
 
     def check_record(self, t: Any, time_unit: str | None = None, name: str = "t") -> None:
         """Warn (:class:`TimeScaleWarning`) when the record with times ``t`` does not
@@ -945,3 +945,17 @@ def _import_control() -> Any:
             "or pip install control"
         ) from exc
     return control
+
+
+def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:
+    """Store the operating point in ``model`` (and its sampled model, if it has one)."""
+    u0 = np.asarray(u0, dtype=float).reshape(-1)
+    y0 = np.asarray(y0, dtype=float).reshape(-1)
+    if u0.size != model.m or y0.size != model.l:
+        raise TypeError(
+            f"the method returned a model with {model.m} input(s) and {model.l} output(s) "
+            f"for data with {u0.size} and {y0.size}"
+        )
+    for mod in (model, model.discrete):
+        if mod is not None:
+            mod.u0, mod.y0, mod.trend = u0.copy(), y0.copy(), trend

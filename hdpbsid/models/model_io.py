@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from hdpbsid.models.model import LinearTrend, StateSpaceModel
+from hdpbsid.models.model_file import FORMAT, VERSION, describe, write_model
 
 __all__ = [
     "save_model",
@@ -57,9 +58,6 @@ __all__ = [
     "MAX_BYTES",
     "MAX_DEPTH",
 ]
-
-FORMAT = "hdpbsid.StateSpaceModel"
-VERSION = 2
 
 #: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
 #: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
@@ -93,31 +91,7 @@ _OPTIONAL = (
 _KNOWN = _REQUIRED + _OPTIONAL
 
 
-# -- writing ------------------------------------------------------------------------------
-def _jsonable(x: Any) -> Any:
-    """Convert numpy arrays/scalars, complex numbers and containers to JSON values.
-
-    Complex numbers become ``{"real": ..., "imag": ...}``; anything else unknown becomes
-    its ``repr`` (options may hold callables or objects; they are recorded, not lost), and
-    so do non-finite floats (JSON has no NaN).
-    """
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return _jsonable(x.item())
-    if isinstance(x, complex):
-        return {"real": _jsonable(x.real), "imag": _jsonable(x.imag)}
-    if isinstance(x, float):
-        return x if math.isfinite(x) else repr(x)
-    if x is None or isinstance(x, bool | int | str):
-        return x
-    return repr(x)
-
-
+# -- writing (the description itself: hdpbsid.models.model_file) -------------------------
 def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
     """The JSON-ready description of ``model`` (module docstring): everything
     :func:`model_from_dict` needs to rebuild it.
@@ -147,35 +121,7 @@ def model_to_dict(model: StateSpaceModel) -> dict[str, Any]:
     """
     if not isinstance(model, StateSpaceModel):
         raise TypeError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    sv = model.singular_values
-    tr = model.trend
-    nc = model.noise_covariance
-    return {
-        "format": FORMAT,
-        "version": VERSION,
-        "time": "continuous",
-        "n": model.n,
-        "m": model.m,
-        "l": model.l,
-        "A": model.A.tolist(),
-        "B": model.B.tolist(),
-        "C": model.C.tolist(),
-        "D": model.D.tolist(),
-        "K": model.K.tolist(),
-        "u0": model.u0.tolist(),
-        "y0": model.y0.tolist(),
-        "trend": None
-        if tr is None
-        else {"t_ref": tr.t_ref, "u_slope": tr.u_slope.tolist(), "y_slope": tr.y_slope.tolist()},
-        "noise_covariance": None if nc is None else np.asarray(nc, dtype=float).tolist(),
-        "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
-        "singular_values": None if sv is None else np.asarray(sv, dtype=float).ravel().tolist(),
-        "time_unit": model.time_unit,
-        "input_names": list(model.input_names or []),
-        "output_names": list(model.output_names or []),
-        "sampling_interval": model.sampling_interval,
-        "options": _jsonable(model.options),
-    }
+    return describe(model)
 
 
 def save_model(model: StateSpaceModel, path: str | Path) -> Path:
@@ -212,10 +158,9 @@ def save_model(model: StateSpaceModel, path: str | Path) -> Path:
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"{path}: is a directory; give the model file's name")
-    text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
-    return path
+    if not isinstance(model, StateSpaceModel):
+        raise TypeError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+    return write_model(model, path)
 
 
 # -- reading ------------------------------------------------------------------------------

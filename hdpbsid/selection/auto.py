@@ -704,7 +704,7 @@ def select_model(
     (the message says what would work) or when no candidate can be identified.
     """
     from hdpbsid.data.records import as_records, is_record_list
-    from hdpbsid.identify import get_method
+    from hdpbsid.methods.registry import get_method
 
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
@@ -820,7 +820,7 @@ def identify_auto(
     ``options["order_selection"]`` the chosen method's.
     """
     from hdpbsid.data.records import as_records
-    from hdpbsid.identify import get_method, is_available
+    from hdpbsid.methods.registry import get_method, is_available
     from hdpbsid.refine.pem import is_uniform
 
     recs = as_records(t, u, y)
@@ -874,7 +874,7 @@ def select_order(
     (from its singular values) and ``options["order_selection"]`` says so.
     """
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    from hdpbsid.identify import get_method
+    from hdpbsid.methods.registry import get_method
 
     try:
         model, table, rule = select_model(

@@ -78,7 +78,7 @@ from numpy.typing import NDArray
 from hdpbsid.data.checks import check_data, check_positive_int
 
 if TYPE_CHECKING:
-    from hdpbsid.methods.chunked import ChunkedRecord
+    from hdpbsid.data.chunked import ChunkedRecord
 
 __all__ = [
     "LongRecordPolicy",
@@ -422,10 +422,10 @@ class _Centred:
 # -- the bounded path ----------------------------------------------------------------------
 def is_long(t: Any, u: Any, y: Any, method: str, policy: Any) -> bool:
     """Whether :func:`hdpbsid.identify` takes the bounded path: ``method="auto"`` on one
-    record (or a :class:`~hdpbsid.methods.chunked.ChunkedRecord`) longer than the
+    record (or a :class:`~hdpbsid.data.chunked.ChunkedRecord`) longer than the
     policy's ``long_samples``; ``policy=False`` never."""
     if not isinstance(t, np.ndarray | list | tuple):  # cheap first: no import for arrays
-        from hdpbsid.methods.chunked import ChunkedRecord
+        from hdpbsid.data.chunked import ChunkedRecord
 
         if isinstance(t, ChunkedRecord):
             return True
@@ -449,7 +449,7 @@ def _policy(policy: Any) -> LongRecordPolicy:
 
 def _levels(rec: ChunkedRecord, progress: _Progress) -> tuple[Array, Array]:
     """Channel means of a chunked record (one pass)."""
-    from hdpbsid.methods.chunked import CHUNK_SAMPLES
+    from hdpbsid.data.chunked import CHUNK_SAMPLES
 
     su, sy = np.zeros(rec.m), np.zeros(rec.l)
     progress.reading(rec.ns, "means")
@@ -486,7 +486,7 @@ def identify_long(
     ----------
     t, u, y
         One uniformly sampled record as :func:`hdpbsid.identify` takes it, or a
-        :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t`` (``u``, ``y`` None; e.g.
+        :class:`~hdpbsid.data.chunked.ChunkedRecord` in ``t`` (``u``, ``y`` None; e.g.
         :func:`hdpbsid.data.io.open_chunked`), read in pieces.
     order
         The model order, or None to choose it (on the selection segment).
@@ -529,9 +529,9 @@ def identify_long(
     ('hermite', 'laguerre', 'legendre', 'dt')
     """
     from hdpbsid.bases.segments import LOW_FRACTION
-    from hdpbsid.identify import _set_levels
-    from hdpbsid.methods.chunked import ChunkedRecord, averaged_spectra
-    from hdpbsid.models.model import LinearTrend
+    from hdpbsid.data.chunked import ChunkedRecord
+    from hdpbsid.methods.chunked import averaged_spectra
+    from hdpbsid.models.model import LinearTrend, _set_levels
     from hdpbsid.refine.pem import REFINE_CHOICES, is_uniform
     from hdpbsid.selection.auto import AUTO_METHODS
 
@@ -587,7 +587,7 @@ def identify_long(
         opts = dict(options)
         asked = opts.pop("methods", None)
         if asked is None:
-            from hdpbsid.identify import is_available
+            from hdpbsid.methods.registry import is_available
 
             asked = [m for m in AUTO_METHODS if is_available(m)]
         plan = policy.plan(
@@ -682,7 +682,7 @@ def _whole_record(
 ) -> Any:
     """``method`` at order ``n`` on the whole record: the method itself (in memory), or
     HD-PBSID's streamed core when the plan says so."""
-    from hdpbsid.identify import get_method
+    from hdpbsid.methods.registry import get_method
     from hdpbsid.selection.auto import refit_keeps
 
     given = {**{k: v for k, v in opts.items() if k not in _AUTO_ONLY}}

@@ -169,3 +169,10 @@ def quadrotor_record(
         )
 
     return _cached(rng, "quadrotor", settings, make)
+
+
+def validation_rng(rng: np.random.Generator) -> np.random.Generator:
+    """The validation record's generator: the first child of the task's seed sequence
+    (independent noise, reproducible, never the identification record's stream)."""
+    seq = rng.bit_generator.seed_seq
+    return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(1,)))

@@ -168,8 +168,7 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     records are re-simulated from the seed (exactly; cached in the same process)."""
     from hdpbsid.models.model import StateSpaceModel
     from hdpbsid.plots import display_fit
-    from hdpbsid.studies.data import quadrotor_record
-    from hdpbsid.studies.quadrotor import validation_rng
+    from hdpbsid.studies.data import quadrotor_record, validation_rng
     from hdpbsid.studies.runner import task_rng
 
     out = Path(out)

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from hdpbsid.studies.base import Study, model_record
-from hdpbsid.studies.data import quadrotor_record
+from hdpbsid.studies.data import quadrotor_record, validation_rng
 from hdpbsid.studies.methods import check_methods, identify_with
 from hdpbsid.systems.quadrotor import pitch_output_matrices
 
@@ -91,13 +91,6 @@ def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
     }
     options = {**_default_options(method, outputs), **(s["options"] or {})}
     return [{"data": data, "method": method, "orders": orders, "options": options}]
-
-
-def validation_rng(rng: np.random.Generator) -> np.random.Generator:
-    """The validation record's generator: the first child of the task's seed sequence
-    (independent noise, reproducible, never the identification record's stream)."""
-    seq = rng.bit_generator.seed_seq
-    return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(1,)))
 
 
 def identify_case(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
