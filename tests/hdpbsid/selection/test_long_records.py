@@ -13,7 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
-from test_hdpbsid_chunked import _record, _resonance
+from chunked_data import _record, _resonance
 
 from hdpbsid import identify
 from hdpbsid.bases.segments import WINDOW_PERIODS

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_hdpbsid_basis_common import A, B, C, D, eig_error, make_data
+from basis_data import A, B, C, D, eig_error, make_data
 
 from hdpbsid.methods.laguerre import cayley, identify_laguerre, inverse_cayley
 

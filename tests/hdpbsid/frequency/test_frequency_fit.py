@@ -188,7 +188,7 @@ def _rao_garnier():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))
     from cases import rao_garnier_system
 
     A, B, C, D = rao_garnier_system()
@@ -211,7 +211,7 @@ def test_mimo_frequency_data_noise_free() -> None:
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))
     from cases import mimo_2x2_system
 
     A, B, C, D = mimo_2x2_system()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_hdpbsid_basis_common import make_data
+from basis_data import make_data
 
 from hdpbsid.methods.hermite import identify_hermite
 from hdpbsid.methods.laguerre import identify_laguerre

@@ -22,7 +22,7 @@ from hdpbsid.systems import (
     simulate_zoh,
 )
 
-BENCH_DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
+BENCH_DATA = Path(__file__).resolve().parents[3] / "bench" / "data"
 
 
 def _record(seed: int, snr: float | None = 30.0, T: float = 30.0, dt: float = 0.02):

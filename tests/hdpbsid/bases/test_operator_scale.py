@@ -151,7 +151,7 @@ def test_default_p_keeps_the_precision_rule_explicit_p_the_real_limit() -> None:
 
 
 def test_held_out_check_takes_only_a_better_alpha() -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     t, u, y = make_data(4, snr=20)
 
@@ -171,7 +171,7 @@ def test_held_out_check_takes_only_a_better_alpha() -> None:
 
 
 def test_held_out_comparison_judges_models_fitted_without_the_held_out_part() -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     t, u, y = make_data(4, snr=20)
     split = int(round(t.size * 2 / 3))
@@ -189,7 +189,7 @@ def test_held_out_comparison_judges_models_fitted_without_the_held_out_part() ->
 
 
 def test_hermite_with_held_out_data_returns_the_whole_record_fit_at_its_alpha() -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     t, u, y = make_data(5, snr=20)
     split = int(round(t.size * 2 / 3))
@@ -210,7 +210,7 @@ def test_hermite_with_held_out_data_returns_the_whole_record_fit_at_its_alpha() 
 
 
 def test_named_alpha_rules() -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     t, u, y = make_data(5, snr=20)
     basis = identify_hermite(t, u, y, order=2, alpha="basis")
@@ -224,7 +224,7 @@ def test_named_alpha_rules() -> None:
 
 
 def test_in_sample_screen_refuses_an_equal_change_without_refits(monkeypatch) -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     import hdpbsid.methods.hermite as hermite
 
@@ -242,7 +242,7 @@ def test_in_sample_screen_refuses_an_equal_change_without_refits(monkeypatch) ->
 
 
 def test_in_sample_screen_is_skipped_on_non_uniform_samples() -> None:
-    from test_hdpbsid_basis_common import make_data
+    from basis_data import make_data
 
     t, u, y = make_data(5, snr=20, jitter=0.3)
     m = identify_hermite(t, u, y, order=2)

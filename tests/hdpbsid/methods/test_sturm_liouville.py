@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_hdpbsid_basis_common import eig_error, make_data
+from basis_data import eig_error, make_data
 
 import slbasis
 from hdpbsid.methods import sturm_liouville as sl

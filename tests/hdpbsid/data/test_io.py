@@ -18,7 +18,7 @@ from hdpbsid.data.io import read_columns, read_record
 from hdpbsid.models.model import StateSpaceModel
 
 REG = sys.modules["hdpbsid.methods.registry"]
-DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
+DATA = Path(__file__).resolve().parents[3] / "bench" / "data"
 
 RNG = np.random.default_rng(7)
 T = np.arange(50) * 0.02

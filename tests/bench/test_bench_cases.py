@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete, dlsim, tf2ss
 
-BENCH = Path(__file__).resolve().parent.parent / "bench"
+BENCH = Path(__file__).resolve().parents[2] / "bench"
 sys.path.insert(0, str(BENCH))
 
 import cases  # noqa: E402

@@ -16,7 +16,7 @@ from hdpbsid.models.model import LinearTrend, StateSpaceModel
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
 REG = sys.modules["hdpbsid.methods.registry"]
-DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
+DATA = Path(__file__).resolve().parents[3] / "bench" / "data"
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_hdpbsid_basis_common import eig_error, make_data
+from basis_data import eig_error, make_data
 
 from hdpbsid.bases.basis_domain import SolveLag
 from hdpbsid.core.blocks import BlockLag, BlockPseudo, pbsid_core_blocks

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete
 
-BENCH = Path(__file__).resolve().parent.parent / "bench"
+BENCH = Path(__file__).resolve().parents[2] / "bench"
 sys.path.insert(0, str(BENCH))
 
 import peers  # noqa: E402

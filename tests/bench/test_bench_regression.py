@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy.signal import cont2discrete, dlsim, lsim
 from threadpoolctl import threadpool_limits
 
-BENCH = Path(__file__).resolve().parent.parent / "bench"
+BENCH = Path(__file__).resolve().parents[2] / "bench"
 sys.path.insert(0, str(BENCH))
 
 import regression as R  # noqa: E402

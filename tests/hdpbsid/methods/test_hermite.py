@@ -11,8 +11,8 @@ import os
 
 import numpy as np
 import pytest
+from basis_data import TRUE_EIGS, eig_error, make_data
 from scipy.signal import butter, lfilter
-from test_hdpbsid_basis_common import TRUE_EIGS, eig_error, make_data
 
 from hdpbsid import StateSpaceModel
 from hdpbsid.methods.hermite import identify_hermite

@@ -21,7 +21,7 @@ from hdpbsid.cli import main
 from hdpbsid.data.io import read_record
 from hdpbsid.systems import random_steps, second_order, simulate_zoh
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
