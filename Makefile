@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed
 
 # numba kernels compiled into numba's cache (a first call would otherwise run numpy while
 # they compile in the background: slbasis.numeric.jit)
-JIT_MODULES := slbasis.numeric.compiled hdpbsid.recursion_kernels hdpbsid.methods.pem_kernels
+JIT_MODULES := slbasis.numeric.compiled hdpbsid.models.recursion_kernels hdpbsid.refine.pem_kernels
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)

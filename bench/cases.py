@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from scipy.linalg import block_diag, expm, solve_discrete_are
 from scipy.signal import butter, chirp, filtfilt
 
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.systems import (
     add_noise,
     pbsid_example,

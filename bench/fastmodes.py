@@ -7,7 +7,7 @@ The cases ``table2-closed-loop`` and ``table2-closed-loop-rate`` of ``bench/case
 30 s at 250 Hz).  Prints the relative error (%) of each eigenvalue, paired with the truth,
 for:
 
-1. ``pem from truth``: :func:`hdpbsid.methods.refine.refine_pem` started at the true
+1. ``pem from truth``: :func:`hdpbsid.refine.pem.refine_pem` started at the true
    model (sensor-noise-only Kalman gain as its second start), with the linearised
    standard deviation it reports -- what the data can give (the prediction-error method
    is efficient; Ljung, *System Identification*, 2nd ed., sec. 9.3);
@@ -35,9 +35,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cases as bc  # noqa: E402
 
 from hdpbsid import identify  # noqa: E402
-from hdpbsid.methods.refine import refine_pem  # noqa: E402
-from hdpbsid.metrics import match_eigenvalues  # noqa: E402
-from hdpbsid.model import StateSpaceModel  # noqa: E402
+from hdpbsid.models.metrics import match_eigenvalues  # noqa: E402
+from hdpbsid.models.model import StateSpaceModel  # noqa: E402
+from hdpbsid.refine.pem import refine_pem  # noqa: E402
 
 TRUE = bc.TABLE2_EIGENVALUES
 

@@ -7,11 +7,11 @@ printed and written as markdown to ``bench/results/frequency.md``.
 Rows (median and worst over seeds where a seed matters):
 
 1. crest factor of a flat 100-line multisine: Schroeder phases, Schroeder + clipping
-   (``hdpbsid.inputs.multisine``), random phases (the median a user gets without design);
+   (``hdpbsid.design.inputs.multisine``), random phases (the median a user gets without design);
 2. FRF of the second-order system (2 rad/s, damping 0.2) from a 20 dB random-binary
    record (1200 s, dt = 0.01, 4096-sample Hann segments), largest magnitude (dB) and phase
    (deg) error where the coherence exceeds 0.9, and the coverage of the 95 % circles:
-   ``hdpbsid.frequency.frf_welch`` and the same H1 from ``scipy.signal.csd`` /
+   ``hdpbsid.frequency.fit.frf_welch`` and the same H1 from ``scipy.signal.csd`` /
    ``scipy.signal.welch`` / ``scipy.signal.coherence`` (no confidence region in scipy);
 3. Rao-Garnier from 200 log-spaced FRF points with 1 % complex noise: order chosen and
    largest relative eigenvalue error (``identify_frequency``, order free); scipy has no
@@ -41,9 +41,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import rao_garnier_system  # noqa: E402
 
-from hdpbsid import frequency, inputs  # noqa: E402
-from hdpbsid.metrics import eigenvalue_errors  # noqa: E402
-from hdpbsid.model import StateSpaceModel  # noqa: E402
+from hdpbsid.design import inputs  # noqa: E402
+from hdpbsid.frequency import fit as frequency
+from hdpbsid.models.metrics import eigenvalue_errors  # noqa: E402
+from hdpbsid.models.model import StateSpaceModel  # noqa: E402
 from hdpbsid.systems import add_noise, second_order, simulate_zoh  # noqa: E402
 
 

@@ -23,14 +23,14 @@ against the wall time of the same fit.  Last, each of ``auto``'s methods is fitt
 at the true order (``refine=None``): the sum of their CPU times is the floor of any
 selection among them, whatever its rule.  Then an accuracy table and a cost table, one
 row per case (``--runs`` seeds, default 10 here).  The caches of
-:mod:`hdpbsid.methods.memo` are cleared before every timed call, so that no call is
+:mod:`hdpbsid.bases.memo` are cleared before every timed call, so that no call is
 timed on another's projection.
 
 Prints, per case (the generators of ``bench/cases.py``),
 SNR and method, over seeded Monte Carlo runs with the true order given:
 
 * ``bias %``: ``max_i |mean(lambda_i) - lambda_i| / |lambda_i|`` (eigenvalues paired
-  with the truth by :func:`hdpbsid.metrics.match_eigenvalues`);
+  with the truth by :func:`hdpbsid.models.metrics.match_eigenvalues`);
 * ``std %``: ``max_i sqrt(mean |lambda_i - mean|^2) / |lambda_i|``;
 * ``median %``: median over runs of the largest relative error; ``<=5 %``: the share of
   runs whose every eigenvalue is within 5 %;
@@ -60,10 +60,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cases import DESCRIPTIONS, make_case  # noqa: E402
 
 from hdpbsid import get_method, identify, identify_discrete  # noqa: E402
-from hdpbsid.methods.memo import clear_caches  # noqa: E402
-from hdpbsid.methods.settings import SETTING_NAMES  # noqa: E402
-from hdpbsid.metrics import match_eigenvalues  # noqa: E402
-from hdpbsid.selection import AUTO_METHODS  # noqa: E402
+from hdpbsid.bases.memo import clear_caches  # noqa: E402
+from hdpbsid.bases.settings import SETTING_NAMES  # noqa: E402
+from hdpbsid.models.metrics import match_eigenvalues  # noqa: E402
+from hdpbsid.selection.auto import AUTO_METHODS  # noqa: E402
 
 #: method label -> (registry name, extra keyword arguments of identify)
 METHODS: dict[str, tuple[str, dict[str, Any]]] = {

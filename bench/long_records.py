@@ -37,10 +37,10 @@ sys.path.insert(0, {bench!r})
 import numpy as np
 from segments import resonance
 from hdpbsid import identify
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.metrics import eigenvalue_errors
 ns, path = {ns}, {path!r}
 if path:
-    from hdpbsid.io import open_chunked
+    from hdpbsid.data.io import open_chunked
     data = (open_chunked(path, ["u"], ["y"], dt=1e-3),)
 else:
     from segments import resonance_record

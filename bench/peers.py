@@ -9,10 +9,10 @@ What is measured, per case (``bench/cases.py``), SNR and method, over seeded run
 
 * **eigenvalue error**: the largest relative error ``|lambda_est - lambda| / |lambda|``
   over the true eigenvalues after optimal matching
-  (:func:`hdpbsid.metrics.eigenvalue_errors`); median and interquartile range over the
+  (:func:`hdpbsid.models.metrics.eigenvalue_errors`); median and interquartile range over the
   runs that produced a model of the right order.  Discrete-time models (SIPPY, nfoursid,
   ERA) are converted exactly to continuous time with the ZOH matrix logarithm
-  (:func:`hdpbsid.conversion.d2c`); on the discrete PBSID toolbox example the comparison
+  (:func:`hdpbsid.models.conversion.d2c`); on the discrete PBSID toolbox example the comparison
   is in the z-plane instead (continuous models are sampled with ``expm(A dt)``).
 * **fit** on a second, independent validation record: ``100 (1 - NRMSE)`` (MATLAB's
   ``fit``), the model simulated from the measured input with a least-squares initial
@@ -69,9 +69,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cases import CASES, DESCRIPTIONS, SNR_INDEPENDENT, CaseData, Record, make_case
 
 import hdpbsid
-from hdpbsid.conversion import d2c
-from hdpbsid.metrics import eigenvalue_errors
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.conversion import d2c
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.models.model import StateSpaceModel
 
 Array = NDArray[np.float64]
 

@@ -21,7 +21,7 @@ Scoring (the way a user judges a model on measured data):
    offsets: the validation part is not re-centred);
 3. identify on the estimation part;
 4. every model is compared in discrete time at the record's rate: continuous models are
-   ZOH-sampled (:meth:`hdpbsid.model.StateSpaceModel.to_discrete`), discrete ones (SIPPY,
+   ZOH-sampled (:meth:`hdpbsid.models.model.StateSpaceModel.to_discrete`), discrete ones (SIPPY,
    nfoursid) are used as returned;
 5. simulate it on the validation part from the initial state fitted by least squares
    (:func:`peers.discrete_ls_simulation`) and score
@@ -63,7 +63,7 @@ import peers
 from cases import Record
 
 import hdpbsid
-from hdpbsid.model import StateSpaceModel
+from hdpbsid.models.model import StateSpaceModel
 
 Array = NDArray[np.float64]
 

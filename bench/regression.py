@@ -22,7 +22,7 @@ default:
   NRMSE fit of the simulation on the rest from a least-squares initial state.
 
 Per record (one CSV row): the method and order chosen, whether it is the true order, the
-worst relative eigenvalue error in percent (:func:`hdpbsid.metrics.eigenvalue_errors`,
+worst relative eigenvalue error in percent (:func:`hdpbsid.models.metrics.eigenvalue_errors`,
 when the order is the true one; in the z-plane for a discrete-time truth), the
 validation fit in percent, whether the model is stable, and the CPU time of the call
 (``time.process_time`` in the process that runs it, one BLAS thread through
@@ -85,7 +85,7 @@ for _k, _v in _saved_env.items():
         os.environ[_k] = _v
 
 import hdpbsid  # noqa: E402
-from hdpbsid.metrics import eigenvalue_errors  # noqa: E402
+from hdpbsid.models.metrics import eigenvalue_errors  # noqa: E402
 
 Array = NDArray[np.float64]
 
@@ -585,7 +585,7 @@ def _chosen_method(model: Any) -> str:
 
 def _clear_caches() -> None:
     try:
-        from hdpbsid.methods.memo import clear_caches
+        from hdpbsid.bases.memo import clear_caches
     except ImportError:  # moved: nothing to clear, or the script must follow it
         return
     clear_caches()

@@ -83,7 +83,7 @@ def write_resonance_h5(path: Path, ns: int, band: float, chunk: int = 2**20, see
     from scipy import signal
     from segments import FS, resonance
 
-    from hdpbsid.conversion import c2d
+    from hdpbsid.models.conversion import c2d
 
     rng = np.random.default_rng(seed)
     A, B, C, D = resonance()
@@ -110,7 +110,7 @@ def write_resonance_h5(path: Path, ns: int, band: float, chunk: int = 2**20, see
 
 # -- one point, in a fresh process ------------------------------------------------------
 def _errors(est, true) -> float:
-    from hdpbsid.metrics import eigenvalue_errors
+    from hdpbsid.models.metrics import eigenvalue_errors
 
     return float(eigenvalue_errors(est, true).max())
 
@@ -210,7 +210,7 @@ TARGET_METHODS = ("hermite", "hermite+auto", "n4sid")
 
 
 def _binary_target(ns: int, seeds: int) -> dict:
-    from hdpbsid.methods.memo import clear_caches
+    from hdpbsid.bases.memo import clear_caches
 
     out: dict[str, list] = {k: [] for k in TARGET_METHODS}
     cpu: dict[str, list] = {k: [] for k in TARGET_METHODS}
@@ -259,7 +259,7 @@ def _chunked(ns: int, band: float, tmp: Path) -> dict:
 
     from dask.distributed import Client, LocalCluster
 
-    from hdpbsid.io import open_chunked
+    from hdpbsid.data.io import open_chunked
     from hdpbsid.methods.chunked import identify_chunked
 
     tmp.mkdir(parents=True, exist_ok=True)

@@ -23,9 +23,9 @@ import tracemalloc
 import numpy as np
 from scipy import signal
 
-from hdpbsid.conversion import c2d
 from hdpbsid.methods.hermite import identify_hermite
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.models.conversion import c2d
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import add_noise
 
 F_RES, ZETA, FS, F_BAND = 5.0, 0.05, 1000.0, 20.0

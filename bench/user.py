@@ -66,8 +66,8 @@ ALL_THREAD_VARIABLES = (*THREAD_VARIABLES, "NUMBA_NUM_THREADS", "HDPBSID_NUM_THR
 #: row time a filled cache (``make compiled`` does the same)
 JIT_MODULES = (
     "slbasis.numeric.compiled",
-    "hdpbsid.recursion_kernels",
-    "hdpbsid.methods.pem_kernels",
+    "hdpbsid.models.recursion_kernels",
+    "hdpbsid.refine.pem_kernels",
 )
 
 
@@ -152,7 +152,7 @@ def _sippy_binary(reps: int) -> dict:
     sys.path.insert(0, str(HERE))
     from scaling import _errors, _fit, binary_record
 
-    from hdpbsid.methods.memo import clear_caches
+    from hdpbsid.bases.memo import clear_caches
 
     specs = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
     out = {k: {"wall": [], "cpu": [], "err": []} for k in specs}
@@ -179,7 +179,7 @@ def _cli_csv(csv: str, out: str, timeout: float) -> dict:
     from long_records import run_cli
     from segments import resonance
 
-    from hdpbsid.metrics import eigenvalue_errors
+    from hdpbsid.models.metrics import eigenvalue_errors
 
     got = run_cli(Path(csv), Path(out), timeout, env=dict(os.environ))
     if "status" in got:

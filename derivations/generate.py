@@ -3,7 +3,7 @@
     python derivations/generate.py          # or: make derivations
 
 Each report is ``slbasis derive --family NAME`` (Markdown), with symbolic parameters; a test
-(``tests/test_derivations.py``) regenerates them and fails when a committed one is stale.
+(``tests/slbasis/test_derivations.py``) regenerates them and fails when a committed one is stale.
 """
 
 from __future__ import annotations

@@ -12,24 +12,24 @@ cores for large factorisations and the compiled projection (:mod:`hdpbsid.runtim
 
 from typing import Any
 
-from .conversion import c2d, d2c
-from .core.pbsid import pbsid_core
-from .core.varx import LagOperator, MatrixLag, SampleShift
-from .identify import (
+from hdpbsid.bases.settings import BasisSettings
+from hdpbsid.core.pbsid import pbsid_core
+from hdpbsid.core.varx import LagOperator, MatrixLag, SampleShift
+from hdpbsid.identify import identify
+from hdpbsid.methods.dt import identify_discrete, identify_dt
+from hdpbsid.methods.registry import (
     METHODS,
     available_methods,
     get_method,
-    identify,
     is_available,
     register_method,
 )
-from .methods.dt import identify_discrete, identify_dt
-from .methods.settings import BasisSettings
-from .metrics import eigenvalue_errors, match_eigenvalues
-from .model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
-from .model_io import load_model, save_model
-from .runtime import num_threads
-from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
+from hdpbsid.models.conversion import c2d, d2c
+from hdpbsid.models.metrics import eigenvalue_errors, match_eigenvalues
+from hdpbsid.models.model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
+from hdpbsid.models.model_io import load_model, save_model
+from hdpbsid.runtime import num_threads
+from hdpbsid.systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 _LAZY_ATTRS = {
     "identify_hermite": "hdpbsid.methods.hermite",

@@ -7,11 +7,11 @@ exits takes the caller's process with it).  Only this module prints.  ``--out`` 
 checked before any data are read; a closed standard output (``| head``) ends the
 printing quietly and the files are still written.
 
-``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.io`),
+``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.data.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
 the operating point (``--detrend``, stored in the model), identifies a continuous-time
 model, prints it with its eigenvalues and writes ``model.json``
-(:func:`hdpbsid.model_io.save_model`: everything needed to rebuild the model, with the
+(:func:`hdpbsid.models.model_io.save_model`: everything needed to rebuild the model, with the
 column names as channel names and ``--time-unit``) and ``identification.png`` (singular values,
 measured vs simulated output, Bode magnitude; :mod:`hdpbsid.plots`) to ``--out``.
 ``--data FILE`` (repeatable) adds experiments: the list form of :func:`hdpbsid.identify`.
@@ -20,7 +20,7 @@ with code 2 and a message naming the file and the column; no model is written.
 
 ``validate MODEL.json FILE ...`` prints the simulation fit per output (and the
 ``--k``-step prediction fit), the residual whiteness and input-independence verdicts
-(:mod:`hdpbsid.assessment`) and writes ``validation.png``; a record whose time unit
+(:mod:`hdpbsid.models.assessment`) and writes ``validation.png``; a record whose time unit
 (``--time-unit``) or sampling interval does not match the model's draws one warning.
 
 ``demo`` simulates the closed-loop quadrotor pitch benchmark
@@ -47,13 +47,14 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from . import frequency_cli
-from .checks import check_label, check_names
-from .identify import available_methods, identify, is_available
-from .io import Record, read_columns, read_record
-from .metrics import match_eigenvalues
-from .model import StateSpaceModel, TimeScaleWarning
-from .model_io import load_model, model_from_dict, model_to_dict, save_model
+from hdpbsid import frequency_cli
+from hdpbsid.data.checks import check_label, check_names
+from hdpbsid.data.io import Record, read_columns, read_record
+from hdpbsid.identify import identify
+from hdpbsid.methods.registry import available_methods, is_available
+from hdpbsid.models.metrics import match_eigenvalues
+from hdpbsid.models.model import StateSpaceModel, TimeScaleWarning
+from hdpbsid.models.model_io import load_model, model_from_dict, model_to_dict, save_model
 
 __all__ = [
     "main",
@@ -95,9 +96,9 @@ class _HelpExit(Exception):
         self.status = status
 
 
-# -- JSON (hdpbsid.model_io; the names below are kept for earlier callers) ------------------
+# -- JSON (hdpbsid.models.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
-    """:func:`hdpbsid.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    """:func:`hdpbsid.models.model_io.save_model` (kept for callers of the earlier CLI helper)."""
     return save_model(model, path)
 
 
@@ -117,7 +118,7 @@ def _split_columns(values: list[str] | None) -> list[str]:
 def read_csv_columns(
     path: str | Path, columns: list[str], delimiter: str | None = None
 ) -> dict[str, np.ndarray]:
-    """The named columns of a data file (:func:`hdpbsid.io.read_columns`; kept here for
+    """The named columns of a data file (:func:`hdpbsid.data.io.read_columns`; kept here for
     callers of the earlier CSV-only reader)."""
     return read_columns(path, columns, delimiter)
 
@@ -125,7 +126,7 @@ def read_csv_columns(
 def _read_records(
     args: argparse.Namespace, files: list[str], columns: dict[str, Any]
 ) -> list[Record]:
-    """Every file of ``files`` as a :class:`~hdpbsid.io.Record` with the chosen columns."""
+    """Every file of ``files`` as a :class:`~hdpbsid.data.io.Record` with the chosen columns."""
     time = columns["time"]
     if args.dt is None and args.fs is None and time is None:
         time = "t"
@@ -237,7 +238,7 @@ def _print_model(model: StateSpaceModel, out: TextIO) -> None:
 def _print_fit(
     model: StateSpaceModel, t: Any, u: Any, y: Any, names: list[str], out: TextIO
 ) -> None:
-    from .plots import display_fit
+    from hdpbsid.plots import display_fit
 
     shown = display_fit(model, t, u, y)
     print(f"fit, 100 (1 - NRMSE) as MATLAB's compare ({shown.kind}):", file=out)
@@ -254,9 +255,10 @@ def _check_method(method: str) -> None:
 
 def _progress(choice: str, records: list[Record]) -> bool:
     """Progress bars (stderr): ``on``, ``off``, or ``auto``: only where the work is long,
-    i.e. a record longer than :data:`hdpbsid.scaling.LONG_SAMPLES` (a shorter record is
-    identified in seconds, and bars would only add lines to the output)."""
-    from .scaling import LONG_SAMPLES
+    i.e. a record longer than :data:`hdpbsid.selection.long_records.LONG_SAMPLES` (a
+    shorter record is identified in seconds, and bars would only add lines to the
+    output)."""
+    from hdpbsid.selection.long_records import LONG_SAMPLES
 
     long = max(r.t.size for r in records) > LONG_SAMPLES
     return choice == "on" or (choice == "auto" and long)
@@ -333,7 +335,7 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
     path = save_model(model, outdir / "model.json")
     print(f"wrote {path}", file=out)
     if not args.no_plot:
-        from .plots import plot_identification, save_figure
+        from hdpbsid.plots import plot_identification, save_figure
 
         uu = np.zeros((first.t.size, 0)) if first.u is None else first.u
         fig = plot_identification(
@@ -344,7 +346,8 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
-    """Fit and residual tests of a saved model on other records (:mod:`hdpbsid.assessment`)."""
+    """Fit and residual tests of a saved model on other records
+    (:mod:`hdpbsid.models.assessment`)."""
     model = load_model(args.model)
     saved = _saved_columns(model, args.model)
     inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
@@ -406,7 +409,7 @@ def _validate_record(
         return
     print(report.summary(outputs, inputs), file=out)
     if not args.no_plot:
-        from .plots import plot_validation, save_figure
+        from hdpbsid.plots import plot_validation, save_figure
 
         fig = plot_validation(
             model,
@@ -424,9 +427,9 @@ def _validate_record(
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
-    from . import studies
-    from .studies.data import quadrotor_record
-    from .studies.runner import task_rng
+    from hdpbsid import studies
+    from hdpbsid.studies.data import quadrotor_record
+    from hdpbsid.studies.runner import task_rng
 
     method = best_method() if args.method == "auto" else args.method
     _check_method(method)
@@ -523,8 +526,8 @@ def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     }
     print(f"wrote {save_model(model, outdir / 'model.json')} (order {main_order})", file=out)
     if not args.no_plot:
-        from .plots import plot_identification, save_figure
-        from .studies.figures import quadrotor_figures
+        from hdpbsid.plots import plot_identification, save_figure
+        from hdpbsid.studies.figures import quadrotor_figures
 
         truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
         fig = plot_identification(
@@ -547,7 +550,7 @@ STUDY_NAMES = ("snr", "samples", "basis-order", "operator", "table1", "quadrotor
 
 
 def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
-    from . import studies
+    from hdpbsid import studies
 
     settings = _parse_options(args.set)
     outdir = _check_out(args.out or Path("hdpbsid-study") / args.name, [])
@@ -660,8 +663,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("none", "pem", "auto"),
         default="auto",
         help="prediction-error refinement of the subspace model "
-        "(hdpbsid.methods.refine.refine_pem; needs uniform t; 'auto' (default): every "
-        "single uniformly sampled record, kept when it converges; hdpbsid.feedback)",
+        "(hdpbsid.refine.pem.refine_pem; needs uniform t; 'auto' (default): every "
+        "single uniformly sampled record, kept when it converges; hdpbsid.selection.feedback)",
     )
     p.add_argument(
         "--option",

@@ -5,12 +5,12 @@
 record (Welch H1, from a reference in closed loop, or the exact lines of a periodic
 record), written to ``OUT/frf.csv`` with its 95 % region, and a Bode figure
 ``OUT/frf.png``: magnitude and phase of the estimate with its region, the model (fitted
-to it with ``--fit`` by :func:`hdpbsid.frequency.identify_frequency`, or read from
+to it with ``--fit`` by :func:`hdpbsid.frequency.fit.identify_frequency`, or read from
 ``--model``, e.g. a model of ``hdpbsid identify``) with its 95 % band from the parameter
-covariance (:func:`hdpbsid.uncertainty.response_band`), and the coherence with its bounds.
+covariance (:func:`hdpbsid.models.uncertainty.response_band`), and the coherence with its bounds.
 
 ``hdpbsid input KIND --dt DT --samples N ...``: an input design from
-:mod:`hdpbsid.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
+:mod:`hdpbsid.design.inputs` written to ``OUT/input.csv`` (columns ``t, u1, ...``) with its figure.
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from . import frequency, inputs
-from .io import read_record
+from hdpbsid.data.io import read_record
+from hdpbsid.design import inputs
+from hdpbsid.frequency import fit as frequency
 
 COMMANDS = ("frf", "input")
 
@@ -71,7 +72,7 @@ def add_parsers(sub: Any) -> None:
     i = sub.add_parser(
         "input",
         help="design an input signal (PRBS, random binary, multisine, chirp, Hermite sweep)",
-        description="Write an input design of hdpbsid.inputs to OUT/input.csv.",
+        description="Write an input design of hdpbsid.design.inputs to OUT/input.csv.",
     )
     i.add_argument(
         "kind", choices=("prbs", "rbs", "multisine", "chirp", "logchirp", "hermite-sweep")
@@ -140,7 +141,7 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
         raise ValueError("give --fit or --model, not both")
     model = frequency.identify_frequency(est, order=args.order) if args.fit else None
     if args.model:
-        from .model_io import load_model
+        from hdpbsid.models.model_io import load_model
 
         model = load_model(args.model)
     outdir = Path(args.out)

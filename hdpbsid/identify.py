@@ -1,34 +1,21 @@
 """``hdpbsid.identify``: one entry point for every identification method.
 
 ``m = hdpbsid.identify(t, u, y, order=4, method="hermite")`` with ``method`` one of
-``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md). Methods
-live in a registry :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
-order=None, **options) -> StateSpaceModel``).
-
-* ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered on import;
-* the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
-  time ``"hermite"`` (:mod:`hdpbsid.methods.hermite`), ``"laguerre"``
-  (:mod:`hdpbsid.methods.laguerre`),
-  ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
-  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
-  is imported and its ``identify_<name>`` function registered.  A module may also call
-  :func:`register_method` itself when imported;
-* anything else can be added with :func:`register_method` (a user's own method, a
-  wrapper around another tool for comparisons).
+``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md): the
+record is checked, scaled and detrended here, the method is taken from the registry
+(:mod:`hdpbsid.methods.registry`; ``"dt"``, :func:`hdpbsid.methods.dt.identify_dt`, is
+registered on import), and the model refined and given its operating point.
 """
 
 from __future__ import annotations
 
-import importlib
 import time
 import warnings
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from . import scaling
-from .checks import (
+from hdpbsid.data.checks import (
     check_data,
     check_label,
     check_names,
@@ -37,114 +24,26 @@ from .checks import (
     require_joblib,
     scale_exponents,
 )
-from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
-from .feedback import refine_decision
-from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
-from .model import LinearTrend, StateSpaceModel, scale_signals
-from .runtime import library_call
+from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
+from hdpbsid.methods.dt import identify_dt
+from hdpbsid.methods.registry import (
+    IdentifyFunc,
+    get_method,
+    register_method,
+)
+from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
+from hdpbsid.refine.pem import (
+    REFINE_CHOICES,
+    WARM_START,
+    is_uniform,
+    one_step_errors,
+    refine_pem,
+)
+from hdpbsid.runtime import library_call
+from hdpbsid.selection import long_records as scaling
+from hdpbsid.selection.feedback import refine_decision
 
-__all__ = [
-    "METHODS",
-    "LAZY_METHODS",
-    "identify",
-    "register_method",
-    "available_methods",
-    "is_available",
-    "get_method",
-]
-
-IdentifyFunc = Callable[..., StateSpaceModel]
-
-#: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
-METHODS: dict[str, IdentifyFunc] = {}
-
-#: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
-#: tried in order (the first module that imports and has the function wins).
-LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
-    "hermite": (("hdpbsid.methods.hermite", "identify_hermite"),),
-    "laguerre": (("hdpbsid.methods.laguerre", "identify_laguerre"),),
-    "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
-    "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
-    "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
-    "auto": (("hdpbsid.selection", "identify_auto"),),
-}
-
-
-def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> IdentifyFunc:
-    """Register ``func`` under ``name`` in :data:`METHODS`; returns ``func``.
-
-    ``func(t, u, y, order=None, **options)`` must return a
-    :class:`~hdpbsid.model.StateSpaceModel`.  Re-registering a name with a different
-    function raises ``ValueError`` unless ``overwrite=True`` (registering the same
-    function twice is harmless, so a module may register itself on import).
-    """
-    if not isinstance(name, str) or not name:
-        raise TypeError(f"name must be a non-empty string, got {name!r}")
-    if not callable(func):
-        raise TypeError(f"func must be callable, got {type(func).__name__}")
-    old = METHODS.get(name)
-    if old is not None and old is not func and not overwrite:
-        raise ValueError(
-            f"method {name!r} is already registered ({getattr(old, '__qualname__', old)}); "
-            f"pass overwrite=True to replace it"
-        )
-    METHODS[name] = func
-    return func
-
-
-def _load_lazy(name: str) -> IdentifyFunc | None:
-    """Import a lazily registered method; ``None`` if none of its modules exists."""
-    for module_name, func_name in LAZY_METHODS[name]:
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name == module_name:
-                continue
-            raise  # the module exists but one of *its* imports is missing: show that
-        if name in METHODS:  # the module registered itself on import
-            return METHODS[name]
-        func = getattr(module, func_name, None)
-        if func is not None:
-            return register_method(name, func)
-    return METHODS.get(name)
-
-
-def get_method(name: str) -> IdentifyFunc:
-    """The callable registered for ``name`` (importing a lazy method on first use).
-
-    Raises ``TypeError`` for a non-string and ``ValueError`` for an unknown or
-    unavailable name (the message lists the available ones).
-    """
-    if not isinstance(name, str):
-        raise TypeError(f"method must be a string, got {type(name).__name__}")
-    if name in METHODS:
-        return METHODS[name]
-    if name in LAZY_METHODS:
-        func = _load_lazy(name)
-        if func is not None:
-            return func
-        where = " or ".join(f"{mod}.{fn}" for mod, fn in LAZY_METHODS[name])
-        raise ValueError(
-            f"method {name!r} is not available: {where} could not be imported; "
-            f"available methods: {available_methods()}"
-        )
-    raise ValueError(f"unknown method {name!r}; known methods: {available_methods()}")
-
-
-def is_available(name: str) -> bool:
-    """``True`` if ``name`` is registered or its lazy module imports."""
-    if name in METHODS:
-        return True
-    return name in LAZY_METHODS and _load_lazy(name) is not None
-
-
-def available_methods() -> list[str]:
-    """Sorted names of the methods that can be used now (lazy ones are tried)."""
-    for name in LAZY_METHODS:
-        if name not in METHODS:
-            _load_lazy(name)
-    return sorted(METHODS)
+__all__ = ["identify"]
 
 
 def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
@@ -202,16 +101,16 @@ def identify(
     left out); every record is detrended on its own and the list is passed to the
     method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
     ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
-    prediction error (:func:`hdpbsid.selection.identify_auto`; with several records the
+    prediction error (:func:`hdpbsid.selection.auto.identify_auto`; with several records the
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
     ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (see :func:`available_methods`).
     ``options`` go to the method unchanged (e.g. ``p=``, ``f=``, ``regularize=`` for
     ``"dt"``); with ``"auto"`` they go to every method tried (e.g. ``feedthrough=True``),
     besides ``methods=``, ``max_order=``, ``n_jobs=`` (the methods swept in parallel) and
-    ``method_options=`` (per method) of :func:`~hdpbsid.selection.identify_auto`.
+    ``method_options=`` (per method) of :func:`~hdpbsid.selection.auto.identify_auto`.
 
     ``order=None`` chooses the order from the identified *models*
-    (:func:`hdpbsid.selection.select_order`): orders ``1..max_order`` (default 8) are
+    (:func:`hdpbsid.selection.auto.select_order`): orders ``1..max_order`` (default 8) are
     identified on the first two thirds of the record and scored by their windowed
     one-step prediction error on the last third (the better of the predictors with the
     model's ``K`` and with ``K = 0``, i.e. the simulation error; the prediction error is
@@ -222,7 +121,7 @@ def identify(
     ``options["order_selection"]``).  A constant input column raises a ``UserWarning``
     (not persistently exciting).
 
-    ``detrend`` sets the operating point (:mod:`hdpbsid.detrend`): ``"mean"`` (default)
+    ``detrend`` sets the operating point (:mod:`hdpbsid.data.detrend`): ``"mean"`` (default)
     removes each channel's mean before the method runs, ``"linear"`` its least-squares
     line in ``t``, ``None`` nothing (with a ``UserWarning`` when a channel's level
     outweighs its variation, ``|mean| > std``).  The removed levels are stored in the
@@ -233,15 +132,15 @@ def identify(
     sample-weighted mean level ``sum N_i x0_i / sum N_i`` (and no trend); each record's
     own levels are in ``model.options["operating_points"]``.  Removing the means makes
     the estimate invariant to constant shifts of the data; the price is an O(1/T) level
-    error on records that start at rest (see :mod:`hdpbsid.detrend`).
+    error on records that start at rest (see :mod:`hdpbsid.data.detrend`).
 
     ``refine="pem"`` follows the method with a prediction-error fit started from its
-    model (:func:`hdpbsid.methods.refine.refine_pem`: efficient, consistent in closed loop,
+    model (:func:`hdpbsid.refine.pem.refine_pem`: efficient, consistent in closed loop,
     reports ``options["eigenvalue_std"]``; needs uniformly sampled ``t``, about 0.1 s
     on 7500 samples; one record only); ``None`` returns the subspace model as the method
     produced it; ``"auto"`` (default) refines every single uniformly sampled record
     whose first-pass one-step predictor does not diverge
-    (:func:`hdpbsid.feedback.refine_decision`): the subspace model is the start, the
+    (:func:`hdpbsid.selection.feedback.refine_decision`): the subspace model is the start, the
     prediction-error model the answer (efficient in open loop, consistent in closed loop
     where the basis-domain least squares is biased).  A chi-square feedback test of the
     first-pass residuals against the prewhitened input is reported with the rule in
@@ -261,11 +160,11 @@ def identify(
     benchmark (``dt``, order 3) 1.5-8.3 % -> 0.34-0.65 % at 20 dB.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
-    :class:`~hdpbsid.methods.chunked.ChunkedRecord` in ``t``) take a bounded path
-    (:mod:`hdpbsid.scaling`): methods and orders chosen on a segment, the chosen one
+    :class:`~hdpbsid.data.chunked.ChunkedRecord` in ``t``) take a bounded path
+    (:mod:`hdpbsid.selection.long_records`): methods and orders chosen on a segment, the chosen one
     fitted on the whole record, refined on a bounded part; ``long_record=`` a
-    :class:`~hdpbsid.scaling.LongRecordPolicy` (or False: off), ``progress=True`` shows
-    progress bars.
+    :class:`~hdpbsid.selection.long_records.LongRecordPolicy` (or False: off),
+    ``progress=True`` shows progress bars.
 
     ``input_names``, ``output_names`` (``m`` and ``l`` distinct strings; default ``u1``,
     ... and ``y1``, ...) and ``time_unit`` (the unit of ``t``, default ``"s"``; the
@@ -277,7 +176,7 @@ def identify(
     ``delay`` (one uniformly sampled record): ``None`` (default) identifies without a
     dead time, as before; a number (or one per input), a multiple of the sampling
     interval, is a known dead time; ``"auto"`` estimates it
-    (:func:`hdpbsid.delay.estimate_delay`, the Welch frequency response searched on the
+    (:func:`hdpbsid.frequency.delay.estimate_delay`, the Welch frequency response searched on the
     grid of whole samples; ``order`` when given is the order of the dynamics it is
     estimated against, ``max_delay=`` bounds the search).  Each input is shifted by its
     delay in whole samples and the first ``max(delay)`` samples of ``y`` are dropped (no
@@ -306,7 +205,9 @@ def identify(
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     in_memory = isinstance(t, np.ndarray | list | tuple)
     labels = _Labels(input_names, output_names, time_unit, t, u, y) if in_memory else None
-    if scaling.is_long(t, u, y, method, long_record):  # bounded work: hdpbsid.scaling
+    if scaling.is_long(
+        t, u, y, method, long_record
+    ):  # bounded work: hdpbsid.selection.long_records
         model = scaling.identify_long(t, u, y, order, refine, detrend, long_record=long_record,
                                       progress=progress, **options)  # fmt: skip
         if labels is not None:
@@ -413,9 +314,9 @@ def _identify_delayed(
 ) -> StateSpaceModel:
     """:func:`identify` with ``delay`` given or ``"auto"`` (its docstring): the inputs
     shifted by whole samples, the model told its dead times."""
-    from .checks import check_uniform
-    from .dead_time import check_delay
-    from .delay import estimate_delay
+    from hdpbsid.data.checks import check_uniform
+    from hdpbsid.frequency.delay import estimate_delay
+    from hdpbsid.models.dead_time import check_delay
 
     if isinstance(t, list | tuple) and len(t) and isinstance(t[0], list | tuple):
         raise ValueError("delay needs a single record, not a list of records")
@@ -433,7 +334,7 @@ def _identify_delayed(
         steps = est.samples
         info: dict[str, Any] = {
             "rule": "auto: Welch FRF, refined fits profiled over whole samples "
-            "(hdpbsid.delay.estimate_delay)",
+            "(hdpbsid.frequency.delay.estimate_delay)",
             "estimate": est.delay.tolist(),
             "order": est.order.tolist(),
         }
@@ -462,7 +363,7 @@ def _identify_delayed(
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
     """The model's one-step prediction errors on a uniformly sampled record for the
     feedback test, by the refinement's compiled predictor
-    (:func:`~hdpbsid.methods.refine.one_step_errors`: the numbers of ``model.predict``,
+    (:func:`~hdpbsid.refine.pem.one_step_errors`: the numbers of ``model.predict``,
     10^4 samples 0.6 instead of 4.4 ms), with the model's input hold; None when its
     sampled predictor is unstable (the test then takes ``predict``'s, whose overflow
     it reports)."""
@@ -471,20 +372,6 @@ def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
             return one_step_errors(model, t, u, y)
     except (np.linalg.LinAlgError, ValueError):
         return None  # the test falls back to predict, whose failure it reports
-
-
-def _set_levels(model: StateSpaceModel, u0: Any, y0: Any, trend: LinearTrend | None) -> None:
-    """Store the operating point in ``model`` (and its sampled model, if it has one)."""
-    u0 = np.asarray(u0, dtype=float).reshape(-1)
-    y0 = np.asarray(y0, dtype=float).reshape(-1)
-    if u0.size != model.m or y0.size != model.l:
-        raise TypeError(
-            f"the method returned a model with {model.m} input(s) and {model.l} output(s) "
-            f"for data with {u0.size} and {y0.size}"
-        )
-    for mod in (model, model.discrete):
-        if mod is not None:
-            mod.u0, mod.y0, mod.trend = u0.copy(), y0.copy(), trend
 
 
 class _Labels:
@@ -517,7 +404,7 @@ class _Labels:
 
 class _Scaling:
     """Channels far outside the float64 comfort band, scaled by powers of two for the
-    identification and the model scaled back (:func:`~hdpbsid.checks.scale_exponents`):
+    identification and the model scaled back (:func:`~hdpbsid.data.checks.scale_exponents`):
     the result is the model of the unscaled record, since a power-of-two scaling is
     exact and the methods are invariant to the signals' units.  The state takes the
     inputs' scale, so ``B`` keeps moderate entries and ``C``, ``D`` carry the gain."""
@@ -645,14 +532,14 @@ def _run(
     refined: bool = False,
 ) -> StateSpaceModel:
     """Run ``method`` on one record; ``order=None`` goes through the held-out order choice
-    (:func:`hdpbsid.selection.select_order`) unless ``order_rule="svd"``.  ``refined``:
+    (:func:`hdpbsid.selection.auto.select_order`) unless ``order_rule="svd"``.  ``refined``:
     the result will be refined, so the held-out choice is told (it then decides close
-    orders between refined candidates, :func:`hdpbsid.selection.rejudge_refined`)."""
+    orders between refined candidates, :func:`hdpbsid.selection.auto.rejudge_refined`)."""
     rule = options.pop("order_rule", "held-out")
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
     if order is None and method != "auto" and rule == "held-out":
-        from .selection import select_order
+        from hdpbsid.selection.auto import select_order
 
         return select_order(method, t, u, y, refined=refined, **options)
     if method == "auto":

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .assessment import fit_percent
-from .checks import check_data
-from .criteria import SIGNIFICANCE_Z
-from .model import StateSpaceModel, fit_statistics
+from hdpbsid.data.checks import check_data
+from hdpbsid.models.assessment import fit_percent
+from hdpbsid.models.criteria import SIGNIFICANCE_Z
+from hdpbsid.models.model import StateSpaceModel, fit_statistics
 
 __all__ = [
     "new_figure",
@@ -42,7 +42,7 @@ __all__ = [
 @dataclass
 class DisplayFit:
     """Simulated output for display: ``y_sim (Ns, l)``, ``fit`` (percent per output, the
-    NRMSE fit of MATLAB's ``compare``, :func:`hdpbsid.assessment.fit_percent`), ``vaf``
+    NRMSE fit of MATLAB's ``compare``, :func:`hdpbsid.models.assessment.fit_percent`), ``vaf``
     (percent per output, the variance accounted for) and ``kind`` describing how it was
     obtained (see :func:`display_fit`)."""
 
@@ -150,10 +150,10 @@ def order_criterion(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], float | None] | None:
     """The held-out criterion per order from a model's ``options["order_selection"]``.
 
-    The table (:func:`hdpbsid.selection.select_model`) has one row per candidate with its
+    The table (:func:`hdpbsid.selection.auto.select_model`) has one row per candidate with its
     held-out error ``error`` (0 = perfect, 1 = no better than the mean) and ``z``, its
     excess over the best candidate's error in standard errors of that error
-    (:func:`hdpbsid.criteria.choose_smallest_adequate`).  Per order the best candidate's
+    (:func:`hdpbsid.models.criteria.choose_smallest_adequate`).  Per order the best candidate's
     error is returned, with the standard error ``(error - best) / z``: both are the same
     sums divided by the same held-out output energy, so every row with a finite, nonzero
     ``z`` gives the same value (their median is returned; ``None`` when no row has one).
@@ -517,9 +517,9 @@ def plot_validation(
     * per output: autocorrelation of the one-step prediction errors over lags ``1..M``
       with the 99 % band ``+-2.58 / sqrt(N)`` and the Ljung-Box verdict;
     * per output and input: residual-input cross-correlation over lags ``-M..M`` with its
-      99 % band (:mod:`hdpbsid.assessment`).
+      99 % band (:mod:`hdpbsid.models.assessment`).
 
-    ``report``: a :class:`~hdpbsid.assessment.ResidualReport` already computed (else
+    ``report``: a :class:`~hdpbsid.models.assessment.ResidualReport` already computed (else
     :meth:`StateSpaceModel.residuals` with ``max_lag``).  Channel names default to the
     model's; the time axis carries its ``time_unit``.  Returns the figure.
     """

@@ -21,7 +21,7 @@
 # the model is judged the way a user judges it (Ljung, *System Identification*, 2nd ed.,
 # ch. 16):
 #
-# 1. read the file (`hdpbsid.io`: the sampling interval is given because the file has
+# 1. read the file (`hdpbsid.data.io`: the sampling interval is given because the file has
 #    no time column);
 # 2. remove the operating point (`identify(..., detrend="mean")`, the default) and check
 #    that the result does not depend on it;
@@ -49,8 +49,8 @@ import numpy as np
 from IPython.display import Image, display
 
 import hdpbsid
-from hdpbsid.assessment import fit_percent
-from hdpbsid.io import read_record
+from hdpbsid.data.io import read_record
+from hdpbsid.models.assessment import fit_percent
 from hdpbsid.plots import plot_validation
 
 SMALL = os.environ.get("HDPBSID_NOTEBOOK_SMALL", "0") == "1"

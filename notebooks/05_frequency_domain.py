@@ -20,7 +20,7 @@
 # $G(s) = \frac{-6400 s + 1600}{s^4 + 5 s^3 + 408 s^2 + 416 s + 1600}$ (modes at 2 and
 # 20 rad/s, a non-minimum-phase zero), whose truth is known:
 #
-# 1. design inputs (`hdpbsid.inputs`): a low-crest-factor multisine, a PRBS, the thesis's
+# 1. design inputs (`hdpbsid.design.inputs`): a low-crest-factor multisine, a PRBS, the thesis's
 #    Hermite-projected sweep;
 # 2. simulate a record at 20 dB;
 # 3. estimate the frequency response and coherence (`hdpbsid.frequency`): exact lines of
@@ -44,8 +44,9 @@ import numpy as np
 from scipy.linalg import block_diag
 
 import hdpbsid
-from hdpbsid import frequency, inputs
-from hdpbsid.metrics import eigenvalue_errors
+from hdpbsid.design import inputs
+from hdpbsid.frequency import fit as frequency
+from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.systems import add_noise
 
 SMALL = os.environ.get("HDPBSID_NOTEBOOK_SMALL", "0") == "1"

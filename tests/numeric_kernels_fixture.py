@@ -1,7 +1,7 @@
 """Hand-written kernels for four families (textbook closed forms), used by the numeric tests.
 
 They stand in for the generated kernels until the code generator exists. Each one is
-checked against scipy.special / mpmath in ``tests/test_numeric_kernels.py``.
+checked against scipy.special / mpmath in ``tests/slbasis/numeric/test_numeric_kernels.py``.
 
 Conventions: ``phi_n = sqrt(w) p_n`` orthonormal in L^2(a, b) (see slbasis.numeric.kernel).
 

@@ -15,9 +15,9 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 import hdpbsid
 import slbasis.runtime as runtime
-from hdpbsid.identify import METHODS
+from hdpbsid.bases.memo import clear_caches
 from hdpbsid.methods.dt import identify_dt
-from hdpbsid.methods.memo import clear_caches
+from hdpbsid.methods.registry import METHODS
 from hdpbsid.systems import second_order, simulate_zoh
 
 #: the caller's BLAS threads in these tests: above one, whatever the machine
@@ -106,7 +106,7 @@ def test_bad_argument_raises(bad):
 
 
 def test_model_simulation_is_limited(monkeypatch):
-    import hdpbsid.model as model_module
+    import hdpbsid.models.model as model_module
 
     seen: list[set[int]] = []
     original = model_module.linear_recursion

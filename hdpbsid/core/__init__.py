@@ -8,8 +8,8 @@ Hermite integrator ``D'^{-1}``).  Imports go one way: ``methods`` use the core, 
 uses nothing of ``hdpbsid`` but the input checks.
 """
 
-from .pbsid import CoreResult, pbsid_core
-from .varx import LagOperator, MatrixLag, SampleShift, VarxResult, two_stage_ls, varx
+from hdpbsid.core.pbsid import CoreResult, pbsid_core
+from hdpbsid.core.varx import LagOperator, MatrixLag, SampleShift, VarxResult, two_stage_ls, varx
 
 __all__ = [
     "pbsid_core",

@@ -64,9 +64,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
 
-from ..runtime import large_work
-from .pbsid import CoreResult, core_options, estimate_cd, resolve_order, stable_gain
-from .varx import (
+from hdpbsid.core.pbsid import CoreResult, core_options, estimate_cd, resolve_order, stable_gain
+from hdpbsid.core.varx import (
     CachedPowers,
     LagOperator,
     VarxResult,
@@ -76,6 +75,7 @@ from .varx import (
     ridge_gcv,
     two_stage_ls,
 )
+from hdpbsid.runtime import large_work
 
 __all__ = [
     "BlockLag",

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import solve_discrete_are
 
-from ..runtime import library_call
-from .varx import LagOperator, SampleShift, VarxResult, varx
+from hdpbsid.core.varx import LagOperator, SampleShift, VarxResult, varx
+from hdpbsid.runtime import library_call
 
 __all__ = [
     "gamma_l",

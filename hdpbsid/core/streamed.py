@@ -44,8 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..runtime import large_work
-from .blocks import (
+from hdpbsid.core.blocks import (
     BlockLag,
     BlockPseudo,
     Eliminator,
@@ -53,8 +52,9 @@ from .blocks import (
     best_window,
     window_aic,
 )
-from .pbsid import CoreResult, core_options, resolve_order, stable_gain
-from .varx import VarxResult, parse_regularize, past_blocks, ridge_gcv_r
+from hdpbsid.core.pbsid import CoreResult, core_options, resolve_order, stable_gain
+from hdpbsid.core.varx import VarxResult, parse_regularize, past_blocks, ridge_gcv_r
+from hdpbsid.runtime import large_work
 
 __all__ = [
     "VarxFactors",

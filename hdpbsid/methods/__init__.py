@@ -5,12 +5,10 @@
 * :mod:`~hdpbsid.methods.laguerre` -- CT-PBSID (Laguerre projection or filters);
 * :mod:`~hdpbsid.methods.sturm_liouville` -- any finite-interval Sturm-Liouville basis
   (Legendre, Chebyshev, Jacobi, a custom problem);
-* :mod:`~hdpbsid.methods.basis_domain` -- what the basis methods share (projection of the
-  sample interpolants, bandwidth, pseudo-inputs, running the core);
-* :mod:`~hdpbsid.methods.refine` -- prediction-error refinement of any method's model;
 * :mod:`~hdpbsid.methods.chunked` -- HD-PBSID of records read in chunks (files larger
   than memory, Dask).
 
-The methods are imported on first use by :func:`hdpbsid.identify` (a light
-``import hdpbsid``).
+What the basis methods share is in :mod:`hdpbsid.bases`; the prediction-error
+refinement of any method's model in :mod:`hdpbsid.refine`.  The methods are imported on
+first use by :func:`hdpbsid.identify` (a light ``import hdpbsid``).
 """

@@ -2,7 +2,7 @@
 
 A uniformly sampled record that does not fit in memory is described by a
 :class:`ChunkedRecord`: its length, sampling interval and a reader ``read(a, b) ->
-(u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.io.open_chunked`;
+(u[a:b], y[a:b])`` (an HDF5 file, ``.npy`` memory maps: :func:`hdpbsid.data.io.open_chunked`;
 any sliceable arrays, e.g. ``dask.array`` or ``zarr``: :meth:`ChunkedRecord.from_arrays`).
 :func:`identify_chunked` runs method ``"hermite"`` (:mod:`hdpbsid.methods.hermite`) on it
 in three passes over the data, never holding more than one batch of samples:
@@ -11,9 +11,9 @@ in three passes over the data, never holding more than one batch of samples:
    ``N`` and of the window) from periodograms averaged over chunks of
    ``spectrum_samples`` samples (Welch's method: Welch, *IEEE Trans. Audio
    Electroacoust.* 15 (1967) 70-73; each chunk detrended and Hann-windowed as in
-   :func:`~hdpbsid.methods.basis_domain.bandwidth`).  A record of at most
+   :func:`~hdpbsid.bases.basis_domain.bandwidth`).  A record of at most
    ``spectrum_samples`` samples is one chunk: the estimate is then the in-memory one;
-2. the record is cut into the windows of :func:`hdpbsid.records.split_windows` (same
+2. the record is cut into the windows of :func:`hdpbsid.data.records.split_windows` (same
    edges); batches of windows (about ``chunk_samples`` samples each) are read, projected
    on their basis and reduced to the first-pass factors of the core
    (:func:`hdpbsid.core.streamed.varx_factors`: the AIC of every candidate ``p`` and the
@@ -46,13 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import slbasis
-
-from ..checks import check_order, check_positive_int
-from ..core import streamed
-from ..core.blocks import BlockLag, BlockPseudo
-from ..model import StateSpaceModel
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.bases.basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
     RIDGE_FLOOR,
@@ -66,97 +60,22 @@ from .basis_domain import (
     spectra_data_bandwidth,
     spectrum_bandwidth,
 )
-from .hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
-from .segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core import streamed
+from hdpbsid.core.blocks import BlockLag, BlockPseudo
+from hdpbsid.data.checks import check_order, check_positive_int
+from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
+from hdpbsid.methods.hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import library_call
 
-__all__ = ["ChunkedRecord", "identify_chunked", "SPECTRUM_SAMPLES", "CHUNK_SAMPLES"]
+__all__ = ["identify_chunked", "averaged_spectra", "SPECTRUM_SAMPLES"]
 
 Array = NDArray[np.float64]
 
 #: samples per periodogram of the averaged spectrum (frequency resolution ``fs / 2^20``)
 SPECTRUM_SAMPLES = 2**20
-#: samples read and projected per batch of windows
-CHUNK_SAMPLES = 2**20
-
-
-class _ArrayReader:
-    """``read(a, b)`` of sliceable ``u`` (or None), ``y`` (``np.memmap``, ``h5py``
-    datasets, ``zarr`` or ``dask`` arrays: anything ``np.asarray(x[a:b])`` accepts)."""
-
-    def __init__(self, u: Any, y: Any) -> None:
-        self.u, self.y = u, y
-
-    def __call__(self, a: int, b: int) -> tuple[Array, Array]:
-        y = _two_d(np.asarray(self.y[a:b], dtype=float))
-        u = np.zeros((b - a, 0)) if self.u is None else _two_d(np.asarray(self.u[a:b], float))
-        return u, y
-
-
-def _two_d(x: Array) -> Array:
-    return x[:, None] if x.ndim == 1 else x
-
-
-@dataclass(frozen=True)
-class ChunkedRecord:
-    """A uniformly sampled record read in pieces.
-
-    ``read(a, b)`` returns ``(u, y)`` of samples ``a..b-1`` as ``(b-a, m)`` and ``(b-a,
-    l)`` float arrays; ``ns`` samples, ``m`` inputs, ``l`` outputs, sampling interval
-    ``dt`` and absolute start ``t0``.  ``read`` must be picklable for ``use_dask`` on a
-    distributed cluster (the readers of :func:`hdpbsid.io.open_chunked` are).
-    """
-
-    read: Callable[[int, int], tuple[Array, Array]]
-    ns: int
-    m: int
-    l: int
-    dt: float
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        check_positive_int(self.ns, "ns", 3)
-        if isinstance(self.dt, bool) or not isinstance(self.dt, int | float | np.number):
-            raise TypeError(f"dt must be a positive number, got {type(self.dt).__name__}")
-        if not (np.isfinite(self.dt) and self.dt > 0):
-            raise ValueError(f"dt must be a positive finite sampling interval, got {self.dt}")
-        if self.l < 1 or self.m < 0:
-            raise ValueError(f"need m >= 0 inputs and l >= 1 outputs, got m={self.m}, l={self.l}")
-
-    @classmethod
-    def from_arrays(cls, u: Any, y: Any, dt: float, t0: float = 0.0) -> ChunkedRecord:
-        """A record over sliceable arrays ``u`` (``(Ns,)``, ``(Ns, m)`` or None) and ``y``
-        (``(Ns,)`` or ``(Ns, l)``): ``np.memmap``, ``h5py`` datasets, ``zarr`` or
-        ``dask.array`` arrays; nothing is read until identification."""
-        ys = tuple(np.shape(y))
-        if len(ys) not in (1, 2):
-            raise ValueError(f"y must be (Ns,) or (Ns, l), got shape {ys}")
-        m = 0
-        if u is not None:
-            us = tuple(np.shape(u))
-            if len(us) not in (1, 2) or us[0] != ys[0]:
-                raise ValueError(f"u must be (Ns,) or (Ns, m) with Ns = {ys[0]}, got {us}")
-            m = 1 if len(us) == 1 else us[1]
-        return cls(_ArrayReader(u, y), int(ys[0]), m, 1 if len(ys) == 1 else ys[1], dt, t0)
-
-    @property
-    def duration(self) -> float:
-        """``(Ns - 1) dt``."""
-        return float((self.ns - 1) * self.dt)
-
-    def checked(self, a: int, b: int) -> tuple[Array, Array]:
-        """``read(a, b)`` with the shapes and finiteness checked."""
-        u, y = self.read(a, b)
-        if u.shape != (b - a, self.m) or y.shape != (b - a, self.l):
-            raise ValueError(
-                f"the reader returned u {u.shape}, y {y.shape} for samples {a}..{b - 1}; "
-                f"expected ({b - a}, {self.m}) and ({b - a}, {self.l})"
-            )
-        for name, x in (("u", u), ("y", y)):
-            if not np.all(np.isfinite(x)):
-                k = a + int(np.flatnonzero(~np.isfinite(x).all(axis=1))[0])
-                raise ValueError(f"{name} has a NaN or infinite value at sample {k}")
-        return u, y
 
 
 def _spectra(rec: ChunkedRecord, a: int, b: int) -> tuple[Array, Array, Array]:
@@ -201,7 +120,7 @@ def _add_spectra(a: tuple[Array, Array, Array], b: tuple[Array, Array, Array]):
 
 
 def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
-    """Edges of :func:`hdpbsid.records.split_windows` (one window: the whole record)."""
+    """Edges of :func:`hdpbsid.data.records.split_windows` (one window: the whole record)."""
     if length is None or rec.duration < 2 * length:
         return np.array([0, rec.ns - 1])
     K = max(1, int(np.floor(rec.duration / length + 1e-9)))
@@ -354,7 +273,7 @@ def _tightest(
 def _p_plan(
     kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[list[int], int | None, int, int, str]:
-    """The past windows to try, as :func:`~hdpbsid.methods.basis_domain.run_core` rules
+    """The past windows to try, as :func:`~hdpbsid.bases.basis_domain.run_core` rules
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
     need = order if order is not None else 3
     f_min = -(-need // l)
@@ -403,7 +322,7 @@ def _hold_windows(
     kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings
 ) -> list[int]:
     """The past windows the input-hold criterion compares the holds over, as
-    :func:`~hdpbsid.methods.basis_domain.hold_criterion` rules them: the given ``p``, or
+    :func:`~hdpbsid.bases.basis_domain.hold_criterion` rules them: the given ``p``, or
     the preferred range capped at ``p (m + q + l) <= N / 6`` (empty when nothing fits)."""
     if st.p is not None:
         return [st.p]
@@ -413,7 +332,7 @@ def _hold_windows(
 
 
 def _streamed_hold_criterion(vf: Any, m: int, l: int, windows: list[int], normalize: bool) -> float:
-    """:func:`~hdpbsid.methods.basis_domain.hold_criterion` from first-pass factors: the
+    """:func:`~hdpbsid.bases.basis_domain.hold_criterion` from first-pass factors: the
     smallest VARX AIC over ``windows`` (``inf`` when none fits)."""
     if not windows:
         return float("inf")
@@ -427,8 +346,8 @@ def _streamed_hold_criterion(vf: Any, m: int, l: int, windows: list[int], normal
 def _best_hold_streamed(
     ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.methods.basis_domain.best_hold` with
-    :func:`~hdpbsid.methods.basis_domain.run_core` replaced by the streamed core
+    """:func:`~hdpbsid.bases.basis_domain.best_hold` with
+    :func:`~hdpbsid.bases.basis_domain.run_core` replaced by the streamed core
     (:mod:`hdpbsid.core.streamed`): two passes over the batches, factors reduced; the
     hold chosen from the first pass's factors by the same VARX criterion, and the second
     pass made for that hold only."""
@@ -511,7 +430,7 @@ def _best_hold_streamed(
 def _best_hold_in_memory(
     ctx: _Batches, sizes: Array, core_options: dict[str, Any]
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.methods.basis_domain.best_hold` on every window's coefficients at
+    """:func:`~hdpbsid.bases.basis_domain.best_hold` on every window's coefficients at
     once (the settings the streamed core does not cover)."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     results = ctx.gather()
@@ -562,9 +481,9 @@ def identify_chunked(
 ) -> StateSpaceModel:
     """HD-PBSID (method ``"hermite"``) of a record read in chunks (module docstring).
 
-    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.io.open_chunked` for HDF5,
+    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.data.io.open_chunked` for HDF5,
     Parquet and ``.npy`` files).  ``order``, ``N`` and the shared settings (keywords or
-    ``settings=`` :class:`~hdpbsid.methods.settings.BasisSettings`; ``n_jobs`` is not
+    ``settings=`` :class:`~hdpbsid.bases.settings.BasisSettings`; ``n_jobs`` is not
     used: batches run serially or on Dask) as in
     :func:`~hdpbsid.methods.hermite.identify_hermite`, with ``alpha = 4 scale``,
     ``beta = gamma = 1``.  No mean is removed: pass deviations from the operating

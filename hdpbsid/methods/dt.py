@@ -2,8 +2,8 @@
 
 :func:`identify_discrete` runs the VARX-form PBSID core (:mod:`hdpbsid.core.pbsid`) on
 uniformly sampled data with the sample shift as the past operator and returns the
-sampled :class:`~hdpbsid.model.DiscreteModel`; :func:`identify_dt` adds the time axis
-checks and the exact conversion to continuous time (:func:`hdpbsid.conversion.d2c`).
+sampled :class:`~hdpbsid.models.model.DiscreteModel`; :func:`identify_dt` adds the time axis
+checks and the exact conversion to continuous time (:func:`hdpbsid.models.conversion.d2c`).
 
 Defaults (all reported in ``model.options``):
 
@@ -36,14 +36,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import (
-    check_method_args,
-    check_signal,
-    check_uniform,
-)
-from ..core.blocks import BlockLag
-from ..core.pbsid import SubspaceStage, pbsid_core, subspace_stage
-from ..core.varx import (
+from hdpbsid.bases.memo import memoize
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.core.pbsid import SubspaceStage, pbsid_core, subspace_stage
+from hdpbsid.core.varx import (
     WINDOW_SEARCH_GROWTH,
     LagOperator,
     SampleShift,
@@ -51,10 +47,14 @@ from ..core.varx import (
     select_past_window,
     windows_searched,
 )
-from ..model import DiscreteModel, StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .memo import memoize
+from hdpbsid.data.checks import (
+    check_method_args,
+    check_signal,
+    check_uniform,
+)
+from hdpbsid.data.records import as_records
+from hdpbsid.models.model import DiscreteModel, StateSpaceModel
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_dt", "identify_discrete", "default_windows"]
 
@@ -65,7 +65,7 @@ SAMPLES_PER_REGRESSOR = 10
 #: upper limit of the default past window
 P_CAP = 200
 #: the data-driven settings a refit of this method on a longer record keeps from the
-#: candidate it reproduces (:func:`hdpbsid.selection.refit_keeps`): the past and future
+#: candidate it reproduces (:func:`hdpbsid.selection.auto.refit_keeps`): the past and future
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
 #: ``P_CAP`` lags -- the costliest step of a fit (measured: 0.07-0.08 s of the 0.12-0.18 s
 #: that the whole-record refit of ``method="auto"`` took on the stiff and Rao-Garnier
@@ -303,13 +303,13 @@ def identify_dt(
     """Identify a continuous-time model from uniformly sampled data (method ``"dt"``).
 
     Runs :func:`identify_discrete` on the samples (treating the input as ZOH-held) and
-    converts exactly with the matrix logarithm (:func:`hdpbsid.conversion.d2c`).  ``t``
+    converts exactly with the matrix logarithm (:func:`hdpbsid.models.conversion.d2c`).  ``t``
     must be uniform within ``uniform_rtol`` relative plus the resolution of its stamps
-    (:func:`hdpbsid.checks.check_uniform`; Unix-time stamps pass).  ``t`` may be a list of
+    (:func:`hdpbsid.data.checks.check_uniform`; Unix-time stamps pass).  ``t`` may be a list of
     ``(t_i, u_i, y_i)`` records with the same sampling interval (``u = y = None``): they
     are concatenated, with the first ``p`` columns of each record invalid (no lag
-    crosses a record edge).  Returns a :class:`~hdpbsid.model.StateSpaceModel` whose ``discrete``
-    attribute holds the sampled model and whose ``options`` list every setting used.
+    crosses a record edge).  Returns a :class:`~hdpbsid.models.model.StateSpaceModel` whose
+    ``discrete`` attribute holds the sampled model and whose ``options`` list every setting used.
 
     Raises ``ValueError`` when the discrete model has no continuous counterpart (an
     eigenvalue on the negative real axis): try another order or a basis-domain method.

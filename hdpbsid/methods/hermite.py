@@ -35,12 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgttrf, dgttrs
 
-from ..checks import check_data, check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
@@ -51,22 +46,27 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite_iv import reference_instruments, with_reference
-from .operator_scale import (
+from hdpbsid.bases.operator_scale import (
     MODE_ENERGY_FRACTION,
     alpha_from_dynamics,
     held_out_check,
     held_out_comparison,
     in_sample_screen,
 )
-from .segments import (
+from hdpbsid.bases.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.data.checks import check_data, check_order, check_positive_int
+from hdpbsid.data.records import as_records
+from hdpbsid.methods.hermite_iv import reference_instruments, with_reference
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
 
@@ -86,7 +86,7 @@ N_MIN, N_MAX = 100, 4000
 #: the named rules ``alpha`` accepts besides a number (:func:`identify_hermite`)
 ALPHA_RULES = ("basis", "dynamics")
 #: the settings the candidates of an order/method sweep are fitted with
-#: (:func:`hdpbsid.selection.sweep_settings`): the operator scale of the basis rule, the
+#: (:func:`hdpbsid.selection.auto.sweep_settings`): the operator scale of the basis rule, the
 #: first pass of the default.  The scale from the identified modes costs one to two more
 #: fits per order, each at an operator scale of its own, so no two orders share their
 #: VARX stage (measured: HD-PBSID's part of ``method="auto"``'s sweep on the Rao-Garnier
@@ -102,10 +102,10 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     early runs: N = 200-300 worked on 20-40 s records; below ~30 the thesis, §5, reports poor
     identification)
     and to ``Ns / 2`` (the samples must resolve the fastest basis function), with a
-    warning when an upper limit binds (:func:`~hdpbsid.methods.basis_domain.clip_basis_size`).
+    warning when an upper limit binds (:func:`~hdpbsid.bases.basis_domain.clip_basis_size`).
 
     Why the band includes the input's (``omega_b`` from
-    :func:`~hdpbsid.methods.basis_domain.data_bandwidth`), not only the outputs': the
+    :func:`~hdpbsid.bases.basis_domain.data_bandwidth`), not only the outputs': the
     coefficient equation holds for any ``N`` (the cut of the derivative operator is a
     pseudo-input), so input energy above the basis band does no harm by itself, but the
     coefficients between the outputs' energy band and the input band are where a fast,
@@ -130,7 +130,7 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
 
 def _hermite_basis(N: int, T: float, scale: float | None) -> Any:
     """``slbasis.basis("hermite", N, (0, T), scale=scale)``, the same object for the same
-    arguments (:func:`~hdpbsid.methods.basis_domain.shared_basis`)."""
+    arguments (:func:`~hdpbsid.bases.basis_domain.shared_basis`)."""
     return shared_basis("hermite", N, (0.0, T), scale=scale)
 
 
@@ -160,7 +160,7 @@ def hermite_lag(
     ``Dd = -Dmat``.  The banded storage of ``D'^T`` (``scipy.linalg.solve_banded``
     layout, rows: super-, main, sub-diagonal) is filled from the three diagonals of
     ``Dmat`` directly, never forming an ``N x N`` array, and factored once.  Returns the
-    :class:`~hdpbsid.methods.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
+    :class:`~hdpbsid.bases.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
     banded storage.
     """
     N = Dmat.shape[0]
@@ -221,38 +221,38 @@ def identify_hermite(
     ``t`` (Ns,) increasing, need not be uniform (projection weights from the spacing);
     ``u`` (Ns, m) or None, ``y`` (Ns, l).  Or ``t`` = a list of ``(t_i, u_i, y_i)``
     records of the same system (``u = y = None``), each with its own time axis and
-    initial state (:func:`hdpbsid.records.as_records`).  See the module docstring for the
+    initial state (:func:`hdpbsid.data.records.as_records`).  See the module docstring for the
     equations.  Each record, or window of a long record, is a block: projected on its own
     basis with its own boundary and truncation pseudo-inputs, all blocks stacked in one
-    PBSID problem (:mod:`hdpbsid.methods.segments`).
+    PBSID problem (:mod:`hdpbsid.bases.segments`).
 
     The basis keywords are HD-PBSID's own (``N``, ``alpha``, ``beta``, ``gamma``,
     ``scale``); the settings every basis method shares (``p``, ``f``, ``max_order``,
     ``boundary``, ``regularize``, ``feedthrough``, ``stable_k``, ``normalize``,
     ``input_hold``, ``window``, ``n_jobs``) come as keywords (``**shared``) or as
-    ``settings=`` :class:`~hdpbsid.methods.settings.BasisSettings`, keywords overriding
+    ``settings=`` :class:`~hdpbsid.bases.settings.BasisSettings`, keywords overriding
     its fields; they are validated once, there.
 
     Defaults (all reported in ``model.options``):
 
     * ``window="auto"``: records longer than twice the default window
-      (:func:`~hdpbsid.methods.segments.default_window`) are cut into windows of bounded
+      (:func:`~hdpbsid.bases.segments.default_window`) are cut into windows of bounded
       ``N``; None keeps every record whole; a number is the window length in seconds;
       ``n_jobs`` projects windows that do not share a time axis in parallel (joblib);
     * ``N``: per block, the basis covers twice the data bandwidth
       (:func:`default_hermite_N`); an explicit ``N`` (used for every block) whose band
       ``3.6 N / T`` is below the data bandwidth raises ``ValueError``;
     * ``scale``: each block fills 90 % of the effective support (``slbasis.basis``);
-    * ``alpha``: from the identified modes (:mod:`~hdpbsid.methods.operator_scale`): a
+    * ``alpha``: from the identified modes (:mod:`~hdpbsid.bases.operator_scale`): a
       first pass at ``4 * scale`` (the median over the blocks: ``A'`` is shared, so
       ``alpha`` must be), then the smallest ``alpha`` that minimises, within 2 %, the
       largest truncation factor ``(|alpha + lambda| / |alpha + i |lambda||)^p`` over the
       identified modes (unstable ones by their mirror images), re-identified until it
       settles; taken only when it simulates a single record better than the first
       pass's model by more than one standard error, first on the record itself
-      (:func:`~hdpbsid.methods.operator_scale.in_sample_screen`), then on its last third
+      (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`), then on its last third
       held out from fits on the rest (the burden of proof on the change:
-      :func:`~hdpbsid.methods.operator_scale.held_out_check`); several records keep
+      :func:`~hdpbsid.bases.operator_scale.held_out_check`); several records keep
       ``4 * scale``.  ``4 * scale`` alone follows ``sqrt(N) / T``, not the dynamics
       (stiff system ``-50, -0.5 +- 2i`` at 40 dB: slow pair 17 % off).
       ``options["alpha_rule"]``, ``["alpha_passes"]``, ``["alpha_check"]`` say what was
@@ -264,7 +264,7 @@ def identify_hermite(
     * ``held_out = (t, u, y)``: data of the same experiment kept out of this record
       (``method="auto"`` passes its held-out part): the two models of ``alpha`` fitted on
       the whole record are compared on it instead, by the same rule
-      (:func:`~hdpbsid.methods.operator_scale.held_out_comparison`), so the operator
+      (:func:`~hdpbsid.bases.operator_scale.held_out_comparison`), so the operator
       scale is judged by the same data as the order and the method, on all of them
       rather than on a third of a second split, and without refits; the model then
       carries the rule taken (``"basis"`` or ``"dynamics"``) in
@@ -274,13 +274,13 @@ def identify_hermite(
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
       an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` within
       ``N / 6``; an explicit ``p`` may go up to the real limit, a determined VARX
-      (``p (m + q + l) < N - p``; :func:`~hdpbsid.methods.basis_domain.run_core`);
+      (``p (m + q + l) < N - p``; :func:`~hdpbsid.bases.basis_domain.run_core`);
     * ``order``: largest log-gap of the singular values (orders ``1..max_order``, 10);
     * ``input_hold="auto"``: how the input behaves between samples (``"zoh"`` held,
       ``"foh"`` linear, ``"trapezoid"`` the old product quadrature); ``"auto"`` projects both
-      ``zoh`` and ``foh`` (:func:`~hdpbsid.methods.basis_domain.project_record`) and keeps
+      ``zoh`` and ``foh`` (:func:`~hdpbsid.bases.basis_domain.project_record`) and keeps
       the one whose order-free VARX fit has the smaller AIC
-      (:func:`~hdpbsid.methods.basis_domain.hold_criterion`: one decision for every
+      (:func:`~hdpbsid.bases.basis_domain.hold_criterion`: one decision for every
       order), in the first operator-scale pass; the later passes and the held-out fits
       keep its choice;
     * ``boundary=True``: boundary rows ``phi(t0)``, ``phi(tN)`` as pseudo-inputs;

@@ -41,7 +41,7 @@ slowly, and a larger ``p`` needs more instruments than the ``N`` coefficients su
 IV also has a larger variance than least squares (in closed loop most of the input's
 power is fed-back noise, which the reference does not explain).  That is why the
 front end's consistent default is not IV but the prediction-error refinement
-(:mod:`hdpbsid.feedback`), which IV can start when the reference is known.
+(:mod:`hdpbsid.selection.feedback`), which IV can start when the reference is known.
 
 Measured (closed-loop quadrotor, :func:`hdpbsid.studies.data.quadrotor_record` with the
 Hermite sweep, order 3, 30 runs, generators ``default_rng([7, i])``, the excitation as
@@ -78,8 +78,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.blocks import BlockLag
-from ..records import Record
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.data.records import Record
 
 __all__ = [
     "ESTIMATORS",

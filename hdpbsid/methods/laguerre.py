@@ -38,13 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..core.varx import SampleShift
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
     basis_values,
@@ -53,15 +47,21 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite import _real
-from .segments import (
+from hdpbsid.bases.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.core.varx import SampleShift
+from hdpbsid.data.checks import check_order, check_positive_int
+from hdpbsid.data.records import as_records
+from hdpbsid.methods.hermite import _real
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import library_call
 
 __all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
 
@@ -144,7 +144,7 @@ def identify_laguerre(
     PBSID problem.  The shared settings (``p``, ``f``, ``max_order``, ``boundary``,
     ``regularize``, ``stable_k``, ``normalize``, ``input_hold``, ``window``, ``n_jobs``)
     come as keywords or ``settings=``
-    :class:`~hdpbsid.methods.settings.BasisSettings`; ``feedthrough`` does not apply (the
+    :class:`~hdpbsid.bases.settings.BasisSettings`; ``feedthrough`` does not apply (the
     Laguerre-domain ``Dd`` is always estimated, see below).  Defaults (in
     ``model.options``):
 
@@ -159,7 +159,7 @@ def identify_laguerre(
       evenly spaced sample times after it;
     * ``input_hold="auto"`` (projection): the sample interpolants are projected exactly
       and the hold (``zoh``/``foh``) whose VARX fit has the smaller AIC is kept, as in
-      HD-PBSID (:func:`~hdpbsid.methods.basis_domain.project_record`); before, the product
+      HD-PBSID (:func:`~hdpbsid.bases.basis_domain.project_record`); before, the product
       quadrature of the samples shifted the closed-loop quadrotor's 250 Hz ZOH moment by
       half a sample;
     * ``K`` is mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a

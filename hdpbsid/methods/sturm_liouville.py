@@ -54,14 +54,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import slbasis
-from slbasis.numeric import operators
-
-from ..checks import check_order, check_positive_int
-from ..core.blocks import BlockLag
-from ..model import StateSpaceModel
-from ..records import as_records
-from ..runtime import library_call
-from .basis_domain import (
+from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
     SolveLag,
     bandwidth,
@@ -72,16 +65,22 @@ from .basis_domain import (
     resolve_holds,
     shared_basis,
 )
-from .hermite import _real
-from .memo import memoize
-from .segments import (
+from hdpbsid.bases.memo import memoize
+from hdpbsid.bases.segments import (
     default_window,
     make_segments,
     project_blocks,
     records_bandwidth,
     shared_keys,
 )
-from .settings import BasisSettings, resolve_settings
+from hdpbsid.bases.settings import BasisSettings, resolve_settings
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.data.checks import check_order, check_positive_int
+from hdpbsid.data.records import as_records
+from hdpbsid.methods.hermite import _real
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import library_call
+from slbasis.numeric import operators
 
 __all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
 
@@ -309,7 +308,7 @@ def identify_sl(
       considers orders ``1..min(max_order, f l - 1)``; pass ``p`` for more); ``f = p``;
     * ``input_hold="auto"``: ``zoh`` or ``foh``, whichever VARX fit has the smaller AIC
       over the past windows of HD-PBSID's preferred range
-      (:func:`~hdpbsid.methods.basis_domain.hold_criterion`; one decision for every
+      (:func:`~hdpbsid.bases.basis_domain.hold_criterion`; one decision for every
       order): a test of the input's interpolant, for which a longer VARX approximates
       the innovations better, not the variance choice of this method's own ``p``;
     * ``order``: largest log-gap of the singular values.

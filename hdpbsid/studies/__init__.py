@@ -23,14 +23,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from . import basis_order as _basis_order
-from . import operator as _operator
-from . import quadrotor as _quadrotor
-from . import samples as _samples
-from . import snr as _snr
-from . import table1 as _table1
-from .base import Study, StudyResult
-from .runner import check_runs, load_records, run_tasks
+from hdpbsid.studies import basis_order as _basis_order
+from hdpbsid.studies import operator as _operator
+from hdpbsid.studies import quadrotor as _quadrotor
+from hdpbsid.studies import samples as _samples
+from hdpbsid.studies import snr as _snr
+from hdpbsid.studies import table1 as _table1
+from hdpbsid.studies.base import Study, StudyResult
+from hdpbsid.studies.runner import check_runs, load_records, run_tasks
 
 __all__ = [
     "STUDIES",

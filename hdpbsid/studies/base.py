@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from ..metrics import match_eigenvalues
-from .runner import TaskFunc, _plain
+from hdpbsid.models.metrics import match_eigenvalues
+from hdpbsid.studies.runner import TaskFunc, _plain
 
 __all__ = [
     "Study",
@@ -221,7 +221,7 @@ def model_record(model: Any, true_eigenvalues: Any, n_sv: int = 12) -> dict[str,
 
     ``eigenvalues`` (``[re, im]`` pairs, sorted by real then imaginary part),
     ``matched`` (the estimate paired with each true eigenvalue by
-    :func:`~hdpbsid.metrics.match_eigenvalues`, in the order of the truth), ``errors``
+    :func:`~hdpbsid.models.metrics.match_eigenvalues`, in the order of the truth), ``errors``
     (``|est - true| / |true|`` per true eigenvalue), ``max_error``, ``divergent``
     (``max_error > DIVERGENCE``), the first ``n_sv`` singular values and the scalar
     options the method used (its defaults).  With more identified than true eigenvalues

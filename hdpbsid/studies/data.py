@@ -17,9 +17,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model import StateSpaceModel
-from ..systems import add_noise, second_order
-from ..systems.quadrotor import PitchData, hermite_sweep_excitation, simulate_pitch_closed_loop
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.systems import add_noise, second_order
+from hdpbsid.systems.quadrotor import (
+    PitchData,
+    hermite_sweep_excitation,
+    simulate_pitch_closed_loop,
+)
 
 __all__ = ["Record", "second_order_record", "quadrotor_record", "SECOND_ORDER_TRUE"]
 
@@ -165,3 +169,10 @@ def quadrotor_record(
         )
 
     return _cached(rng, "quadrotor", settings, make)
+
+
+def validation_rng(rng: np.random.Generator) -> np.random.Generator:
+    """The validation record's generator: the first child of the task's seed sequence
+    (independent noise, reproducible, never the identification record's stream)."""
+    seq = rng.bit_generator.seed_seq
+    return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(1,)))

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..plots import (
+from hdpbsid.plots import (
     new_figure,
     plot_bode,
     plot_eigenvalue_scatter,
@@ -23,7 +23,7 @@ from ..plots import (
     plot_singular_values,
     save_figure,
 )
-from .methods import LABELS
+from hdpbsid.studies.methods import LABELS
 
 __all__ = ["table1_figures", "curve_figure", "operator_figure", "quadrotor_figures"]
 
@@ -46,7 +46,7 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
     """Per SNR, the eigenvalue scatter of all runs per method (``table1_eig_<snr>dB.png``,
     Figure 1 style, zoomed on the truth) and the STD of the pair / real pole vs SNR per
     method (``table1_std.png``)."""
-    from ..systems.quadrotor import pitch_model
+    from hdpbsid.systems.quadrotor import pitch_model
 
     out = Path(out)
     true = np.linalg.eigvals(pitch_model()[0])
@@ -166,11 +166,10 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     truth, measured vs simulated outputs on the validation record (the thesis's
     Figure 2 style), Bode true vs identified.  The models come from the record's matrices and the
     records are re-simulated from the seed (exactly; cached in the same process)."""
-    from ..model import StateSpaceModel
-    from ..plots import display_fit
-    from .data import quadrotor_record
-    from .quadrotor import validation_rng
-    from .runner import task_rng
+    from hdpbsid.models.model import StateSpaceModel
+    from hdpbsid.plots import display_fit
+    from hdpbsid.studies.data import quadrotor_record, validation_rng
+    from hdpbsid.studies.runner import task_rng
 
     out = Path(out)
     recs = [r for r in result.records if r["run"] == run and r["ok"]]

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..identify import identify
-from ..model import StateSpaceModel
+from hdpbsid.identify import identify
+from hdpbsid.models.model import StateSpaceModel
 
 __all__ = ["METHODS", "identify_with", "check_methods"]
 

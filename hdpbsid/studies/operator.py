@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import second_order
-from .base import Study
+from hdpbsid.studies import second_order
+from hdpbsid.studies.base import Study
 
 __all__ = ["STUDY", "DEFAULTS", "make_cases"]
 
@@ -55,7 +55,7 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
 
 
 def _figures(result: Any, out: Any) -> dict[str, Any]:
-    from .figures import operator_figure
+    from hdpbsid.studies.figures import operator_figure
 
     return operator_figure(result, out)
 

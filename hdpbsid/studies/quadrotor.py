@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from ..systems.quadrotor import pitch_output_matrices
-from .base import Study, model_record
-from .data import quadrotor_record
-from .methods import check_methods, identify_with
+from hdpbsid.studies.base import Study, model_record
+from hdpbsid.studies.data import quadrotor_record, validation_rng
+from hdpbsid.studies.methods import check_methods, identify_with
+from hdpbsid.systems.quadrotor import pitch_output_matrices
 
 __all__ = ["STUDY", "DEFAULTS", "make_cases", "task", "identify_case", "validation_rng"]
 
@@ -93,13 +93,6 @@ def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
     return [{"data": data, "method": method, "orders": orders, "options": options}]
 
 
-def validation_rng(rng: np.random.Generator) -> np.random.Generator:
-    """The validation record's generator: the first child of the task's seed sequence
-    (independent noise, reproducible, never the identification record's stream)."""
-    seq = rng.bit_generator.seed_seq
-    return np.random.default_rng(np.random.SeedSequence(seq.entropy, spawn_key=(1,)))
-
-
 def identify_case(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     """Records and models of a case: ``{"data", "validation", "models": {order: model},
     "errors": {order: "Type: message"}, "auto": model with the order chosen from the
@@ -135,7 +128,7 @@ def _singular_values(r: dict[str, Any]) -> list[float]:
 def _fits(model: Any, d: Any) -> tuple[list[float], list[float]]:
     """The fit (NRMSE, percent) and the VAF (percent) per output of the simulation
     (:func:`~hdpbsid.plots.display_fit`)."""
-    from ..plots import display_fit
+    from hdpbsid.plots import display_fit
 
     shown = display_fit(model, d.t, d.u, d.y)
     return [float(v) for v in shown.fit], [float(v) for v in shown.vaf]
@@ -160,7 +153,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     for o, m in r["models"].items():
         rec = model_record(m, true)
         if m.n > true.size:
-            from ..metrics import match_eigenvalues
+            from hdpbsid.models.metrics import match_eigenvalues
 
             est, _ = match_eigenvalues(m.eigenvalues, true)
             extra = [z for z in m.eigenvalues if not np.any(np.isclose(z, est))]
@@ -215,7 +208,7 @@ def _fmt(z: list[float]) -> str:
 
 
 def _figures(result: Any, out: Any) -> dict[str, Any]:
-    from .figures import quadrotor_figures
+    from hdpbsid.studies.figures import quadrotor_figures
 
     return quadrotor_figures(result, out)
 

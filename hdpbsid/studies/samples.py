@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import second_order
-from .base import Study
-from .methods import check_methods
+from hdpbsid.studies import second_order
+from hdpbsid.studies.base import Study
+from hdpbsid.studies.methods import check_methods
 
 __all__ = ["STUDY", "DEFAULTS", "make_cases"]
 
@@ -43,7 +43,7 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
 
 
 def _figures(result: Any, out: Any) -> dict[str, Any]:
-    from .figures import curve_figure
+    from hdpbsid.studies.figures import curve_figure
 
     return curve_figure(
         result, out, x="samples", xlabel="number of samples", name="samples", logx=True

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from .base import eigen_stats, model_record
-from .data import SECOND_ORDER_TRUE, second_order_record
-from .methods import identify_with
+from hdpbsid.studies.base import eigen_stats, model_record
+from hdpbsid.studies.data import SECOND_ORDER_TRUE, second_order_record
+from hdpbsid.studies.methods import identify_with
 
 __all__ = ["task", "rows", "DATA_DEFAULTS", "COLUMNS"]
 
@@ -56,7 +56,7 @@ def _hermite_scale(t: np.ndarray, N: int | None, rec: Any) -> float:
     import slbasis
 
     if N is None:
-        from ..identify import identify
+        from hdpbsid.identify import identify
 
         m = identify(rec.t, rec.u, rec.y, 2, method="hermite", detrend=None)
         return float(m.options["scale"])
@@ -71,7 +71,7 @@ def rows(
     for r in records:
         groups.setdefault(tuple(_label(r["case"], k) for k in keys), []).append(r)
     z = np.asarray(true)[np.argmax(np.asarray(true).imag)]
-    from .base import _eig_tag
+    from hdpbsid.studies.base import _eig_tag
 
     tag = _eig_tag(z)
     out = []

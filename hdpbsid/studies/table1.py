@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from ..systems.quadrotor import pitch_output_matrices
-from .base import Study, eigen_stats, model_record
-from .data import quadrotor_record
-from .methods import check_methods, identify_with
+from hdpbsid.studies.base import Study, eigen_stats, model_record
+from hdpbsid.studies.data import quadrotor_record
+from hdpbsid.studies.methods import check_methods, identify_with
+from hdpbsid.systems.quadrotor import pitch_output_matrices
 
 __all__ = ["STUDY", "DEFAULTS", "make_cases", "task", "summarize"]
 
@@ -93,7 +93,7 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
 
 def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str, Any]]:
     """Table 1 rows (module docstring)."""
-    from ..systems.quadrotor import pitch_model
+    from hdpbsid.systems.quadrotor import pitch_model
 
     true = np.linalg.eigvals(pitch_model()[0])
     pair = true[np.argmax(true.imag)]
@@ -127,13 +127,13 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
 
 
 def _tag(stats: dict[str, Any], z: complex) -> str:
-    from .base import _eig_tag
+    from hdpbsid.studies.base import _eig_tag
 
     return _eig_tag(z)
 
 
 def _figures(result: Any, out: Any) -> dict[str, Any]:
-    from .figures import table1_figures
+    from hdpbsid.studies.figures import table1_figures
 
     return table1_figures(result, out)
 

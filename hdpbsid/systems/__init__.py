@@ -7,7 +7,7 @@ model (ANT-X drone at hover) with its cascaded controller.  Every generator take
 ``numpy.random.Generator``.
 """
 
-from .linear import (
+from hdpbsid.systems.linear import (
     add_noise,
     pbsid_example,
     random_steps,

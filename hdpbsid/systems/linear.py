@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_signal, check_state_space, check_time
-from ..conversion import c2d
+from hdpbsid.data.checks import check_signal, check_state_space, check_time
+from hdpbsid.models.conversion import c2d
 
 __all__ = [
     "second_order",

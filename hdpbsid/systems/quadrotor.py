@@ -89,7 +89,7 @@ def pitch_model() -> tuple[Array, Array, Array, Array]:
     """Open-loop pitch model ``(A, B, C, D)`` with all three states as outputs.
 
     ``C = I_3``, ``D = 0``.  Eigenvalues ``-2.92 +- 3.24i`` and ``+3.08`` (to three
-    significant digits; checked in ``tests/test_hdpbsid_quadrotor.py``).
+    significant digits; checked in ``tests/hdpbsid/systems/test_quadrotor.py``).
     """
     p = PITCH_PARAMETERS
     A = np.array(

@@ -18,7 +18,7 @@ executed) and builds the sympy expression itself from a strict whitelist of tree
 Everything else (attribute access, subscripts, other calls, keyword arguments, strings,
 lambdas, comprehensions, comparisons, ...) is a ``ValueError`` that names the argument and
 says what is allowed.  sympy's ``str`` output of an expression in this grammar parses back
-to the same expression (``tests/test_symbolic_safe_parse.py`` checks it).
+to the same expression (``tests/slbasis/symbolic/test_symbolic_safe_parse.py`` checks it).
 
 Size bounds keep parsing fast whatever the input: the text length (:data:`MAX_LENGTH`), the
 tree depth (:data:`MAX_DEPTH`), decimal exponents (:data:`MAX_DECIMAL_EXPONENT`), numeric

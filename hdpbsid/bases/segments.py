@@ -1,0 +1,279 @@
+"""Records and windows as blocks of one basis-domain problem.
+
+Several experiments, or windows of one long record, are each projected on their own
+basis (own ``N`` by the band rule, own scale) with their own boundary and truncation
+pseudo-inputs, and their coefficient columns are stacked side by side in one PBSID
+problem (:func:`hdpbsid.bases.basis_domain.run_core`; the pseudo-inputs of each block
+are eliminated there, so the regression does not grow with the number of blocks).
+
+Windows (:func:`default_window`) make the cost linear in the number of samples: one
+basis of ``N`` functions over the whole record costs ``O(N Ns)`` with ``N`` proportional
+to the record length (``O(Ns^2)``), while ``K`` windows of bounded ``N_w`` cost
+``O(N_w Ns)``.  Windows of equal sample count on a uniform grid share one time axis, so
+their projection is one linear map applied to all of them at once
+(:func:`project_blocks`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdpbsid.bases.basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from hdpbsid.bases.memo import memoize
+from hdpbsid.bases.settings import check_window
+from hdpbsid.data.checks import is_uniform
+from hdpbsid.data.records import Record, split_windows
+
+__all__ = [
+    "default_window",
+    "window_rule",
+    "make_segments",
+    "project_blocks",
+    "records_bandwidth",
+    "shared_keys",
+    "NUISANCE_SHARE",
+    "WINDOW_PERIODS",
+    "LOW_FRACTION",
+]
+
+Array = NDArray[np.float64]
+
+#: largest share of a window's columns spent on its own pseudo-input (nuisance)
+#: directions by the default window: ``(p_max + 1) q / N_w``.  The information lost
+#: by windowing is that share of the record's equations, whatever the system
+NUISANCE_SHARE = 0.05
+#: the default window holds at least this many periods of the lowest significant
+#: frequency of the outputs (module docstring of :func:`default_window`)
+WINDOW_PERIODS = 10.0
+#: the lowest significant frequency: this fraction of the output energy lies below it
+LOW_FRACTION = 0.05
+#: largest dense projection map (bytes) built for windows sharing a time axis
+MAP_BYTES = 256 * 2**20
+
+
+def records_bandwidth(records: Sequence[Record]) -> float:
+    """Largest :func:`~hdpbsid.bases.basis_domain.data_bandwidth` over the records (the
+    basis of every block must cover the band of all)."""
+    return max(data_bandwidth(r.t, r.u, r.y) for r in records)
+
+
+def default_window(
+    records: Sequence[Record], n_per_band: float, q: int, p_max: int
+) -> tuple[float | None, dict[str, Any]]:
+    """Default window length (s), or None when no record needs to be split.
+
+    ``n_per_band`` converts a window length to its default basis size (``N = n_per_band
+    * T``: the method's band rule at the data bandwidth); ``q`` is the number of
+    pseudo-input rows per window and ``p_max`` the largest default past window.
+
+    Rule: ``T_w = max(T_N, T_dyn)`` with
+
+    * ``T_N = N_w / n_per_band`` and ``N_w = (p_max + 1) q / NUISANCE_SHARE``: each window
+      spends ``(p_max + 1) q`` of its ``N_w`` equations on its own pseudo-inputs (lags
+      ``0..p_max`` of ``q`` rows), so at most :data:`NUISANCE_SHARE` of the record's
+      equations are lost to windowing -- a statement about the regression, true for any
+      system and record; and ``N_w`` is fixed by it, so the cost per sample is bounded;
+    * ``T_dyn = WINDOW_PERIODS / f_low``, ``f_low`` the lowest significant frequency of
+      the outputs (below it lies :data:`LOW_FRACTION` of their energy above the noise
+      floor): the pseudo-inputs of a window absorb every free response on it, and a
+      component slower than the window looks like one; over ``WINDOW_PERIODS`` periods
+      of the slowest significant component the window's forced response resolves it.
+
+    A record is split only when it is at least twice ``T_w`` long (windows are between
+    ``T_w`` and ``2 T_w``, :func:`hdpbsid.data.records.split_windows`), so short records are
+    identified on one basis as before.  Returns ``(T_w or None, info)``.
+    """
+    w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
+    longest = max(r.duration for r in records)
+    return window_rule(w_low, longest, n_per_band, q, p_max)
+
+
+def window_rule(
+    w_low: float, longest: float, n_per_band: float, q: int, p_max: int
+) -> tuple[float | None, dict[str, Any]]:
+    """:func:`default_window` from its ingredients: the lowest significant output
+    frequency ``w_low`` (rad/s), the longest record (s), ``n_per_band``, ``q`` and
+    ``p_max`` (a record read in chunks has no in-memory records to pass)."""
+    n_w = int(np.ceil((p_max + 1) * q / NUISANCE_SHARE))
+    t_n = n_w / n_per_band
+    t_dyn = WINDOW_PERIODS * 2.0 * np.pi / w_low if w_low > 0 else np.inf
+    t_w = max(t_n, t_dyn)
+    info = {
+        "window_rule": (
+            f"T_w = max(N_w / (N per second) = {t_n:.4g} s with N_w = (p_max+1) q / "
+            f"{NUISANCE_SHARE} = {n_w}, {WINDOW_PERIODS:g} periods of the lowest "
+            f"significant output frequency {w_low:.4g} rad/s = {t_dyn:.4g} s); records "
+            f"shorter than 2 T_w are not split"
+        ),
+        "window_target_N": n_w,
+        "lowest_significant_frequency": w_low,
+    }
+    return (t_w if longest >= 2 * t_w else None), info
+
+
+def make_segments(
+    records: Sequence[Record], window: Any, rule: Callable[[], tuple[float | None, dict]]
+) -> tuple[list[Record], dict[str, Any]]:
+    """Split the records into windows per the ``window`` option.
+
+    ``window``: None (no split), ``"auto"`` (``rule()`` gives the length) or a positive
+    number of seconds.  Returns the segments and the options to report.
+    """
+    info: dict[str, Any] = {}
+    window = check_window(window)
+    if window is None:
+        length = None
+        info["window_rule"] = "none (window=None)"
+    elif window == "auto":
+        length, info = rule()
+    else:
+        length = float(window)
+        info["window_rule"] = "given"
+    segs: list[Record] = []
+    for r in records:
+        if length is None or r.duration < 2 * length:
+            segs.append(r)
+        else:
+            segs.extend(split_windows(r, length, uniform=is_uniform(r.t)))
+    info["window"] = length
+    info["n_records"] = len(records)
+    info["n_segments"] = len(segs)
+    return segs, info
+
+
+def shared_keys(segs: Sequence[Record]) -> list[int]:
+    """One key per segment, equal for segments with identical relative time axes (they
+    can share a basis, a lag, pseudo-input rows and a projection map)."""
+    reps: list[int] = []
+    keys = []
+    for i, s in enumerate(segs):
+        for r in reps:
+            if segs[r].t.size == s.t.size and np.array_equal(segs[r].t, s.t):
+                keys.append(r)
+                break
+        else:
+            reps.append(i)
+            keys.append(i)
+    return keys
+
+
+def _maps(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
+    """The linear maps of :func:`~hdpbsid.bases.basis_domain.project_record`: samples
+    ``(Ns,)`` -> coefficients ``(N,)`` per input hold, and for the outputs (``foh``)."""
+    x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    h = np.diff(t)
+    tn = (t[:-1, None] + h[:, None] * (1.0 + x[None, :]) / 2.0).ravel()
+    wn = (h[:, None] * w[None, :] / 2.0).ravel()
+    lam = (1.0 + x) / 2.0
+    PW = (basis.eval(tn) * wn[None, :]).reshape(basis.N, t.size - 1, GAUSS_NODES)
+    a = PW @ (1.0 - lam)
+    b = PW @ lam
+    foh = np.zeros((basis.N, t.size))
+    foh[:, :-1] += a
+    foh[:, 1:] += b
+    out = []
+    for hold in holds:
+        if hold == "zoh":
+            z = np.zeros((basis.N, t.size))
+            z[:, :-1] = PW.sum(axis=2)
+            out.append(z)
+        elif hold == "foh":
+            out.append(foh)
+        else:  # trapezoid: the product quadrature on the samples
+            wt = np.zeros(t.size)
+            wt[:-1] += h / 2
+            wt[1:] += h / 2
+            out.append(basis.eval(t) * wt[None, :])
+    return out, foh
+
+
+#: projection maps at most this large (bytes, all holds) are memoised: an order or method
+#: selection projects the same windows once per candidate, and the map (a basis
+#: evaluation at every quadrature node) is most of that cost; the cache keeps
+#: :data:`MAP_CACHE_SIZE` of them, so it holds at most 4 x 64 MB
+MAP_CACHE_BYTES = 64 * 2**20
+#: projection maps kept (estimation part and whole record, each with both holds' maps)
+MAP_CACHE_SIZE = 4
+
+
+@memoize(size=MAP_CACHE_SIZE)
+def _maps_memoised(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
+    """:func:`_maps`, memoised by the basis and the contents of ``t``
+    (:mod:`hdpbsid.bases.memo`; the arrays returned are read-only)."""
+    return _maps(basis, t, holds)
+
+
+def project_blocks(
+    bases: Sequence[Any],
+    segs: Sequence[Record],
+    holds: tuple[str, ...],
+    y_extra: Array | None = None,
+    n_jobs: int | None = None,
+) -> tuple[list[Array], Array, list[Array]]:
+    """Project every segment on its basis; returns ``([U per hold], Y, extra rows)`` with
+    the segments' columns side by side, and the projection of ``y_extra`` (a function
+    of the relative time, e.g. ``1``) per segment.
+
+    Segments with the same basis object and time axis (windows of equal sample count on
+    a uniform grid) share the projection map (:func:`_maps`, identical to
+    :func:`~hdpbsid.bases.basis_domain.project_record` up to summation order), applied
+    to all of them by one matrix product; others are projected one by one, in parallel
+    with ``joblib`` when ``n_jobs`` is given.
+    """
+    m, l = segs[0].u.shape[1], segs[0].y.shape[1]
+    groups: dict[int, list[int]] = {}
+    for i, b in enumerate(bases):
+        groups.setdefault(id(b), []).append(i)
+    Us: list[list[Array | None]] = [[None] * len(segs) for _ in holds]
+    Ys: list[Array | None] = [None] * len(segs)
+    ex: list[Array | None] = [None] * len(segs)
+    single: list[int] = []
+    for idx in groups.values():
+        b = bases[idx[0]]
+        t0 = segs[idx[0]].t
+        same = [i for i in idx if segs[i].t is t0 or np.array_equal(segs[i].t, t0)]
+        if len(same) < 2 or b.N * t0.size * 8 * (len(holds) + 1) > MAP_BYTES:
+            single.extend(idx)
+            continue
+        single.extend(i for i in idx if i not in same)
+        small = b.N * t0.size * 8 * (len(holds) + 1) <= MAP_CACHE_BYTES
+        Gu, Gy = (_maps_memoised if small else _maps)(b, t0, tuple(holds))
+        if m:
+            u_all = np.hstack([segs[i].u for i in same])  # (Ns, K m)
+            for h, G in enumerate(Gu):
+                C = G @ u_all
+                for k, i in enumerate(same):
+                    Us[h][i] = C[:, k * m : (k + 1) * m].T
+        y_all = np.hstack([segs[i].y for i in same])
+        C = Gy @ y_all
+        e = Gy @ y_extra(t0) if y_extra is not None else None
+        for k, i in enumerate(same):
+            Ys[i] = C[:, k * l : (k + 1) * l].T
+            if m == 0:
+                for h in range(len(holds)):
+                    Us[h][i] = np.zeros((0, b.N))
+            ex[i] = e
+    if single:
+
+        def one(i: int) -> tuple[list[Array], Array]:
+            s = segs[i]
+            yy = s.y if y_extra is None else np.hstack([s.y, y_extra(s.t)[:, None]])
+            return project_record(bases[i], s.t, s.u, yy, holds)
+
+        if n_jobs is not None and len(single) > 1:
+            from joblib import Parallel, delayed
+
+            res = Parallel(n_jobs=n_jobs)(delayed(one)(i) for i in single)
+        else:
+            res = [one(i) for i in single]
+        for i, (u_i, y_i) in zip(single, res, strict=True):
+            for h in range(len(holds)):
+                Us[h][i] = u_i[h]
+            Ys[i] = y_i[:l]
+            ex[i] = y_i[l] if y_extra is not None else None
+    U_out = [np.hstack(u) for u in Us]
+    return U_out, np.hstack(Ys), ex

@@ -1,0 +1,143 @@
+"""Identification data as a list of records: one experiment, several, or windows of one.
+
+Every method accepts either one record ``t, u, y`` (the :func:`scipy.signal.lsim`
+convention) or, in place of ``t``, a list of ``(t_i, u_i, y_i)`` tuples (then ``u`` and
+``y`` must be ``None``): several experiments on the same system, each with its own time
+axis and initial state.  :func:`as_records` turns both forms into a list of
+:class:`Record`; :func:`split_windows` cuts a long record into windows that are then
+treated exactly like several experiments.
+
+Time is kept relative to each record's first sample (``Record.t = t - t[0]``,
+``Record.t0 = t[0]``): records stamped with absolute (Unix) time, ``t ~ 1.7e9 s``, carry
+an absolute rounding of ``ulp(1.7e9) = 2.4e-7 s`` in every stamp, and every later time
+computation (sample spacing, basis time maps, quadrature nodes) must not add to it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdpbsid.data.checks import check_data, check_varies, time_resolution
+
+__all__ = ["Record", "as_records", "split_windows", "is_record_list"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Record:
+    """One record: ``t`` relative to its first sample (``t[0] = 0``), ``u (Ns, m)``,
+    ``y (Ns, l)``, the absolute start ``t0`` and the resolution of the original stamps
+    (:func:`hdpbsid.data.checks.time_resolution`)."""
+
+    t: Array
+    u: Array
+    y: Array
+    t0: float = 0.0
+    resolution: float = 0.0
+
+    @property
+    def ns(self) -> int:
+        """Number of samples."""
+        return int(self.t.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """``t[-1] - t[0]``."""
+        return float(self.t[-1])
+
+
+def is_record_list(t: Any) -> bool:
+    """True when ``t`` is a list/tuple of ``(t_i, u_i, y_i)`` records rather than a time
+    vector (its first entry is itself a 3-sequence whose first element is an array)."""
+    if not isinstance(t, list | tuple) or len(t) == 0:
+        return False
+    first = t[0]
+    return isinstance(first, list | tuple) and len(first) == 3 and np.ndim(first[0]) == 1
+
+
+def _one(t: Any, u: Any, y: Any, min_samples: int) -> Record:
+    t, u, y = check_data(t, u, y, min_samples=min_samples)
+    check_varies(y)
+    return Record(t - t[0], u, y, float(t[0]), time_resolution(t))
+
+
+def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> list[Record]:
+    """Normalise ``(t, u, y)`` or a list of ``(t_i, u_i, y_i)`` tuples to records.
+
+    Each record is checked with :func:`hdpbsid.data.checks.check_data` and
+    :func:`hdpbsid.data.checks.check_varies`; errors name the record index.  All records must
+    have the same numbers of input and output channels.  With a list, ``u`` and ``y``
+    must be ``None`` (``TypeError`` otherwise).
+    """
+    if not is_record_list(t):
+        if isinstance(t, list | tuple) and len(t) > 0 and isinstance(t[0], list | tuple):
+            raise TypeError(
+                "t: a list of records must hold (t_i, u_i, y_i) tuples with a 1-D t_i, "
+                f"got an entry of length {len(t[0])}"
+            )
+        return [_one(t, u, y, min_samples)]
+    if u is not None or y is not None:
+        raise TypeError(
+            "u and y must be None when t is a list of (t_i, u_i, y_i) records (each record "
+            "carries its own u_i, y_i)"
+        )
+    records: list[Record] = []
+    for i, item in enumerate(t):
+        if not isinstance(item, list | tuple) or len(item) != 3:
+            raise TypeError(f"record {i}: expected a (t, u, y) tuple, got {type(item).__name__}")
+        try:
+            rec = _one(*item, min_samples=min_samples)
+        except (ValueError, TypeError) as exc:
+            raise type(exc)(f"record {i}: {exc}") from exc
+        if records:
+            m0, l0 = records[0].u.shape[1], records[0].y.shape[1]
+            if rec.u.shape[1] != m0 or rec.y.shape[1] != l0:
+                raise ValueError(
+                    f"record {i}: has {rec.u.shape[1]} input(s) and {rec.y.shape[1]} "
+                    f"output(s), record 0 has {m0} and {l0}; all records must have the "
+                    f"same channels"
+                )
+        records.append(rec)
+    return records
+
+
+def split_windows(record: Record, length: float, uniform: bool) -> list[Record]:
+    """Cut ``record`` into ``K = floor(T / length)`` windows of (nearly) equal length,
+    each at least ``length`` long (and shorter than ``2 length``).
+
+    Consecutive windows share their edge sample, so every sample interval belongs to
+    exactly one window (nothing of the record is lost; the state at each edge is unknown
+    to both windows, which is what their boundary pseudo-inputs absorb).  With ``uniform``
+    each window's relative time axis is ``k h`` exactly (``h`` the record's mean
+    spacing), so windows of equal sample count share one time axis (and one projection);
+    otherwise it is ``t[a:b+1] - t[a]``.
+    """
+    ns = record.ns
+    K = max(1, int(np.floor(record.duration / length + 1e-9)))
+    K = min(K, max(1, (ns - 1) // 2))  # at least 3 samples per window
+    edges = np.round(np.linspace(0, ns - 1, K + 1)).astype(int)
+    h = record.duration / (ns - 1)
+    out = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        tau = np.arange(b - a + 1) * h if uniform else record.t[a : b + 1] - record.t[a]
+        out.append(
+            Record(
+                tau,
+                record.u[a : b + 1],
+                record.y[a : b + 1],
+                record.t0 + float(record.t[a]),
+                record.resolution,
+            )
+        )
+    return out
+
+
+def stack_records(records: Sequence[Record]) -> tuple[Array, Array]:
+    """``u``, ``y`` of the records stacked along time (for whole-data statistics)."""
+    return np.vstack([r.u for r in records]), np.vstack([r.y for r in records])

@@ -1,0 +1,130 @@
+"""The method registry: method names and the functions that identify with them.
+
+Methods live in :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
+order=None, **options) -> StateSpaceModel``).
+
+* ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered when
+  :mod:`hdpbsid.identify` is imported;
+* the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
+  time ``"hermite"`` (:mod:`hdpbsid.methods.hermite`), ``"laguerre"``
+  (:mod:`hdpbsid.methods.laguerre`),
+  ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
+  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
+  is imported and its ``identify_<name>`` function registered.  A module may also call
+  :func:`register_method` itself when imported;
+* anything else can be added with :func:`register_method` (a user's own method, a
+  wrapper around another tool for comparisons).
+
+A leaf of the package: the methods are named by their module paths and imported on
+first use, so the layers above (selection, the front end) reach every method through
+this module without importing one another.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+from hdpbsid.models.model import StateSpaceModel
+
+__all__ = [
+    "IdentifyFunc",
+    "METHODS",
+    "LAZY_METHODS",
+    "register_method",
+    "get_method",
+    "is_available",
+    "available_methods",
+]
+
+IdentifyFunc = Callable[..., StateSpaceModel]
+
+#: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
+METHODS: dict[str, IdentifyFunc] = {}
+
+#: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
+#: tried in order (the first module that imports and has the function wins).
+LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
+    "hermite": (("hdpbsid.methods.hermite", "identify_hermite"),),
+    "laguerre": (("hdpbsid.methods.laguerre", "identify_laguerre"),),
+    "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
+    "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
+    "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
+    "auto": (("hdpbsid.selection.auto", "identify_auto"),),
+}
+
+
+def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> IdentifyFunc:
+    """Register ``func`` under ``name`` in :data:`METHODS`; returns ``func``.
+
+    ``func(t, u, y, order=None, **options)`` must return a
+    :class:`~hdpbsid.models.model.StateSpaceModel`.  Re-registering a name with a different
+    function raises ``ValueError`` unless ``overwrite=True`` (registering the same
+    function twice is harmless, so a module may register itself on import).
+    """
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name must be a non-empty string, got {name!r}")
+    if not callable(func):
+        raise TypeError(f"func must be callable, got {type(func).__name__}")
+    old = METHODS.get(name)
+    if old is not None and old is not func and not overwrite:
+        raise ValueError(
+            f"method {name!r} is already registered ({getattr(old, '__qualname__', old)}); "
+            f"pass overwrite=True to replace it"
+        )
+    METHODS[name] = func
+    return func
+
+
+def _load_lazy(name: str) -> IdentifyFunc | None:
+    """Import a lazily registered method; ``None`` if none of its modules exists."""
+    for module_name, func_name in LAZY_METHODS[name]:
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name == module_name:
+                continue
+            raise  # the module exists but one of *its* imports is missing: show that
+        if name in METHODS:  # the module registered itself on import
+            return METHODS[name]
+        func = getattr(module, func_name, None)
+        if func is not None:
+            return register_method(name, func)
+    return METHODS.get(name)
+
+
+def get_method(name: str) -> IdentifyFunc:
+    """The callable registered for ``name`` (importing a lazy method on first use).
+
+    Raises ``TypeError`` for a non-string and ``ValueError`` for an unknown or
+    unavailable name (the message lists the available ones).
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"method must be a string, got {type(name).__name__}")
+    if name in METHODS:
+        return METHODS[name]
+    if name in LAZY_METHODS:
+        func = _load_lazy(name)
+        if func is not None:
+            return func
+        where = " or ".join(f"{mod}.{fn}" for mod, fn in LAZY_METHODS[name])
+        raise ValueError(
+            f"method {name!r} is not available: {where} could not be imported; "
+            f"available methods: {available_methods()}"
+        )
+    raise ValueError(f"unknown method {name!r}; known methods: {available_methods()}")
+
+
+def is_available(name: str) -> bool:
+    """``True`` if ``name`` is registered or its lazy module imports."""
+    if name in METHODS:
+        return True
+    return name in LAZY_METHODS and _load_lazy(name) is not None
+
+
+def available_methods() -> list[str]:
+    """Sorted names of the methods that can be used now (lazy ones are tried)."""
+    for name in LAZY_METHODS:
+        if name not in METHODS:
+            _load_lazy(name)
+    return sorted(METHODS)

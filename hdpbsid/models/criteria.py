@@ -1,0 +1,342 @@
+"""Model-based criteria that compare identified models on a record (order and method choice).
+
+The question "which of these models describes the record best?" must be asked of the
+*models*, identically for every method and order, not of a by-product of one method such
+as a gap in singular values.  The criterion used here is the **windowed simulation
+error**, the quantity a user judges a model by (MATLAB ``compare``):
+
+* the record is cut into ``W`` consecutive windows of equal length;
+* in each window the model is simulated from the measured input with its initial state
+  fitted by least squares (the output is affine in it:
+  ``y_w = O_w x_w + y_w^forced``, ``O_w`` the window's observability matrix), so
+  transients, slow drifts of the state and an unstable plant (whose free simulation over
+  a whole record diverges) are all handled;
+* the residual sum of squares of window ``w``, with every output weighted by the inverse
+  of its variance (each output counts equally, whatever its unit), is ``r_w``.
+
+The window errors ``r_w`` also give the resolution of the held-out data: the standard
+error of the best model's total error is ``sqrt(W) std(r_w)``.
+:func:`choose_smallest_adequate` keeps the smallest model whose error is within one such
+standard error of the best -- the "one standard error" rule of cross-validation (Hastie,
+Tibshirani & Friedman, *The Elements of Statistical Learning*, 2nd ed., sec. 7.10).  No
+threshold is a fixed number of fit points: it scales with the noise of the held-out
+record, so a longer record resolves smaller improvements (a weak mode is kept once the
+data show it beyond their own spread).  Each window's residual energy is divided by its
+degrees of freedom (samples minus the fitted initial-state entries), so the per-window
+initial state does not favour models with more states.
+
+The same windows score the **one-step prediction error** of the model's innovation
+predictor (:func:`windowed_prediction_error`): the recursion runs on
+``Phi - Gk C`` and is driven by the measured output as well, and the window's initial
+state enters through ``C (Phi - Gk C)^k`` instead of ``C Phi^k``.  With ``K = 0`` it is
+the simulation error.  Only a stable predictor (spectral radius of ``Phi - Gk C`` at
+most one) is scored: for an unstable one the fitted initial state cancels the growing
+modes with the window's *later* outputs, which turns the predictor into a two-sided
+smoother that sees ``y_k`` itself (:func:`predictor_is_stable`).  The innovation
+predictor of a model identified with its Kalman gain is stable (Ljung, *System
+Identification*, 2nd ed., sec. 4.3: ``A - K C`` stable is the condition for the
+predictor to exist), so only models whose estimated ``K`` is unusable lose this score.
+
+Simulation uses the exact sampled model for the hold of the input (``zoh``: held
+between samples, ``foh``: linear), as :meth:`hdpbsid.models.model.StateSpaceModel.simulate`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.recursion import forced_responses, matrix_powers
+
+__all__ = [
+    "WindowedError",
+    "windowed_simulation_error",
+    "windowed_prediction_error",
+    "is_uniform_grid",
+    "predictor_is_stable",
+    "default_windows",
+    "choose_smallest_adequate",
+    "SIGNIFICANCE_Z",
+    "MIN_WINDOWS",
+]
+
+Array = NDArray[np.float64]
+
+#: the "one standard error" rule: models within this many standard errors of the best
+#: held-out error are indistinguishable from it at the resolution of the held-out data
+SIGNIFICANCE_Z = 1.0
+#: windows per record: enough for a standard error of the paired differences (a t
+#: statistic on fewer than ~8 differences is too noisy to test anything)
+MAX_WINDOWS = 16
+MIN_WINDOWS = 4
+#: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
+#: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
+#: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
+PREDICTOR_STABILITY_TOL = 1e-8
+#: samples per window per fitted initial-state entry: the least-squares initial state of
+#: a window must be determined by many more samples than it has entries
+SAMPLES_PER_STATE = 3
+
+
+@dataclass
+class WindowedError:
+    """Windowed simulation error of one model on one record.
+
+    ``per_window`` (W,): variance-weighted residual sum of squares of each window;
+    ``total``: their sum divided by the weighted sum of squares of the detrended
+    windows' outputs (0 = perfect, 1 = no better than each window's mean);
+    ``fit``: ``100 (1 - sqrt(total))`` (MATLAB-style fit percent, pooled over outputs).
+    ``finite`` is False when the simulation overflowed (a model unusable on this record).
+    """
+
+    per_window: Array
+    total: float
+    fit: float
+    finite: bool
+
+
+def default_windows(ns: int, max_states: int) -> int:
+    """Number of windows: ``MAX_WINDOWS`` if every window keeps at least
+    ``SAMPLES_PER_STATE * max_states`` samples, fewer otherwise (at least 1)."""
+    per = SAMPLES_PER_STATE * max(max_states, 1)
+    return int(max(1, min(MAX_WINDOWS, ns // per)))
+
+
+def is_uniform_grid(t: Array) -> bool:
+    """Whether the criteria treat ``t`` as uniform: every step within ``1e-6`` of the mean
+    step (then one sampled model serves every step)."""
+    if t.size < 3:
+        return True
+    h = float((t[-1] - t[0]) / (t.size - 1))
+    return bool(np.max(np.abs(np.diff(t) - h)) <= 1e-6 * h)
+
+
+def _sampled(
+    model: StateSpaceModel, h: float, hold: str
+) -> tuple[Array, Array, Array | None, Array]:
+    """Exact one-step matrices ``(Phi, G1, G2, Gk)`` for step ``h`` (``G2`` only for foh;
+    ``Gk`` multiplies the innovation held over the step, the convention of
+    :meth:`hdpbsid.models.model.StateSpaceModel.predict`)."""
+    n, m, l = model.n, model.m, model.l
+    mu = m + (m if hold == "foh" else 0)
+    size = n + mu + l
+    M = np.zeros((size, size))
+    M[:n, :n] = model.A * h
+    M[:n, n : n + m] = model.B * h
+    if hold == "foh":
+        M[n : n + m, n + m : n + 2 * m] = np.eye(m)
+    M[:n, n + mu :] = model.K * h
+    E = expm(M)
+    G2 = E[:n, n + m : n + 2 * m] if hold == "foh" else None
+    return E[:n, :n], E[:n, n : n + m], G2, E[:n, n + mu :]
+
+
+def windowed_simulation_error(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str | None = None,
+    weights: Array | None = None,
+) -> WindowedError:
+    """Windowed simulation error of ``model`` on a uniformly sampled record (module docstring).
+
+    ``t`` (Ns,) uniform, ``u`` (Ns, m), ``y`` (Ns, l) (already checked); ``windows``
+    consecutive windows of ``Ns // windows`` samples (the remainder at the end is not
+    scored).  ``hold``: the model's ``options["input_hold"]`` when ``None`` (``"zoh"`` if
+    it has none).  ``weights`` (l,): per-output weights of the squared residuals, default
+    ``1 / var(y)``.
+    """
+    return _windowed_error(model, t, u, y, windows, hold, weights, predict=False)
+
+
+def windowed_prediction_error(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str | None = None,
+    weights: Array | None = None,
+) -> WindowedError:
+    """Windowed one-step-ahead prediction error of ``model`` (module docstring).
+
+    As :func:`windowed_simulation_error`, but the output is predicted one sample ahead
+    by the model's sampled innovation predictor (Ljung, *System Identification*, 2nd
+    ed., eq. 4.87; the innovation held over each step as in
+    :meth:`hdpbsid.models.model.StateSpaceModel.predict`),
+
+        x_{k+1|k} = Phi x_{k|k-1} + G1 u_k [+ G2 (u_{k+1} - u_k)] + Gk (y_k - C x_{k|k-1} - D u_k),
+
+    ``yhat_k = C x_{k|k-1} + D u_k``; the predictions are affine in the window's initial
+    state through ``C (Phi - Gk C)^k``, which is fitted by least squares as in the
+    simulation error.  A model whose sampled predictor ``Phi - Gk C`` is unstable
+    (:func:`predictor_is_stable`) scores ``finite=False``: with the window's initial
+    state fitted it would not be a predictor (module docstring).  Non-uniform ``t``
+    raises ``ValueError``.
+    """
+    return _windowed_error(model, t, u, y, windows, hold, weights, predict=True)
+
+
+def predictor_is_stable(F: Array) -> bool:
+    """Whether the sampled predictor matrix ``F = Phi - Gk C`` is stable: spectral radius
+    at most ``1 + PREDICTOR_STABILITY_TOL``.
+
+    An unstable ``F`` makes the windowed prediction error meaningless.  The predictions
+    are affine in the window's initial state through ``C F^k``; the least-squares
+    initial state cancels the growing modes of the data-driven part, i.e. it subtracts
+    ``sum_j lambda^(k-1-j) ...`` over *all* samples ``j`` of the window, so what is left
+    of the prediction of ``y_k`` depends on ``y_k`` and later outputs through
+    ``lambda^-(j-k)``, a stable anti-causal filter: a smoother, not a predictor.  It can
+    score below the noise floor (a spurious order-8 model with ``rho(F) = 1.3`` did on
+    white output noise, where no predictor can).  A unit eigenvalue (an integrator the
+    gain leaves alone) is allowed: its free response is a constant, not a growing mode.
+    """
+    if F.size == 0:
+        return True
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(F)):
+            return False
+        rho = float(np.max(np.abs(np.linalg.eigvals(F))))
+    return rho <= 1.0 + PREDICTOR_STABILITY_TOL
+
+
+def _windowed_error(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str | None,
+    weights: Array | None,
+    predict: bool,
+) -> WindowedError:
+    ns, l = y.shape
+    L = ns // windows
+    if windows < 1 or L <= model.n:
+        raise ValueError(
+            f"windows={windows} leaves {L} samples per window for a model with {model.n} "
+            f"states; use fewer windows or a longer record"
+        )
+    if hold is None:
+        hold = model.options.get("input_hold", "zoh")
+        hold = hold if hold in ("zoh", "foh") else "zoh"
+    h = float((t[-1] - t[0]) / (ns - 1))
+    if not is_uniform_grid(t):
+        if predict:
+            raise ValueError("t: the windowed prediction error needs uniformly sampled times")
+        return _windowed_nonuniform(model, t, u, y, windows, hold, weights)
+    wgt = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny) if weights is None else weights
+    sw = np.sqrt(wgt)
+    n = model.n
+    yw = y[: windows * L].reshape(windows, L, l)
+    uw = u[: windows * L].reshape(windows, L, -1)
+    Phi, G1, G2, Gk = _sampled(model, h, hold)
+    C, D = model.C, model.D
+    F = Phi - Gk @ C if predict else Phi
+    if predict and n and not predictor_is_stable(F):
+        # not a predictor on held-out data (module docstring): no score
+        return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
+    # forced response in every window from a zero state, all windows at once, and the
+    # free response C F^k of the window's initial state (hdpbsid.models.recursion)
+    with np.errstate(over="ignore", invalid="ignore"):
+        drive = uw[:, :-1] @ G1.T
+        if G2 is not None:
+            drive += np.diff(uw, axis=1) @ G2.T
+        if predict:
+            drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
+        X = forced_responses(F, drive)  # (W, L, n)
+        Yf = X @ C.T + uw @ D.T
+        O = C @ matrix_powers(F, L)  # (L, l, n)
+        R = (yw - Yf) * sw  # (W, L, l)
+        Ow = (O * sw[None, :, None]).reshape(L * l, n)
+        finite = bool(np.all(np.isfinite(R)) and np.all(np.isfinite(Ow)))
+        if finite and n:
+            # least-squares initial state of each window: residual of the projection of
+            # R_w onto the complement of the column space of O (one SVD for all windows)
+            Uo, so, _ = np.linalg.svd(Ow, full_matrices=False)
+            keep = so > so[0] * Ow.shape[0] * np.finfo(float).eps if so.size and so[0] > 0 else []
+            Q = Uo[:, keep]
+            Rf = R.reshape(windows, L * l)
+            Rf = Rf - (Rf @ Q) @ Q.T
+            # degrees of freedom: the fitted initial state removes Q.shape[1] of them, so
+            # RSS / (L l - rank) is the unbiased residual variance (without it a model with
+            # more states fits each window's noise better by ~rank/(L l), which made a
+            # spurious slow state "win" on held-out data)
+            per = np.sum(Rf**2, axis=1) * (L * l) / (L * l - Q.shape[1])
+        else:
+            per = np.sum(R.reshape(windows, -1) ** 2, axis=1)
+    if not (finite and np.all(np.isfinite(per))):
+        return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
+    dev = (yw - yw.mean(axis=1, keepdims=True)) * sw
+    total = float(per.sum() / max(np.sum(dev**2), np.finfo(float).tiny))
+    return WindowedError(per, total, 100.0 * (1.0 - np.sqrt(total)), True)
+
+
+def _windowed_nonuniform(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    windows: int,
+    hold: str,
+    weights: Array | None,
+) -> WindowedError:
+    """:func:`windowed_simulation_error` for non-uniform times: each window is simulated
+    with :meth:`StateSpaceModel.fit` (exact steps for every spacing, fitted initial state),
+    its residual energy divided by its degrees of freedom as on a uniform grid
+    (``L l - n``: the fitted initial state takes ``n``; without it a model with more
+    states fitted each held-out window's noise better, and order selection on jittered
+    records favoured extra states: a third-order system at 20 dB, 4000 random times,
+    chose order 5-6 on 3 of 3 seeds, the true model scoring 0.0245 against 0.0225 for
+    order 8)."""
+    ns, l = y.shape
+    L = ns // windows
+    dof = L * l / (L * l - min(model.n, L * l - 1))
+    wgt = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny) if weights is None else weights
+    per = np.empty(windows)
+    dev = 0.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for w in range(windows):
+            s = slice(w * L, (w + 1) * L)
+            res = model.fit(t[s], u[s], y[s], method=hold)
+            per[w] = float(np.sum((y[s] - res.y_sim) ** 2 * wgt)) * dof
+            dev += float(np.sum((y[s] - y[s].mean(axis=0)) ** 2 * wgt))
+    if not np.all(np.isfinite(per)):
+        return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
+    total = float(per.sum() / max(dev, np.finfo(float).tiny))
+    return WindowedError(per, total, 100.0 * (1.0 - np.sqrt(total)), True)
+
+
+def choose_smallest_adequate(
+    errors: Sequence[WindowedError], z: float = SIGNIFICANCE_Z
+) -> tuple[int, list[float]]:
+    """Index of the first (smallest) model whose windowed error is within ``z`` standard
+    errors of the best model's, and every model's excess in those standard errors.
+
+    ``errors`` are ordered by complexity (e.g. orders 1, 2, ...).  The standard error of
+    the best model's total is estimated from its per-window errors,
+    ``SE = sqrt(W) std(r_w)`` (the sum of ``W`` window errors); a model's statistic is
+    ``(sum r_w - sum r_w(best)) / SE`` (``inf`` for a model that could not be simulated).
+    This is the "one standard error" rule of cross-validation (Breiman et al. 1984;
+    Hastie, Tibshirani & Friedman, sec. 7.10): among models whose held-out error cannot
+    be told apart from the best's at the resolution of the held-out data, the simplest.
+    """
+    finite = [i for i, e in enumerate(errors) if e.finite]
+    if not finite:
+        raise ValueError("no candidate model could be simulated on the record")
+    best = min(finite, key=lambda i: float(np.sum(errors[i].per_window)))
+    ref = errors[best].per_window
+    W = ref.size
+    se = float(np.std(ref, ddof=1)) * np.sqrt(W) if W > 1 else 0.0
+    se = max(se, np.finfo(float).tiny)
+    total = float(np.sum(ref))
+    stats = [(float(np.sum(e.per_window)) - total) / se if e.finite else np.inf for e in errors]
+    chosen = next(i for i, s in enumerate(stats) if s <= z)
+    return chosen, stats

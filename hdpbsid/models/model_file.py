@@ -1,0 +1,93 @@
+"""Writing a model file: the JSON description of a model (:mod:`hdpbsid.models.model_io`
+documents the format and reads it back).
+
+Kept apart from the reader because it needs nothing but the model's attributes:
+:meth:`hdpbsid.models.model.StateSpaceModel.save` calls :func:`write_model` without the
+model module and the file module importing each other.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["FORMAT", "VERSION", "describe", "write_model"]
+
+FORMAT = "hdpbsid.StateSpaceModel"
+VERSION = 3
+
+
+def _jsonable(x: Any) -> Any:
+    """Convert numpy arrays/scalars, complex numbers and containers to JSON values.
+
+    Complex numbers become ``{"real": ..., "imag": ...}``; anything else unknown becomes
+    its ``repr`` (options may hold callables or objects; they are recorded, not lost), and
+    so do non-finite floats (JSON has no NaN).
+    """
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, np.generic):
+        return _jsonable(x.item())
+    if isinstance(x, complex):
+        return {"real": _jsonable(x.real), "imag": _jsonable(x.imag)}
+    if isinstance(x, float):
+        return x if math.isfinite(x) else repr(x)
+    if x is None or isinstance(x, bool | int | str):
+        return x
+    return repr(x)
+
+
+def describe(model: Any) -> dict[str, Any]:
+    """The JSON-ready description of a model (its type checked by the caller)."""
+    sv = model.singular_values
+    tr = model.trend
+    nc = model.noise_covariance
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "time": "continuous",
+        "n": model.n,
+        "m": model.m,
+        "l": model.l,
+        "A": model.A.tolist(),
+        "B": model.B.tolist(),
+        "C": model.C.tolist(),
+        "D": model.D.tolist(),
+        "K": model.K.tolist(),
+        "u0": model.u0.tolist(),
+        "y0": model.y0.tolist(),
+        "trend": None
+        if tr is None
+        else {"t_ref": tr.t_ref, "u_slope": tr.u_slope.tolist(), "y_slope": tr.y_slope.tolist()},
+        "noise_covariance": None if nc is None else np.asarray(nc, dtype=float).tolist(),
+        "eigenvalues": [{"real": float(e.real), "imag": float(e.imag)} for e in model.eigenvalues],
+        "singular_values": None if sv is None else np.asarray(sv, dtype=float).ravel().tolist(),
+        "time_unit": model.time_unit,
+        "input_names": list(model.input_names or []),
+        "output_names": list(model.output_names or []),
+        "sampling_interval": model.sampling_interval,
+        "delay": model.delay.tolist(),
+        "options": _jsonable(model.options),
+    }
+
+
+def write_model(model: Any, path: str | Path) -> Path:
+    """Write :func:`describe` of ``model`` to ``path`` as indented JSON; returns the path.
+
+    Missing parent directories are created; an existing directory raises ``ValueError``.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory; give the model file's name")
+    text = json.dumps(describe(model), indent=2, allow_nan=False) + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -1,0 +1,898 @@
+"""``method="auto"``: choose the method and the order by their out-of-sample error.
+
+Every candidate ``(method, order)`` is identified on the first part of the record
+(``1 - holdout`` of the samples) and scored on the rest by the **windowed one-step
+prediction error of the candidate's own predictor** (:mod:`hdpbsid.models.criteria`: initial
+state fitted in each window, outputs weighted by their variance), computed identically
+for every method:
+
+* every candidate is an innovation model ``dx/dt = A x + B u + K e``; its one-step
+  predictor with the gain ``K`` is the predictor of the prediction-error method, whose
+  criterion is minimised by the true system also in closed loop, where ``u`` depends on
+  past noise (the "direct method" of closed-loop identification: Forssell & Ljung,
+  "Closed-loop identification revisited", Automatica 35(7), 1999).  The simulation
+  error (the predictor with ``K = 0``) is not: in closed loop the simulated output
+  ignores the noise fed back through ``u``, and a model that absorbs the correlation
+  of ``u`` with the noise simulates the record better than the true system (on the
+  PBSID toolbox's closed-loop example it chose a wrong order on some records);
+* but ``K`` is an estimate, and a poor one (a basis-domain method's on white output
+  noise, for instance) makes the predictor worse than none.  So each candidate is
+  scored by the better of its two predictors on the held-out data (:func:`score_model`):
+  with ``K``, or with ``K = 0``, i.e. its simulation error, the right criterion when the
+  noise is white output noise.  A model is worth its best predictor; a bad noise
+  estimate does not count against a good plant model, and in closed loop the models
+  whose noise model matters are judged with it.  (Choosing the predictor on the
+  estimation part instead, where ``K`` was fitted, kept ``K`` for models it then made
+  worse on the held-out part: the closed-loop quadrotor's order 3 lost to order 4.)
+  A predictor ``A - K C`` that is unstable in sampled form is not scored with ``K``
+  (:func:`hdpbsid.models.criteria.predictor_is_stable`: with each window's fitted initial state
+  it would use the window's later outputs); such a model is scored by its simulation.
+
+The rule of :func:`hdpbsid.models.criteria.choose_smallest_adequate` keeps, among all
+candidates ordered by order, the first one whose error is within one standard error of
+the best candidate's.  Among the candidates of that order within one standard error
+(ties at the resolution of the held-out data), the one with the smallest simulation
+error over the whole held-out part from one initial state wins (:func:`break_tie`: it
+sees the slow errors that each window's fitted initial state hides).  That
+``(method, order)`` is then identified on the whole record, after two checks that pass
+the choice to the next candidate when they fail: the candidate must predict the whole
+held-out part from one initial state better than its mean (:func:`beats_the_mean`), and
+its refit on the whole record must score on the held-out part within one standard error
+of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data judge the
+models, so a method that is biased on this record, or an order the data do not support,
+loses by the measure a user would apply to the result.
+
+When the chosen model will be refined by the prediction-error method (``refine="auto"``,
+the default, on a single uniformly sampled record), the order is decided again between
+refined candidates where the subspace candidates' bias could have decided it
+(:func:`rejudge_refined`): a smaller order replaces the chosen one when, refined, it
+predicts the held-out part at least as well.
+
+A method that judges a data-driven setting of its own on held-out data (HD-PBSID's
+operator scale ``alpha``; :func:`accepts_held_out`) has its candidates fitted with the
+first-pass settings it declares (:func:`sweep_settings`), and the setting is judged for
+the candidate that is about to be chosen only (:func:`settle_candidate`): that candidate
+is fitted again with the held-out part given, and the refit on the whole record is given
+the settings it took (``options["refit_settings"]``), as it is given its order -- one
+judge for the order, the method and those settings, instead of a second split of the
+estimation part inside the method, and one judgement instead of one per order.
+
+A method may also list data-driven settings that the refit keeps from the candidate
+(:func:`refit_keeps`; ``dt``: its past and future windows, whose criterion is most of a
+refit's cost): the held-out part judged the candidate's predictor with them.
+
+The expensive order-independent steps of the methods (projection of the record, basis
+operators, the past-window criterion of ``dt``) are memoised
+(:mod:`hdpbsid.bases.memo`), so the orders of one method share them.
+
+The comparison is reported in ``model.options["selection"]``: one row per candidate
+with ``method``, ``order``, ``error`` (held-out residual energy relative to the output
+variance), ``fit`` (percent), ``z`` (statistic against the best), ``whole_simulation``
+(the tie-break's error, for the tied candidates only, else ``None``), ``predictor``
+(``"innovation (K)"`` or ``"output error (K = 0)"``), ``first_pass_error`` (for a
+candidate whose held-out-judged settings were settled, :func:`settle_candidate`, the
+error of its sweep fit; ``error`` is then the settled fit's), ``time`` (seconds of the
+sweep fit) and ``status`` (``"ok"`` or the error message).
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from hdpbsid.data.checks import check_data, check_positive_int
+from hdpbsid.models.criteria import (
+    MIN_WINDOWS,
+    SAMPLES_PER_STATE,
+    SIGNIFICANCE_Z,
+    WindowedError,
+    choose_smallest_adequate,
+    default_windows,
+    is_uniform_grid,
+    windowed_prediction_error,
+    windowed_simulation_error,
+)
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import library_call
+
+__all__ = [
+    "identify_auto",
+    "select_order",
+    "select_model",
+    "score_model",
+    "refit_holds",
+    "beats_the_mean",
+    "rejudge_refined",
+    "looks_closed_loop",
+    "accepts_held_out",
+    "sweep_settings",
+    "settle_candidate",
+    "refit_keeps",
+    "REJUDGE_Z",
+    "AUTO_METHODS",
+    "HOLDOUT",
+]
+
+#: methods tried by ``method="auto"`` (in this order; ``dt`` only on uniform samples)
+AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
+#: share of the record held out for scoring (the last third, as users validate)
+HOLDOUT = 1.0 / 3.0
+#: largest order tried by default
+AUTO_MAX_ORDER = 8
+
+
+#: with ``refined=True``, the best candidate of every order up to the chosen one whose
+#: held-out error is within this many standard errors of the best is refined before the
+#: order is decided (:func:`rejudge_refined`): a judgement, three times the
+#: one-standard-error rule's margin (measured: the closed-loop bias of the subspace
+#: candidates put the true order 1.4-2.2 SE behind a larger one on the Table-2 plant)
+REJUDGE_Z = 3.0
+
+
+def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[WindowedError, bool]:
+    """The held-out score of ``model`` on the record ``rec = (t, u, y)`` (module
+    docstring): the smaller of its windowed one-step prediction error with its gain
+    ``K`` and with ``K = 0`` (the simulation error), and whether that is the one with
+    ``K``.  Non-uniform samples: the simulation error."""
+    t, u, y = check_data(*rec)
+    sim = windowed_simulation_error(model, t, u, y, windows)
+    if not is_uniform_grid(t):
+        return sim, False
+    pred = windowed_prediction_error(model, t, u, y, windows)
+    if pred.finite and (not sim.finite or pred.total < sim.total):
+        return pred, True
+    return sim, False
+
+
+def accepts_held_out(func: Any) -> bool:
+    """Whether the method ``func`` takes ``held_out=(t, u, y)``: data kept out of its
+    record on which it judges its own data-driven settings (HD-PBSID's operator scale),
+    reporting what it chose in ``options["refit_settings"]``.  The candidates of
+    :func:`select_model` get the held-out part, and the refit of the chosen one gets
+    its ``refit_settings``: one judge for the order, the method and those settings, and
+    no second split of the estimation part inside a method."""
+    try:
+        return "held_out" in inspect.signature(func).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
+    """The settings the candidates of method ``func`` are fitted with in a sweep: the
+    ``given`` ones (the user's), and for a method that judges a setting of its own on
+    held-out data (:func:`accepts_held_out`), the first-pass values it declares in its
+    ``sweep_settings`` attribute for every such setting the user did not give.
+
+    Why: such a judgement fits the candidate again at the setting the data ask for
+    (HD-PBSID: one to two more fits at an operator scale of their own per order, which
+    no other order shares), and only the chosen candidate's setting reaches the result;
+    it is judged for that candidate by :func:`settle_candidate`.  Measured on 80 records
+    of random stable systems (orders 1-4, open and closed loop, 20 dB): the true order
+    picked on 58 against 57 with the judgement in every candidate, in 14 % less CPU time.
+    """
+    first = getattr(func, "sweep_settings", None) if accepts_held_out(func) else None
+    return {**(first or {}), **given}
+
+
+def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dict[str, Any]:
+    """The data-driven settings of candidate ``model`` that its refit on the whole
+    record keeps: those the method ``func`` lists in its ``refit_keeps`` attribute
+    (``dt``: the past and future windows), with the values the candidate used, except
+    the ones the user gave (``given``, passed as they are).
+
+    Why: the held-out part judged the candidate's predictor as it was built, windows
+    included; the refit re-estimates that structure on more data (as it keeps the
+    order), instead of asking the data again for a setting the judgement did not test.
+    A method lists a setting here when choosing it again would be costly (``dt``'s
+    past-window criterion: a QR over up to 200 lags, most of a refit's time).
+    """
+    keys = getattr(func, "refit_keeps", ())
+    return {k: model.options[k] for k in keys if k not in given and k in model.options}
+
+
+def settle_candidate(
+    get_method: Any, row: dict[str, Any], est: tuple, val: tuple, windows: int, options: dict
+) -> dict[str, Any]:
+    """The candidate ``row`` with the settings its method judges on held-out data
+    (:func:`sweep_settings`) judged: fitted again on ``est`` with the user's settings
+    and ``held_out=val``, scored (:func:`score_model`), and that fit replaces the row's
+    model and score (``row["settled"] = True``; the sweep's first-pass fit is kept in
+    ``row["first_pass"]``).  A candidate whose method declares no such settings, whose
+    settings the user gave, or whose second fit fails or cannot be scored is returned as
+    it is, its refit then given the first-pass settings it was fitted with.  Idempotent."""
+    func = get_method(row["method"])
+    given = options.get(row["method"], {})
+    first = sweep_settings(func, given)
+    if row.get("settled") or first == given:
+        return row
+    row["settled"] = True
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = func(*est, order=row["order"], **given, held_out=val)
+            err, use_k = score_model(model, val, windows)
+    except (ValueError, np.linalg.LinAlgError):
+        err = None
+    if err is None or not err.finite:
+        # the first-pass fit stands; its refit on the whole record gets its settings
+        row["model"].options["refit_settings"] = {k: v for k, v in first.items() if k not in given}
+        return row
+    row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
+    row.update(
+        model=model,
+        criterion=err,
+        predictor="innovation (K)" if use_k else "output error (K = 0)",
+    )
+    return row
+
+
+def _fit_one(
+    get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
+) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {"method": method, "order": order}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            func = get_method(method)
+            model = func(*est, order=order, **sweep_settings(func, options.get(method, {})))
+            if not isinstance(model, StateSpaceModel):
+                raise TypeError(
+                    f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
+                )
+            err, use_k = score_model(model, val, windows)
+        row.update(
+            status="ok" if err.finite else "simulation overflow",
+            criterion=err,
+            predictor="innovation (K)" if use_k else "output error (K = 0)",
+            model=model,
+        )
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None, predictor=None)
+    row["time"] = time.perf_counter() - t0
+    return row
+
+
+def _sweep_method(
+    get_method: Any,
+    method: str,
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+) -> list[dict[str, Any]]:
+    """Every order of one method, upwards (the orders share the method's memoised
+    order-independent steps, :mod:`hdpbsid.bases.memo`)."""
+    return [_fit_one(get_method, method, n, est, val, windows, options) for n in orders]
+
+
+def _sweep(
+    get_method: Any,
+    methods: Sequence[str],
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+    n_jobs: int | None,
+) -> list[dict[str, Any]]:
+    """Every ``(method, order)`` candidate, listed orders upwards and, within an order, in
+    the order of ``methods``.  With ``n_jobs`` the methods are swept in parallel
+    (joblib), each method's orders in one worker, where they share its memoised
+    projection and operators; the candidates, and so the result, are those of the
+    serial run (bit for bit when that runs with one BLAS thread, as the workers do).
+
+    Every order is fitted: a larger order that does not beat the best by a standard
+    error cannot be chosen, but it can become the best and so move the reference of the
+    one-standard-error rule (the closed-loop quadrotor's order 3 against 2 depends on
+    its order 7), so stopping the sweep early would change the choice.
+    """
+    args = (orders, est, val, windows, options)
+    if n_jobs is not None and n_jobs != 1 and len(methods) > 1:
+        from joblib import Parallel, delayed
+
+        # one BLAS thread per worker: the candidates are small problems (threads only
+        # oversubscribe the cores), and the workers' arithmetic is then that of a serial
+        # run with one BLAS thread, bit for bit (with several, BLAS sums split
+        # differently and the last digits differ)
+        per_method = Parallel(n_jobs=n_jobs, inner_max_num_threads=1)(
+            delayed(_sweep_method)(get_method, m, *args) for m in methods
+        )
+    else:
+        per_method = [_sweep_method(get_method, m, *args) for m in methods]
+    return [rows[i] for i in range(len(orders)) for rows in per_method]
+
+
+def _refine_and_score(
+    model: StateSpaceModel, est: tuple, val: tuple, windows: int
+) -> tuple[StateSpaceModel | None, WindowedError]:
+    """``model`` refined on ``est`` (:func:`hdpbsid.refine.pem.refine_pem`; None when
+    the refinement fails or does not converge) and the held-out score
+    (:func:`score_model`) of the refined model, or of ``model`` itself without one."""
+    from hdpbsid.refine.pem import refine_pem
+
+    refined = None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            fit = refine_pem(model, *est)
+            if fit.options.get("refine_converged", True):
+                refined = fit
+        except (ValueError, np.linalg.LinAlgError):
+            pass
+        err, _ = score_model(model if refined is None else refined, val, windows)
+    return refined, err
+
+
+def _refined_error(r: dict[str, Any], est: tuple, val: tuple, windows: int) -> WindowedError:
+    """The held-out score of candidate ``r``'s model refined on ``est``
+    (:func:`_refine_and_score`), kept in ``r["refined_criterion"]`` (and the refined
+    model in ``r["refined_model"]``)."""
+    if r.get("refined_criterion") is None:
+        _refine_rows([r], est, val, windows, None)
+    return r["refined_criterion"]
+
+
+def _refine_rows(
+    rows: list[dict[str, Any]], est: tuple, val: tuple, windows: int, n_jobs: int | None
+) -> None:
+    """:func:`_refined_error` of every row of ``rows`` not refined yet, in parallel with
+    joblib when ``n_jobs`` is given (one BLAS thread per worker, as in :func:`_sweep`: the
+    same numbers as the serial run)."""
+    todo = list({id(r): r for r in rows if r.get("refined_criterion") is None}.values())
+    if n_jobs is not None and n_jobs != 1 and len(todo) > 1:
+        from joblib import Parallel, delayed
+
+        out = Parallel(n_jobs=n_jobs, inner_max_num_threads=1)(
+            delayed(_refine_and_score)(r["model"], est, val, windows) for r in todo
+        )
+    else:
+        out = [_refine_and_score(r["model"], est, val, windows) for r in todo]
+    for r, (refined, err) in zip(todo, out, strict=True):
+        if refined is not None:
+            r["refined_model"] = refined
+        r["refined_criterion"] = err
+
+
+def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
+    """Whether the feedback test (:func:`hdpbsid.selection.feedback.feedback_statistics`: the
+    one-step prediction errors of ``model`` on ``rec = (t, u, y)`` correlated with the
+    prewhitened input at positive lags) declares the record closed loop; False when it
+    cannot be computed (the predictor diverges on the record)."""
+    from hdpbsid.refine.pem import one_step_errors
+    from hdpbsid.selection.feedback import feedback_statistics
+
+    t, u, y = rec
+    try:
+        with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):
+            warnings.simplefilter("ignore")
+            errors = one_step_errors(model, t, u, y)
+            return bool(feedback_statistics(model, t, u, y, errors=errors)["feedback"])
+    except (ValueError, np.linalg.LinAlgError):
+        return False
+
+
+def rejudge_refined(
+    ok: list[dict[str, Any]],
+    stats: list[float],
+    k: int,
+    est: tuple,
+    val: tuple,
+    windows: int,
+    n_jobs: int | None = None,
+) -> tuple[int, str]:
+    """The order decided again between refined candidates; returns ``(index into ok,
+    rule text)`` (``k`` and ``""`` when there is nothing to decide).
+
+    The candidates are subspace estimates, and a subspace estimate is biased where the
+    noise is correlated with its regressors (closed loop, most of all); the bias can move
+    the held-out ranking of the orders both ways.  The model returned is refined by the
+    prediction-error method (``refine="auto"``), which is consistent also in closed
+    loop; so the order should be decided between refined candidates.  Refining all of
+    them would cost a refinement per candidate; only the decisions the bias can flip are
+    taken again, each candidate refined on the estimation part and scored on the held-out
+    part (:func:`_refined_error`).  Only the best candidate of an order whose error is
+    within :data:`REJUDGE_Z` standard errors of the best takes part.
+
+    *Down.*  Extra states can absorb part of the bias, so a larger order can score better
+    than the true one although the true one, fitted efficiently, would not be beaten.
+    The orders up to the chosen order ``n*`` are refined and the one with the smallest
+    refined error is taken.  Not the one-standard-error rule again: its preference for
+    the smaller order was applied once, to choose ``n*``; here a smaller order replaces
+    ``n*`` only when, refined, it predicts at least as well as ``n*`` refined -- the bias
+    correction, not a second discount for parsimony (with the rule applied twice the
+    closed-loop quadrotor's order 3, an unstable pole that adds little output variance,
+    lost to a refined order 2 within one standard error on 4 of 10 seeds).  Measured on
+    the Table-2 closed loop (rate and acceleration, 20 dB, ``feedthrough=True``, seeds
+    0-4): the unrefined candidates chose order 5-6 on every seed; with this step order 4,
+    the plant's, on 2 of 5.
+
+    *Up.*  The bias can also make a too small order look adequate: on the Table-2 plant
+    with the rate output only (20 dB, seeds 0-4) the subspace order-3 candidate scored
+    better on held-out data than its own prediction-error refit (0.0086-0.0092 against
+    0.0094-0.0102, 3.2-5.3 standard errors) and tied with order 4, so the
+    one-standard-error rule chose 3, while refined, order 4 beats order 3 by 4.3-6.3
+    standard errors.  That symptom -- the consistent refit of the chosen structure
+    predicting worse than its biased estimate, by more than one standard error -- is what
+    the step looks for, when the feedback test declares the record closed loop
+    (:func:`looks_closed_loop`, on the chosen candidate's errors over the estimation part;
+    in open loop the subspace candidates are consistent and the ranking is not biased):
+    then the next larger order is refined too and replaces the decision when it beats it
+    by more than one standard error (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`
+    with the smaller order listed first: the burden of proof on the larger order), and so
+    on upwards.  Without the symptom no larger order is refined (closed-loop quadrotor,
+    seeds 0-5: the refit of the chosen order 3 within 0.22 standard errors of its subspace
+    estimate).
+
+    Each refined candidate's score is added to its row (``refined_error``,
+    ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the
+    orders down, and the chosen order in closed loop) run in parallel (joblib); the
+    decision is that of the serial run.
+    """
+    from hdpbsid.refine.pem import is_uniform
+
+    if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
+        return k, ""
+    n_star = ok[k]["order"]
+    best_of: dict[int, dict[str, Any]] = {}
+    for r, z in zip(ok, stats, strict=True):
+        n = r["order"]
+        if z <= REJUDGE_Z:
+            if n not in best_of or r["criterion"].total < best_of[n]["criterion"].total:
+                best_of[n] = r
+    chosen, rule = ok[k], ""
+    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
+    n_up = n_star + 1
+    upward = n_up in best_of and looks_closed_loop(ok[k]["model"], est)
+    needed = (lower if len(lower) >= 2 else []) + ([ok[k]] if upward else [])
+    _refine_rows(needed, est, val, windows, n_jobs)
+    if upward:
+        # the symptom of a choice the bias made: refined, the chosen candidate predicts
+        # the held-out part worse than its subspace estimate did, by more than one SE
+        e_ref, e_sub = _refined_error(ok[k], est, val, windows), ok[k]["criterion"]
+        upward = e_ref.finite and choose_smallest_adequate([e_ref, e_sub])[1][0] > SIGNIFICANCE_Z
+    if len(lower) >= 2:
+        errors = [_refined_error(r, est, val, windows) for r in lower]
+        finite = [i for i, e in enumerate(errors) if e.finite]
+        if finite:
+            j = min(finite, key=lambda i: (errors[i].total, i))
+            chosen = lower[j]
+            names = ", ".join(f"{r['method']} {r['order']}" for r in lower)
+            rule = (
+                f"; order decided again between refined candidates ({names}; within "
+                f"{REJUDGE_Z:g} SE of the best), the smallest refined error: "
+                f"{chosen['method']} order {chosen['order']}"
+            )
+    if upward:
+        while n_up in best_of:
+            e_now = _refined_error(chosen, est, val, windows)
+            e_up = _refined_error(best_of[n_up], est, val, windows)
+            if not (e_now.finite and e_up.finite):
+                break
+            step, z = choose_smallest_adequate([e_now, e_up])
+            if step != 1:
+                break
+            chosen = best_of[n_up]
+            rule += (
+                f"; closed loop (feedback test): refined, {chosen['method']} order "
+                f"{chosen['order']} beats order {chosen['order'] - 1} by {z[0]:.1f} SE"
+            )
+            n_up += 1
+    return ok.index(chosen), rule
+
+
+def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
+    """The candidates ``tied`` (one order, every one within one standard error of the
+    best held-out error) ordered by their simulation error over the whole held-out
+    record ``val`` from one fitted initial state (windows = 1), best first; each row
+    gets ``"whole_simulation"`` (that error, relative).
+
+    Why: the windowed criterion fits an initial state in every window, and a model's
+    free response over a window can imitate any error that is slow compared with the
+    window, so errors at time scales beyond a window (a wrong slow or unstable mode, a
+    wrong static gain) are invisible to it; held-out windows must be short to give the
+    several windows a standard error needs.  Among candidates that the windowed
+    criterion cannot tell apart, the one-window simulation -- what a user validating
+    on the held-out part computes (MATLAB ``compare``) -- sees those errors.  Only
+    candidates of the chosen order compete (equal state dimension, so equal numbers of
+    parameters: the one-standard-error rule's choice of complexity is unchanged), so
+    the closed-loop bias of a simulation criterion (module docstring) can move the
+    method, not the order.  On the ball-and-beam record (DaISy) the windowed scores of
+    ``laguerre`` and ``legendre`` at order 4 were 0.12 standard errors apart and their
+    one-window simulation errors 5x apart, the order of their validation fits.
+    """
+    if len(tied) < 2:
+        return tied
+    t, u, y = check_data(*val)
+    for r in tied:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            e = windowed_simulation_error(r["model"], t, u, y, 1)
+        r["whole_simulation"] = e.total if e.finite else np.inf
+    return sorted(tied, key=lambda r: r["whole_simulation"])
+
+
+def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
+    """Whether ``model`` predicts the whole held-out record ``val`` better than its mean:
+    the better of its two predictors (:func:`score_model`) run over the whole held-out
+    part from one fitted initial state (one window, the validation a user runs) has a
+    relative error below 1, i.e. a fit above 0 %.
+
+    A floor, not a ranking: a model that does worse than the mean of the data it is
+    validated on is no model of them, whatever its windowed score.  The windowed
+    criterion fits an initial state in every short window, which hides errors slower
+    than a window (:func:`break_tie`), in particular a spurious fast-growing mode: within
+    a window its free response can cancel the growth of the forced response, over the
+    whole held-out part no initial state can (in floating point, a growth beyond
+    ``1/eps``), and the simulation diverges.  On the robot-arm record (DaISy),
+    ``method="hermite"`` had chosen order 7, a pair at ``Re = +1.06`` per sample that won
+    the windowed score with a 96.5 % fit and simulated the held-out part with a relative
+    error of 1e174.  An unstable plant in closed loop passes through its stable
+    innovation predictor.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole, _ = score_model(model, val, 1)
+    if whole.finite and whole.total < 1.0:
+        return True, ""
+    return False, (
+        "over the whole held-out part (one initial state) it predicts worse than the mean "
+        f"(relative error {whole.total:.3g})"
+    )
+
+
+def refit_holds(
+    model: StateSpaceModel, held_out: WindowedError, val: tuple, windows: int
+) -> tuple[bool, str]:
+    """Whether ``model``, a candidate identified again on the whole record, is as good on
+    the held-out part ``val`` as the candidate was, and why not.
+
+    The refit has seen the held-out samples, so its error there (the same criterion,
+    :func:`score_model`) is an in-sample error, and a correct refit of the same model
+    structure scores no worse than the candidate did out of sample, up to the noise of
+    the criterion.  More than one standard error of the candidate's held-out windows
+    worse (the one-standard-error rule of :func:`~hdpbsid.models.criteria.choose_smallest_adequate`
+    with the refit listed first) means the refit is not the model that was chosen: the
+    method's data-driven settings (operator scale, past window, basis size, input hold)
+    are chosen again on the whole record and can change with it.  Such a refit is not
+    returned; the next candidate is tried, as when the refit raises.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        refit, _ = score_model(model, val, windows)
+    if not refit.finite:
+        return False, "the refit on the whole record cannot be simulated on the held-out part"
+    k, stats = choose_smallest_adequate([refit, held_out])
+    if k == 0:
+        return True, ""
+    return False, (
+        f"the refit on the whole record scores {stats[0]:.1f} standard errors worse on the "
+        f"held-out part than the candidate did without seeing it"
+    )
+
+
+def _first_that_holds(
+    get_method: Any,
+    candidates: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    floor: bool = True,
+) -> tuple[StateSpaceModel | None, list[tuple[str, str]]]:
+    """The first of ``candidates`` that, with its held-out-judged settings settled
+    (:func:`settle_candidate`, fitted on ``est``), passes :func:`beats_the_mean` (unless
+    ``floor`` is False) and whose refit on the ``whole`` record passes
+    :func:`refit_holds` and the same floor, refitted; or None.  The floor for the refit:
+    the windowed score of :func:`refit_holds` fits an initial state per window, so a
+    refit with a spurious growing mode can pass it and still diverge over the held-out
+    part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
+    had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
+    every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``."""
+    failures: list[tuple[str, str]] = []
+    for chosen in candidates:
+        settle_candidate(get_method, chosen, est, val, windows, opts)
+        name = f"{chosen['method']} order {chosen['order']}"
+        if floor:
+            useful, how = beats_the_mean(chosen["model"], val)
+            if not useful:
+                failures.append(("floor", f"{name}: {how}"))
+                continue
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                func = get_method(chosen["method"])
+                given = opts.get(chosen["method"], {})
+                kept = refit_keeps(func, chosen["model"], given)
+                settings = {
+                    **given,
+                    **kept,
+                    **chosen["model"].options.get("refit_settings", {}),
+                }
+                model = func(*whole, order=chosen["order"], **settings)
+                holds, how = refit_holds(model, chosen["criterion"], val, windows)
+                if holds and floor:
+                    # the floor the candidate passed, for the model returned: a refit
+                    # whose windowed score holds can still diverge over the whole part
+                    holds, how = beats_the_mean(model, val)
+                    how = f"the refit on the whole record: {how}" if how else how
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            holds, how = False, str(exc)
+        if holds:
+            warm = chosen.get("refined_model")
+            if warm is not None:
+                from hdpbsid.refine.pem import WARM_START, warm_start_option
+
+                # the candidate refined on the estimation part: a starting point of the
+                # refinement of the refit (hdpbsid.refine.pem.refine_pem)
+                model.options[WARM_START] = warm_start_option(warm)
+            carried = chosen["model"].options.get("refit_settings")
+            if carried:
+                model.options["refit_settings"] = carried
+                model.options["refit_settings_rule"] = (
+                    "chosen with the candidate on the held-out part (its options "
+                    f"{sorted(carried)}: {chosen['model'].options.get('alpha_rule', '')}); "
+                    "given to the refit on the whole record"
+                )
+            if kept:
+                model.options["refit_kept"] = kept
+                model.options["refit_kept_rule"] = (
+                    "the candidate's own values, judged with it on the held-out part "
+                    "(hdpbsid.selection.auto.refit_keeps)"
+                )
+            return model, failures
+        failures.append(("refit", f"{name}: {how}"))
+    return None, failures
+
+
+def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    table = []
+    for r in rows:
+        c = r["criterion"]
+        table.append(
+            {
+                "method": r["method"],
+                "order": r["order"],
+                "error": c.total if c is not None else None,
+                "fit": c.fit if c is not None else None,
+                "z": r.get("z"),
+                "whole_simulation": r.get("whole_simulation"),
+                "refined_error": r["refined_criterion"].total
+                if r.get("refined_criterion") is not None
+                else None,
+                "refined_fit": r["refined_criterion"].fit
+                if r.get("refined_criterion") is not None
+                else None,
+                "predictor": r.get("predictor"),
+                "first_pass_error": r["first_pass"]["criterion"].total
+                if r.get("first_pass") is not None
+                else None,
+                "time": r["time"],
+                "status": r["status"],
+            }
+        )
+    return table
+
+
+@library_call
+def select_model(
+    t: Any,
+    u: Any,
+    y: Any,
+    methods: Sequence[str],
+    orders: Sequence[int],
+    *,
+    holdout: float = HOLDOUT,
+    n_jobs: int | None = None,
+    method_options: dict[str, dict[str, Any]] | None = None,
+    refined: bool = False,
+) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
+    """Score every ``(method, order)`` on held-out data and identify the chosen one on
+    the whole record (module docstring).  Returns ``(model, table, rule)``.
+    ``refined``: the model will be refined by the prediction-error method, so the order
+    is decided again between refined candidates where the subspace bias could flip it
+    (:func:`rejudge_refined`).
+
+    Raises ``ValueError`` when the record is too short to hold out enough scoring windows
+    (the message says what would work) or when no candidate can be identified.
+    """
+    from hdpbsid.data.records import as_records, is_record_list
+    from hdpbsid.methods.registry import get_method
+
+    if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
+        raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
+    several = is_record_list(t) and len(t) > 1
+    if several:
+        # several records: the last one is held out, the others identify the candidates
+        recs = as_records(t, u, y)
+        last = recs[-1]
+        val = (last.t, last.u, last.y)
+        est_list = [(r.t, r.u, r.y) for r in recs[:-1]]
+        est: tuple = (est_list, None, None) if len(est_list) > 1 else est_list[0]
+        n_val, where = last.t.size, "the last record"
+    else:
+        t, u, y = check_data(t, u, y)
+        split = int(round(t.size * (1.0 - float(holdout))))
+        est = (t[:split], u[:split], y[:split])
+        val = (t[split:], u[split:], y[split:])
+        n_val, where = t.size - split, f"the last {holdout:.0%} of the record"
+    windows = default_windows(n_val, max(orders))
+    if windows < MIN_WINDOWS:
+        raise ValueError(
+            f"choosing the order scores candidates on {where} ({n_val} samples) cut into "
+            f"at least {MIN_WINDOWS} windows of {SAMPLES_PER_STATE * max(orders)} samples "
+            f"({SAMPLES_PER_STATE} per state of the largest order {max(orders)}), i.e. "
+            f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
+            f"longer record, a smaller max_order, or give the order"
+        )
+    opts = method_options or {}
+    orders = sorted(orders)
+    rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
+    ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
+    if not ok:
+        detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
+        raise ValueError(f"no candidate model could be identified and scored ({detail})")
+    ok.sort(key=lambda r: (r["order"], r["criterion"].total))
+    errors: list[WindowedError] = [r["criterion"] for r in ok]
+    k, stats = choose_smallest_adequate(errors)
+    for r, z in zip(ok, stats, strict=True):
+        r["z"] = z
+    # the chosen candidate identified on the whole record; if that fails (e.g. the
+    # discrete model of the whole record has no continuous counterpart), the next
+    # adequate candidate, then the remaining ones by held-out error
+    adequate = [r for r, z in zip(ok, stats, strict=True) if z <= SIGNIFICANCE_Z]
+    rest = sorted((r for r in ok if r not in adequate), key=lambda r: r["criterion"].total)
+    queue = adequate[adequate.index(ok[k]) :]
+    tied = break_tie([r for r in queue if r["order"] == ok[k]["order"]], val)
+    queue = tied + [r for r in queue if r not in tied]
+    candidates = queue + rest
+    rejudged = ""
+    if refined:
+        k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows, n_jobs)
+        if k2 != k:
+            candidates = [ok[k2]] + [r for r in candidates if r is not ok[k2]]
+    model, failures = _first_that_holds(get_method, candidates, est, (t, u, y), val, windows, opts)
+    floor_note = ""
+    if model is None:
+        below = [r for r, why in zip(candidates, failures, strict=True) if why[0] == "floor"]
+        if below:
+            # no candidate beats the held-out mean from one initial state (an unstable
+            # plant sampled non-uniformly has no stable predictor to run over the whole
+            # part): the floor cannot judge these models, the windowed ranking stands
+            model, more = _first_that_holds(
+                get_method, below, est, (t, u, y), val, windows, opts, floor=False
+            )
+            failures += more
+            floor_note = (
+                "; no candidate beats the held-out mean from one initial state: floor not applied"
+            )
+    if model is None:
+        raise ValueError(
+            "no scored candidate could be identified on the whole record: "
+            + "; ".join(why[1] for why in failures)
+        )
+    rule = (
+        f"held-out windowed one-step prediction error on {where} ({windows} windows; "
+        f"each candidate's better predictor: with its K or with K = 0); "
+        f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
+        f"error (one-standard-error rule); among that order's candidates within it, the "
+        f"smallest simulation error over the whole held-out part"
+    )
+    rule += rejudged
+    if failures:
+        rule += "; not kept: " + "; ".join(why[1] for why in failures)
+    return model, _rows_table(rows), rule + floor_note
+
+
+@library_call
+def identify_auto(
+    t: Any,
+    u: Any,
+    y: Any,
+    order: int | None = None,
+    *,
+    methods: Sequence[str] | None = None,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    n_jobs: int | None = None,
+    method_options: dict[str, dict[str, Any]] | None = None,
+    refined: bool = False,
+    **shared: Any,
+) -> StateSpaceModel:
+    """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
+    given ``order``), the best by held-out prediction error (module docstring).
+
+    ``methods``: default :data:`AUTO_METHODS` that are available (``dt`` is skipped for
+    non-uniform ``t``); ``max_order``: default 8; ``holdout``: the scored share at the
+    end of the record (``0 < holdout < 1``); ``n_jobs``: sweep the methods in parallel
+    with joblib (results are identical to the serial run); ``method_options``: extra
+    options per method, e.g. ``{"hermite": {"N": 400}}``; any other keyword (``shared``)
+    is a setting every method is given, e.g. ``feedthrough=True`` for an output with a
+    direct term (``method_options`` override it per method; a method that does not take
+    it raises ``TypeError``).  ``model.options["selection"]`` lists every candidate,
+    ``options["order_selection"]`` the chosen method's.
+    """
+    from hdpbsid.data.records import as_records
+    from hdpbsid.methods.registry import get_method, is_available
+    from hdpbsid.refine.pem import is_uniform
+
+    recs = as_records(t, u, y)
+    if len(recs) == 1:
+        t, u, y = recs[0].t, recs[0].u, recs[0].y
+    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
+    if methods is None:
+        uniform = all(is_uniform(r.t) for r in recs)
+        methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
+    else:
+        methods = list(methods)
+        for m in methods:
+            get_method(m)  # raises for unknown names
+    per_method = {m: {**shared, **(method_options or {}).get(m, {})} for m in methods}
+    model, table, rule = select_model(
+        t,
+        u,
+        y,
+        methods,
+        orders,
+        holdout=holdout,
+        n_jobs=n_jobs,
+        method_options=per_method,
+        refined=refined,
+    )
+    chosen = model.options.get("method")
+    model.options["selection"] = table
+    model.options["order_selection"] = [r for r in table if r["method"] == chosen]
+    model.options["selection_rule"] = rule
+    return model
+
+
+@library_call
+def select_order(
+    method: str,
+    t: Any,
+    u: Any,
+    y: Any,
+    *,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    refined: bool = False,
+    **options: Any,
+) -> StateSpaceModel:
+    """The order of ``method`` chosen by held-out prediction error (module docstring).
+
+    Orders ``1..max_order`` (default 8) are identified on the first ``1 - holdout`` of
+    the record and scored on the rest; the chosen order is identified on the whole
+    record.  When the record is too short to score, the method chooses the order itself
+    (from its singular values) and ``options["order_selection"]`` says so.
+    """
+    mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
+    from hdpbsid.methods.registry import get_method
+
+    try:
+        model, table, rule = select_model(
+            t,
+            u,
+            y,
+            [method],
+            list(range(1, mo + 1)),
+            holdout=holdout,
+            method_options={method: options},
+            refined=refined,
+        )
+    except ValueError as exc:
+        if "longer record" not in str(exc):
+            raise
+        model = get_method(method)(t, u, y, order=None, max_order=mo, **options)
+        model.options["order_selection"] = f"singular values of the method ({exc})"
+        return model
+    model.options["order_selection"] = table
+    model.options["order_selection_rule"] = rule
+    return model
