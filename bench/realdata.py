@@ -1,13 +1,18 @@
 # ruff: noqa: E402  (BLAS thread settings must precede the numpy import)
-"""Every hdpbsid method and the Python peers on two measured DaISy records.
+"""Every hdpbsid method and the Python peers on measured and measured-like records.
 
-Run: ``.venv/bin/python bench/realdata.py [--records robot-arm ball-and-beam]
-[--out DIR] [--results]`` (peers from ``pip install -e ".[bench]"``).
+Run: ``.venv/bin/python bench/realdata.py [--records NAME ...] [--out DIR] [--results]``
+(peers from ``pip install -e ".[bench]"``; ``llsi``, ``pysib`` and ``PSID`` are used when
+they import).
 
 Data (``bench/data/``, from DaISy, the Database for the Identification of Systems, KU
 Leuven, ESAT; see ``bench/data/README.md``): ``robot-arm.csv`` (flexible robot arm, 1024
 samples, sampling time not given: one time unit) and ``ball-and-beam.csv`` (1000 samples,
-0.1 s).
+0.1 s). Besides them, simulated records with the defects of measured ones
+(``bench/measured_like.py``: a direct term with drift and coloured noise, a nonlinear
+level loop with saturation and quantization, a long lightly damped resonance, a stiff
+plant behind a clipping actuator), scored the same way; they judge methods and are never
+used to tune a constant.
 
 Scoring (the way a user judges a model on measured data):
 
@@ -52,6 +57,8 @@ from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import measured_like
+import more_peers
 import peers
 from cases import Record
 
@@ -105,10 +112,27 @@ class Split:
     y_offset: Array
 
 
+#: Simulated measured-like records (``bench/measured_like.py``), seed 0.
+SIMULATED = tuple(measured_like.GENERATORS)
+
+#: Above this many estimation samples the peers run at their default setting only (a
+#: horizon grid on a long record costs minutes per tool and does not change the ranking).
+LONG_RECORD = 20_000
+
+
+#: Peers whose fit takes minutes on a long record (iterative PEM in pure Python): skipped
+#: above :data:`LONG_RECORD` samples.
+SLOW_PEERS = ("llsi-pem",)
+
+
 def load_record(name: str, data_dir: Path = DATA) -> tuple[Array, Array, float]:
-    """``(u (Ns, 1), y (Ns, 1), dt)`` of record ``name`` (a key of :data:`RECORDS`)."""
+    """``(u (Ns, 1), y (Ns, 1), dt)`` of record ``name`` (a key of :data:`RECORDS` or a
+    simulated record of :data:`SIMULATED`)."""
+    if name in SIMULATED:
+        s = measured_like.GENERATORS[name](0)
+        return s.u, s.y, s.dt
     if name not in RECORDS:
-        raise ValueError(f"record must be one of {list(RECORDS)}, got {name!r}")
+        raise ValueError(f"record must be one of {list(RECORDS) + list(SIMULATED)}, got {name!r}")
     info = RECORDS[name]
     data = np.loadtxt(data_dir / info.file, delimiter=",", skiprows=1, ndmin=2)
     return data[:, :1], data[:, 1:2], info.dt
@@ -219,9 +243,22 @@ def _ours(method: str, split: Split, order: int | None) -> Run:
     return _attempt(method, call, split, None, order)
 
 
-def _peer(key: str, split: Split, horizon: int, order: int) -> Run:
-    run = peers.METHODS[key].run
+def _peer(key: str, split: Split, horizon: int | None, order: int) -> Run:
+    run = more_peers.PEERS[key].run if key in more_peers.PEERS else peers.METHODS[key].run
     return _attempt(key, lambda: run(split.estimation, order, horizon), split, horizon, order)
+
+
+def peer_default(key: str) -> int | None:
+    """The peer's default second setting (horizon, or input delay for polynomial models)."""
+    if key in more_peers.PEERS:
+        return more_peers.PEERS[key].default
+    return peers.METHODS[key].default
+
+
+def peer_label(key: str) -> str:
+    if key in more_peers.PEERS:
+        return more_peers.PEERS[key].label
+    return peers.METHODS[key].label.split(" (")[0]
 
 
 def auto_is_accepted() -> bool:
@@ -258,6 +295,9 @@ def our_methods(log: Callable[[str], None] = print) -> list[str]:
 def peer_horizons(key: str, n_outputs: int, order: int) -> list[int]:
     """Default horizon first, then the rest of the ``bench/peers.py`` grid, keeping only
     horizons with more block rows (``h * n_outputs``) than the order."""
+    if key in more_peers.PEERS:
+        p = more_peers.PEERS[key]
+        return [p.default, *[h for h in p.grid if h != p.default]]
     base = peers.METHODS[key]
     grid = peers.METHODS[key + "-tuned"].grid or ()
     hs = [base.default, *[h for h in grid if h != base.default]]
@@ -279,8 +319,10 @@ def run_record(
     # warm-up, not timed or kept: imports, lazy registration, basis caches
     for m in methods:
         _ours(m, split, None)
+    long = split.estimation.t.size > LONG_RECORD
     for key in peer_keys:
-        _peer(key, split, peers.METHODS[key].default, 1)
+        if not (long and key in SLOW_PEERS):
+            _peer(key, split, peer_default(key), 1)
     for m in methods:
         for order in (None, *ORDERS):
             r = _ours(m, split, order)
@@ -289,11 +331,17 @@ def run_record(
         default = next(r for r in runs if r.method == m and r.order_requested is None)
         log(f"{name:13s} {m:16s} defaults: {_run_txt(default)};  tuned: {_run_txt(best)}")
     for key in peer_keys:
+        if long and key in SLOW_PEERS:
+            log(f"{name:13s} {key:16s} skipped: over {LONG_RECORD} samples (minutes a fit)")
+            continue
         for order in ORDERS:
-            for h in peer_horizons(key, l_out, order):
+            hs = peer_horizons(key, l_out, order)
+            if long:
+                hs = hs[:1]
+            for h in hs:
                 runs.append(_peer(key, split, h, order))
         mine = [r for r in runs if r.method == key]
-        default_h = peers.METHODS[key].default
+        default_h = peer_default(key)
         log(
             f"{name:13s} {key:16s} default horizon: "
             f"{_run_txt(_best([r for r in mine if r.horizon == default_h]))};  "
@@ -350,13 +398,21 @@ def summarize(runs: Sequence[Run], methods: Sequence[str], peer_keys: Sequence[s
         )
     for key in peer_keys:
         mine = [r for r in runs if r.method == key]
-        base = peers.METHODS[key]
-        dflt = [r for r in mine if r.horizon == base.default]
-        name = base.label.split(" (")[0]
+        default = peer_default(key)
+        dflt = [r for r in mine if r.horizon == default]
+        name = peer_label(key)
+        if key == "arx":
+            fixed = [r for r in dflt if r.order_requested == 2]
+            out.append(
+                Entry(
+                    "arx-2-2", "ARX(2, 2) least squares, nk = 1", True, _best(fixed), fails(fixed)
+                )
+            )
+        setting = "" if default is None else f" (default setting {default})"
         out.append(
             Entry(
                 key,
-                f"{name} (default horizon {base.default}), order tuned on validation",
+                f"{name}{setting}, order tuned on validation",
                 True,
                 _best(dflt),
                 fails(dflt),
@@ -365,7 +421,7 @@ def summarize(runs: Sequence[Run], methods: Sequence[str], peer_keys: Sequence[s
         out.append(
             Entry(
                 key + "-tuned",
-                f"{name}, horizon and order tuned on validation",
+                f"{name}, setting and order tuned on validation",
                 True,
                 _best(mine),
                 {},
@@ -420,7 +476,9 @@ def results_markdown(results: dict[str, list[Entry]], command: str) -> str:
     return "\n".join(
         [
             f"Produced by `{command}` on {peers.machine_line()}. "
-            "Records from DaISy (KU Leuven, ESAT; `bench/data/README.md`). Identified on "
+            "Measured records from DaISy (KU Leuven, ESAT; `bench/data/README.md`); the "
+            "others are simulated with the defects of measured ones "
+            "(`bench/measured_like.py`). Identified on "
             "the first two thirds after removing that part's means, scored on the last "
             "third: simulation from a least-squares initial state, every model in discrete "
             "time at the record's rate (continuous models ZOH-sampled), fit = 100 (1 − "
@@ -453,7 +511,7 @@ def plot_record(name: str, split: Split, entries: Sequence[Entry], path: Path) -
         b = max(ok, key=lambda e: e.run.fit)
         yhat = validation_output(b.run.model, split)
         ax.plot(rec.t, yhat[:, 0], style, lw=1.0, label=f"{b.label}: {b.run.fit:.1f} %")
-    unit = "s" if RECORDS[name].dt != 1.0 else "samples"
+    unit = "s" if split.dt != 1.0 else "samples"
     ax.set_xlabel(f"time ({unit})")
     ax.set_ylabel("y − estimation mean")
     ax.set_title(f"{name}: validation third")
@@ -465,8 +523,12 @@ def plot_record(name: str, split: Split, entries: Sequence[Entry], path: Path) -
 
 def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--records", nargs="+", default=list(RECORDS), choices=list(RECORDS))
-    ap.add_argument("--peers", nargs="+", default=list(PEERS), choices=list(PEERS))
+    names = list(RECORDS) + list(SIMULATED)
+    ap.add_argument("--records", nargs="+", default=names, choices=names)
+    all_peers = list(PEERS) + list(more_peers.PEERS)
+    ap.add_argument(
+        "--peers", nargs="+", choices=all_peers, help="default: every peer that imports here"
+    )
     ap.add_argument("--methods", nargs="+", help="our methods (default: every available)")
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown / figures")
     ap.add_argument(
@@ -476,6 +538,8 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     command = "python bench/realdata.py " + " ".join(sys.argv[1:] if argv is None else argv)
     peers.import_all_methods()
+    if args.peers is None:
+        args.peers = list(PEERS) + more_peers.available()
     version = peers.code_version()
     print(f"# {peers.machine_line()}; {version}", flush=True)
     methods = args.methods or our_methods(log=lambda s: print(s, flush=True))
