@@ -43,17 +43,16 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
 from . import frequency_cli
-from .checks import check_label, check_names
-from .identify import available_methods, identify, is_available
-from .io import Record, read_columns, read_record
-from .metrics import match_eigenvalues
-from .model import StateSpaceModel, TimeScaleWarning
-from .model_io import load_model, model_from_dict, model_to_dict, save_model
+
+if TYPE_CHECKING:  # the library's modules load when a command runs, not for --help
+    from .io import Record
+    from .model import StateSpaceModel
+    from .model_io import model_from_dict, model_to_dict  # noqa: F401 (re-exported)
 
 __all__ = [
     "main",
@@ -66,6 +65,17 @@ __all__ = [
     "read_model_json",
     "CLIError",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``model_to_dict`` and ``model_from_dict`` (:mod:`hdpbsid.model_io`), kept here for
+    callers of the earlier CLI helpers, imported on access."""
+    if name in ("model_to_dict", "model_from_dict"):
+        from . import model_io
+
+        return getattr(model_io, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -98,11 +108,15 @@ class _HelpExit(Exception):
 # -- JSON (hdpbsid.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
     """:func:`hdpbsid.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    from .model_io import save_model
+
     return save_model(model, path)
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
     """:func:`hdpbsid.load_model` (kept for callers of the earlier CLI helper)."""
+    from .model_io import load_model
+
     return load_model(path)
 
 
@@ -119,6 +133,8 @@ def read_csv_columns(
 ) -> dict[str, np.ndarray]:
     """The named columns of a data file (:func:`hdpbsid.io.read_columns`; kept here for
     callers of the earlier CSV-only reader)."""
+    from .io import read_columns
+
     return read_columns(path, columns, delimiter)
 
 
@@ -126,6 +142,8 @@ def _read_records(
     args: argparse.Namespace, files: list[str], columns: dict[str, Any]
 ) -> list[Record]:
     """Every file of ``files`` as a :class:`~hdpbsid.io.Record` with the chosen columns."""
+    from .io import read_record
+
     time = columns["time"]
     if args.dt is None and args.fs is None and time is None:
         time = "t"
@@ -183,6 +201,8 @@ def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
 
 
 def _time_unit(unit: str) -> str:
+    from .checks import check_label
+
     try:
         return check_label(unit, "--time-unit")
     except (TypeError, ValueError) as exc:
@@ -192,6 +212,8 @@ def _time_unit(unit: str) -> str:
 def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> None:
     """The record-against-model time scale check of :meth:`StateSpaceModel.check_record`,
     printed once per record (the evaluations that follow would repeat it)."""
+    from .model import TimeScaleWarning
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TimeScaleWarning)
         model.check_record(rec.t, unit, name=rec.time or "t")
@@ -202,6 +224,8 @@ def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> N
 # -- commands -----------------------------------------------------------------------------
 def best_method() -> str:
     """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
+    from .identify import is_available
+
     return "hermite" if is_available("hermite") else "dt"
 
 
@@ -246,6 +270,8 @@ def _print_fit(
 
 
 def _check_method(method: str) -> None:
+    from .identify import available_methods, is_available
+
     if not is_available(method):
         raise CLIError(
             f"unknown or unavailable method {method!r}; available: {available_methods()}"
@@ -262,6 +288,10 @@ def _progress(choice: str, records: list[Record]) -> bool:
 
 
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
+    from .checks import check_names
+    from .identify import identify
+    from .model_io import save_model
+
     inputs = _split_columns(args.inputs)
     outputs = _split_columns(args.outputs)
     if not outputs:
@@ -344,6 +374,9 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
     """Fit and residual tests of a saved model on other records (:mod:`hdpbsid.assessment`)."""
+    from .model import TimeScaleWarning
+    from .model_io import load_model
+
     model = load_model(args.model)
     saved = _saved_columns(model, args.model)
     inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
@@ -424,6 +457,9 @@ def _validate_record(
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
     from . import studies
+    from .metrics import match_eigenvalues
+    from .model import StateSpaceModel
+    from .model_io import save_model
     from .studies.data import quadrotor_record
     from .studies.runner import task_rng
 

@@ -18,9 +18,6 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from . import frequency, inputs
-from .io import read_record
-
 COMMANDS = ("frf", "input")
 
 
@@ -101,6 +98,9 @@ def run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
+    from . import frequency  # here: the parsers (--help) need none of the library
+    from .io import read_record
+
     time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
     rec = read_record(
         args.file,
@@ -170,6 +170,8 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_input(args: argparse.Namespace, out: TextIO) -> int:
+    from . import inputs
+
     kind, dt = args.kind, args.dt
     band = tuple(args.band) if args.band is not None else None
     if kind == "prbs":
