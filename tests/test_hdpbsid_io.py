@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
 import json
-import sys
 from pathlib import Path
 
 import h5py
@@ -20,7 +20,8 @@ from hdpbsid.cli import main
 from hdpbsid.io import read_columns, read_record
 from hdpbsid.model import StateSpaceModel
 
-REG = sys.modules["hdpbsid.identify"]
+# the module: the attribute hdpbsid.identify is the function
+REG = importlib.import_module("hdpbsid.identify")
 DATA = Path(__file__).resolve().parent.parent / "bench" / "data"
 
 RNG = np.random.default_rng(7)
