@@ -1,4 +1,4 @@
-# ruff: noqa: E402  (BLAS thread settings must precede the numpy import)
+# ruff: noqa: E402  (bench/ goes on sys.path before its modules are imported)
 """Head-to-head benchmark of hdpbsid against the Python tools users would pick instead.
 
 Run: ``.venv/bin/python bench/peers.py [--runs 10] [--cases ...] [--snr 40 20 10]
@@ -32,8 +32,9 @@ over those same seeds is reported -- tuned with knowledge of the true eigenvalue
 best a user could possibly get, which makes the comparison conservative for us.  Our
 methods run with their defaults.  ERA (impulse response by ``control.markov`` least
 squares, then ``control.eigensys_realization``) applies only to open-loop, uniformly
-sampled cases; the discrete-time tools only to uniform sampling.  BLAS runs on one
-thread for every method (the machine's cores are shared).
+sampled cases; the discrete-time tools only to uniform sampling.  Every method runs in
+the default environment, as a user runs it: no thread variable is set (hdpbsid sets its
+own thread counts, :mod:`hdpbsid.runtime`; the peers use the BLAS threads they find).
 
 A separate table times the identification call on ``10^4`` samples (second-order and
 quadrotor cases at SNR 20 dB): HD-PBSID and ``dt`` vs SIPPY N4SID.

@@ -1,4 +1,4 @@
-# ruff: noqa: E402  (BLAS thread settings must precede the numpy import)
+# ruff: noqa: E402  (bench/ goes on sys.path before its modules are imported)
 """Every hdpbsid method and the Python peers on measured and measured-like records.
 
 Run: ``.venv/bin/python bench/realdata.py [--records NAME ...] [--out DIR] [--results]``
@@ -35,8 +35,10 @@ Peers (the adapters of ``bench/peers.py``): SIPPY N4SID, MOESP, CVA and PARSIM-K
 nfoursid, each (a) at its default horizon (SIPPY ``f = p = 20``, nfoursid 2 block rows)
 with the order tuned on validation over ``1..8``, and (b) with horizon and order both
 tuned on validation (horizons of the ``bench/peers.py`` grids; a horizon needs more block
-rows than the order).  Time: wall time of the identification call alone.  BLAS runs on
-one thread; every method is called once before the timed runs (imports, caches).  Not a
+rows than the order).  Time: wall time of the identification call alone, in the default
+environment (no thread variable set; hdpbsid sets its own thread counts,
+:mod:`hdpbsid.runtime`); every method is called once before the timed runs (imports,
+caches).  Not a
 test: nothing is asserted.
 """
 

@@ -68,21 +68,9 @@ BENCH = Path(__file__).resolve().parent
 REPO = BENCH.parent
 sys.path.insert(0, str(BENCH))
 
-from cases import CASES, SNR_INDEPENDENT, make_case  # noqa: E402
-
-# peers and realdata set the BLAS thread variables on import (for their own runs); this
-# script limits threads per task with threadpoolctl instead and leaves the environment
-# (inherited by the workers) as it was
-_BLAS_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-_saved_env = {k: os.environ.get(k) for k in _BLAS_VARS}
 import peers  # noqa: E402
 import realdata  # noqa: E402
-
-for _k, _v in _saved_env.items():
-    if _v is None:
-        os.environ.pop(_k, None)
-    else:
-        os.environ[_k] = _v
+from cases import CASES, SNR_INDEPENDENT, make_case  # noqa: E402
 
 import hdpbsid  # noqa: E402
 from hdpbsid.models.metrics import eigenvalue_errors  # noqa: E402

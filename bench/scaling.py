@@ -2,9 +2,9 @@
 
 Run: ``.venv/bin/python bench/scaling.py [--quick] [--target-only] [--out FILE]`` (the
 ``bench`` extra for SIPPY, ``cluster`` for Dask, ``io`` for h5py).  One run, one table;
-every point runs in a fresh subprocess (one BLAS thread, address space capped at
-``--mem-limit-gb``), so the timings of all methods are taken side by side under the
-same machine load (the load average is printed with the table).
+every point runs in a fresh subprocess (the default environment: no thread variable set;
+address space capped at ``--mem-limit-gb``), so the timings of all methods are taken side
+by side under the same machine load (the load average is printed with the table).
 
 Rows (``sweep`` column):
 
@@ -13,10 +13,11 @@ Rows (``sweep`` column):
   random binary input held 5 samples, 20 dB, order 2: HD-PBSID with every default
   (``identify(..., method="hermite", order=2)``) against SIPPY N4SID (``f = p = 60``),
   alternating on ``--seeds`` seeds in one process (median wall and CPU times, their
-  ratios, median, RMS and worst eigenvalue errors).  Each runs as it runs by default
-  on this machine: N4SID on one BLAS thread (its fastest here; two are slower), HD-PBSID
-  with its projection on the numba threads (one per core); the wall-time ratio is the
-  target's, the CPU-time ratio (and ``NUMBA_NUM_THREADS=1``) tells what the cores add;
+  ratios, median, RMS and worst eigenvalue errors).  Each runs as a user runs it: N4SID
+  on the BLAS threads of the environment, HD-PBSID with the thread counts it sets itself
+  (:mod:`hdpbsid.runtime`: one BLAS thread for its small-matrix work, its projection on
+  the numba threads); the wall-time ratio is the target's, the CPU-time ratio tells what
+  the cores add;
   ``resonance70``: a lightly damped 70 Hz resonance sampled at 610 Hz, 86 000 samples,
   multisine to 200 Hz, 20 dB (:func:`segments.resonance70_record`);
   ``projection``: 10^6 uniform samples onto 2000 Hermite functions
@@ -430,9 +431,8 @@ def main() -> None:
     ).stdout.strip()
     print(f"# code {head or 'unknown'}", flush=True)  # the log's, not the table's
     lines = [
-        f"One BLAS thread per process; load average at start "
-        f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs).",
-        "",
+        f"# code {head or 'unknown'}; default environment; load average at start "
+        f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)",
         "| sweep | case | method | samples | input band (Hz) | wall time | CPU time "
         "| peak extra memory of the call | peak RSS | worst eigenvalue error | notes |",
         "|---|---|---|---|---|---|---|---|---|---|---|",

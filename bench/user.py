@@ -1,16 +1,20 @@
 """What a user gets: the calls of a session timed in the default environment and with
 one thread, side by side.
 
-Run: ``python bench/user.py [--reps 5] [--rows NAME ...] [--list]``
+Run: ``python bench/user.py [--reps 5] [--rows NAME ...] [--list] [--md FILE]``
 
-One table.  Every row runs its work twice, each time in a fresh subprocess: in the
-**default environment** (what a user has: no thread variables set) and with **one
+One table, printed and written as markdown to ``--md`` (default
+``bench/results/user.md``, which the docs include) with the command that reproduces it
+and the load average in its header.  Every row runs its work in fresh subprocesses: in
+the **default environment** (what a user has: no thread variables set) and with **one
 thread** (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS`` and
-``NUMBA_NUM_THREADS`` set to 1), and prints the median wall and CPU time of ``--reps``
-repetitions and the ratio default / one thread.  CPU time is the process's (all its
-threads), which a machine shared with other work disturbs less than wall time.  The load
-average at the start and the end is printed under the table: on a loaded machine compare
-the ratios, not the absolute times.
+``NUMBA_NUM_THREADS`` set to 1), one process per repetition and column, the columns
+alternating (default, one thread, one thread, default, ...: a load that drifts during
+the row shifts both columns alike), and prints the median wall and CPU time of
+``--reps`` repetitions and the ratio default / one thread of the medians.  CPU time is
+the process's (all its threads), which a machine shared with other work disturbs less
+than wall time.  The load average at the start and the end is in the table's header
+and under it: on a loaded machine compare the ratios, not the absolute times.
 
 Rows (``--list``):
 
@@ -19,20 +23,22 @@ Rows (``--list``):
   the second-order system with a smooth random input, 60 s at 100 Hz), with numba and
   with ``NUMBA_DISABLE_JIT=1`` (which the library treats as "no numba": numpy kernels);
   each repetition on a record of another seed, after one call on a further seed (imports,
-  kernel cache, first-use setup), so that no result is reused between repetitions;
+  kernel cache, first-use setup) in the same process, so that no result is reused
+  between repetitions;
 * the first call with an empty kernel cache: ``import hdpbsid`` and one
   ``identify(..., order=3, method="hermite")`` in a fresh process whose
   ``NUMBA_CACHE_DIR`` is a new empty directory (the background compilation it starts is
   stopped when the time is taken);
 * ``import hdpbsid`` and ``hdpbsid --help``: the whole process (interpreter start
-  included), with ``import numpy, scipy.linalg`` as the floor the imports cannot go
-  below.
+  included), with ``import numpy`` (which ``--help`` needs) and ``import numpy,
+  scipy.linalg`` (which the first ``identify`` needs) for comparison.
 
 * ``sippy``: SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` (the order
   is what N4SID is told; every other argument at its default) alternating on ``--reps``
   seeds of the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions),
-  one worker process per column; the worst eigenvalue error (median over the seeds) in
-  the label and the ratio hdpbsid / N4SID of the default column on a line of its own.
+  one worker process per seed and column; the worst eigenvalue error (median over the
+  seeds) in the label and the ratio hdpbsid / N4SID of the default column on a line of
+  its own.
   Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
 * ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
   samples of the lightly damped record of ``bench/long_records.py`` (its functions:
@@ -101,14 +107,14 @@ def _record(case: str, seed: int):
         return f["t"], f["u"], f["y"]
 
 
-def _time_calls(case: str, options: dict, reps: int) -> dict:
-    """Median wall and CPU time of ``identify`` on ``reps`` records of distinct seeds."""
+def _time_calls(case: str, options: dict, reps: int, first: int = 0) -> dict:
+    """Wall and CPU times of ``identify`` on the records of seeds ``first ... first + reps - 1``."""
     import hdpbsid
 
     t, u, y = _record(case, 1000)
     hdpbsid.identify(t, u, y, **options)  # first use: imports, kernel cache, bases
     walls, cpus = [], []
-    for seed in range(reps):
+    for seed in range(first, first + reps):
         t, u, y = _record(case, seed)
         w0, c0 = time.perf_counter(), time.process_time()
         hdpbsid.identify(t, u, y, **options)
@@ -117,7 +123,7 @@ def _time_calls(case: str, options: dict, reps: int) -> dict:
     return {"wall": walls, "cpu": cpus, "samples": int(len(t))}
 
 
-def _first_call(reps: int) -> dict:
+def _first_call(reps: int, first: int = 0) -> dict:
     """``import hdpbsid`` and a first ``identify`` in this fresh process (the caller set
     an empty ``NUMBA_CACHE_DIR``); one measurement (``reps`` is for the caller)."""
     t, u, y = _record("quadrotor", 0)
@@ -141,10 +147,11 @@ SIPPY_SAMPLES = 10**4
 HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
 
 
-def _sippy_binary(reps: int) -> dict:
-    """SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` alternating on
-    ``reps`` seeds of :func:`scaling.binary_record` in this process (after one untimed
-    call each): wall, CPU time and worst relative eigenvalue error of each call."""
+def _sippy_binary(reps: int, first: int = 0) -> dict:
+    """SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` alternating on the
+    seeds ``first ... first + reps - 1`` of :func:`scaling.binary_record` in this process
+    (after one untimed call each on a short record: imports, kernels): wall, CPU time and
+    worst relative eigenvalue error of each call."""
     try:
         import sippy_unipi  # noqa: F401
     except ImportError as exc:
@@ -157,8 +164,8 @@ def _sippy_binary(reps: int) -> dict:
     specs = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
     out = {k: {"wall": [], "cpu": [], "err": []} for k in specs}
     for spec in specs.values():
-        _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels
-    for seed in range(reps):
+        _fit(spec, binary_record(SIPPY_SAMPLES // 5, 99)[0])  # imports, kernels
+    for seed in range(first, first + reps):
         data, true = binary_record(SIPPY_SAMPLES, seed)
         for key, spec in specs.items():
             clear_caches()  # each method projects the record itself
@@ -194,10 +201,12 @@ def _cli_csv(csv: str, out: str, timeout: float) -> dict:
     return got
 
 
-WORKERS: dict[str, Callable[[int], dict]] = {
-    "hermite-quadrotor": lambda r: _time_calls("quadrotor", {"order": 3, "method": "hermite"}, r),
-    "auto-quadrotor": lambda r: _time_calls("quadrotor", {}, r),
-    "auto-second-order": lambda r: _time_calls("second-order", {}, r),
+WORKERS: dict[str, Callable[[int, int], dict]] = {
+    "hermite-quadrotor": lambda r, f: _time_calls(
+        "quadrotor", {"order": 3, "method": "hermite"}, r, f
+    ),
+    "auto-quadrotor": lambda r, f: _time_calls("quadrotor", {}, r, f),
+    "auto-second-order": lambda r, f: _time_calls("second-order", {}, r, f),
     "first-call": _first_call,
     "sippy-binary": _sippy_binary,
 }
@@ -246,8 +255,9 @@ ROWS = [
     ),
     Row("import", "process: import hdpbsid", command=("-c", "import hdpbsid")),
     Row("help", "process: hdpbsid --help", command=("-m", "hdpbsid", "--help")),
+    Row("numpy", "process: import numpy", command=("-c", "import numpy")),
     Row(
-        "floor", "process: import numpy, scipy.linalg", command=("-c", "import numpy, scipy.linalg")
+        "scipy", "process: import numpy, scipy.linalg", command=("-c", "import numpy, scipy.linalg")
     ),
 ]
 
@@ -266,7 +276,9 @@ def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
     both in one worker process per column, alternating on ``reps`` seeds.  Lines: each
     method's times (labels: median worst eigenvalue error in the default column), then
     the ratio hdpbsid / N4SID of the default column's medians."""
-    got = {one: _spawn("sippy-binary", reps, _environment(one, None)) for one in (False, True)}
+    got = _alternate(
+        reps, lambda one, i: _spawn("sippy-binary", 1, _environment(one, None), first=i)
+    )
     if "status" in got[False]:
         return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
     lines: list[Line] = []
@@ -281,10 +293,13 @@ def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
         k: _median(got[False]["hdpbsid"][k]) / _median(got[False]["n4sid"][k])
         for k in ("wall", "cpu")
     }
+    pairs = list(zip(got[False]["hdpbsid"]["err"], got[False]["n4sid"]["err"], strict=True))
+    smaller = sum(h <= n for h, n in pairs)
     lines.append(
         (
             f"hdpbsid / N4SID, default environment: wall {ratio['wall']:.2f}x,"
-            f" CPU {ratio['cpu']:.2f}x",
+            f" CPU {ratio['cpu']:.2f}x; hdpbsid's worst eig. error no larger than N4SID's"
+            f" on {smaller} of {len(pairs)} seeds",
             None,
             None,
         )
@@ -394,11 +409,18 @@ def _cpu_of_children() -> float:
     return usage.children_user + usage.children_system
 
 
-def _spawn(worker: str, reps: int, env: dict[str, str], extra: list[str] | None = None) -> dict:
-    """Run ``worker`` in a fresh subprocess with ``env``; its JSON result (``{"status":
-    ...}`` when it failed)."""
+def _spawn(
+    worker: str,
+    reps: int,
+    env: dict[str, str],
+    extra: list[str] | None = None,
+    first: int = 0,
+) -> dict:
+    """Run ``worker`` on the seeds ``first ... first + reps - 1`` in a fresh subprocess
+    with ``env``; its JSON result (``{"status": ...}`` when it failed)."""
+    me = str(Path(__file__).resolve())
     out = subprocess.run(
-        [sys.executable, str(Path(__file__).resolve()), "--worker", worker, "--reps", str(reps)]
+        [sys.executable, me, "--worker", worker, "--reps", str(reps), "--first", str(first)]
         + (extra or []),
         env=env,
         capture_output=True,
@@ -410,44 +432,52 @@ def _spawn(worker: str, reps: int, env: dict[str, str], extra: list[str] | None 
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def _run_worker(row: Row, reps: int, one_thread: bool) -> dict:
-    walls: list[float] = []
-    cpus: list[float] = []
-    for _ in range(reps if row.fresh_cache else 1):
-        env = _environment(one_thread, row.env)
-        with tempfile.TemporaryDirectory() as cache:
-            if row.fresh_cache:
-                env["NUMBA_CACHE_DIR"] = cache
-            out = subprocess.run(
-                [
-                    sys.executable,
-                    str(Path(__file__).resolve()),
-                    "--worker",
-                    row.worker,
-                    "--reps",
-                    str(reps),
-                ],
-                env=env,
-                capture_output=True,
-                text=True,
-                check=True,
-            )
-        got = json.loads(out.stdout.strip().splitlines()[-1])
-        walls += got["wall"]
-        cpus += got["cpu"]
-    return {"wall": walls, "cpu": cpus}
+def _merge(parts: list[dict]) -> dict:
+    """The results of several processes as one: lists concatenated, a failure kept."""
+    failed = [p for p in parts if "status" in p]
+    if failed:
+        return failed[0]
+    out: dict = {}
+    for part in parts:
+        for key, value in part.items():
+            if isinstance(value, dict):
+                out[key] = _merge([out.get(key, {}), value]) if key in out else value
+            elif isinstance(value, list):
+                out[key] = out.get(key, []) + value
+            else:
+                out[key] = value
+    return out
 
 
-def _run_command(row: Row, reps: int, one_thread: bool) -> dict:
-    walls, cpus = [], []
+def _alternate(reps: int, run: Callable[[bool, int], dict]) -> dict[bool, dict]:
+    """``run(one_thread, i)`` for ``i < reps`` in both columns, the columns alternating
+    in the order default, one thread, one thread, default, ... (a load that drifts during
+    the table shifts both columns alike); the merged results per column."""
+    parts: dict[bool, list[dict]] = {False: [], True: []}
+    for i in range(reps):
+        for one in (False, True) if i % 2 == 0 else (True, False):
+            parts[one].append(run(one, i))
+    return {one: _merge(p) for one, p in parts.items()}
+
+
+def _worker_once(row: Row, one_thread: bool, i: int) -> dict:
+    """One process of ``row``'s worker on seed ``i`` (a new empty kernel cache when the row
+    asks for it)."""
     env = _environment(one_thread, row.env)
-    for _ in range(reps):
-        c0 = _cpu_of_children()
-        w0 = time.perf_counter()
-        subprocess.run([sys.executable, *row.command], env=env, capture_output=True, check=True)
-        walls.append(time.perf_counter() - w0)
-        cpus.append(_cpu_of_children() - c0)
-    return {"wall": walls, "cpu": cpus}
+    with tempfile.TemporaryDirectory() as cache:
+        if row.fresh_cache:
+            env["NUMBA_CACHE_DIR"] = cache
+        got = _spawn(row.worker, 1, env, first=i)
+    return {k: got[k] for k in ("wall", "cpu")} if "status" not in got else got
+
+
+def _command_once(row: Row, one_thread: bool, i: int) -> dict:
+    """The whole process of ``row``'s command: wall time and the children's CPU time."""
+    c0 = _cpu_of_children()
+    w0 = time.perf_counter()
+    env = _environment(one_thread, row.env)
+    subprocess.run([sys.executable, *row.command], env=env, capture_output=True, check=True)
+    return {"wall": [time.perf_counter() - w0], "cpu": [_cpu_of_children() - c0]}
 
 
 def _median(x: list[float]) -> float:
@@ -483,7 +513,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--timeout", type=float, default=900, help="seconds per long-record call (long-*)"
     )
+    ap.add_argument(
+        "--md",
+        default=str(HERE / "results" / "user.md"),
+        help="markdown file of the table (default bench/results/user.md; '' for none)",
+    )
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--first", type=int, default=0, help=argparse.SUPPRESS)
     ap.add_argument("--csv", help=argparse.SUPPRESS)
     ap.add_argument("--out", help=argparse.SUPPRESS)
     ap.add_argument("--make-records", action="store_true", help=argparse.SUPPRESS)
@@ -497,7 +533,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(_cli_csv(args.csv, args.out, args.timeout)))
         return 0
     if args.worker:
-        print(json.dumps(WORKERS[args.worker](args.reps)))
+        print(json.dumps(WORKERS[args.worker](args.reps, args.first)))
         return 0
     names = [r.name for r in ROWS] + list(HOOKS)
     if args.list:
@@ -512,39 +548,54 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown rows {unknown}; known: {names}")
     data = tempfile.TemporaryDirectory(prefix="bench-user-")
     _DATA["dir"] = data.name
-    _prepare_kernels()
-    subprocess.run(
-        [sys.executable, str(Path(__file__).resolve()), "--make-records", "--reps", str(args.reps)],
-        env=_environment(False, None),
-        check=True,
-    )
+    if any(r.worker for r in ROWS if r.name in chosen) or set(chosen) & set(HOOKS):
+        _prepare_kernels()
+        subprocess.run(
+            [sys.executable, str(HERE / "user.py"), "--make-records", "--reps", str(args.reps)],
+            env=_environment(False, None),
+            check=True,
+        )
     commit = subprocess.run(
         ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
     ).stdout.strip()
     load0 = os.getloadavg()
-    print(f"bench/user.py at {commit}, {os.cpu_count()} cores, median of {args.reps}")
-    print()
-    print(
-        "| row | default wall s | 1 thread wall s | ratio | default CPU s | 1 thread CPU s | ratio"
-        " |"
-    )
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    command = " ".join(["python bench/user.py", *(argv if argv is not None else sys.argv[1:])])
+    lines = [
+        f"`{command}` at {commit}: {os.cpu_count()} cores, load average (1, 5, 15 min)"
+        f" {_loads(load0)} at the start; median of {args.reps}, the columns alternating"
+        " process by process",
+        "",
+        "| row | default wall s | 1 thread wall s | ratio | default CPU s | 1 thread CPU s"
+        " | ratio |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    print("\n".join(lines), flush=True)
+
+    def add(label: str, default: dict | None, one: dict | None) -> None:
+        lines.append(f"| {label} {_cells(default, one)}")
+        print(lines[-1], flush=True)
+
     for row in ROWS:
-        if row.name not in chosen:
-            continue
-        run = _run_worker if row.worker else _run_command
-        default = run(row, args.reps, False)
-        one = run(row, args.reps, True)
-        print(f"| {row.label} {_cells(default, one)}", flush=True)
+        if row.name in chosen:
+            run = _worker_once if row.worker else _command_once
+            got = _alternate(args.reps, lambda one, i, row=row, run=run: run(row, one, i))
+            add(row.label, got[False], got[True])
     for key, (_, hook) in HOOKS.items():
         if key in chosen:
             for label, default, one in hook(args.reps, args):
-                print(f"| {label} {_cells(default, one)}", flush=True)
+                add(label, default, one)
     data.cleanup()
-    load1 = os.getloadavg()
-    print()
-    print(f"load average (1 min) {load0[0]:.1f} at the start, {load1[0]:.1f} at the end")
+    lines += ["", f"load average (1, 5, 15 min) {_loads(os.getloadavg())} at the end"]
+    print(lines[-1])
+    if args.md:
+        Path(args.md).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.md).write_text("\n".join(lines) + "\n")
+        print(f"wrote {args.md}")
     return 0
+
+
+def _loads(load: tuple[float, float, float]) -> str:
+    return ", ".join(f"{x:.1f}" for x in load)
 
 
 if __name__ == "__main__":

@@ -43,18 +43,16 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
 from hdpbsid import frequency_cli
-from hdpbsid.data.checks import check_label, check_names
-from hdpbsid.data.io import Record, read_columns, read_record
-from hdpbsid.identify import identify
-from hdpbsid.methods.registry import available_methods, is_available
-from hdpbsid.models.metrics import match_eigenvalues
-from hdpbsid.models.model import StateSpaceModel, TimeScaleWarning
-from hdpbsid.models.model_io import load_model, model_from_dict, model_to_dict, save_model
+
+if TYPE_CHECKING:  # the library's modules load when a command runs, not for --help
+    from hdpbsid.data.io import Record
+    from hdpbsid.models.model import StateSpaceModel
+    from hdpbsid.models.model_io import model_from_dict, model_to_dict  # noqa: F401 (re-exported)
 
 __all__ = [
     "main",
@@ -67,6 +65,17 @@ __all__ = [
     "read_model_json",
     "CLIError",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """``model_to_dict`` and ``model_from_dict`` (:mod:`hdpbsid.models.model_io`), kept here for
+    callers of the earlier CLI helpers, imported on access."""
+    if name in ("model_to_dict", "model_from_dict"):
+        from hdpbsid.models import model_io
+
+        return getattr(model_io, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -99,11 +108,15 @@ class _HelpExit(Exception):
 # -- JSON (hdpbsid.models.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
     """:func:`hdpbsid.models.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    from hdpbsid.models.model_io import save_model
+
     return save_model(model, path)
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
     """:func:`hdpbsid.load_model` (kept for callers of the earlier CLI helper)."""
+    from hdpbsid.models.model_io import load_model
+
     return load_model(path)
 
 
@@ -120,6 +133,8 @@ def read_csv_columns(
 ) -> dict[str, np.ndarray]:
     """The named columns of a data file (:func:`hdpbsid.data.io.read_columns`; kept here for
     callers of the earlier CSV-only reader)."""
+    from hdpbsid.data.io import read_columns
+
     return read_columns(path, columns, delimiter)
 
 
@@ -127,6 +142,8 @@ def _read_records(
     args: argparse.Namespace, files: list[str], columns: dict[str, Any]
 ) -> list[Record]:
     """Every file of ``files`` as a :class:`~hdpbsid.data.io.Record` with the chosen columns."""
+    from hdpbsid.data.io import read_record
+
     time = columns["time"]
     if args.dt is None and args.fs is None and time is None:
         time = "t"
@@ -184,6 +201,8 @@ def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
 
 
 def _time_unit(unit: str) -> str:
+    from hdpbsid.data.checks import check_label
+
     try:
         return check_label(unit, "--time-unit")
     except (TypeError, ValueError) as exc:
@@ -193,6 +212,8 @@ def _time_unit(unit: str) -> str:
 def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> None:
     """The record-against-model time scale check of :meth:`StateSpaceModel.check_record`,
     printed once per record (the evaluations that follow would repeat it)."""
+    from hdpbsid.models.model import TimeScaleWarning
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TimeScaleWarning)
         model.check_record(rec.t, unit, name=rec.time or "t")
@@ -203,6 +224,8 @@ def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> N
 # -- commands -----------------------------------------------------------------------------
 def best_method() -> str:
     """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
+    from hdpbsid.methods.registry import is_available
+
     return "hermite" if is_available("hermite") else "dt"
 
 
@@ -247,6 +270,8 @@ def _print_fit(
 
 
 def _check_method(method: str) -> None:
+    from hdpbsid.methods.registry import available_methods, is_available
+
     if not is_available(method):
         raise CLIError(
             f"unknown or unavailable method {method!r}; available: {available_methods()}"
@@ -265,6 +290,10 @@ def _progress(choice: str, records: list[Record]) -> bool:
 
 
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
+    from hdpbsid.data.checks import check_names
+    from hdpbsid.identify import identify
+    from hdpbsid.models.model_io import save_model
+
     inputs = _split_columns(args.inputs)
     outputs = _split_columns(args.outputs)
     if not outputs:
@@ -348,6 +377,9 @@ def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
 def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
     """Fit and residual tests of a saved model on other records
     (:mod:`hdpbsid.models.assessment`)."""
+    from hdpbsid.models.model import TimeScaleWarning
+    from hdpbsid.models.model_io import load_model
+
     model = load_model(args.model)
     saved = _saved_columns(model, args.model)
     inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
@@ -428,6 +460,9 @@ def _validate_record(
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
     from hdpbsid import studies
+    from hdpbsid.models.metrics import match_eigenvalues
+    from hdpbsid.models.model import StateSpaceModel
+    from hdpbsid.models.model_io import save_model
     from hdpbsid.studies.data import quadrotor_record
     from hdpbsid.studies.runner import task_rng
 

@@ -21,10 +21,6 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hdpbsid.data.io import read_record
-from hdpbsid.design import inputs
-from hdpbsid.frequency import fit as frequency
-
 COMMANDS = ("frf", "input")
 
 
@@ -111,6 +107,11 @@ def run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
+    from hdpbsid.data.io import read_record
+    from hdpbsid.frequency import (
+        fit as frequency,  # here: the parsers (--help) need none of the library
+    )
+
     time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
     rec = read_record(
         args.file,
@@ -186,6 +187,8 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_input(args: argparse.Namespace, out: TextIO) -> int:
+    from hdpbsid.design import inputs
+
     kind, dt = args.kind, args.dt
     band = tuple(args.band) if args.band is not None else None
     if kind == "prbs":

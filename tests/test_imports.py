@@ -53,3 +53,51 @@ def test_derivation_still_imports_sympy_on_demand():
     assert _loaded_after(code) == ["sympy"]
     code = "import slbasis\nassert slbasis.SturmLiouville.__name__ == 'SturmLiouville'"
     assert _loaded_after(code) == ["sympy"]
+
+
+def _run(code: str) -> str:
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    )
+    return out.stdout.strip().splitlines()[-1]
+
+
+def test_package_import_and_help_load_no_scipy_and_no_method():
+    """``import hdpbsid`` and ``hdpbsid --help`` load neither scipy nor a module of the
+    library's computations (the names are imported on first use)."""
+    probe = (
+        "import json, sys\n{code}\n"
+        "print(json.dumps(sorted(m for m in sys.modules if m == 'scipy' or "
+        "m.startswith(('scipy.', 'hdpbsid.identify', 'hdpbsid.methods', 'hdpbsid.models.model')))))"
+    )
+    assert json.loads(_run(probe.format(code="import hdpbsid"))) == []
+    help_code = (
+        "import contextlib, io\nfrom hdpbsid.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n    main(['--help'])"
+    )
+    assert json.loads(_run(probe.format(code=help_code))) == []
+
+
+def test_every_public_name_resolves_and_identify_stays_the_function():
+    """Each name of ``__all__`` (and the lazy basis methods) is the object of its defining
+    module; importing the submodule ``hdpbsid.identify`` from elsewhere first does not
+    replace the function ``hdpbsid.identify``."""
+    code = (
+        "import importlib, json, hdpbsid\n"
+        "import hdpbsid.cli  # no library module yet\n"
+        "from hdpbsid.identify import identify  # the submodule, loaded by another path\n"
+        "bad = [n for n, m in hdpbsid._EXPORTS.items()\n"
+        "       if getattr(hdpbsid, n) is not getattr(importlib.import_module(m, 'hdpbsid'), n)]\n"
+        "missing = sorted(set(hdpbsid.__all__) - set(hdpbsid._EXPORTS))\n"
+        "print(json.dumps([bad, missing, callable(hdpbsid.identify),\n"
+        "    hdpbsid.identify.__module__, hdpbsid.methods.__name__,\n"
+        "    'identify_hermite' in dir(hdpbsid)]))"
+    )
+    assert json.loads(_run(code)) == [
+        [],
+        [],
+        True,
+        "hdpbsid.identify",
+        "hdpbsid.methods",
+        True,
+    ]

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import re
-import sys
 from pathlib import Path
 
 import h5py
@@ -12,13 +12,16 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.io import savemat
 
 from hdpbsid.cli import main
+from hdpbsid.data import io as io_module
 from hdpbsid.data.io import read_columns, read_record
 from hdpbsid.models.model import StateSpaceModel
 
-REG = sys.modules["hdpbsid.methods.registry"]
+REG = importlib.import_module("hdpbsid.methods.registry")
 DATA = Path(__file__).resolve().parents[3] / "bench" / "data"
 
 RNG = np.random.default_rng(7)
@@ -181,3 +184,94 @@ def test_several_data_files_use_the_list_form(tmp_path: Path, monkeypatch, capsy
     w = (50 * U.mean() + 40 * (U[:40].mean() + 3.0)) / 90
     np.testing.assert_allclose(d["u0"], [w], rtol=1e-12)  # sample-weighted mean level
     assert d["options"]["source"] == [str(a), str(b)]
+
+
+# -- the two CSV readers: numpy's C reader on plain text, the checked reader otherwise ----
+# within 1e300: rounded to 4 digits ('{:.3e}') the largest doubles would overflow to inf,
+# which the fast reader rightly leaves to the checked one
+_PLAIN_FLOATS = st.floats(min_value=-1e300, max_value=1e300, width=64)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    values=st.lists(st.tuples(_PLAIN_FLOATS, _PLAIN_FLOATS), min_size=1, max_size=30),
+    delimiter=st.sampled_from([",", ";", "\t", " "]),
+    line_end=st.sampled_from(["\n", "\r\n"]),
+    fmt=st.sampled_from(["{!r}", "{:.9g}", "{:.3e}", "{:f}"]),
+    text_column=st.booleans(),
+    blank_every=st.integers(0, 4),
+)
+def test_fast_csv_reader_agrees_with_the_checked_one(
+    values, delimiter, line_end, fmt, text_column, blank_every
+) -> None:
+    """On plain text numpy's reader takes the file and returns what the field-by-field
+    reader (Python's ``float`` on every cell, an independent parser) returns, bit for
+    bit: both round the decimal text correctly.  A text column that is not selected and
+    blank lines keep the fast path."""
+    names = ["u", "label", "y"] if text_column else ["u", "y"]
+    lines = [delimiter.join(names)]
+    for k, (u, y) in enumerate(values):
+        cells = (
+            [fmt.format(u), "ok", fmt.format(y)] if text_column else [fmt.format(u), fmt.format(y)]
+        )
+        lines.append(delimiter.join(cells))
+        if blank_every and k % blank_every == 0:
+            lines.append("")
+    text = line_end.join(lines) + line_end
+    path = Path("plain.csv")
+    fast = io_module._read_csv_fast(path, text, ["u", "y"], None)
+    assert fast is not None  # the fast path is taken: otherwise this test compares nothing
+    checked = io_module._read_csv_checked(path, text, ["u", "y"], None)
+    for c in ("u", "y"):
+        np.testing.assert_array_equal(fast[c], checked[c])
+    np.testing.assert_array_equal(fast["u"], [float(fmt.format(u)) for u, _ in values])
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "0,1,2\n# a note\n1,2,3\n",  # a comment line after the header
+        '0,"1",2\n1,2,3\n',  # a quoted field
+        "0,1,2\n1,2\n",  # a short row
+        "0,1,2,9\n1,2,3\n",  # a long row (numpy would ignore the extra field)
+        "0,1,2\n   \n1,2,3\n",  # a line of spaces
+        "0,1,2\r1,2,3\r",  # old Mac line ends
+        "0,nan,2\n1,2,3\n",  # a non-finite value: the checked reader names it
+        "0,1_0,2\n1,2,3\n",  # digit separators
+    ],
+)
+def test_fast_csv_reader_leaves_other_text_to_the_checked_one(body: str) -> None:
+    assert io_module._read_csv_fast(Path("x.csv"), "t,u,y\n" + body, ["u", "y"], None) is None
+
+
+def test_long_csv_with_notes_before_the_header(tmp_path: Path) -> None:
+    """A header after more than the scanned head of comment lines still reads (checked
+    reader), and a long plain file after a few comment lines reads through numpy."""
+    n = 5000
+    t = np.arange(n) * 0.01
+    rows = "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), np.sin(t).tolist(), strict=True))
+    long_notes = "# note\n" * (io_module._HEAD_CHARS // 7 + 10)
+    for notes, fast in (("# exported\n\n", True), (long_notes, False)):
+        text = f"{notes}t,y\n{rows}"
+        got = io_module._read_csv_fast(tmp_path / "a.csv", text, ["t", "y"], None)
+        assert (got is not None) == fast
+        path = tmp_path / "a.csv"
+        path.write_text(text)
+        rec = read_record(path, [], ["y"], time="t")
+        np.testing.assert_array_equal(rec.t, t)  # repr round-trips exactly
+        np.testing.assert_array_equal(rec.y[:, 0], np.sin(t))
+
+
+def test_unknown_column_of_a_long_csv_is_named_before_the_rows_are_read(
+    tmp_path: Path, monkeypatch
+) -> None:
+    path = tmp_path / "big.csv"
+    path.write_text("t,u,y\n" + "0,1,2\n" * 1000)
+
+    def not_called(*args, **kwargs):
+        raise AssertionError("rows read before the header was checked")
+
+    monkeypatch.setattr(io_module, "_read_csv_checked", not_called)
+    monkeypatch.setattr(io_module.np, "loadtxt", not_called)
+    with pytest.raises(ValueError, match=r"unknown column\(s\) \['v'\]"):
+        read_columns(path, ["v"])
