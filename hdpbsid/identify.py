@@ -278,11 +278,13 @@ def identify(
     dead time, as before; a number (or one per input), a multiple of the sampling
     interval, is a known dead time; ``"auto"`` estimates it
     (:func:`hdpbsid.delay.estimate_delay`, the Welch frequency response searched on the
-    grid of whole samples; ``order`` when given is the order of the dynamics it is
-    estimated against, ``max_delay=`` bounds the search).  Each input is shifted by its
-    delay in whole samples and the first ``max(delay)`` samples of ``y`` are dropped (no
-    input is invented before the record), the method runs on the shifted record, and the
-    model gets ``model.delay``; ``options["delay"]`` says how
+    grid of whole samples with discrete-time models of the sampled record, the input
+    held between samples unless ``input_hold="foh"`` is passed; ``order`` when given is
+    the order of the dynamics it is estimated against, otherwise order and delay are
+    chosen together by Schwarz's criterion; ``max_delay=`` bounds the search).  Each
+    input is shifted by its delay in whole samples and the first ``max(delay)`` samples
+    of ``y`` are dropped (no input is invented before the record), the method runs on
+    the shifted record, and the model gets ``model.delay``; ``options["delay"]`` says how
     it was found.  ``None`` stays the default because a search on a record without a
     dead time can still return one sample (the estimate's resolution), which would
     change models that are right as they are.
@@ -429,11 +431,15 @@ def _identify_delayed(
             raise ValueError(
                 f"delay must be None, 'auto', a number or one per input, got {delay!r}"
             )
-        est = estimate_delay(tt, ua, yy, max_delay, order=order if isinstance(order, int) else None)
+        hold = "foh" if options.get("input_hold") == "foh" else "zoh"
+        est = estimate_delay(
+            tt, ua, yy, max_delay, order=order if isinstance(order, int) else None, hold=hold
+        )
         steps = est.samples
         info: dict[str, Any] = {
-            "rule": "auto: Welch FRF, refined fits profiled over whole samples "
+            "rule": "auto: Welch FRF, discrete-time fits profiled over whole samples "
             "(hdpbsid.delay.estimate_delay)",
+            "hold": hold,
             "estimate": est.delay.tolist(),
             "order": est.order.tolist(),
         }

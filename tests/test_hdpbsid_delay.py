@@ -10,7 +10,7 @@ import pytest
 from hdpbsid import StateSpaceModel, frequency, identify, load_model
 from hdpbsid.dead_time import PADE_PHASE_RANGE, check_delay, pade
 from hdpbsid.delay import delay_from_frf, estimate_delay
-from hdpbsid.uncertainty import COVARIANCE_KEY, response_band
+from hdpbsid.uncertainty import ParameterCovariance, response_band
 
 A2 = np.array([[0.0, 1.0], [-4.0, -0.8]])
 B2 = np.array([[0.0], [1.0]])
@@ -183,7 +183,8 @@ def test_band_of_a_known_covariance() -> None:
     |G| / b`` exactly (linear in ``b``) and the phase does not move."""
     F = np.zeros((4, 1))
     F[1, 0] = 0.1
-    m = StateSpaceModel([[-1.0]], [[2.0]], [[1.0]], [[0.0]], [[0.0]], options={COVARIANCE_KEY: F})
+    cov = ParameterCovariance(F, "given")
+    m = StateSpaceModel([[-1.0]], [[2.0]], [[1.0]], [[0.0]], [[0.0]], parameter_covariance=cov)
     w = np.array([0.1, 1.0, 10.0])
     b = response_band(m, w)
     np.testing.assert_allclose(b.magnitude_sd[0, 0], 0.1 / np.abs(1j * w + 1), rtol=1e-12)
