@@ -27,11 +27,13 @@ Phi)^{-1} (Phi - I)``, ``B' = (2 / h) (I + Phi)^{-1} Gamma`` (expand ``zI - Phi`
 ``H / (1 - j w' h / 2)`` is fitted at ``w'`` with the weights times ``|1 - j w' h / 2|``.
 A first-order hold (input linear between samples) makes ``G_d`` biproper of order ``n``:
 then ``H`` itself is fitted at ``w'`` with a direct term.  Noise-free, the cost at the
-true whole-sample delay is rounding and every other candidate needs more states; a
-fractional delay ``(d + f) h`` lies between candidates ``d`` and ``d + 1`` (the
-modified z-transform adds a numerator term), and the profile's minimum is the nearer
-one.  A response of a continuous-time system (``hold=None``, e.g. the lines of a
-band-limited periodic input) is fitted by continuous-time models as it is.
+true whole-sample delay is rounding and every other candidate needs more states.  A
+fractional delay ``(d + f) h`` is no whole-sample shift (the modified z-transform adds a
+numerator term): candidate ``d`` misses a term of order ``f h``, candidate ``d + 1`` a
+direct term, which is of order ``h^r`` for a system of relative degree ``r``, so the
+profile's minimum is one of the two neighbours, not always the nearer.  A response of
+a continuous-time system (``hold=None``, e.g. the lines of a band-limited periodic
+input) is fitted by continuous-time models as it is.
 
 **Order and delay.**  A rational model of higher order imitates a delay (in discrete
 time ``z^{-1}`` is one state at the origin), so the delay and the order are chosen
@@ -45,7 +47,7 @@ of delay (it lowers ``N log V`` by a chi-square amount of about its ``p`` degree
 freedom) is refused with a probability tending to one; Akaike's fixed ``2 p`` accepted it
 about one time in ten per comparison, and the profile makes dozens.  The parabola
 through the chosen candidate's criterion and its neighbours' places the delay to a
-fraction of ``step`` (an interpolation: within about half a step on exact data).
+fraction of ``step`` (an interpolation: within half a step on exact data, tests).
 
 The phase of one sample of delay at the highest coherent line, ``w_max h``, is what the
 data resolve: where the output is small against the noise above the system's bandwidth,
@@ -268,7 +270,7 @@ def estimate_delay(
     *,
     order: int | None = None,
     nperseg: int | None = None,
-    hold: str = "zoh",
+    hold: str | None = "zoh",
 ) -> DelayEstimate:
     """Dead time of each input of a uniformly sampled record: the Welch H1 frequency
     response (:func:`hdpbsid.frequency.frf_welch`, variance-weighted) searched by
@@ -286,7 +288,8 @@ def estimate_delay(
     nperseg : Welch segment length (default :func:`~hdpbsid.frequency.frf_welch`'s).
     hold : the input between samples, ``"zoh"`` (held, as a random binary or a digital
         controller's output, and as :func:`hdpbsid.identify`'s discrete-time method
-        assumes) or ``"foh"`` (linear); :func:`delay_from_frf`.
+        assumes), ``"foh"`` (linear) or ``None`` (band-limited, e.g. a multisine well
+        below the Nyquist frequency: the response is ``G(jw)``); :func:`delay_from_frf`.
 
     Returns
     -------

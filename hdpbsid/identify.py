@@ -279,7 +279,10 @@ def identify(
     interval, is a known dead time; ``"auto"`` estimates it
     (:func:`hdpbsid.delay.estimate_delay`, the Welch frequency response searched on the
     grid of whole samples with discrete-time models of the sampled record, the input
-    held between samples unless ``input_hold="foh"`` is passed; ``order`` when given is
+    held between samples unless ``delay_hold="foh"`` (or the method's ``input_hold``)
+    says it is linear between them, or ``delay_hold="bandlimited"`` that the input has no
+    power near the Nyquist frequency (a multisine: the response is then ``G(jw)``, fitted
+    by continuous-time models); ``order`` when given is
     the order of the dynamics it is estimated against, otherwise order and delay are
     chosen together by Schwarz's criterion; ``max_delay=`` bounds the search).  Each
     input is shifted by its delay in whole samples and the first ``max(delay)`` samples
@@ -431,10 +434,15 @@ def _identify_delayed(
             raise ValueError(
                 f"delay must be None, 'auto', a number or one per input, got {delay!r}"
             )
-        hold = "foh" if options.get("input_hold") == "foh" else "zoh"
+        hold = options.pop("delay_hold", None) or options.get("input_hold")
+        if hold not in ("zoh", "foh", "bandlimited"):
+            if hold not in (None, "auto"):
+                raise ValueError(f"delay_hold must be 'zoh', 'foh' or 'bandlimited', got {hold!r}")
+            hold = "zoh"
         est = estimate_delay(
-            tt, ua, yy, max_delay, order=order if isinstance(order, int) else None, hold=hold
-        )
+            tt, ua, yy, max_delay, order=order if isinstance(order, int) else None,
+            hold=None if hold == "bandlimited" else hold,
+        )  # fmt: skip
         steps = est.samples
         info: dict[str, Any] = {
             "rule": "auto: Welch FRF, discrete-time fits profiled over whole samples "

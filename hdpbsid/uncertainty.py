@@ -21,6 +21,15 @@ sampling cannot resolve; the band is then honest only for the hold the input rea
 (the refinement keeps its first hold, zero order, unless the data reject it,
 :data:`hdpbsid.methods.refine.HOLD_EVIDENCE`; pass ``input_hold`` when you know it).
 
+**Validity.**  The covariance is first-order asymptotic in the record's length.  Measured
+(tests and a seeded study: the second-order system at 2 rad/s, damping 0.2, 20 % white
+output noise, ``identify(method="dt", refine="pem")``, the 95 % band at the resonance):
+coverage 0.94-0.95 on 100-s records (dt 0.05 s and 0.2 s), but about 0.7 on 30-s records
+(twelve time constants of the mode), whose estimates scatter about twice the band's
+standard deviation.  A record shorter than a few tens of time constants of its slowest
+mode gets a band that is too narrow; the frequency-domain fit's band (exact lines with
+known noise) covered at its level in the tests.
+
 **Delta method** (:func:`response_band`).  ``G(s) = C (sI - A)^{-1} B + D`` is smooth in
 ``theta``; with ``Phi = C (sI - A)^{-1}`` and ``Psi = (sI - A)^{-1} B``,
 
