@@ -191,6 +191,11 @@ def test_band_of_a_known_covariance() -> None:
     np.testing.assert_allclose(b.phase_sd[0, 0], 0.0, atol=1e-15)
     with pytest.raises(ValueError, match="parameter_covariance"):
         response_band(_model(), w)
+    with pytest.raises(ValueError, match="parameter_covariance.factor must have 4 rows"):
+        StateSpaceModel([[-1.0]], [[2.0]], [[1.0]], [[0.0]], [[0.0]],
+                        parameter_covariance=ParameterCovariance(F[:3], "given"))  # fmt: skip
+    with pytest.raises(TypeError, match="parameter_covariance"):
+        StateSpaceModel([[-1.0]], [[2.0]], [[1.0]], [[0.0]], [[0.0]], parameter_covariance=F)
 
 
 def test_cli_frf_draws_a_saved_model(tmp_path) -> None:
