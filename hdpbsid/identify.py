@@ -439,6 +439,14 @@ def _identify_delayed(
             if hold not in (None, "auto"):
                 raise ValueError(f"delay_hold must be 'zoh', 'foh' or 'bandlimited', got {hold!r}")
             hold = "zoh"
+        if not isinstance(order, int):
+            warnings.warn(
+                "delay='auto' without an order: the delay and the order of the dynamics are "
+                "chosen together (Schwarz's criterion), and on short or noisy records an "
+                "extra mode can take the place of a sample of delay; pass order= when known",
+                UserWarning,
+                stacklevel=3,
+            )
         est = estimate_delay(
             tt, ua, yy, max_delay, order=order if isinstance(order, int) else None,
             hold=None if hold == "bandlimited" else hold,

@@ -152,6 +152,18 @@ def test_identify_with_given_and_auto_delay() -> None:
     assert abs(auto.delay[0] - 0.13) <= 0.01 * (1 + 1e-9)  # one sample, the resolution
     with pytest.raises(ValueError, match="multiple of the sampling interval"):
         identify(d.t, d.u, y, order=2, delay=0.125)
+    with pytest.raises(ValueError, match="delay_hold"):
+        identify(d.t, d.u, y, order=2, delay="auto", delay_hold="linear")
+
+
+def test_auto_delay_without_order_warns() -> None:
+    """Without the order the joint choice can trade a sample of delay for a mode: said."""
+    from hdpbsid import inputs
+
+    d = inputs.random_binary(3000, 0.01, rng=np.random.default_rng(8))
+    y = _model(0.05).simulate(d.t, d.u)
+    with pytest.warns(UserWarning, match="without an order"):
+        identify(d.t, d.u, y, method="dt", refine=None, delay="auto", max_delay=0.1)
 
 
 def test_band_covers_the_truth_at_its_level() -> None:
