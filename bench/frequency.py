@@ -21,7 +21,8 @@ Rows (median and worst over seeds where a seed matters):
 5. the second-order system with a dead time of 0.13 s at dt = 0.01 (random binary input,
    120 s, 20 dB): ``identify(..., order=2, method="dt", delay="auto")``, the delay error
    in samples and the largest relative eigenvalue error, beside ``identify`` on the same
-   record without the dead time (same input and noise).
+   record without the dead time (same input and noise); and ``estimate_delay`` on the
+   delayed records without the order (order and delay chosen together).
 
 SIPPY, ``freq-statespace`` and ``strid`` are not run (not installed in this environment);
 no peer estimates a continuous-time dead time, so row 5 has no peer column.
@@ -171,6 +172,7 @@ def time_data_rows(seeds: int) -> list[tuple[str, str, str]]:
 
 def delay_rows(seeds: int) -> list[tuple[str, str, str]]:
     from hdpbsid import identify
+    from hdpbsid.frequency.delay import estimate_delay
 
     A, B, C, D = second_order()
     ev = np.linalg.eigvals(A)
@@ -189,6 +191,15 @@ def delay_rows(seeds: int) -> list[tuple[str, str, str]]:
             out.append(100 * eigenvalue_errors(model.eigenvalues, ev).max())
             if delay:
                 derr.append(abs(model.delay[0] - tau) / dt)
+    joint = []
+    for s in range(seeds):  # the same records, the order not given
+        rng = np.random.default_rng(s)
+        d = inputs.random_binary(12_000, dt, rng=rng)
+        noise = rng.standard_normal((12_000, 1))
+        y0 = StateSpaceModel(A, B, C, D, np.zeros((2, 1)), delay=tau).simulate(d.t, d.u)
+        est = estimate_delay(d.t, d.u, y0 + noise * np.std(y0) / 10.0, 0.3)
+        joint.append((int(est.order[0]), abs(int(est.samples[0]) - round(tau / dt))))
+    jo = np.array(joint)
     return [
         (
             "2nd order, dead time 0.13 s, 20 dB",
@@ -200,6 +211,12 @@ def delay_rows(seeds: int) -> list[tuple[str, str, str]]:
             "eigenvalue error with / without delay",
             f"median {np.median(e_del):.3f} / {np.median(e_free):.3f} %, "
             f"worst {max(e_del):.3f} / {max(e_free):.3f} %",
+        ),
+        (
+            "",
+            "estimate_delay without the order",
+            f"order 2 in {int(np.sum(jo[:, 0] == 2))}/{seeds}; delay error median "
+            f"{np.median(jo[:, 1]):.2f}, worst {jo[:, 1].max()} samples",
         ),
     ]
 

@@ -177,11 +177,16 @@ def identify(
     dead time, as before; a number (or one per input), a multiple of the sampling
     interval, is a known dead time; ``"auto"`` estimates it
     (:func:`hdpbsid.frequency.delay.estimate_delay`, the Welch frequency response searched on the
-    grid of whole samples; ``order`` when given is the order of the dynamics it is
-    estimated against, ``max_delay=`` bounds the search).  Each input is shifted by its
-    delay in whole samples and the first ``max(delay)`` samples of ``y`` are dropped (no
-    input is invented before the record), the method runs on the shifted record, and the
-    model gets ``model.delay``; ``options["delay"]`` says how
+    grid of whole samples with discrete-time models of the sampled record, the input
+    held between samples unless ``delay_hold="foh"`` (or the method's ``input_hold``)
+    says it is linear between them, or ``delay_hold="bandlimited"`` that the input has no
+    power near the Nyquist frequency (a multisine: the response is then ``G(jw)``, fitted
+    by continuous-time models); ``order`` when given is
+    the order of the dynamics it is estimated against, otherwise order and delay are
+    chosen together by Schwarz's criterion; ``max_delay=`` bounds the search).  Each
+    input is shifted by its delay in whole samples and the first ``max(delay)`` samples
+    of ``y`` are dropped (no input is invented before the record), the method runs on
+    the shifted record, and the model gets ``model.delay``; ``options["delay"]`` says how
     it was found.  ``None`` stays the default because a search on a record without a
     dead time can still return one sample (the estimate's resolution), which would
     change models that are right as they are.
@@ -330,11 +335,28 @@ def _identify_delayed(
             raise ValueError(
                 f"delay must be None, 'auto', a number or one per input, got {delay!r}"
             )
-        est = estimate_delay(tt, ua, yy, max_delay, order=order if isinstance(order, int) else None)
+        hold = options.pop("delay_hold", None) or options.get("input_hold")
+        if hold not in ("zoh", "foh", "bandlimited"):
+            if hold not in (None, "auto"):
+                raise ValueError(f"delay_hold must be 'zoh', 'foh' or 'bandlimited', got {hold!r}")
+            hold = "zoh"
+        if not isinstance(order, int):
+            warnings.warn(
+                "delay='auto' without an order: the delay and the order of the dynamics are "
+                "chosen together (Schwarz's criterion), and on short or noisy records an "
+                "extra mode can take the place of a sample of delay; pass order= when known",
+                UserWarning,
+                stacklevel=3,
+            )
+        est = estimate_delay(
+            tt, ua, yy, max_delay, order=order if isinstance(order, int) else None,
+            hold=None if hold == "bandlimited" else hold,
+        )  # fmt: skip
         steps = est.samples
         info: dict[str, Any] = {
-            "rule": "auto: Welch FRF, refined fits profiled over whole samples "
+            "rule": "auto: Welch FRF, discrete-time fits profiled over whole samples "
             "(hdpbsid.frequency.delay.estimate_delay)",
+            "hold": hold,
             "estimate": est.delay.tolist(),
             "order": est.order.tolist(),
         }

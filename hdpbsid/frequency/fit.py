@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from hdpbsid.data.checks import as_columns, as_float_array, check_positive_int, check_step
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.models.uncertainty import COVARIANCE_KEY, covariance_factor, response_band
+from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, response_band
 
 __all__ = [
     "FrequencyResponse",
@@ -600,18 +600,21 @@ def identify_frequency(
     )
     if selection is not None:
         options["selection"] = selection
+    cov = None
     if "covariance" in info:
-        options[COVARIANCE_KEY] = _full_factor(info, l, m, feedthrough)
-    return StateSpaceModel(A, B, C, D, np.zeros((A.shape[0], l)), options=options)
+        cov = ParameterCovariance(_full_factor(info, l, m, feedthrough), "identify_frequency")
+    return StateSpaceModel(
+        A, B, C, D, np.zeros((A.shape[0], l)), options=options, parameter_covariance=cov
+    )
 
 
 def _full_factor(info: dict[str, Any], l: int, m: int, feedthrough: bool) -> Array:
     """The covariance factor of ``[vec A, vec B, vec C, vec D]``
-    (:data:`hdpbsid.models.uncertainty.COVARIANCE_KEY`) from the modal parameters' covariance of
-    :func:`_refine`: ``A`` is linear in the modal parameters (a real eigenvalue sets its
-    diagonal entry; a pair ``(sigma, omega)`` its block ``[[sigma, omega], [-omega,
-    sigma]]``), ``B``, ``C``, ``D`` are parameters themselves (``D`` fixed at zero
-    without feedthrough)."""
+    (:class:`hdpbsid.models.uncertainty.ParameterCovariance`) from the modal parameters'
+    covariance of :func:`_refine`: ``A`` is linear in the modal parameters (a real
+    eigenvalue sets its diagonal entry; a pair ``(sigma, omega)`` its block
+    ``[[sigma, omega], [-omega, sigma]]``), ``B``, ``C``, ``D`` are parameters themselves
+    (``D`` fixed at zero without feedthrough)."""
     lay = info["parameter_layout"]
     nr, npair, n = lay["real"], lay["pairs"], lay["states"]
     P = np.asarray(info["covariance"]).shape[0]
@@ -1024,7 +1027,7 @@ def plot_frf(
         gph = np.degrees(np.unwrap(np.angle(G)))
         shift = 360.0 * np.round((phase[0] - np.interp(w[0], wd, gph)) / 360.0)
         axes[1].semilogx(wd, gph + shift, "-", lw=1.2, color="C1")
-        if model.options.get(COVARIANCE_KEY) is not None:
+        if model.parameter_covariance is not None:
             band = response_band(model, wd, alpha)
             lo, _, hi = (x[output, input] for x in band.magnitude_db())
             axes[0].fill_between(

@@ -46,7 +46,7 @@ from hdpbsid.models.assessment import Comparison, ResidualReport, fit_percent, r
 from hdpbsid.models.conversion import c2d, d2c, sampled_steps
 from hdpbsid.models.dead_time import check_delay, delayed_input_terms, pade, pade_order
 from hdpbsid.models.recursion import linear_recursion
-from hdpbsid.models.uncertainty import COVARIANCE_KEY, scale_factor
+from hdpbsid.models.uncertainty import ParameterCovariance
 from hdpbsid.runtime import library_call
 
 __all__ = [
@@ -359,16 +359,30 @@ class StateSpaceModel(_ModelBase):
     :meth:`frequency_response` honour it exactly; :meth:`to_control` and :meth:`to_scipy`
     by a Pade approximant (:meth:`pade_order`); :meth:`to_discrete` refuses a delayed
     model.  The matrices are the delay-free part.
+
+    ``parameter_covariance``: the covariance of ``[vec A, vec B, vec C, vec D]`` from the
+    fit (:class:`hdpbsid.models.uncertainty.ParameterCovariance`, set by ``refine="pem"`` and
+    :func:`hdpbsid.frequency.fit.identify_frequency`; ``None`` when unknown), which
+    :func:`hdpbsid.models.uncertainty.response_band` turns into a band of the frequency response.
     """
 
     discrete: DiscreteModel | None = None
     sampling_interval: float | None = None
     delay: Array | None = None
+    parameter_covariance: ParameterCovariance | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.sampling_interval = _check_interval(self.sampling_interval, "sampling_interval")
         self.delay = check_delay(self.delay, self.m)
+        cov = self.parameter_covariance
+        if cov is not None:
+            if not isinstance(cov, ParameterCovariance):
+                raise TypeError(
+                    "parameter_covariance must be a hdpbsid.models.uncertainty.ParameterCovariance "
+                    f"or None, got {type(cov).__name__}"
+                )
+            cov.check(self.n, self.m, self.l)
 
     @property
     def has_delay(self) -> bool:
@@ -982,12 +996,10 @@ def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
             nc = np.ldexp(np.asarray(nc, dtype=float), py[:, None] + py[None, :])
         if not np.all(np.isfinite(nc)):
             nc = None  # the squares of the signals exceed float64: not representable
-    options = model.options
-    if options.get(COVARIANCE_KEY) is not None:  # the parameters' factor scales with them
-        options = dict(options)
+    cov = getattr(model, "parameter_covariance", None)
+    if cov is not None:  # the parameters' factor scales with them
         n, m, l = model.n, model.m, model.l
-        options[COVARIANCE_KEY] = scale_factor(
-            options[COVARIANCE_KEY],
+        cov = cov.scaled(
             n,
             m,
             l,
@@ -1001,10 +1013,11 @@ def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
         y0=np.ldexp(model.y0, py),
         trend=tr,
         noise_covariance=nc,
-        options=options,
     )
-    if isinstance(model, StateSpaceModel) and model.discrete is not None:
-        changes["discrete"] = scale_signals(model.discrete, pu, py, px)
+    if isinstance(model, StateSpaceModel):
+        changes["parameter_covariance"] = cov
+        if model.discrete is not None:
+            changes["discrete"] = scale_signals(model.discrete, pu, py, px)
     return dataclasses.replace(model, **changes)
 
 

@@ -18,7 +18,7 @@ import numpy as np
 __all__ = ["FORMAT", "VERSION", "describe", "write_model"]
 
 FORMAT = "hdpbsid.StateSpaceModel"
-VERSION = 3
+VERSION = 4
 
 
 def _jsonable(x: Any) -> Any:
@@ -75,6 +75,12 @@ def describe(model: Any) -> dict[str, Any]:
         "output_names": list(model.output_names or []),
         "sampling_interval": model.sampling_interval,
         "delay": model.delay.tolist(),
+        "parameter_covariance": None
+        if model.parameter_covariance is None
+        else {
+            "factor": model.parameter_covariance.factor.tolist(),
+            "source": model.parameter_covariance.source,
+        },
         "options": _jsonable(model.options),
     }
 

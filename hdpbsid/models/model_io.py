@@ -8,8 +8,8 @@ back.  The file is plain JSON (readable by any language):
 key                    value
 =====================  ==========================================================
 ``format``             ``"hdpbsid.StateSpaceModel"``
-``version``            ``3`` (files without it are version 1: no labels; version 2
-                       has no ``delay``)
+``version``            ``4`` (files without it are version 1: no labels; version 2
+                       has no ``delay``; version 3 no ``parameter_covariance``)
 ``time``               ``"continuous"``
 ``n``, ``m``, ``l``    states, inputs, outputs (non-negative integers, ``l >= 1``)
 ``A B C D K``          matrices as lists of rows: ``n x n``, ``n x m``, ``l x n``,
@@ -25,6 +25,12 @@ key                    value
 ``sampling_interval``  median step of the identification record, or ``null``
 ``delay``              ``m`` dead times ``>= 0`` (one per input, in ``time_unit``);
                        absent in files before version 3 (no delay)
+``parameter_covariance`` ``null`` or ``{"factor": p x k, "source": string}``, the
+                       covariance factor of ``[vec A, vec B, vec C, vec D]``
+                       (:class:`~hdpbsid.models.uncertainty.ParameterCovariance`, ``p = n^2 +
+                       nm + ln + lm``); a version-3 file kept it as
+                       ``options["parameter_covariance"]`` (a ``p x k`` matrix), which
+                       is read, checked the same way, into the attribute
 ``options``            the settings the method used (any JSON object)
 =====================  ==========================================================
 
@@ -50,6 +56,7 @@ import numpy as np
 
 from hdpbsid.models.model import LinearTrend, StateSpaceModel
 from hdpbsid.models.model_file import FORMAT, VERSION, describe, write_model
+from hdpbsid.models.uncertainty import ParameterCovariance, parameter_count
 
 __all__ = [
     "save_model",
@@ -90,6 +97,7 @@ _OPTIONAL = (
     "output_names",
     "sampling_interval",
     "delay",
+    "parameter_covariance",
     "options",
 )
 _KNOWN = _REQUIRED + _OPTIONAL
@@ -444,6 +452,7 @@ def model_from_dict(d: Any) -> StateSpaceModel:
         delay = _vector(d["delay"], "delay", m)
         if np.any(delay < 0):
             raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
+    cov = _parameter_covariance(d, options, version, n, m, l)
     fields: list[tuple[str, Any]] = [
         ("time_unit", unit),
         ("input_names", inames),
@@ -460,11 +469,53 @@ def model_from_dict(d: Any) -> StateSpaceModel:
             u0=None if u0 is None else _vector(u0, "u0", m),
             y0=None if y0 is None else _vector(y0, "y0", l),
             trend=_trend(d.get("trend"), m, l),
+            parameter_covariance=cov,
             **dict(fields),
         )
     except (ValueError, TypeError) as exc:  # the labels' own checks name the argument
         raise ValueError(f"key {_culprit(str(exc), fields)!r}: {exc}") from exc
     return model
+
+
+def _parameter_covariance(
+    d: dict[str, Any], options: dict[str, Any], version: int, n: int, m: int, l: int
+) -> ParameterCovariance | None:
+    """The ``parameter_covariance`` entry (version 4), or a version-3 file's
+    ``options["parameter_covariance"]`` factor (removed from the options), checked:
+    ``p = n^2 + nm + ln + lm`` rows of finite numbers."""
+    p = parameter_count(n, m, l)
+    if "parameter_covariance" in d:
+        if version < 4:
+            raise ValueError(
+                f"key 'parameter_covariance': not part of a version-{version} file (version 4 on)"
+            )
+        x = d["parameter_covariance"]
+        if x is None:
+            return None
+        if not isinstance(x, dict) or set(x) != {"factor", "source"}:
+            raise ValueError(
+                "key 'parameter_covariance': expected null or an object with exactly "
+                f"'factor' and 'source', got {_kind(x) if not isinstance(x, dict) else sorted(x)}"
+            )
+        if not isinstance(x["source"], str):
+            raise ValueError(
+                f"key 'parameter_covariance.source': expected a string, got {_kind(x['source'])}"
+            )
+        return ParameterCovariance(
+            _factor(x["factor"], "parameter_covariance.factor", p), x["source"]
+        )
+    if version == 3 and "parameter_covariance" in options:
+        F = _factor(options.pop("parameter_covariance"), "options.parameter_covariance", p)
+        return ParameterCovariance(F, "options (version-3 file)")
+    return None
+
+
+def _factor(x: Any, key: str, p: int) -> np.ndarray:
+    """A ``p x k`` matrix of finite numbers (``k >= 1``)."""
+    cols = len(x[0]) if isinstance(x, list) and x and isinstance(x[0], list) else 0
+    if cols == 0:
+        raise ValueError(f"key {key!r}: expected a {p} x k matrix (k >= 1), got {_kind(x)}")
+    return _matrix(x, key, p, cols, f"{p} x k (n^2 + nm + ln + lm rows)")
 
 
 def _culprit(message: str, fields: list[tuple[str, Any]]) -> str:

@@ -33,8 +33,9 @@ fitted to convergence, with the method's input hold, and the other only when its
 prediction could beat that minimum (:func:`_fit_starts`).  Unless the hold is known
 (:func:`_candidate_holds`), the other hold is then screened from that end point by one
 Gauss-Newton step, fitted when the step predicts evidence for it (:data:`EVIDENCE`), and
-kept when its cost (same output weighting) is lower with every mode resolved by the
-sampling (:func:`_other_hold`, :func:`_modes_resolved`).  Measured on a Table-2-like closed loop
+kept when its cost (same output weighting) is lower by a likelihood ratio significant at
+1 % (:data:`HOLD_EVIDENCE`) with every mode resolved by the sampling
+(:func:`_other_hold`, :func:`_modes_resolved`).  Measured on a Table-2-like closed loop
 (plant eigenvalues -28, -10, 1.2 +- 5.8i, rate output, 250 Hz, 20 dB, seeds 0-4): the
 subspace model chose ``foh`` for ``zoh`` data and the ``foh`` fit stopped 22-25 % and
 32-45 % off on the two real poles at a stationary point of the ``foh`` cost (the
@@ -93,7 +94,7 @@ from hdpbsid.data.checks import check_data
 from hdpbsid.data.checks import is_uniform as checks_is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import select_kernels
-from hdpbsid.models.uncertainty import COVARIANCE_KEY, covariance_factor, scale_factor
+from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
 from hdpbsid.refine.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 from hdpbsid.runtime import library_call
 
@@ -175,6 +176,17 @@ WARM_START_NAME = "prediction-error fit on part of the record"
 #: ``e^(1/2)`` -- one unit on the scale of a chi-square variable with one degree of
 #: freedom -- is no evidence for either (:func:`_fit_starts`, :func:`_other_hold`)
 EVIDENCE = 1.0
+#: the other input hold replaces the first only when its fit lowers the ``-2 log``
+#: likelihood ratio (``n_r`` times the log cost ratio, whitened residuals) by at least
+#: this much: the chi-square quantile of one degree of freedom at 1 %.  The two holds
+#: differ, to first order in ``|lambda| h``, by half a sample of input delay, one
+#: direction of the model (Franklin, Powell & Workman, *Digital Control*, sec. 6.3).  A
+#: switch on any lower cost chooses the other hold on noise alone whenever the data
+#: cannot tell the holds apart, and the continuous-time response then moves by the
+#: half-sample phase ``w h / 2``, outside the parameter covariance's band, which is
+#: conditional on the hold; keeping the first hold unless the data reject it at 1 %
+#: makes that wrong switch a 1 % event.
+HOLD_EVIDENCE = 6.635
 #: process-noise intensity (relative to unit measurement noise, scaled data) of the
 #: second starting gain: the Kalman predictor of a sensor-noise-dominated record.  From
 #: the subspace K alone, 1 of 11 quadrotor seeds stopped at a predictor pole on the unit
@@ -884,7 +896,8 @@ def refine_pem(
         fit = _other_hold(theta, cost, lay, weighted[other], kw, budget, starts)
         nfev += fit[2]
         hold_costs[other] = fit[1] if np.isfinite(fit[1]) else fit[3]
-        if fit[1] < cost and _modes_resolved(lay, fit[0], h):
+        decisive = fit[1] < cost * np.exp(-HOLD_EVIDENCE / n_r)
+        if decisive and _modes_resolved(lay, fit[0], h):
             theta, cost, status, converged, hold = fit[0], fit[1], fit[3], fit[4], other
     if not (np.isfinite(cost) and cost < cost0):
         warnings.warn(
@@ -920,7 +933,6 @@ def refine_pem(
         refine_parameters=int(Q.shape[1]),
         eigenvalues_before_refine=model.eigenvalues,
         eigenvalue_std=eig_std,
-        **{COVARIANCE_KEY: _abcd_factor(lay, Q, Jq, cost, ys, us)},
     )
     return StateSpaceModel(
         A,
@@ -931,6 +943,9 @@ def refine_pem(
         singular_values=model.singular_values,
         options=options,
         noise_covariance=noise_cov,
+        parameter_covariance=ParameterCovariance(
+            _abcd_factor(lay, Q, Jq, cost, ys, us), "refine_pem"
+        ),
     )
 
 
@@ -1034,7 +1049,7 @@ def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float)
 
 def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: Array) -> Array:
     """The covariance factor of ``[vec A, vec B, vec C, vec D]`` in the record's units
-    (:data:`hdpbsid.models.uncertainty.COVARIANCE_KEY`): ``cov(beta) = s^2 (J^T J)^+`` of the
+    (:class:`hdpbsid.models.uncertainty.ParameterCovariance`): ``cov(beta) = s^2 (J^T J)^+`` of the
     local coordinates (as :func:`_eigenvalue_std`), mapped by ``theta = theta_0 + Q beta``
     (rows of ``K`` dropped, zero rows for a ``D`` that is not a parameter) and by the
     unit scaling of :func:`_unscale` (``B / us``, ``ys C``, ``ys D / us``)."""

@@ -306,3 +306,61 @@ def test_utf8_bom_is_read(tmp_path: Path) -> None:
     path = tmp_path / "model.json"
     path.write_bytes(b"\xef\xbb\xbf" + json.dumps(_base()).encode())
     assert load_model(path).input_names == ["force"]
+
+
+def _with_covariance() -> StateSpaceModel:
+    from hdpbsid.models.uncertainty import ParameterCovariance
+
+    rng = np.random.default_rng(7)
+    F = rng.standard_normal((4 + 2 + 2 + 1, 3))  # n = 2, m = l = 1: p = 9
+    A = np.array([[0.0, 1.0], [-4.0, -0.8]])
+    return StateSpaceModel(
+        A, [[0.0], [1.0]], [[1.0, 0.0]], [[0.0]], np.zeros((2, 1)),
+        parameter_covariance=ParameterCovariance(F, "refine_pem"),
+    )  # fmt: skip
+
+
+def test_parameter_covariance_round_trip(tmp_path: Path) -> None:
+    """The factor and its source come back bit for bit (JSON keeps float64 exactly)."""
+    m = _with_covariance()
+    back = load_model(m.save(tmp_path / "m.json"))
+    assert back.parameter_covariance is not None
+    np.testing.assert_array_equal(back.parameter_covariance.factor, m.parameter_covariance.factor)
+    assert back.parameter_covariance.source == "refine_pem"
+    assert "parameter_covariance" not in back.options
+
+
+@pytest.mark.parametrize(
+    "edit, key",
+    [
+        (lambda d: d["parameter_covariance"]["factor"].pop(), "parameter_covariance.factor"),
+        (lambda d: d["parameter_covariance"].update(extra=1), "parameter_covariance"),
+        (lambda d: d["parameter_covariance"].update(source=3), "parameter_covariance.source"),
+        (lambda d: d["parameter_covariance"]["factor"][0].__setitem__(0, "x"), "factor"),
+        (lambda d: d.update(version=3), "parameter_covariance"),
+    ],
+)
+def test_parameter_covariance_is_read_strictly(edit: Any, key: str, tmp_path: Path) -> None:
+    d = json.loads(_with_covariance().save(tmp_path / "m.json").read_text())
+    edit(d)
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    with pytest.raises(ValueError, match=key):
+        load_model(tmp_path / "bad.json")
+
+
+def test_version3_covariance_in_options_is_migrated(tmp_path: Path) -> None:
+    """A version-3 file kept the factor in its options: read into the attribute, checked
+    like the version-4 key (a wrong row count names the option)."""
+    m = _with_covariance()
+    d = json.loads(m.save(tmp_path / "m.json").read_text())
+    F = d.pop("parameter_covariance")["factor"]
+    d["version"] = 3
+    d["options"]["parameter_covariance"] = F
+    (tmp_path / "v3.json").write_text(json.dumps(d))
+    back = load_model(tmp_path / "v3.json")
+    np.testing.assert_array_equal(back.parameter_covariance.factor, m.parameter_covariance.factor)
+    assert "parameter_covariance" not in back.options
+    d["options"]["parameter_covariance"] = F[:-1]
+    (tmp_path / "v3bad.json").write_text(json.dumps(d))
+    with pytest.raises(ValueError, match="options.parameter_covariance"):
+        load_model(tmp_path / "v3bad.json")
