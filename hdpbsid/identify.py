@@ -34,13 +34,14 @@ from .checks import (
     check_names,
     check_time,
     check_varies,
+    is_uniform,
     require_joblib,
     scale_exponents,
 )
 from .detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
 from .feedback import refine_decision
 from .methods.dt import identify_dt
-from .methods.refine import REFINE_CHOICES, WARM_START, is_uniform, one_step_errors, refine_pem
+from .methods.refine import REFINE_CHOICES, WARM_START, one_step_errors, refine_pem
 from .model import LinearTrend, StateSpaceModel, scale_signals
 from .runtime import library_call
 
@@ -352,7 +353,10 @@ def identify(
             do, rule, stats = refine_decision(model, tm, um, ym, uniform, errors=errors)
         if do:
             refined = refine_pem(model, tm, um, ym)
-            if refined.options.get("refine_converged", True):
+            unsound = _refinement_problem(model, refined, tm, um, ym)
+            if unsound:
+                rule += f"; the refined model is not kept: {unsound}"
+            elif refined.options.get("refine_converged", True):
                 model = refined
             else:
                 # an iterate cut off by the evaluation budget is neither the subspace
@@ -365,6 +369,8 @@ def identify(
         model.options["refine_statistics"] = stats
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.options.pop(WARM_START, None)
+    if not several:
+        _warn_if_unsound(model, tm, um, ym)
     if refine is not None:
         model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)
@@ -378,6 +384,51 @@ def identify(
     model.options["requested_order"] = order
     model.options["requested_options"] = dict(options)
     return model
+
+
+def _refinement_problem(
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+) -> str:
+    """Why the prediction-error refinement ``refined`` of ``start`` on ``(t, u, y)`` is
+    not kept, or ``""``: it made a model the record does not support
+    (:func:`hdpbsid.selection.instability_problem`: a time series' model not stationary,
+    or an unstable model of a record that shows neither the growth nor a feedback
+    holding it back) from one that was not.  The prediction-error criterion judges the
+    predictor ``A - K C``, stable either way, so by itself it does not keep ``A``
+    stable."""
+    from .selection import instability_problem
+
+    rec = (t, u, y)
+    why = instability_problem(refined, rec)
+    if why and not instability_problem(start, rec):
+        return why
+    return ""
+
+
+def _warn_if_unsound(model: StateSpaceModel, t: Any, u: Any, y: Any) -> None:
+    """A ``UserWarning`` when the model returned is one the checks of the held-out
+    selection would reject (:func:`hdpbsid.selection.instability_problem`), or the
+    held-out selection returned the candidate fitted on part of the record and no
+    refinement on the whole record replaced it: a decision for the user (another order
+    or method, a longer record)."""
+    from .selection import instability_problem
+
+    why = instability_problem(model, (t, u, y))
+    if why:
+        warnings.warn(
+            f"the identified model (order {model.n}) is {why}; try another order or method, "
+            f"or check the record",
+            UserWarning,
+            stacklevel=3,
+        )
+    fallback = model.options.get("selection_fallback")
+    if fallback and model.options.get("refine") == "pem":
+        model.options["selection_fallback"] = (
+            "the held-out selection's candidate, fitted on the estimation part (its refit "
+            "on the whole record did not hold), started the refinement on the whole record"
+        )
+    elif fallback:
+        warnings.warn(fallback, UserWarning, stacklevel=3)
 
 
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:

@@ -42,6 +42,18 @@ of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data j
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 
+No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
+:func:`instability_problem`: an unstable model is kept only when its simulation over the
+held-out part beats the mean or the record shows a feedback loop that can hold an
+unstable plant bounded.  When no refit of an adequate candidate holds, the candidate
+itself (fitted on the estimation part, the model the held-out part judged) is returned
+with a warning, or is the start of the refinement on the whole record; candidates that
+fail the floor leave the ranking and the one-standard-error rule is applied again to the
+rest, so a candidate the rule rejected against a better one is never the fallback while
+that one stands.  A time series (no input) is scored by its one-step prediction error
+with one initial state for the whole held-out part, and only stationary models (stable
+``A``, :func:`stationarity_problem`) are candidates.
+
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
 refined candidates where the subspace candidates' bias could have decided it
@@ -85,7 +97,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks import check_data, check_positive_int
+from .checks import check_data, check_positive_int, is_uniform
 from .criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
@@ -93,7 +105,6 @@ from .criteria import (
     WindowedError,
     choose_smallest_adequate,
     default_windows,
-    is_uniform_grid,
     windowed_prediction_error,
     windowed_simulation_error,
 )
@@ -107,6 +118,8 @@ __all__ = [
     "score_model",
     "refit_holds",
     "beats_the_mean",
+    "stationarity_problem",
+    "instability_problem",
     "rejudge_refined",
     "looks_closed_loop",
     "accepts_held_out",
@@ -138,10 +151,25 @@ def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[Windo
     """The held-out score of ``model`` on the record ``rec = (t, u, y)`` (module
     docstring): the smaller of its windowed one-step prediction error with its gain
     ``K`` and with ``K = 0`` (the simulation error), and whether that is the one with
-    ``K``.  Non-uniform samples: the simulation error."""
+    ``K``.  Non-uniform samples: the simulation error.
+
+    A time series (``u`` with no columns) is scored by the prediction error with ``K``
+    only: with no input the simulated output is the free response of the initial state
+    fitted to each window, a fit of ``n`` exponentials to the window, not a prediction
+    (more states always fit more of it: on a stationary second-order process observed
+    in noise it chose 4-8 states).  The one-step prediction error is the criterion of
+    time-series models (Ljung, *System Identification*, 2nd ed., sec. 7.2), computed
+    with one initial state for the whole held-out part (``carry_state``): fitted per
+    window, the initial state of a slow predictor fits the window's own later outputs.
+    A non-uniformly sampled time series has no such score here (``finite=False``).
+    """
     t, u, y = check_data(*rec)
+    if u.shape[1] == 0:
+        if not is_uniform(t):
+            return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False), True
+        return windowed_prediction_error(model, t, u, y, windows, carry_state=True), True
     sim = windowed_simulation_error(model, t, u, y, windows)
-    if not is_uniform_grid(t):
+    if not is_uniform(t):
         return sim, False
     pred = windowed_prediction_error(model, t, u, y, windows)
     if pred.finite and (not sim.finite or pred.total < sim.total):
@@ -215,6 +243,8 @@ def settle_candidate(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = func(*est, order=row["order"], **given, held_out=val)
+            if stationarity_problem(model):
+                raise ValueError(stationarity_problem(model))
             err, use_k = score_model(model, val, windows)
     except (ValueError, np.linalg.LinAlgError):
         err = None
@@ -231,6 +261,33 @@ def settle_candidate(
     return row
 
 
+def stationarity_problem(model: StateSpaceModel) -> str:
+    """Why ``model``, a model of a time series (no input), cannot describe a stationary
+    process, or ``""``.
+
+    The output of ``dx/dt = A x + K e``, ``y = C x + e`` driven by white ``e`` is
+    stationary only when every mode that ``e`` excites decays, i.e. when ``A`` is stable
+    (``Re lambda < 0`` for every eigenvalue of a minimal model; an eigenvalue at 0 is a
+    random walk, whose variance grows with time).  A time series is identified as a
+    stationary process -- its held-out one-step prediction error judges a spectrum, the
+    same for a stable and a mirrored unstable pole -- so a model with an unstable ``A``
+    describes a process the record, bounded and stationary, is not.  Such a model is not
+    a candidate (:func:`select_model`); a non-stationary record (a trend, a random walk)
+    should be differenced or detrended first.
+    """
+    if model.m > 0 or model.n == 0:
+        return ""
+    lam = np.linalg.eigvals(model.A)
+    bad = lam[~(lam.real < 0.0)]
+    if bad.size == 0:
+        return ""
+    shown = ", ".join(f"{z:.3g}" for z in bad[:4])
+    return (
+        f"not stationary: A has eigenvalue(s) {shown} with Re >= 0, but a time series "
+        f"(no input) is modelled as a stationary process, which needs a stable A"
+    )
+
+
 def _fit_one(
     get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
 ) -> dict[str, Any]:
@@ -245,9 +302,14 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
+            why = stationarity_problem(model)
+            if why:
+                raise ValueError(why)
             err, use_k = score_model(model, val, windows)
         row.update(
-            status="ok" if err.finite else "simulation overflow",
+            status="ok"
+            if err.finite
+            else "not scored: its one-step predictor is unstable or its simulation overflows",
             criterion=err,
             predictor="innovation (K)" if use_k else "output error (K = 0)",
             model=model,
@@ -435,8 +497,6 @@ def rejudge_refined(
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
     """
-    from .methods.refine import is_uniform
-
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
     n_star = ok[k]["order"]
@@ -513,7 +573,12 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     for r in tied:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            e = windowed_simulation_error(r["model"], t, u, y, 1)
+            if u.shape[1] == 0:
+                # a time series has no simulation to run (score_model): its one-step
+                # prediction over the whole held-out part from one initial state
+                e = score_model(r["model"], val, 1)[0]
+            else:
+                e = windowed_simulation_error(r["model"], t, u, y, 1)
         r["whole_simulation"] = e.total if e.finite else np.inf
     return sorted(tied, key=lambda r: r["whole_simulation"])
 
@@ -545,6 +610,75 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
         "over the whole held-out part (one initial state) it predicts worse than the mean "
         f"(relative error {whole.total:.3g})"
     )
+
+
+def instability_problem(model: StateSpaceModel, rec: tuple) -> str:
+    """Why the record ``rec = (t, u, y)`` does not support the instability of ``model``,
+    or ``""`` (a stable model, or an instability the record supports).
+
+    An eigenvalue with ``Re lambda = sigma > 0`` makes the model's response grow as
+    ``e^(sigma t)``.  A record whose output stays bounded is consistent with that only
+    (a) when its input holds the growth back, i.e. the input depends on the output: a
+    feedback loop around an unstable plant, which the closed-loop test of
+    :func:`looks_closed_loop` detects from the model's one-step prediction errors
+    against the prewhitened input (in open loop the input cannot react to a growing
+    output), or (b) when the growth over the record is what the data show: the model's
+    simulation (``K = 0``) from the state fitted on the record's first window only
+    predicts the whole record better than its mean (:func:`_causal_simulation_error`).
+    Neither: the instability is the model's,
+    not the record's (an open-loop record of a stable plant); such a model is rejected.
+    A time series has no input to hold anything back: :func:`stationarity_problem`.
+    Eigenvalues are compared with 0 exactly: a mode at ``Re lambda = +1e-12`` grows by
+    nothing over any record and passes (b).
+    """
+    if model.n == 0:
+        return ""
+    if model.m == 0:
+        return stationarity_problem(model)
+    lam = np.linalg.eigvals(model.A)
+    if np.all(lam.real <= 0.0):
+        return ""
+    t, u, y = check_data(*rec)
+    err = _causal_simulation_error(model, t, u, y)
+    if err < 1.0:
+        return ""
+    if looks_closed_loop(model, (t, u, y)):
+        return ""
+    worst = lam[np.argmax(lam.real)]
+    return (
+        f"unstable (eigenvalue {worst:.3g}) where the record does not support instability: "
+        f"its simulation from the state fitted on the record's start predicts the record "
+        f"worse than the mean (relative error {err:.3g}) and the record shows no feedback "
+        f"that could hold an unstable plant bounded"
+    )
+
+
+def _causal_simulation_error(model: StateSpaceModel, t: Any, u: Any, y: Any) -> float:
+    """The relative error (outputs weighted by their inverse variance; 1 = the mean) of
+    ``model``'s simulation over the record from the initial state fitted by least squares
+    on its first window only (:func:`~hdpbsid.criteria.default_windows`; the whole record
+    when it is too short for two windows); ``inf`` when the simulation fails.
+
+    Causal: the state comes from the record's past, as a growing mode would act on it.
+    An initial state fitted to the whole record instead cancels a growing mode with the
+    record's later inputs (an anti-causal filter, exact in floating point up to a growth
+    of ``1/eps ~ e^36``): a mode at ``+2 /s`` over a 10 s open-loop record of a stable
+    plant passed that test.
+    """
+    W = default_windows(t.size, model.n)
+    L = t.size // W if W > 1 else t.size
+    hold = model.options.get("input_hold", "zoh")
+    hold = hold if hold in ("zoh", "foh") else "zoh"
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            x0 = model.fit(t[:L], u[:L], y[:L], method=hold).x0
+            y_sim = np.asarray(model.simulate(t, u, x0=x0, method=hold))
+            w = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny)
+            err = float(np.sum((y - y_sim) ** 2 * w) / np.sum((y - y.mean(axis=0)) ** 2 * w))
+    except (ValueError, np.linalg.LinAlgError):
+        return np.inf
+    return err if np.isfinite(err) else np.inf
 
 
 def refit_holds(
@@ -595,16 +729,20 @@ def _first_that_holds(
     refit with a spurious growing mode can pass it and still diverge over the held-out
     part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
     had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
-    every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``."""
+    every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``; a candidate that
+    passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
+    a sound answer when no refit holds: :func:`select_model`)."""
     failures: list[tuple[str, str]] = []
     for chosen in candidates:
         settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
             useful, how = beats_the_mean(chosen["model"], val)
-            if not useful:
+            how = how or instability_problem(chosen["model"], val)
+            if how:
                 failures.append(("floor", f"{name}: {how}"))
                 continue
+            chosen["passed_floor"] = True
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -622,7 +760,12 @@ def _first_that_holds(
                     # the floor the candidate passed, for the model returned: a refit
                     # whose windowed score holds can still diverge over the whole part
                     holds, how = beats_the_mean(model, val)
+                    how = how or instability_problem(model, val)
+                    holds = not how
                     how = f"the refit on the whole record: {how}" if how else how
+                why = stationarity_problem(model) if holds else ""
+                if why:
+                    holds, how = False, f"the refit on the whole record: {why}"
         except (ValueError, np.linalg.LinAlgError) as exc:
             holds, how = False, str(exc)
         if holds:
@@ -732,63 +875,169 @@ def select_model(
             f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
             f"longer record, a smaller max_order, or give the order"
         )
+    time_series = val[1].shape[1] == 0
+    if time_series and not is_uniform(val[0]):
+        raise ValueError(
+            "t: choosing the order of a time series (no input) scores the one-step "
+            "prediction error on held-out data, which needs uniformly sampled times; "
+            "resample the record uniformly or give the order"
+        )
     opts = method_options or {}
     orders = sorted(orders)
     rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
-        raise ValueError(f"no candidate model could be identified and scored ({detail})")
+        hint = (
+            "; a time series needs a stationary model with a stable one-step predictor: "
+            "detrend or difference a drifting record, or try another method"
+            if time_series
+            else ""
+        )
+        raise ValueError(f"no candidate model could be identified and scored ({detail}){hint}")
     ok.sort(key=lambda r: (r["order"], r["criterion"].total))
     errors: list[WindowedError] = [r["criterion"] for r in ok]
     k, stats = choose_smallest_adequate(errors)
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
-    # the chosen candidate identified on the whole record; if that fails (e.g. the
-    # discrete model of the whole record has no continuous counterpart), the next
-    # adequate candidate, then the remaining ones by held-out error
-    adequate = [r for r, z in zip(ok, stats, strict=True) if z <= SIGNIFICANCE_Z]
-    rest = sorted((r for r in ok if r not in adequate), key=lambda r: r["criterion"].total)
-    queue = adequate[adequate.index(ok[k]) :]
-    tied = break_tie([r for r in queue if r["order"] == ok[k]["order"]], val)
-    queue = tied + [r for r in queue if r not in tied]
-    candidates = queue + rest
+    queue = _ranked(ok, k, stats, val)
     rejudged = ""
     if refined:
         k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows, n_jobs)
         if k2 != k:
-            candidates = [ok[k2]] + [r for r in candidates if r is not ok[k2]]
-    model, failures = _first_that_holds(get_method, candidates, est, (t, u, y), val, windows, opts)
-    floor_note = ""
-    if model is None:
-        below = [r for r, why in zip(candidates, failures, strict=True) if why[0] == "floor"]
-        if below:
-            # no candidate beats the held-out mean from one initial state (an unstable
-            # plant sampled non-uniformly has no stable predictor to run over the whole
-            # part): the floor cannot judge these models, the windowed ranking stands
-            model, more = _first_that_holds(
-                get_method, below, est, (t, u, y), val, windows, opts, floor=False
-            )
-            failures += more
-            floor_note = (
-                "; no candidate beats the held-out mean from one initial state: floor not applied"
-            )
-    if model is None:
-        raise ValueError(
-            "no scored candidate could be identified on the whole record: "
-            + "; ".join(why[1] for why in failures)
-        )
+            queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
+    model, failures, note = _choose(
+        get_method, ok, queue, est, (t, u, y), val, windows, opts, where, refined
+    )
     rule = (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
-        f"each candidate's better predictor: with its K or with K = 0); "
-        f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
+        + (
+            "one-step predictor with K: a time series, no input to simulate"
+            if time_series
+            else "each candidate's better predictor: with its K or with K = 0"
+        )
+        + f"); smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule); among that order's candidates within it, the "
         f"smallest simulation error over the whole held-out part"
     )
     rule += rejudged
     if failures:
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
-    return model, _rows_table(rows), rule + floor_note
+    return model, _rows_table(rows), rule + note
+
+
+def _ranked(
+    pool: list[dict[str, Any]], k: int, stats: list[float], val: tuple
+) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` (sorted by order, then error) that the
+    one-standard-error rule admits, in the order they are tried: the chosen order's
+    (``pool[k]``'s) tied candidates by :func:`break_tie`, then the larger adequate
+    orders.  Candidates more than one standard error worse than the best are not
+    listed: the held-out data reject them against the best (:func:`_choose`)."""
+    adequate = [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+    queue = adequate[adequate.index(pool[k]) :]
+    tied = break_tie([r for r in queue if r["order"] == pool[k]["order"]], val)
+    return tied + [r for r in queue if r not in tied]
+
+
+def _choose(
+    get_method: Any,
+    ok: list[dict[str, Any]],
+    queue: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    where: str,
+    refined: bool = False,
+) -> tuple[StateSpaceModel, list[tuple[str, str]], str]:
+    """The model returned by :func:`select_model` from the scored candidates ``ok`` and
+    the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
+    rule.  Never a model the checks rejected, quietly:
+
+    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`)
+       and whose refit on the whole record holds (:func:`_first_that_holds`);
+    2. else, if a candidate of ``queue`` passed the floor, that candidate's own model,
+       fitted on the estimation part (:func:`_candidate_itself`; with ``refined`` the
+       start of the refinement on the whole record, the front end warns only if that
+       does not happen), with a ``UserWarning``: the held-out part judged
+       exactly that model, while the refit is a different one (the method's data-driven
+       settings, chosen again on the whole record, changed it), so the candidate is the
+       model the evidence supports;
+    3. else every candidate of ``queue`` failed the floor: they are no models of the
+       held-out data, so they leave the ranking and the one-standard-error rule is applied
+       again to the rest (a candidate the rule rejected against a better one is never
+       returned while that better one stands);
+    4. no candidate passes the floor (an unstable plant sampled non-uniformly has no stable
+       predictor to run over the whole held-out part): the first ranking stands without
+       the floor, with a ``UserWarning``;
+    5. nothing holds: ``ValueError`` naming every failure.
+    """
+    failures: list[tuple[str, str]] = []
+    pool, first = list(ok), queue
+    while queue:
+        model, more = _first_that_holds(get_method, queue, est, whole, val, windows, opts)
+        failures += more
+        if model is not None:
+            return model, failures, ""
+        sound = [r for r in queue if r.get("passed_floor")]
+        if sound:
+            return (
+                _candidate_itself(sound[0], where, warn=not refined),
+                failures,
+                (
+                    f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
+                    f"estimation part (no refit on the whole record held)"
+                ),
+            )
+        pool = [r for r in pool if r not in queue]
+        if not pool:
+            break
+        k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+        queue = _ranked(pool, k, stats, val)
+    # no candidate beats the held-out mean from one initial state: the floor cannot
+    # judge these models, the windowed ranking stands
+    model, more = _first_that_holds(get_method, first, est, whole, val, windows, opts, floor=False)
+    failures += more
+    if model is None:
+        raise ValueError(
+            "no scored candidate could be identified on the whole record: "
+            + "; ".join(why[1] for why in failures)
+            + "; a longer record, a smaller max_order or another method may help"
+        )
+    warnings.warn(
+        f"no candidate model predicts {where} better than its mean from one initial "
+        f"state; the best by the windowed held-out score is returned "
+        f"({model.options.get('method', '?')} order {model.n}), check it on other data "
+        f"before use (model.options['selection_rule'] lists the failures)",
+        UserWarning,
+        stacklevel=4,
+    )
+    return (
+        model,
+        failures,
+        ("; no candidate beats the held-out mean from one initial state: floor not applied"),
+    )
+
+
+def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
+    """The candidate ``row``'s own model (fitted on the estimation part), returned when
+    no refit on the whole record holds (:func:`_choose`, step 2), with a ``UserWarning``
+    (if ``warn``) saying so and what would help; the text is also kept in
+    ``options["selection_fallback"]``."""
+    model = row["model"]
+    text = (
+        f"{row['method']} order {row['order']}: the model fitted on the estimation part "
+        f"(all but {where}) is returned, as judged on the held-out part; its refit on the "
+        f"whole record did not hold (model.options['selection_rule'] says why): the "
+        f"method's data-driven settings change with the record length. A longer record, "
+        f"or giving those settings explicitly, lets the whole record be used"
+    )
+    model.options["selection_fallback"] = text
+    if warn:
+        warnings.warn(text, UserWarning, stacklevel=5)
+    return model
 
 
 @library_call
@@ -820,7 +1069,6 @@ def identify_auto(
     ``options["order_selection"]`` the chosen method's.
     """
     from .identify import get_method, is_available
-    from .methods.refine import is_uniform
     from .records import as_records
 
     recs = as_records(t, u, y)

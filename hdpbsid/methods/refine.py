@@ -89,8 +89,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 
-from ..checks import check_data
-from ..checks import is_uniform as checks_is_uniform
+# is_uniform: the package's one uniformity test (hdpbsid.checks), re-exported here
+from ..checks import check_data, is_uniform
 from ..model import StateSpaceModel
 from ..recursion import select_kernels
 from ..runtime import library_call
@@ -112,8 +112,6 @@ REFINE_CHOICES = ("auto", "pem", None)
 RECORD_MEMORY = 4
 #: Jacobians a :class:`_Record` remembers: one per starting point of :func:`_fit_starts`
 JACOBIAN_MEMORY = 2
-#: relative spread of the sample spacing below which a grid counts as uniform
-UNIFORM_RTOL = 1e-6
 #: residual returned (per entry, in units of the weighted innovation) for an unstable
 #: predictor: far above any attainable cost, so Levenberg-Marquardt rejects the step
 UNSTABLE_PENALTY = 1e3
@@ -179,13 +177,6 @@ EVIDENCE = 1.0
 #: the subspace K alone, 1 of 11 quadrotor seeds stopped at a predictor pole on the unit
 #: circle (cost above the true system's)
 OE_PROCESS_NOISE = 1e-6
-
-
-def is_uniform(t: Array, rtol: float = UNIFORM_RTOL) -> bool:
-    """True when ``max |diff(t) - h| <= rtol * h`` plus the resolution of the stamps
-    (:func:`hdpbsid.checks.is_uniform`: computed on ``t - t[0]``, so Unix-time stamps
-    pass)."""
-    return checks_is_uniform(np.asarray(t, dtype=float), rtol)
 
 
 class _Layout:
