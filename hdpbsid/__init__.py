@@ -29,6 +29,7 @@ from .metrics import eigenvalue_errors, match_eigenvalues
 from .model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
 from .model_io import load_model, save_model
 from .runtime import num_threads
+from .selection import SelectionWarning
 from .systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 _LAZY_ATTRS = {
@@ -67,6 +68,7 @@ __all__: list[str] = [
     "DiscreteModel",
     "FitResult",
     "TimeScaleWarning",
+    "SelectionWarning",
     "load_model",
     "save_model",
     "c2d",

@@ -370,7 +370,7 @@ def identify(
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.options.pop(WARM_START, None)
     if not several:
-        _warn_if_unsound(model, tm, um, ym)
+        _warn_if_fallback(model)
     if refine is not None:
         model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)
@@ -390,37 +390,23 @@ def _refinement_problem(
     start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
 ) -> str:
     """Why the prediction-error refinement ``refined`` of ``start`` on ``(t, u, y)`` is
-    not kept, or ``""``: it made a model the record does not support
-    (:func:`hdpbsid.selection.instability_problem`: a time series' model not stationary,
-    or an unstable model of a record that shows neither the growth nor a feedback
-    holding it back) from one that was not.  The prediction-error criterion judges the
-    predictor ``A - K C``, stable either way, so by itself it does not keep ``A``
-    stable."""
-    from .selection import instability_problem
+    not kept, or ``""``: it grew a mode the record does not ask for
+    (:func:`hdpbsid.selection.refinement_instability`: a time series' model not
+    stationary, or an unstable model that simulates the record no better than its stable
+    start).  The prediction-error criterion judges the predictor ``A - K C``, stable
+    either way, so by itself it does not keep ``A`` stable."""
+    from .selection import refinement_instability
 
-    rec = (t, u, y)
-    why = instability_problem(refined, rec)
-    if why and not instability_problem(start, rec):
-        return why
-    return ""
+    return refinement_instability(start, refined, (t, u, y))
 
 
-def _warn_if_unsound(model: StateSpaceModel, t: Any, u: Any, y: Any) -> None:
-    """A ``UserWarning`` when the model returned is one the checks of the held-out
-    selection would reject (:func:`hdpbsid.selection.instability_problem`), or the
-    held-out selection returned the candidate fitted on part of the record and no
-    refinement on the whole record replaced it: a decision for the user (another order
-    or method, a longer record)."""
-    from .selection import instability_problem
+def _warn_if_fallback(model: StateSpaceModel) -> None:
+    """A :class:`~hdpbsid.selection.SelectionWarning` when the held-out selection returned
+    the candidate fitted on part of the record and no refinement on the whole record
+    replaced it: a decision for the user (a longer record, or the method's settings
+    given)."""
+    from .selection import SelectionWarning
 
-    why = instability_problem(model, (t, u, y))
-    if why:
-        warnings.warn(
-            f"the identified model (order {model.n}) is {why}; try another order or method, "
-            f"or check the record",
-            UserWarning,
-            stacklevel=3,
-        )
     fallback = model.options.get("selection_fallback")
     if fallback and model.options.get("refine") == "pem":
         model.options["selection_fallback"] = (
@@ -428,7 +414,7 @@ def _warn_if_unsound(model: StateSpaceModel, t: Any, u: Any, y: Any) -> None:
             "on the whole record did not hold), started the refinement on the whole record"
         )
     elif fallback:
-        warnings.warn(fallback, UserWarning, stacklevel=3)
+        warnings.warn(fallback, SelectionWarning, stacklevel=3)
 
 
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:

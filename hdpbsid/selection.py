@@ -43,16 +43,19 @@ models, so a method that is biased on this record, or an order the data do not s
 loses by the measure a user would apply to the result.
 
 No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
-:func:`instability_problem`: an unstable model is kept only when its simulation over the
-held-out part beats the mean or the record shows a feedback loop that can hold an
-unstable plant bounded.  When no refit of an adequate candidate holds, the candidate
-itself (fitted on the estimation part, the model the held-out part judged) is returned
-with a warning, or is the start of the refinement on the whole record; candidates that
-fail the floor leave the ranking and the one-standard-error rule is applied again to the
-rest, so a candidate the rule rejected against a better one is never the fallback while
-that one stands.  A time series (no input) is scored by its one-step prediction error
-with one initial state for the whole held-out part, and only stationary models (stable
-``A``, :func:`stationarity_problem`) are candidates.
+:func:`instability_problem`: an unstable candidate is rejected when a stable candidate of
+no larger order predicts the held-out part as well (within one standard error), i.e.
+when the record does not need the growth.  When no refit of an adequate candidate holds,
+the candidate itself (fitted on the estimation part, the model the held-out part judged)
+is returned with a warning, or is the start of the refinement on the whole record;
+candidates that fail the floor leave the ranking and the one-standard-error rule is
+applied again to the rest, so a candidate the rule rejected against a better one is
+never the fallback while that one stands.  A model returned that is much worse on the
+held-out part than a candidate the checks rejected (:func:`much_worse`) draws a
+:class:`SelectionWarning` naming it, the reason and the ``order=``/``method=`` to pass.
+A time series (no input) is scored by its one-step prediction error with one initial
+state for the whole held-out part, and only stationary models (stable ``A``,
+:func:`stationarity_problem`) are candidates.
 
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
@@ -120,6 +123,11 @@ __all__ = [
     "beats_the_mean",
     "stationarity_problem",
     "instability_problem",
+    "refinement_instability",
+    "grows",
+    "much_worse",
+    "SelectionWarning",
+    "MUCH_WORSE_RATIO",
     "rejudge_refined",
     "looks_closed_loop",
     "accepts_held_out",
@@ -137,6 +145,18 @@ AUTO_METHODS = ("hermite", "laguerre", "legendre", "dt")
 HOLDOUT = 1.0 / 3.0
 #: largest order tried by default
 AUTO_MAX_ORDER = 8
+
+
+#: :func:`much_worse`: the returned model leaves at least this many times the held-out
+#: residual energy of a rejected candidate (3 dB; a judgement, see there)
+MUCH_WORSE_RATIO = 2.0
+
+
+class SelectionWarning(UserWarning):
+    """The held-out selection took a decision the user should know of: it returned a
+    candidate fitted on part of the record, a model much worse on the held-out part than
+    one it rejected, or a model no candidate of which passed its checks.  The message
+    says what was rejected, why, and what to pass (``order=``, ``method=``) instead."""
 
 
 #: with ``refined=True``, the best candidate of every order up to the chosen one whose
@@ -612,73 +632,108 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
     )
 
 
-def instability_problem(model: StateSpaceModel, rec: tuple) -> str:
-    """Why the record ``rec = (t, u, y)`` does not support the instability of ``model``,
-    or ``""`` (a stable model, or an instability the record supports).
+def grows(model: StateSpaceModel) -> bool:
+    """Whether ``model`` has a growing mode: an eigenvalue of ``A`` with ``Re > 0``
+    (compared with 0 exactly; a mode at ``Re = +1e-12`` is one, and is judged as one)."""
+    return model.n > 0 and bool(np.any(np.linalg.eigvals(model.A).real > 0.0))
 
-    An eigenvalue with ``Re lambda = sigma > 0`` makes the model's response grow as
-    ``e^(sigma t)``.  A record whose output stays bounded is consistent with that only
-    (a) when its input holds the growth back, i.e. the input depends on the output: a
-    feedback loop around an unstable plant, which the closed-loop test of
-    :func:`looks_closed_loop` detects from the model's one-step prediction errors
-    against the prewhitened input (in open loop the input cannot react to a growing
-    output), or (b) when the growth over the record is what the data show: the model's
-    simulation (``K = 0``) from the state fitted on the record's first window only
-    predicts the whole record better than its mean (:func:`_causal_simulation_error`).
-    Neither: the instability is the model's,
-    not the record's (an open-loop record of a stable plant); such a model is rejected.
-    A time series has no input to hold anything back: :func:`stationarity_problem`.
-    Eigenvalues are compared with 0 exactly: a mode at ``Re lambda = +1e-12`` grows by
-    nothing over any record and passes (b).
+
+def _worst_eigenvalue(model: StateSpaceModel) -> complex:
+    lam = np.linalg.eigvals(model.A)
+    return complex(lam[int(np.argmax(lam.real))])
+
+
+def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> str:
+    """Why the held-out record does not support the growth of candidate ``row``, or
+    ``""`` (a stable candidate, or a growth the record supports).  ``pool``: every scored
+    candidate (rows with ``model``, ``order`` and held-out ``criterion``).
+
+    The rule: an unstable candidate is rejected when a *stable* candidate of no larger
+    order predicts the held-out part as well -- within one standard error of it by the
+    held-out score that ranks the candidates (:func:`score_model`;
+    :func:`~hdpbsid.criteria.choose_smallest_adequate` with the stable one listed first,
+    so the burden of proof is on the growth).  Then the record does not need the growth:
+    a stable model, no more complex, explains what it shows.  A time series (no input)
+    is modelled as a stationary process: :func:`stationarity_problem`.
+
+    Why not judge the unstable candidate alone.  A bounded record of an unstable plant
+    is only possible inside a feedback loop, where the input holds the growth back; the
+    feedback test (:func:`looks_closed_loop`) sees the loop only in the part of the output
+    the controller reacts to that the model cannot predict, and a loop driven by its
+    reference with little noise leaves none.  Without it, no test of
+    one model separates a true unstable plant from a spurious growing mode: over a
+    horizon ``T`` any error of the state estimated from the past grows as
+    ``e^(sigma T)``, so a free run from the state fitted on the record's start diverges
+    for the true plant too (a rule built on it rejected every candidate of a measured
+    record of a plant in such a loop and fell back to a first-order model); and with the
+    initial state fitted on the judged horizon itself, the later inputs cancel any
+    growth up to ``1/eps``, so it passes a spurious mode too.  A comparison with the stable
+    alternatives needs neither: it asks what the held-out data prefer, at the resolution
+    of the held-out data, as the order is chosen (Hastie, Tibshirani & Friedman, *The
+    Elements of Statistical Learning*, 2nd ed., sec. 7.10).  A growing mode that the data
+    cannot tell from a stable model is not supported; one that every stable candidate of
+    its size predicts worse than, beyond the spread of the held-out windows, is.  Larger
+    stable candidates are not rivals: the order is chosen first, by the same rule, and
+    stability is not bought with states the data do not ask for.
     """
-    if model.n == 0:
-        return ""
+    model = row["model"]
     if model.m == 0:
         return stationarity_problem(model)
-    lam = np.linalg.eigvals(model.A)
-    if np.all(lam.real <= 0.0):
+    if not grows(model):
         return ""
-    t, u, y = check_data(*rec)
-    err = _causal_simulation_error(model, t, u, y)
-    if err < 1.0:
-        return ""
-    if looks_closed_loop(model, (t, u, y)):
-        return ""
-    worst = lam[np.argmax(lam.real)]
-    return (
-        f"unstable (eigenvalue {worst:.3g}) where the record does not support instability: "
-        f"its simulation from the state fitted on the record's start predicts the record "
-        f"worse than the mean (relative error {err:.3g}) and the record shows no feedback "
-        f"that could hold an unstable plant bounded"
-    )
+    err = row["criterion"]
+    for r in pool:
+        c = r.get("criterion")
+        if r is row or c is None or not c.finite or r["order"] > row["order"]:
+            continue
+        if grows(r["model"]) or c.per_window.size != err.per_window.size:
+            continue
+        k, stats = choose_smallest_adequate([c, err])
+        if k == 0:
+            return (
+                f"unstable (eigenvalue {_worst_eigenvalue(model):.3g}) where the record does "
+                f"not need the growth: the stable {r['method']} order {r['order']} predicts "
+                f"the held-out part as well (the unstable one is {-stats[0]:.2g} standard "
+                f"errors better, within the one-standard-error rule)"
+            )
+    return ""
 
 
-def _causal_simulation_error(model: StateSpaceModel, t: Any, u: Any, y: Any) -> float:
-    """The relative error (outputs weighted by their inverse variance; 1 = the mean) of
-    ``model``'s simulation over the record from the initial state fitted by least squares
-    on its first window only (:func:`~hdpbsid.criteria.default_windows`; the whole record
-    when it is too short for two windows); ``inf`` when the simulation fails.
+def refinement_instability(start: StateSpaceModel, refined: StateSpaceModel, rec: tuple) -> str:
+    """Why the refinement ``refined`` of ``start`` on the record ``rec = (t, u, y)``
+    grew a mode the record does not support, or ``""``.
 
-    Causal: the state comes from the record's past, as a growing mode would act on it.
-    An initial state fitted to the whole record instead cancels a growing mode with the
-    record's later inputs (an anti-causal filter, exact in floating point up to a growth
-    of ``1/eps ~ e^36``): a mode at ``+2 /s`` over a 10 s open-loop record of a stable
-    plant passed that test.
+    The prediction-error refinement judges the predictor ``A - K C``, stable either way,
+    so by itself it does not keep ``A`` stable.  A refinement that makes a stable
+    ``start`` unstable is kept only when the record asks for the growth, by the rule of
+    :func:`instability_problem` with ``start`` as the stable rival of equal order: the
+    windowed simulation error on the record (:func:`~hdpbsid.criteria.windowed_simulation_error`,
+    the deterministic response whose growth is in question; the refinement did not fit
+    it) of the refined model must beat the start's by more than one standard error.  A
+    time series' refined model must be stationary (:func:`stationarity_problem`).
     """
-    W = default_windows(t.size, model.n)
-    L = t.size // W if W > 1 else t.size
-    hold = model.options.get("input_hold", "zoh")
-    hold = hold if hold in ("zoh", "foh") else "zoh"
-    try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")
-            x0 = model.fit(t[:L], u[:L], y[:L], method=hold).x0
-            y_sim = np.asarray(model.simulate(t, u, x0=x0, method=hold))
-            w = 1.0 / np.maximum(np.var(y, axis=0), np.finfo(float).tiny)
-            err = float(np.sum((y - y_sim) ** 2 * w) / np.sum((y - y.mean(axis=0)) ** 2 * w))
-    except (ValueError, np.linalg.LinAlgError):
-        return np.inf
-    return err if np.isfinite(err) else np.inf
+    if not grows(refined) or grows(start):
+        return ""
+    if refined.m == 0:
+        return stationarity_problem(refined)
+    t, u, y = check_data(*rec)
+    windows = max(1, default_windows(t.size, refined.n))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            e_ref = windowed_simulation_error(refined, t, u, y, windows)
+            e_start = windowed_simulation_error(start, t, u, y, windows)
+        except (ValueError, np.linalg.LinAlgError):
+            return ""
+    why = f"unstable (eigenvalue {_worst_eigenvalue(refined):.3g}) where the start was stable"
+    if not e_ref.finite:
+        return why + ", and its simulation of the record overflows"
+    if e_start.finite and choose_smallest_adequate([e_start, e_ref])[0] == 0:
+        return (
+            why + ": the stable start simulates the record as well (within one standard "
+            "error), so the record does not need the growth"
+        )
+    return ""
 
 
 def refit_holds(
@@ -720,27 +775,32 @@ def _first_that_holds(
     windows: int,
     opts: dict,
     floor: bool = True,
-) -> tuple[StateSpaceModel | None, list[tuple[str, str]]]:
+    pool: Sequence[dict[str, Any]] = (),
+) -> tuple[StateSpaceModel | None, list[tuple[str, str, dict[str, Any]]], dict[str, Any] | None]:
     """The first of ``candidates`` that, with its held-out-judged settings settled
-    (:func:`settle_candidate`, fitted on ``est``), passes :func:`beats_the_mean` (unless
-    ``floor`` is False) and whose refit on the ``whole`` record passes
-    :func:`refit_holds` and the same floor, refitted; or None.  The floor for the refit:
+    (:func:`settle_candidate`, fitted on ``est``), passes the floor (unless ``floor`` is
+    False): :func:`beats_the_mean`, and :func:`instability_problem` against the scored
+    candidates ``pool``; and whose refit on the ``whole`` record passes
+    :func:`refit_holds` and :func:`beats_the_mean`, refitted, and grows no mode the
+    candidate did not have (the held-out part judged a stable model; the growth of the
+    refit was never judged); or None.  Returns ``(model, failures, row)``, ``row`` the
+    candidate whose refit is returned.  The floor for the refit:
     the windowed score of :func:`refit_holds` fits an initial state per window, so a
     refit with a spurious growing mode can pass it and still diverge over the held-out
     part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
     had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
-    every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``; a candidate that
+    every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
     passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
     a sound answer when no refit holds: :func:`select_model`)."""
-    failures: list[tuple[str, str]] = []
+    failures: list[tuple[str, str, dict[str, Any]]] = []
     for chosen in candidates:
         settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
             useful, how = beats_the_mean(chosen["model"], val)
-            how = how or instability_problem(chosen["model"], val)
+            how = how or instability_problem(chosen, pool)
             if how:
-                failures.append(("floor", f"{name}: {how}"))
+                failures.append(("floor", f"{name}: {how}", chosen))
                 continue
             chosen["passed_floor"] = True
         try:
@@ -760,7 +820,11 @@ def _first_that_holds(
                     # the floor the candidate passed, for the model returned: a refit
                     # whose windowed score holds can still diverge over the whole part
                     holds, how = beats_the_mean(model, val)
-                    how = how or instability_problem(model, val)
+                    if not how and grows(model) and not grows(chosen["model"]):
+                        how = (
+                            f"it has a growing mode (eigenvalue {_worst_eigenvalue(model):.3g}) "
+                            f"that the candidate judged on the held-out part did not have"
+                        )
                     holds = not how
                     how = f"the refit on the whole record: {how}" if how else how
                 why = stationarity_problem(model) if holds else ""
@@ -790,9 +854,9 @@ def _first_that_holds(
                     "the candidate's own values, judged with it on the held-out part "
                     "(hdpbsid.selection.refit_keeps)"
                 )
-            return model, failures
-        failures.append(("refit", f"{name}: {how}"))
-    return None, failures
+            return model, failures, chosen
+        failures.append(("refit", f"{name}: {how}", chosen))
+    return None, failures, None
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -951,17 +1015,18 @@ def _choose(
     opts: dict,
     where: str,
     refined: bool = False,
-) -> tuple[StateSpaceModel, list[tuple[str, str]], str]:
+) -> tuple[StateSpaceModel, list[tuple[str, str, dict[str, Any]]], str]:
     """The model returned by :func:`select_model` from the scored candidates ``ok`` and
     the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
     rule.  Never a model the checks rejected, quietly:
 
-    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`)
-       and whose refit on the whole record holds (:func:`_first_that_holds`);
+    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
+       :func:`instability_problem`) and whose refit on the whole record holds
+       (:func:`_first_that_holds`);
     2. else, if a candidate of ``queue`` passed the floor, that candidate's own model,
        fitted on the estimation part (:func:`_candidate_itself`; with ``refined`` the
        start of the refinement on the whole record, the front end warns only if that
-       does not happen), with a ``UserWarning``: the held-out part judged
+       does not happen), with a :class:`SelectionWarning`: the held-out part judged
        exactly that model, while the refit is a different one (the method's data-driven
        settings, chosen again on the whole record, changed it), so the candidate is the
        model the evidence supports;
@@ -971,20 +1036,29 @@ def _choose(
        returned while that better one stands);
     4. no candidate passes the floor (an unstable plant sampled non-uniformly has no stable
        predictor to run over the whole held-out part): the first ranking stands without
-       the floor, with a ``UserWarning``;
-    5. nothing holds: ``ValueError`` naming every failure.
+       the floor, with a :class:`SelectionWarning`;
+    5. nothing holds: ``ValueError`` naming every failure and what would help.
+
+    Whatever the step, when the model returned is much worse on the held-out part than
+    the best candidate a check rejected (:func:`much_worse`), a :class:`SelectionWarning`
+    says what was rejected, why, and how to ask for it (:func:`_warn_if_much_worse`).
     """
-    failures: list[tuple[str, str]] = []
+    failures: list[tuple[str, str, dict[str, Any]]] = []
     pool, first = list(ok), queue
     while queue:
-        model, more = _first_that_holds(get_method, queue, est, whole, val, windows, opts)
+        model, more, row = _first_that_holds(
+            get_method, queue, est, whole, val, windows, opts, pool=ok
+        )
         failures += more
         if model is not None:
+            _warn_if_much_worse(row, model, failures)
             return model, failures, ""
         sound = [r for r in queue if r.get("passed_floor")]
         if sound:
+            model = _candidate_itself(sound[0], where, warn=not refined)
+            _warn_if_much_worse(sound[0], model, failures)
             return (
-                _candidate_itself(sound[0], where, warn=not refined),
+                model,
                 failures,
                 (
                     f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
@@ -996,34 +1070,93 @@ def _choose(
             break
         k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
         queue = _ranked(pool, k, stats, val)
-    # no candidate beats the held-out mean from one initial state: the floor cannot
-    # judge these models, the windowed ranking stands
-    model, more = _first_that_holds(get_method, first, est, whole, val, windows, opts, floor=False)
+    # no candidate passes the floor: the floor cannot judge these models, the windowed
+    # ranking stands
+    model, more, row = _first_that_holds(
+        get_method, first, est, whole, val, windows, opts, floor=False
+    )
     failures += more
     if model is None:
         raise ValueError(
             "no scored candidate could be identified on the whole record: "
             + "; ".join(why[1] for why in failures)
-            + "; a longer record, a smaller max_order or another method may help"
+            + "; a longer record, a smaller max_order, or giving order= and method= "
+            "explicitly may help"
         )
     warnings.warn(
-        f"no candidate model predicts {where} better than its mean from one initial "
-        f"state; the best by the windowed held-out score is returned "
+        f"no candidate model passes the checks on {where} (model.options['selection_rule'] "
+        f"lists the failures); the best by the windowed held-out score is returned "
         f"({model.options.get('method', '?')} order {model.n}), check it on other data "
-        f"before use (model.options['selection_rule'] lists the failures)",
-        UserWarning,
+        f"before use",
+        SelectionWarning,
         stacklevel=4,
     )
     return (
         model,
         failures,
-        ("; no candidate beats the held-out mean from one initial state: floor not applied"),
+        "; no candidate passes the floor: floor not applied",
     )
+
+
+def much_worse(returned: WindowedError, rejected: WindowedError) -> tuple[bool, float]:
+    """Whether the held-out score ``returned`` of the model returned is much worse than
+    the score ``rejected`` of a candidate a check rejected, and the ratio of their
+    held-out errors.
+
+    Much worse: the returned model leaves at least :data:`MUCH_WORSE_RATIO` times the
+    held-out residual energy of the rejected one, *and* the held-out data resolve the
+    difference (more than one standard error of the windows,
+    :func:`~hdpbsid.criteria.choose_smallest_adequate`).  The second condition keeps the
+    rule to differences the record shows; the first to differences that change what a
+    user sees (a fit of ``100 (1 - sqrt(e))`` percent: twice the residual energy is 3 dB,
+    e.g. 90 % against 86 %), rather than every candidate that was a standard error
+    better.  Then the checks took a decision the user should know of.
+    """
+    if not rejected.finite or rejected.total <= 0.0:
+        return False, np.inf
+    ratio = returned.total / rejected.total if returned.finite else np.inf
+    if ratio < MUCH_WORSE_RATIO:
+        return False, ratio
+    k, _ = choose_smallest_adequate([returned, rejected])
+    return k != 0, ratio
+
+
+def _warn_if_much_worse(
+    row: dict[str, Any],
+    model: StateSpaceModel,
+    failures: list[tuple[str, str, dict[str, Any]]],
+) -> None:
+    """A :class:`SelectionWarning` when the candidate ``row`` returned (as ``model``) is
+    much worse on the held-out part than the best candidate the checks rejected
+    (:func:`much_worse`): what was rejected and why, the ratio, and what to pass to get
+    it.  The text is kept in ``model.options["selection_warning"]``."""
+    crit = row.get("criterion")
+    rejected = [
+        (r, text)
+        for _, text, r in failures
+        if r is not row and r.get("criterion") is not None and r["criterion"].finite
+    ]
+    if crit is None or not rejected:
+        return
+    best, why = min(rejected, key=lambda p: p[0]["criterion"].total)
+    worse, ratio = much_worse(crit, best["criterion"])
+    if not worse:
+        return
+    text = (
+        f"{row['method']} order {row['order']} is returned, but its held-out error is "
+        f"{ratio:.3g} times that of {why} (rejected for that reason). If that model is "
+        f"what the record should give (e.g. an unstable plant inside a feedback loop), "
+        f"pass method={best['method']!r}, order={best['order']}; "
+        f"model.options['selection_rule'] lists every candidate that was rejected"
+    )
+    model.options["selection_warning"] = text
+    warnings.warn(text, SelectionWarning, stacklevel=5)
 
 
 def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
     """The candidate ``row``'s own model (fitted on the estimation part), returned when
-    no refit on the whole record holds (:func:`_choose`, step 2), with a ``UserWarning``
+    no refit on the whole record holds (:func:`_choose`, step 2), with a
+    :class:`SelectionWarning`
     (if ``warn``) saying so and what would help; the text is also kept in
     ``options["selection_fallback"]``."""
     model = row["model"]
@@ -1036,7 +1169,7 @@ def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> Sta
     )
     model.options["selection_fallback"] = text
     if warn:
-        warnings.warn(text, UserWarning, stacklevel=5)
+        warnings.warn(text, SelectionWarning, stacklevel=5)
     return model
 
 
