@@ -147,8 +147,9 @@ HOLDOUT = 1.0 / 3.0
 AUTO_MAX_ORDER = 8
 
 
-#: :func:`much_worse`: the returned model leaves at least this many times the held-out
-#: residual energy of a rejected candidate (3 dB; a judgement, see there)
+#: :func:`much_worse`: the returned model leaves more than this many times the held-out
+#: residual energy of a rejected candidate, the smallest ratio the one-standard-error
+#: rule resolves for any spread of the held-out windows (see there)
 MUCH_WORSE_RATIO = 2.0
 
 
@@ -1103,22 +1104,19 @@ def much_worse(returned: WindowedError, rejected: WindowedError) -> tuple[bool, 
     the score ``rejected`` of a candidate a check rejected, and the ratio of their
     held-out errors.
 
-    Much worse: the returned model leaves at least :data:`MUCH_WORSE_RATIO` times the
-    held-out residual energy of the rejected one, *and* the held-out data resolve the
-    difference (more than one standard error of the windows,
-    :func:`~hdpbsid.criteria.choose_smallest_adequate`).  The second condition keeps the
-    rule to differences the record shows; the first to differences that change what a
-    user sees (a fit of ``100 (1 - sqrt(e))`` percent: twice the residual energy is 3 dB,
-    e.g. 90 % against 86 %), rather than every candidate that was a standard error
-    better.  Then the checks took a decision the user should know of.
+    Much worse: the returned model leaves more than :data:`MUCH_WORSE_RATIO` (2) times
+    the held-out residual energy of the rejected one.  Why 2: beyond it the held-out
+    data resolve the difference whatever the spread of their windows.  The standard
+    error of the one-standard-error rule (:func:`~hdpbsid.criteria.choose_smallest_adequate`)
+    is ``sqrt(W) std(r_w)`` of the better model's window errors ``r_w >= 0``, at most
+    their sum ``T`` (equality when one window holds all of it), so a total above ``2 T``
+    is more than one standard error worse on any record; a smaller ratio can be within
+    the spread of the windows, a difference the record does not show.
     """
     if not rejected.finite or rejected.total <= 0.0:
         return False, np.inf
     ratio = returned.total / rejected.total if returned.finite else np.inf
-    if ratio < MUCH_WORSE_RATIO:
-        return False, ratio
-    k, _ = choose_smallest_adequate([returned, rejected])
-    return k != 0, ratio
+    return bool(ratio > MUCH_WORSE_RATIO), ratio
 
 
 def _warn_if_much_worse(
