@@ -646,15 +646,20 @@ def _worst_eigenvalue(model: StateSpaceModel) -> complex:
 
 def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> str:
     """Why the held-out record does not support the growth of candidate ``row``, or
-    ``""`` (a stable candidate, or a growth the record supports).  ``pool``: every scored
-    candidate (rows with ``model``, ``order`` and held-out ``criterion``).
+    ``""`` (a stable candidate, or a growth the record supports).  ``pool``: the
+    candidates the one-standard-error rule admits (rows with ``model``, ``order`` and
+    held-out ``criterion``; :func:`select_model` passes those within one standard error
+    of the best).
 
     The rule: an unstable candidate is rejected when a *stable* candidate of no larger
-    order predicts the held-out part as well -- within one standard error of it by the
-    held-out score that ranks the candidates (:func:`score_model`;
+    order, itself admitted, predicts the held-out part as well -- within one standard
+    error of it by the held-out score that ranks the candidates (:func:`score_model`;
     :func:`~hdpbsid.criteria.choose_smallest_adequate` with the stable one listed first,
     so the burden of proof is on the growth).  Then the record does not need the growth:
-    a stable model, no more complex, explains what it shows.  A time series (no input)
+    a stable model, no more complex and as good by the selection's own rule, explains
+    what it shows, and it is the one chosen instead.  A stable rival the rule does not
+    admit is no rival: rejecting the growth for it would hand the choice to a larger
+    candidate, not to it.  A time series (no input)
     is modelled as a stationary process: :func:`stationarity_problem`.
 
     Why not judge the unstable candidate alone.  A bounded record of an unstable plant
@@ -1005,6 +1010,15 @@ def _ranked(
     return tied + [r for r in queue if r not in tied]
 
 
+def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` the one-standard-error rule admits: held-out error
+    within :data:`~hdpbsid.criteria.SIGNIFICANCE_Z` standard errors of the best's
+    (:func:`~hdpbsid.criteria.choose_smallest_adequate`); the rivals of
+    :func:`instability_problem`."""
+    _, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+
+
 def _choose(
     get_method: Any,
     ok: list[dict[str, Any]],
@@ -1048,7 +1062,7 @@ def _choose(
     pool, first = list(ok), queue
     while queue:
         model, more, row = _first_that_holds(
-            get_method, queue, est, whole, val, windows, opts, pool=ok
+            get_method, queue, est, whole, val, windows, opts, pool=_admitted(pool)
         )
         failures += more
         if model is not None:
