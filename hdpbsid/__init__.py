@@ -44,6 +44,7 @@ if TYPE_CHECKING:  # the names for type checkers and editors; at run time see _E
     from hdpbsid.models.model import DiscreteModel, FitResult, StateSpaceModel, TimeScaleWarning
     from hdpbsid.models.model_io import load_model, save_model
     from hdpbsid.runtime import num_threads
+    from hdpbsid.selection.auto import SelectionWarning
     from hdpbsid.systems.quadrotor import PitchData, pitch_model, simulate_pitch_closed_loop
 
 #: public name -> the module (relative to this package) that defines it
@@ -69,6 +70,7 @@ _EXPORTS: dict[str, str] = {
     ),
     **dict.fromkeys(("load_model", "save_model"), ".models.model_io"),
     "num_threads": ".runtime",
+    "SelectionWarning": ".selection.auto",
     **dict.fromkeys(
         ("PitchData", "pitch_model", "simulate_pitch_closed_loop"), ".systems.quadrotor"
     ),
@@ -127,6 +129,7 @@ __all__: list[str] = [
     "DiscreteModel",
     "FitResult",
     "TimeScaleWarning",
+    "SelectionWarning",
     "load_model",
     "save_model",
     "c2d",

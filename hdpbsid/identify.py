@@ -3,8 +3,8 @@
 ``m = hdpbsid.identify(t, u, y, order=4, method="hermite")`` with ``method`` one of
 ``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md): the
 record is checked, scaled and detrended here, the method is taken from the registry
-(:mod:`hdpbsid.methods.registry`; ``"dt"``, :func:`hdpbsid.methods.dt.identify_dt`, is
-registered on import), and the model refined and given its operating point.
+(:mod:`hdpbsid.methods.registry`, which imports each method on first use), and the
+model refined and given its operating point.
 """
 
 from __future__ import annotations
@@ -21,21 +21,19 @@ from hdpbsid.data.checks import (
     check_names,
     check_time,
     check_varies,
+    is_uniform,
     require_joblib,
     scale_exponents,
 )
 from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
-from hdpbsid.methods.dt import identify_dt
 from hdpbsid.methods.registry import (
     IdentifyFunc,
     get_method,
-    register_method,
 )
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
 from hdpbsid.refine.pem import (
     REFINE_CHOICES,
     WARM_START,
-    is_uniform,
     one_step_errors,
     refine_pem,
 )
@@ -278,7 +276,10 @@ def identify(
             do, rule, stats = refine_decision(model, tm, um, ym, uniform, errors=errors)
         if do:
             refined = refine_pem(model, tm, um, ym)
-            if refined.options.get("refine_converged", True):
+            unsound = _refinement_problem(model, refined, tm, um, ym)
+            if unsound:
+                rule += f"; the refined model is not kept: {unsound}"
+            elif refined.options.get("refine_converged", True):
                 model = refined
             else:
                 # an iterate cut off by the evaluation budget is neither the subspace
@@ -291,6 +292,8 @@ def identify(
         model.options["refine_statistics"] = stats
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.options.pop(WARM_START, None)
+    if not several:
+        _warn_if_fallback(model)
     if refine is not None:
         model.options["refine_time"] = time.perf_counter() - t_refine
     _set_levels(model, u0, y0, trend)
@@ -380,6 +383,37 @@ def _identify_delayed(
     info["samples"] = steps.tolist()
     model.options["delay"] = info
     return model
+
+
+def _refinement_problem(
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+) -> str:
+    """Why the prediction-error refinement ``refined`` of ``start`` on ``(t, u, y)`` is
+    not kept, or ``""``: it grew a mode the record does not ask for
+    (:func:`hdpbsid.selection.auto.refinement_instability`: a time series' model not
+    stationary, or an unstable model that simulates the record no better than its stable
+    start).  The prediction-error criterion judges the predictor ``A - K C``, stable
+    either way, so by itself it does not keep ``A`` stable."""
+    from hdpbsid.selection.auto import refinement_instability
+
+    return refinement_instability(start, refined, (t, u, y))
+
+
+def _warn_if_fallback(model: StateSpaceModel) -> None:
+    """A :class:`~hdpbsid.selection.auto.SelectionWarning` when the held-out selection returned
+    the candidate fitted on part of the record and no refinement on the whole record
+    replaced it: a decision for the user (a longer record, or the method's settings
+    given)."""
+    from hdpbsid.selection.auto import SelectionWarning
+
+    fallback = model.options.get("selection_fallback")
+    if fallback and model.options.get("refine") == "pem":
+        model.options["selection_fallback"] = (
+            "the held-out selection's candidate, fitted on the estimation part (its refit "
+            "on the whole record did not hold), started the refinement on the whole record"
+        )
+    elif fallback:
+        warnings.warn(fallback, SelectionWarning, stacklevel=3)
 
 
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
@@ -567,6 +601,3 @@ def _run(
     if method == "auto":
         return func(t, u, y, order=order, refined=refined, **options)
     return func(t, u, y, order=order, **options)
-
-
-register_method("dt", identify_dt)

@@ -24,6 +24,8 @@ __all__ = [
     "ENERGY_HEADROOM",
     "check_uniform",
     "is_uniform",
+    "uniform_tolerance",
+    "UNIFORM_RTOL",
     "time_resolution",
     "check_positive_int",
     "check_matrix",
@@ -191,35 +193,64 @@ def time_resolution(t: NDArray[np.float64]) -> float:
     return 2.0 * float(np.spacing(np.max(np.abs(t)))) if t.size else 0.0
 
 
-def check_uniform(t: NDArray[np.float64], rtol: float = 1e-6, name: str = "t") -> float:
-    """Return the sampling interval of a uniformly sampled ``t``.
+#: relative tolerance of the sample spacing of a uniform grid (:func:`check_uniform`):
+#: one sampled model then serves every step to ~1e-6 of its exponent, far below the
+#: statistical resolution of any record these methods identify from (a grid jittered by
+#: more is treated as non-uniform, with exact steps per interval)
+UNIFORM_RTOL = 1e-6
+
+
+def uniform_tolerance(t: NDArray[np.float64], h: float, rtol: float = UNIFORM_RTOL) -> float:
+    """The largest deviation ``|diff(t)_k - h|`` of a uniform grid ``t`` with spacing
+    ``h``: ``rtol * h + 2 * time_resolution(t)``.
+
+    Every difference of two stamps is known to :func:`time_resolution` (one spacing of
+    ``max |t|`` from storing each stamp, one more when it was computed as ``t0 + k h``),
+    and so is the reference ``h`` when it is itself a difference of stamps (the median
+    spacing), hence twice the resolution; the stamps cannot say more.  ``rtol * h`` is
+    the uniformity asked of the grid itself (:data:`UNIFORM_RTOL`).  The same grid
+    shifted by a constant (``t = 0`` or Unix time ``t ~ 1.7e9``) is then uniform in both
+    forms, whatever ``rtol``.
+    """
+    return rtol * h + 2.0 * time_resolution(t)
+
+
+def check_uniform(t: NDArray[np.float64], rtol: float = UNIFORM_RTOL, name: str = "t") -> float:
+    """Return the sampling interval of a uniformly sampled ``t``; the one uniformity test
+    of the package (every path that treats a grid as uniform asks this one).
 
     The spacing is computed on ``t - t[0]`` and compared with its median ``h``: ``t`` is
-    uniform when ``max |diff(t) - h| <= rtol * h + time_resolution(t)``.  The second term
-    is the rounding of the stamps themselves (:func:`time_resolution`): without it a
-    record stamped with Unix time (``t ~ 1.7e9``, ``h = 0.01``) fails any ``rtol`` below
-    ``5e-5`` although it is as uniform as its stamps can say.  Raises ``ValueError``
-    naming the largest deviation otherwise.  The returned interval is the mean spacing
-    ``(t[-1] - t[0]) / (Ns - 1)``.
+    uniform when ``max |diff(t) - h| <= uniform_tolerance(t, h, rtol)``, i.e.
+    ``rtol * h`` plus the rounding of the stamps themselves (:func:`uniform_tolerance`):
+    without it a record stamped with Unix time (``t ~ 1.7e9``, ``h = 0.01``) fails any
+    ``rtol`` below ``5e-5`` although it is as uniform as its stamps can say.  Raises
+    ``ValueError`` naming the largest deviation otherwise.  The returned interval is the
+    mean spacing ``(t[-1] - t[0]) / (Ns - 1)``.
     """
     tr = t - t[0]
     d = np.diff(tr)
+    if d.size == 0:
+        return 0.0
     med = float(np.median(d))
     dev = float(np.max(np.abs(d - med)))
-    tol = rtol * med + time_resolution(t)
+    tol = uniform_tolerance(t, med, rtol)
     if dev > tol:
         k = int(np.argmax(np.abs(d - med)))
         raise ValueError(
             f"{name} must be uniformly sampled for this method: the sample spacing deviates "
             f"from the median spacing {med:.6g} by up to {dev:.3g} (at index {k}, relative "
-            f"{dev / med:.3g} > rtol={rtol:g} plus the stamps' resolution "
+            f"{dev / med:.3g} > rtol={rtol:g} plus twice the stamps' resolution "
             f"{time_resolution(t):.3g}); use a basis-domain method for non-uniform data"
         )
     return float(tr[-1] / (t.shape[0] - 1))
 
 
-def is_uniform(t: NDArray[np.float64], rtol: float = 1e-6) -> bool:
-    """True when :func:`check_uniform` accepts ``t`` (same tolerance)."""
+def is_uniform(t: Any, rtol: float = UNIFORM_RTOL) -> bool:
+    """True when :func:`check_uniform` accepts ``t`` (same tolerance); a grid of fewer
+    than three samples is uniform."""
+    t = np.asarray(t, dtype=float)
+    if t.size < 3:
+        return True
     try:
         check_uniform(t, rtol)
     except ValueError:

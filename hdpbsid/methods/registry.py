@@ -3,11 +3,10 @@
 Methods live in :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
 order=None, **options) -> StateSpaceModel``).
 
-* ``"dt"`` (:func:`hdpbsid.methods.dt.identify_dt`) is registered when
-  :mod:`hdpbsid.identify` is imported;
-* the basis-domain methods are registered *lazily* (:data:`LAZY_METHODS`): the first
-  time ``"hermite"`` (:mod:`hdpbsid.methods.hermite`), ``"laguerre"``
-  (:mod:`hdpbsid.methods.laguerre`),
+* every built-in method is registered *lazily* (:data:`LAZY_METHODS`), so a process
+  that imports only this module (a worker of ``n_jobs``) knows them all: the first
+  time ``"dt"`` (:mod:`hdpbsid.methods.dt`), ``"hermite"``
+  (:mod:`hdpbsid.methods.hermite`), ``"laguerre"`` (:mod:`hdpbsid.methods.laguerre`),
   ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
   family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
   is imported and its ``identify_<name>`` function registered.  A module may also call
@@ -45,6 +44,7 @@ METHODS: dict[str, IdentifyFunc] = {}
 #: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
 #: tried in order (the first module that imports and has the function wins).
 LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
+    "dt": (("hdpbsid.methods.dt", "identify_dt"),),
     "hermite": (("hdpbsid.methods.hermite", "identify_hermite"),),
     "laguerre": (("hdpbsid.methods.laguerre", "identify_laguerre"),),
     "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),

@@ -90,8 +90,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 
-from hdpbsid.data.checks import check_data
-from hdpbsid.data.checks import is_uniform as checks_is_uniform
+# is_uniform: the package's one uniformity test (hdpbsid.data.checks), re-exported here
+from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import select_kernels
 from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
@@ -114,8 +114,6 @@ REFINE_CHOICES = ("auto", "pem", None)
 RECORD_MEMORY = 4
 #: Jacobians a :class:`_Record` remembers: one per starting point of :func:`_fit_starts`
 JACOBIAN_MEMORY = 2
-#: relative spread of the sample spacing below which a grid counts as uniform
-UNIFORM_RTOL = 1e-6
 #: residual returned (per entry, in units of the weighted innovation) for an unstable
 #: predictor: far above any attainable cost, so Levenberg-Marquardt rejects the step
 UNSTABLE_PENALTY = 1e3
@@ -192,13 +190,6 @@ HOLD_EVIDENCE = 6.635
 #: the subspace K alone, 1 of 11 quadrotor seeds stopped at a predictor pole on the unit
 #: circle (cost above the true system's)
 OE_PROCESS_NOISE = 1e-6
-
-
-def is_uniform(t: Array, rtol: float = UNIFORM_RTOL) -> bool:
-    """True when ``max |diff(t) - h| <= rtol * h`` plus the resolution of the stamps
-    (:func:`hdpbsid.data.checks.is_uniform`: computed on ``t - t[0]``, so Unix-time stamps
-    pass)."""
-    return checks_is_uniform(np.asarray(t, dtype=float), rtol)
 
 
 class _Layout:

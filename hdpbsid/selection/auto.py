@@ -42,6 +42,21 @@ of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data j
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 
+No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
+:func:`instability_problem`: an unstable candidate is rejected when a stable candidate of
+no larger order predicts the held-out part as well (within one standard error), i.e.
+when the record does not need the growth.  When no refit of an adequate candidate holds,
+the candidate itself (fitted on the estimation part, the model the held-out part judged)
+is returned with a warning, or is the start of the refinement on the whole record;
+candidates that fail the floor leave the ranking and the one-standard-error rule is
+applied again to the rest, so a candidate the rule rejected against a better one is
+never the fallback while that one stands.  A model returned that is much worse on the
+held-out part than a candidate the checks rejected (:func:`much_worse`) draws a
+:class:`SelectionWarning` naming it, the reason and the ``order=``/``method=`` to pass.
+A time series (no input) is scored by its one-step prediction error with one initial
+state for the whole held-out part, and only stationary models (stable ``A``,
+:func:`stationarity_problem`) are candidates.
+
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
 refined candidates where the subspace candidates' bias could have decided it
@@ -85,7 +100,7 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid.data.checks import check_data, check_positive_int
+from hdpbsid.data.checks import check_data, check_positive_int, is_uniform
 from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
@@ -93,7 +108,6 @@ from hdpbsid.models.criteria import (
     WindowedError,
     choose_smallest_adequate,
     default_windows,
-    is_uniform_grid,
     windowed_prediction_error,
     windowed_simulation_error,
 )
@@ -107,6 +121,13 @@ __all__ = [
     "score_model",
     "refit_holds",
     "beats_the_mean",
+    "stationarity_problem",
+    "instability_problem",
+    "refinement_instability",
+    "grows",
+    "much_worse",
+    "SelectionWarning",
+    "MUCH_WORSE_RATIO",
     "rejudge_refined",
     "looks_closed_loop",
     "accepts_held_out",
@@ -126,6 +147,19 @@ HOLDOUT = 1.0 / 3.0
 AUTO_MAX_ORDER = 8
 
 
+#: :func:`much_worse`: the returned model leaves more than this many times the held-out
+#: residual energy of a rejected candidate, the smallest ratio the one-standard-error
+#: rule resolves for any spread of the held-out windows (see there)
+MUCH_WORSE_RATIO = 2.0
+
+
+class SelectionWarning(UserWarning):
+    """The held-out selection took a decision the user should know of: it returned a
+    candidate fitted on part of the record, a model much worse on the held-out part than
+    one it rejected, or a model no candidate of which passed its checks.  The message
+    says what was rejected, why, and what to pass (``order=``, ``method=``) instead."""
+
+
 #: with ``refined=True``, the best candidate of every order up to the chosen one whose
 #: held-out error is within this many standard errors of the best is refined before the
 #: order is decided (:func:`rejudge_refined`): a judgement, three times the
@@ -138,10 +172,25 @@ def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[Windo
     """The held-out score of ``model`` on the record ``rec = (t, u, y)`` (module
     docstring): the smaller of its windowed one-step prediction error with its gain
     ``K`` and with ``K = 0`` (the simulation error), and whether that is the one with
-    ``K``.  Non-uniform samples: the simulation error."""
+    ``K``.  Non-uniform samples: the simulation error.
+
+    A time series (``u`` with no columns) is scored by the prediction error with ``K``
+    only: with no input the simulated output is the free response of the initial state
+    fitted to each window, a fit of ``n`` exponentials to the window, not a prediction
+    (more states always fit more of it: on a stationary second-order process observed
+    in noise it chose 4-8 states).  The one-step prediction error is the criterion of
+    time-series models (Ljung, *System Identification*, 2nd ed., sec. 7.2), computed
+    with one initial state for the whole held-out part (``carry_state``): fitted per
+    window, the initial state of a slow predictor fits the window's own later outputs.
+    A non-uniformly sampled time series has no such score here (``finite=False``).
+    """
     t, u, y = check_data(*rec)
+    if u.shape[1] == 0:
+        if not is_uniform(t):
+            return WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False), True
+        return windowed_prediction_error(model, t, u, y, windows, carry_state=True), True
     sim = windowed_simulation_error(model, t, u, y, windows)
-    if not is_uniform_grid(t):
+    if not is_uniform(t):
         return sim, False
     pred = windowed_prediction_error(model, t, u, y, windows)
     if pred.finite and (not sim.finite or pred.total < sim.total):
@@ -215,6 +264,8 @@ def settle_candidate(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = func(*est, order=row["order"], **given, held_out=val)
+            if stationarity_problem(model):
+                raise ValueError(stationarity_problem(model))
             err, use_k = score_model(model, val, windows)
     except (ValueError, np.linalg.LinAlgError):
         err = None
@@ -231,6 +282,33 @@ def settle_candidate(
     return row
 
 
+def stationarity_problem(model: StateSpaceModel) -> str:
+    """Why ``model``, a model of a time series (no input), cannot describe a stationary
+    process, or ``""``.
+
+    The output of ``dx/dt = A x + K e``, ``y = C x + e`` driven by white ``e`` is
+    stationary only when every mode that ``e`` excites decays, i.e. when ``A`` is stable
+    (``Re lambda < 0`` for every eigenvalue of a minimal model; an eigenvalue at 0 is a
+    random walk, whose variance grows with time).  A time series is identified as a
+    stationary process -- its held-out one-step prediction error judges a spectrum, the
+    same for a stable and a mirrored unstable pole -- so a model with an unstable ``A``
+    describes a process the record, bounded and stationary, is not.  Such a model is not
+    a candidate (:func:`select_model`); a non-stationary record (a trend, a random walk)
+    should be differenced or detrended first.
+    """
+    if model.m > 0 or model.n == 0:
+        return ""
+    lam = np.linalg.eigvals(model.A)
+    bad = lam[~(lam.real < 0.0)]
+    if bad.size == 0:
+        return ""
+    shown = ", ".join(f"{z:.3g}" for z in bad[:4])
+    return (
+        f"not stationary: A has eigenvalue(s) {shown} with Re >= 0, but a time series "
+        f"(no input) is modelled as a stationary process, which needs a stable A"
+    )
+
+
 def _fit_one(
     get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
 ) -> dict[str, Any]:
@@ -245,9 +323,14 @@ def _fit_one(
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
                 )
+            why = stationarity_problem(model)
+            if why:
+                raise ValueError(why)
             err, use_k = score_model(model, val, windows)
         row.update(
-            status="ok" if err.finite else "simulation overflow",
+            status="ok"
+            if err.finite
+            else "not scored: its one-step predictor is unstable or its simulation overflows",
             criterion=err,
             predictor="innovation (K)" if use_k else "output error (K = 0)",
             model=model,
@@ -435,8 +518,6 @@ def rejudge_refined(
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
     """
-    from hdpbsid.refine.pem import is_uniform
-
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
     n_star = ok[k]["order"]
@@ -513,7 +594,12 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     for r in tied:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            e = windowed_simulation_error(r["model"], t, u, y, 1)
+            if u.shape[1] == 0:
+                # a time series has no simulation to run (score_model): its one-step
+                # prediction over the whole held-out part from one initial state
+                e = score_model(r["model"], val, 1)[0]
+            else:
+                e = windowed_simulation_error(r["model"], t, u, y, 1)
         r["whole_simulation"] = e.total if e.finite else np.inf
     return sorted(tied, key=lambda r: r["whole_simulation"])
 
@@ -545,6 +631,116 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
         "over the whole held-out part (one initial state) it predicts worse than the mean "
         f"(relative error {whole.total:.3g})"
     )
+
+
+def grows(model: StateSpaceModel) -> bool:
+    """Whether ``model`` has a growing mode: an eigenvalue of ``A`` with ``Re > 0``
+    (compared with 0 exactly; a mode at ``Re = +1e-12`` is one, and is judged as one)."""
+    return model.n > 0 and bool(np.any(np.linalg.eigvals(model.A).real > 0.0))
+
+
+def _worst_eigenvalue(model: StateSpaceModel) -> complex:
+    lam = np.linalg.eigvals(model.A)
+    return complex(lam[int(np.argmax(lam.real))])
+
+
+def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> str:
+    """Why the held-out record does not support the growth of candidate ``row``, or
+    ``""`` (a stable candidate, or a growth the record supports).  ``pool``: the
+    candidates the one-standard-error rule admits (rows with ``model``, ``order`` and
+    held-out ``criterion``; :func:`select_model` passes those within one standard error
+    of the best).
+
+    The rule: an unstable candidate is rejected when a *stable* candidate of no larger
+    order, itself admitted, predicts the held-out part as well -- within one standard
+    error of it by the held-out score that ranks the candidates (:func:`score_model`;
+    :func:`~hdpbsid.models.criteria.choose_smallest_adequate` with the stable one listed first,
+    so the burden of proof is on the growth).  Then the record does not need the growth:
+    a stable model, no more complex and as good by the selection's own rule, explains
+    what it shows, and it is the one chosen instead.  A stable rival the rule does not
+    admit is no rival: rejecting the growth for it would hand the choice to a larger
+    candidate, not to it.  A time series (no input)
+    is modelled as a stationary process: :func:`stationarity_problem`.
+
+    Why not judge the unstable candidate alone.  A bounded record of an unstable plant
+    is only possible inside a feedback loop, where the input holds the growth back; the
+    feedback test (:func:`looks_closed_loop`) sees the loop only in the part of the output
+    the controller reacts to that the model cannot predict, and a loop driven by its
+    reference with little noise leaves none.  Without it, no test of
+    one model separates a true unstable plant from a spurious growing mode: over a
+    horizon ``T`` any error of the state estimated from the past grows as
+    ``e^(sigma T)``, so a free run from the state fitted on the record's start diverges
+    for the true plant too (a rule built on it rejected every candidate of a measured
+    record of a plant in such a loop and fell back to a first-order model); and with the
+    initial state fitted on the judged horizon itself, the later inputs cancel any
+    growth up to ``1/eps``, so it passes a spurious mode too.  A comparison with the stable
+    alternatives needs neither: it asks what the held-out data prefer, at the resolution
+    of the held-out data, as the order is chosen (Hastie, Tibshirani & Friedman, *The
+    Elements of Statistical Learning*, 2nd ed., sec. 7.10).  A growing mode that the data
+    cannot tell from a stable model is not supported; one that every stable candidate of
+    its size predicts worse than, beyond the spread of the held-out windows, is.  Larger
+    stable candidates are not rivals: the order is chosen first, by the same rule, and
+    stability is not bought with states the data do not ask for.
+    """
+    model = row["model"]
+    if model.m == 0:
+        return stationarity_problem(model)
+    if not grows(model):
+        return ""
+    err = row["criterion"]
+    for r in pool:
+        c = r.get("criterion")
+        if r is row or c is None or not c.finite or r["order"] > row["order"]:
+            continue
+        if grows(r["model"]) or c.per_window.size != err.per_window.size:
+            continue
+        k, stats = choose_smallest_adequate([c, err])
+        if k == 0:
+            return (
+                f"unstable (eigenvalue {_worst_eigenvalue(model):.3g}) where the record does "
+                f"not need the growth: the stable {r['method']} order {r['order']} predicts "
+                f"the held-out part as well (they differ by {abs(stats[0] - stats[1]):.2g} "
+                f"standard errors, within the one-standard-error rule)"
+            )
+    return ""
+
+
+def refinement_instability(start: StateSpaceModel, refined: StateSpaceModel, rec: tuple) -> str:
+    """Why the refinement ``refined`` of ``start`` on the record ``rec = (t, u, y)``
+    grew a mode the record does not support, or ``""``.
+
+    The prediction-error refinement judges the predictor ``A - K C``, stable either way,
+    so by itself it does not keep ``A`` stable.  A refinement that makes a stable
+    ``start`` unstable is kept only when the record asks for the growth, by the rule of
+    :func:`instability_problem` with ``start`` as the stable rival of equal order: the
+    windowed simulation error on the record
+    (:func:`~hdpbsid.models.criteria.windowed_simulation_error`, the deterministic
+    response whose growth is in question; the refinement did not fit it) of the refined
+    model must beat the start's by more than one standard error.  A
+    time series' refined model must be stationary (:func:`stationarity_problem`).
+    """
+    if not grows(refined) or grows(start):
+        return ""
+    if refined.m == 0:
+        return stationarity_problem(refined)
+    t, u, y = check_data(*rec)
+    windows = max(1, default_windows(t.size, refined.n))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            e_ref = windowed_simulation_error(refined, t, u, y, windows)
+            e_start = windowed_simulation_error(start, t, u, y, windows)
+        except (ValueError, np.linalg.LinAlgError):
+            return ""
+    why = f"unstable (eigenvalue {_worst_eigenvalue(refined):.3g}) where the start was stable"
+    if not e_ref.finite:
+        return why + ", and its simulation of the record overflows"
+    if e_start.finite and choose_smallest_adequate([e_start, e_ref])[0] == 0:
+        return (
+            why + ": the stable start simulates the record as well (within one standard "
+            "error), so the record does not need the growth"
+        )
+    return ""
 
 
 def refit_holds(
@@ -586,25 +782,34 @@ def _first_that_holds(
     windows: int,
     opts: dict,
     floor: bool = True,
-) -> tuple[StateSpaceModel | None, list[tuple[str, str]]]:
+    pool: Sequence[dict[str, Any]] = (),
+) -> tuple[StateSpaceModel | None, list[tuple[str, str, dict[str, Any]]], dict[str, Any] | None]:
     """The first of ``candidates`` that, with its held-out-judged settings settled
-    (:func:`settle_candidate`, fitted on ``est``), passes :func:`beats_the_mean` (unless
-    ``floor`` is False) and whose refit on the ``whole`` record passes
-    :func:`refit_holds` and the same floor, refitted; or None.  The floor for the refit:
+    (:func:`settle_candidate`, fitted on ``est``), passes the floor (unless ``floor`` is
+    False): :func:`beats_the_mean`, and :func:`instability_problem` against the scored
+    candidates ``pool``; and whose refit on the ``whole`` record passes
+    :func:`refit_holds` and :func:`beats_the_mean`, refitted, and grows no mode the
+    candidate did not have (the held-out part judged a stable model; the growth of the
+    refit was never judged); or None.  Returns ``(model, failures, row)``, ``row`` the
+    candidate whose refit is returned.  The floor for the refit:
     the windowed score of :func:`refit_holds` fits an initial state per window, so a
     refit with a spurious growing mode can pass it and still diverge over the held-out
     part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
     had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
-    every failure as ``(kind, text)``, kind ``"floor"`` or ``"refit"``."""
-    failures: list[tuple[str, str]] = []
+    every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
+    passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
+    a sound answer when no refit holds: :func:`select_model`)."""
+    failures: list[tuple[str, str, dict[str, Any]]] = []
     for chosen in candidates:
         settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
             useful, how = beats_the_mean(chosen["model"], val)
-            if not useful:
-                failures.append(("floor", f"{name}: {how}"))
+            how = how or instability_problem(chosen, pool)
+            if how:
+                failures.append(("floor", f"{name}: {how}", chosen))
                 continue
+            chosen["passed_floor"] = True
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -622,7 +827,16 @@ def _first_that_holds(
                     # the floor the candidate passed, for the model returned: a refit
                     # whose windowed score holds can still diverge over the whole part
                     holds, how = beats_the_mean(model, val)
+                    if not how and grows(model) and not grows(chosen["model"]):
+                        how = (
+                            f"it has a growing mode (eigenvalue {_worst_eigenvalue(model):.3g}) "
+                            f"that the candidate judged on the held-out part did not have"
+                        )
+                    holds = not how
                     how = f"the refit on the whole record: {how}" if how else how
+                why = stationarity_problem(model) if holds else ""
+                if why:
+                    holds, how = False, f"the refit on the whole record: {why}"
         except (ValueError, np.linalg.LinAlgError) as exc:
             holds, how = False, str(exc)
         if holds:
@@ -647,9 +861,9 @@ def _first_that_holds(
                     "the candidate's own values, judged with it on the held-out part "
                     "(hdpbsid.selection.auto.refit_keeps)"
                 )
-            return model, failures
-        failures.append(("refit", f"{name}: {how}"))
-    return None, failures
+            return model, failures, chosen
+        failures.append(("refit", f"{name}: {how}", chosen))
+    return None, failures, None
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -732,63 +946,244 @@ def select_model(
             f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
             f"longer record, a smaller max_order, or give the order"
         )
+    time_series = val[1].shape[1] == 0
+    if time_series and not is_uniform(val[0]):
+        raise ValueError(
+            "t: choosing the order of a time series (no input) scores the one-step "
+            "prediction error on held-out data, which needs uniformly sampled times; "
+            "resample the record uniformly or give the order"
+        )
     opts = method_options or {}
     orders = sorted(orders)
     rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
-        raise ValueError(f"no candidate model could be identified and scored ({detail})")
+        hint = (
+            "; a time series needs a stationary model with a stable one-step predictor: "
+            "detrend or difference a drifting record, or try another method"
+            if time_series
+            else ""
+        )
+        raise ValueError(f"no candidate model could be identified and scored ({detail}){hint}")
     ok.sort(key=lambda r: (r["order"], r["criterion"].total))
     errors: list[WindowedError] = [r["criterion"] for r in ok]
     k, stats = choose_smallest_adequate(errors)
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
-    # the chosen candidate identified on the whole record; if that fails (e.g. the
-    # discrete model of the whole record has no continuous counterpart), the next
-    # adequate candidate, then the remaining ones by held-out error
-    adequate = [r for r, z in zip(ok, stats, strict=True) if z <= SIGNIFICANCE_Z]
-    rest = sorted((r for r in ok if r not in adequate), key=lambda r: r["criterion"].total)
-    queue = adequate[adequate.index(ok[k]) :]
-    tied = break_tie([r for r in queue if r["order"] == ok[k]["order"]], val)
-    queue = tied + [r for r in queue if r not in tied]
-    candidates = queue + rest
+    queue = _ranked(ok, k, stats, val)
     rejudged = ""
     if refined:
         k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows, n_jobs)
         if k2 != k:
-            candidates = [ok[k2]] + [r for r in candidates if r is not ok[k2]]
-    model, failures = _first_that_holds(get_method, candidates, est, (t, u, y), val, windows, opts)
-    floor_note = ""
-    if model is None:
-        below = [r for r, why in zip(candidates, failures, strict=True) if why[0] == "floor"]
-        if below:
-            # no candidate beats the held-out mean from one initial state (an unstable
-            # plant sampled non-uniformly has no stable predictor to run over the whole
-            # part): the floor cannot judge these models, the windowed ranking stands
-            model, more = _first_that_holds(
-                get_method, below, est, (t, u, y), val, windows, opts, floor=False
-            )
-            failures += more
-            floor_note = (
-                "; no candidate beats the held-out mean from one initial state: floor not applied"
-            )
-    if model is None:
-        raise ValueError(
-            "no scored candidate could be identified on the whole record: "
-            + "; ".join(why[1] for why in failures)
-        )
+            queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
+    model, failures, note = _choose(
+        get_method, ok, queue, est, (t, u, y), val, windows, opts, where, refined
+    )
     rule = (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
-        f"each candidate's better predictor: with its K or with K = 0); "
-        f"smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
+        + (
+            "one-step predictor with K: a time series, no input to simulate"
+            if time_series
+            else "each candidate's better predictor: with its K or with K = 0"
+        )
+        + f"); smallest order within {SIGNIFICANCE_Z:g} standard error of the best held-out "
         f"error (one-standard-error rule); among that order's candidates within it, the "
         f"smallest simulation error over the whole held-out part"
     )
     rule += rejudged
     if failures:
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
-    return model, _rows_table(rows), rule + floor_note
+    return model, _rows_table(rows), rule + note
+
+
+def _ranked(
+    pool: list[dict[str, Any]], k: int, stats: list[float], val: tuple
+) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` (sorted by order, then error) that the
+    one-standard-error rule admits, in the order they are tried: the chosen order's
+    (``pool[k]``'s) tied candidates by :func:`break_tie`, then the larger adequate
+    orders.  Candidates more than one standard error worse than the best are not
+    listed: the held-out data reject them against the best (:func:`_choose`)."""
+    adequate = [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+    queue = adequate[adequate.index(pool[k]) :]
+    tied = break_tie([r for r in queue if r["order"] == pool[k]["order"]], val)
+    return tied + [r for r in queue if r not in tied]
+
+
+def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` the one-standard-error rule admits: held-out error
+    within :data:`~hdpbsid.models.criteria.SIGNIFICANCE_Z` standard errors of the best's
+    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`); the rivals of
+    :func:`instability_problem`."""
+    _, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+
+
+def _choose(
+    get_method: Any,
+    ok: list[dict[str, Any]],
+    queue: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    where: str,
+    refined: bool = False,
+) -> tuple[StateSpaceModel, list[tuple[str, str, dict[str, Any]]], str]:
+    """The model returned by :func:`select_model` from the scored candidates ``ok`` and
+    the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
+    rule.  Never a model the checks rejected, quietly:
+
+    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
+       :func:`instability_problem`) and whose refit on the whole record holds
+       (:func:`_first_that_holds`);
+    2. else, if a candidate of ``queue`` passed the floor, that candidate's own model,
+       fitted on the estimation part (:func:`_candidate_itself`; with ``refined`` the
+       start of the refinement on the whole record, the front end warns only if that
+       does not happen), with a :class:`SelectionWarning`: the held-out part judged
+       exactly that model, while the refit is a different one (the method's data-driven
+       settings, chosen again on the whole record, changed it), so the candidate is the
+       model the evidence supports;
+    3. else every candidate of ``queue`` failed the floor: they are no models of the
+       held-out data, so they leave the ranking and the one-standard-error rule is applied
+       again to the rest (a candidate the rule rejected against a better one is never
+       returned while that better one stands);
+    4. no candidate passes the floor (an unstable plant sampled non-uniformly has no stable
+       predictor to run over the whole held-out part): the first ranking stands without
+       the floor, with a :class:`SelectionWarning`;
+    5. nothing holds: ``ValueError`` naming every failure and what would help.
+
+    Whatever the step, when the model returned is much worse on the held-out part than
+    the best candidate a check rejected (:func:`much_worse`), a :class:`SelectionWarning`
+    says what was rejected, why, and how to ask for it (:func:`_warn_if_much_worse`).
+    """
+    failures: list[tuple[str, str, dict[str, Any]]] = []
+    pool, first = list(ok), queue
+    while queue:
+        model, more, row = _first_that_holds(
+            get_method, queue, est, whole, val, windows, opts, pool=_admitted(pool)
+        )
+        failures += more
+        if model is not None:
+            _warn_if_much_worse(row, model, failures)
+            return model, failures, ""
+        sound = [r for r in queue if r.get("passed_floor")]
+        if sound:
+            model = _candidate_itself(sound[0], where, warn=not refined)
+            _warn_if_much_worse(sound[0], model, failures)
+            return (
+                model,
+                failures,
+                (
+                    f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
+                    f"estimation part (no refit on the whole record held)"
+                ),
+            )
+        pool = [r for r in pool if r not in queue]
+        if not pool:
+            break
+        k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+        queue = _ranked(pool, k, stats, val)
+    # no candidate passes the floor: the floor cannot judge these models, the windowed
+    # ranking stands
+    model, more, row = _first_that_holds(
+        get_method, first, est, whole, val, windows, opts, floor=False
+    )
+    failures += more
+    if model is None:
+        raise ValueError(
+            "no scored candidate could be identified on the whole record: "
+            + "; ".join(why[1] for why in failures)
+            + "; a longer record, a smaller max_order, or giving order= and method= "
+            "explicitly may help"
+        )
+    warnings.warn(
+        f"no candidate model passes the checks on {where} (model.options['selection_rule'] "
+        f"lists the failures); the best by the windowed held-out score is returned "
+        f"({model.options.get('method', '?')} order {model.n}), check it on other data "
+        f"before use",
+        SelectionWarning,
+        stacklevel=4,
+    )
+    return (
+        model,
+        failures,
+        "; no candidate passes the floor: floor not applied",
+    )
+
+
+def much_worse(returned: WindowedError, rejected: WindowedError) -> tuple[bool, float]:
+    """Whether the held-out score ``returned`` of the model returned is much worse than
+    the score ``rejected`` of a candidate a check rejected, and the ratio of their
+    held-out errors.
+
+    Much worse: the returned model leaves more than :data:`MUCH_WORSE_RATIO` (2) times
+    the held-out residual energy of the rejected one.  Why 2: beyond it the held-out
+    data resolve the difference whatever the spread of their windows.  The standard
+    error of the one-standard-error rule (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`)
+    is ``sqrt(W) std(r_w)`` of the better model's window errors ``r_w >= 0``, at most
+    their sum ``T`` (equality when one window holds all of it), so a total above ``2 T``
+    is more than one standard error worse on any record; a smaller ratio can be within
+    the spread of the windows, a difference the record does not show.
+    """
+    if not rejected.finite or rejected.total <= 0.0:
+        return False, np.inf
+    ratio = returned.total / rejected.total if returned.finite else np.inf
+    return bool(ratio > MUCH_WORSE_RATIO), ratio
+
+
+def _warn_if_much_worse(
+    row: dict[str, Any],
+    model: StateSpaceModel,
+    failures: list[tuple[str, str, dict[str, Any]]],
+) -> None:
+    """A :class:`SelectionWarning` when the candidate ``row`` returned (as ``model``) is
+    much worse on the held-out part than the best candidate the checks rejected
+    (:func:`much_worse`): what was rejected and why, the ratio, and what to pass to get
+    it.  The text is kept in ``model.options["selection_warning"]``."""
+    crit = row.get("criterion")
+    rejected = [
+        (r, text)
+        for _, text, r in failures
+        if r is not row and r.get("criterion") is not None and r["criterion"].finite
+    ]
+    if crit is None or not rejected:
+        return
+    best, why = min(rejected, key=lambda p: p[0]["criterion"].total)
+    worse, ratio = much_worse(crit, best["criterion"])
+    if not worse:
+        return
+    text = (
+        f"{row['method']} order {row['order']} is returned, but its held-out error is "
+        f"{ratio:.3g} times that of {why} (rejected for that reason). If that model is "
+        f"what the record should give (e.g. an unstable plant inside a feedback loop), "
+        f"pass method={best['method']!r}, order={best['order']}; "
+        f"model.options['selection_rule'] lists every candidate that was rejected"
+    )
+    model.options["selection_warning"] = text
+    warnings.warn(text, SelectionWarning, stacklevel=5)
+
+
+def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
+    """The candidate ``row``'s own model (fitted on the estimation part), returned when
+    no refit on the whole record holds (:func:`_choose`, step 2), with a
+    :class:`SelectionWarning`
+    (if ``warn``) saying so and what would help; the text is also kept in
+    ``options["selection_fallback"]``."""
+    model = row["model"]
+    text = (
+        f"{row['method']} order {row['order']}: the model fitted on the estimation part "
+        f"(all but {where}) is returned, as judged on the held-out part; its refit on the "
+        f"whole record did not hold (model.options['selection_rule'] says why): the "
+        f"method's data-driven settings change with the record length. A longer record, "
+        f"or giving those settings explicitly, lets the whole record be used"
+    )
+    model.options["selection_fallback"] = text
+    if warn:
+        warnings.warn(text, SelectionWarning, stacklevel=5)
+    return model
 
 
 @library_call
@@ -821,7 +1216,6 @@ def identify_auto(
     """
     from hdpbsid.data.records import as_records
     from hdpbsid.methods.registry import get_method, is_available
-    from hdpbsid.refine.pem import is_uniform
 
     recs = as_records(t, u, y)
     if len(recs) == 1:

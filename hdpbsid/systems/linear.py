@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.data.checks import check_signal, check_state_space, check_time
+from hdpbsid.data.checks import check_signal, check_state_space, check_time, is_uniform
 from hdpbsid.models.conversion import c2d
 
 __all__ = [
@@ -121,7 +121,7 @@ def simulate_zoh(
     t = check_time(t)
     u = check_signal(u, "u", t.shape[0])
     dt = float(t[1] - t[0])
-    if not np.allclose(np.diff(t), dt, rtol=1e-9, atol=0):
+    if not is_uniform(t):  # the package's one uniformity test (hdpbsid.data.checks)
         raise ValueError("t must be uniformly sampled for simulate_zoh")
     Ad, Bd, _, _, _ = c2d(A, B, C, D, None, dt)
     return simulate_discrete(Ad, Bd, C, D, u, x0)

@@ -50,9 +50,27 @@ def default_chunk(N: int, memory: int = _MEMORY) -> int:
     return int(min(16384, max(64, memory // (8 * max(N, 1)))))
 
 
+#: relative tolerance of a uniform spacing, that of ``hdpbsid.data.checks.UNIFORM_RTOL``
+_UNIFORM_RTOL = 1e-6
+
+
 def _is_uniform(t: np.ndarray) -> bool:
-    dt = np.diff(t)
-    return bool(np.all(np.abs(dt - dt.mean()) <= 1e-9 * dt.mean()))
+    """Whether ``t`` is uniform for the Gregory weights: every spacing within
+    ``1e-6 h + 4 ulp(max |t|)`` of the median spacing ``h`` (computed on ``t - t[0]``).
+
+    The rule of ``hdpbsid.data.checks.is_uniform``, repeated because ``slbasis`` sits below
+    ``hdpbsid`` and imports nothing from it; one rule, so that a grid is uniform for both
+    packages.  ``4 ulp``: each difference of two stamps is known to two spacings of
+    ``max |t|`` (stored, and computed as ``t0 + k h``), and so is the median it is
+    compared with; a grid stamped with absolute time (``t ~ 1.7e9``) is as uniform as
+    its stamps can say.  Within ``1e-6 h`` the Gregory weights of the mean spacing err by
+    at most ~1e-6 relative, the accuracy at which a grid is one sampled model elsewhere.
+    """
+    tr = t - t[0]
+    dt = np.diff(tr)
+    h = float(np.median(dt))
+    tol = _UNIFORM_RTOL * h + 4.0 * float(np.spacing(np.max(np.abs(t))))
+    return bool(np.all(np.abs(dt - h) <= tol))
 
 
 def sample_weights(t: np.ndarray, rule: str = "trapezoid") -> np.ndarray:
