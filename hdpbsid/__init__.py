@@ -13,6 +13,7 @@ cores for large factorisations and the compiled projection (:mod:`hdpbsid.runtim
 
 from __future__ import annotations
 
+import copyreg
 import importlib
 import importlib.util
 import sys
@@ -96,6 +97,14 @@ class _Package(types.ModuleType):
         super().__setattr__(name, value)
 
 
+def _reduce_package(module: types.ModuleType) -> tuple[Any, tuple[str]]:
+    """Pickle the package by reference, as a plain module is: pickle and cloudpickle
+    (joblib's workers) look up reducers by exact type, and a module subclass would
+    otherwise be pickled as an object (and fail)."""
+    return importlib.import_module, (module.__name__,)
+
+
+copyreg.pickle(_Package, _reduce_package)
 sys.modules[__name__].__class__ = _Package
 
 

@@ -101,3 +101,19 @@ def test_every_public_name_resolves_and_identify_stays_the_function():
         "hdpbsid.methods",
         True,
     ]
+
+
+def test_the_package_pickles_by_reference():
+    # joblib's workers receive tasks through cloudpickle, which finds a module's reducer
+    # by its exact type: a function that names the package must still travel
+    import pickle
+
+    import cloudpickle
+
+    import hdpbsid
+
+    def task():
+        return hdpbsid.identify
+
+    assert cloudpickle.loads(cloudpickle.dumps(task))() is hdpbsid.identify
+    assert pickle.loads(pickle.dumps(hdpbsid)) is hdpbsid
