@@ -108,7 +108,7 @@ def test_the_package_pickles_by_reference():
     # by its exact type: a function that names the package must still travel
     import pickle
 
-    from joblib.externals import cloudpickle
+    import cloudpickle  # a dependency of joblib
 
     import hdpbsid
 
