@@ -43,22 +43,22 @@ models, so a method that is biased on this record, or an order the data do not s
 loses by the measure a user would apply to the result.
 
 No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
-:func:`instability_problem`: an unstable candidate is rejected when a stable candidate of
-no larger order predicts the held-out part as well (within one standard error), i.e.
+:func:`instability_problem`: an unstable candidate is rejected when a stable candidate
+of no larger order predicts the held-out part as well (within one standard error), i.e.
 when the record does not need the growth.  When no refit of an adequate candidate holds,
-the refit of the next candidate that is not much worse on the held-out part
-(:func:`much_worse`, the bound beyond which a returned model draws a warning) is tried, in
-order of held-out error; only when none of those holds either, the first adequate
-candidate itself (fitted on the estimation part, the model the held-out part judged) is
-returned with a warning, or is the start of the refinement on the whole record;
-candidates that fail the floor leave the ranking and the one-standard-error rule is
-applied again to the rest, so a candidate the rule rejected against a better one is
-never the fallback while that one stands.  A model returned that is much worse on the
-held-out part than a candidate the checks rejected (:func:`much_worse`) draws a
-:class:`SelectionWarning` naming it, the reason and the ``order=``/``method=`` to pass.
-A time series (no input) is scored by its one-step prediction error with one initial
-state for the whole held-out part, and only stationary models (stable ``A``,
-:func:`stationarity_problem`) are candidates.
+the refit of the next candidate that is not much worse on the held-out part, by the
+windowed score and by the simulation over the whole part (:func:`much_worse`, the bound
+beyond which a returned model draws a warning), is tried, in order of held-out error;
+only when none of those holds either, the first adequate candidate itself (fitted on the
+estimation part, the model the held-out part judged) is returned with a warning, or is
+the start of the refinement on the whole record; candidates that fail the floor leave
+the ranking and the one-standard-error rule is applied again to the rest, so a candidate
+the rule rejected against a better one is never the fallback while that one stands.  A
+model returned that is much worse on the held-out part than a candidate the checks
+rejected (:func:`much_worse`) draws a :class:`SelectionWarning` naming it, the reason
+and the ``order=``/``method=`` to pass.  A time series (no input) is scored by its
+one-step prediction error with one initial state for the whole held-out part, and only
+stationary models (stable ``A``, :func:`stationarity_problem`) are candidates.
 
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
@@ -129,6 +129,7 @@ __all__ = [
     "refinement_instability",
     "grows",
     "much_worse",
+    "whole_held_out_error",
     "SelectionWarning",
     "MUCH_WORSE_RATIO",
     "rejudge_refined",
@@ -593,18 +594,23 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     """
     if len(tied) < 2:
         return tied
-    t, u, y = check_data(*val)
     for r in tied:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            if u.shape[1] == 0:
-                # a time series has no simulation to run (score_model): its one-step
-                # prediction over the whole held-out part from one initial state
-                e = score_model(r["model"], val, 1)[0]
-            else:
-                e = windowed_simulation_error(r["model"], t, u, y, 1)
+        e = whole_held_out_error(r["model"], val)
         r["whole_simulation"] = e.total if e.finite else np.inf
     return sorted(tied, key=lambda r: r["whole_simulation"])
+
+
+def whole_held_out_error(model: StateSpaceModel, val: tuple) -> WindowedError:
+    """The simulation error of ``model`` over the whole held-out record ``val`` from one
+    fitted initial state (one window; :func:`break_tie`): the validation a user runs on
+    it.  A time series has no simulation to run (:func:`score_model`): its one-step
+    prediction over the whole held-out part from one initial state."""
+    t, u, y = check_data(*val)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if u.shape[1] == 0:
+            return score_model(model, val, 1)[0]
+        return windowed_simulation_error(model, t, u, y, 1)
 
 
 def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
@@ -1024,12 +1030,14 @@ def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _stand_ins(
-    pool: list[dict[str, Any]], queue: list[dict[str, Any]], row: dict[str, Any]
+    pool: list[dict[str, Any]], queue: list[dict[str, Any]], row: dict[str, Any], val: tuple
 ) -> list[dict[str, Any]]:
     """The candidates of ``pool`` outside the ranking ``queue`` whose refit on the whole
     record may be returned instead of candidate ``row`` as fitted on the estimation part
-    (:func:`_choose`, step 2): those whose held-out error is not much worse than
-    ``row``'s (:func:`much_worse`), best held-out error first.
+    (:func:`_choose`, step 2): those not much worse than ``row`` (:func:`much_worse`) on
+    the held-out part ``val``, by the windowed score that ranks the candidates and by the
+    simulation over the whole held-out part (:func:`whole_held_out_error`, which sees
+    the slow errors the windows hide: :func:`break_tie`), best held-out score first.
 
     Why these.  ``row`` heads the candidates that passed the floor but whose refit did
     not hold; returning it means returning a model that never saw the held-out part of
@@ -1042,13 +1050,18 @@ def _stand_ins(
     worse than ``row`` is no stand-in: the held-out part resolves the difference on any
     record (:func:`much_worse`), and the better model of part of the record is
     returned, with the warning (an order the data reject does not replace the order
-    they choose because its refit happens to hold)."""
-    crit = row["criterion"]
+    they choose because its refit happens to hold).  Both measures: a candidate close by
+    the windowed score can simulate the held-out part many times worse (a wrong slow
+    mode or static gain, which each window's fitted initial state absorbs), and the
+    selection's tie-break already defers to the whole simulation where the windows
+    cannot tell."""
+    crit, whole = row["criterion"], whole_held_out_error(row["model"], val)
     near = [
         r
         for r in pool
         if r not in queue and r is not row and not much_worse(r["criterion"], crit)[0]
     ]
+    near = [r for r in near if not much_worse(whole_held_out_error(r["model"], val), whole)[0]]
     return sorted(near, key=lambda r: r["criterion"].total)
 
 
@@ -1106,7 +1119,7 @@ def _choose(
             return model, failures, ""
         sound = [r for r in queue if r.get("passed_floor")]
         if sound:
-            stand_ins = _stand_ins(pool, queue, sound[0])
+            stand_ins = _stand_ins(pool, queue, sound[0], val)
             model, more, row = _first_that_holds(
                 get_method, stand_ins, est, whole, val, windows, opts, pool=_admitted(pool)
             )
