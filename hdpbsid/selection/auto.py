@@ -43,19 +43,22 @@ models, so a method that is biased on this record, or an order the data do not s
 loses by the measure a user would apply to the result.
 
 No model the checks reject is returned quietly (:func:`_choose`).  The floor includes
-:func:`instability_problem`: an unstable candidate is rejected when a stable candidate of
-no larger order predicts the held-out part as well (within one standard error), i.e.
+:func:`instability_problem`: an unstable candidate is rejected when a stable candidate
+of no larger order predicts the held-out part as well (within one standard error), i.e.
 when the record does not need the growth.  When no refit of an adequate candidate holds,
-the candidate itself (fitted on the estimation part, the model the held-out part judged)
-is returned with a warning, or is the start of the refinement on the whole record;
-candidates that fail the floor leave the ranking and the one-standard-error rule is
-applied again to the rest, so a candidate the rule rejected against a better one is
-never the fallback while that one stands.  A model returned that is much worse on the
-held-out part than a candidate the checks rejected (:func:`much_worse`) draws a
-:class:`SelectionWarning` naming it, the reason and the ``order=``/``method=`` to pass.
-A time series (no input) is scored by its one-step prediction error with one initial
-state for the whole held-out part, and only stationary models (stable ``A``,
-:func:`stationarity_problem`) are candidates.
+the refit of the next candidate that is not much worse on the held-out part, by the
+windowed score and by the simulation over the whole part (:func:`much_worse`, the bound
+beyond which a returned model draws a warning), is tried, in order of held-out error;
+only when none of those holds either, the first adequate candidate itself (fitted on the
+estimation part, the model the held-out part judged) is returned with a warning, or is
+the start of the refinement on the whole record; candidates that fail the floor leave
+the ranking and the one-standard-error rule is applied again to the rest, so a candidate
+the rule rejected against a better one is never the fallback while that one stands.  A
+model returned that is much worse on the held-out part than a candidate the checks
+rejected (:func:`much_worse`) draws a :class:`SelectionWarning` naming it, the reason
+and the ``order=``/``method=`` to pass.  A time series (no input) is scored by its
+one-step prediction error with one initial state for the whole held-out part, and only
+stationary models (stable ``A``, :func:`stationarity_problem`) are candidates.
 
 When the chosen model will be refined by the prediction-error method (``refine="auto"``,
 the default, on a single uniformly sampled record), the order is decided again between
@@ -126,6 +129,7 @@ __all__ = [
     "refinement_instability",
     "grows",
     "much_worse",
+    "whole_held_out_error",
     "SelectionWarning",
     "MUCH_WORSE_RATIO",
     "rejudge_refined",
@@ -590,18 +594,23 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     """
     if len(tied) < 2:
         return tied
-    t, u, y = check_data(*val)
     for r in tied:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            if u.shape[1] == 0:
-                # a time series has no simulation to run (score_model): its one-step
-                # prediction over the whole held-out part from one initial state
-                e = score_model(r["model"], val, 1)[0]
-            else:
-                e = windowed_simulation_error(r["model"], t, u, y, 1)
+        e = whole_held_out_error(r["model"], val)
         r["whole_simulation"] = e.total if e.finite else np.inf
     return sorted(tied, key=lambda r: r["whole_simulation"])
+
+
+def whole_held_out_error(model: StateSpaceModel, val: tuple) -> WindowedError:
+    """The simulation error of ``model`` over the whole held-out record ``val`` from one
+    fitted initial state (one window; :func:`break_tie`): the validation a user runs on
+    it.  A time series has no simulation to run (:func:`score_model`): its one-step
+    prediction over the whole held-out part from one initial state."""
+    t, u, y = check_data(*val)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if u.shape[1] == 0:
+            return score_model(model, val, 1)[0]
+        return windowed_simulation_error(model, t, u, y, 1)
 
 
 def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
@@ -1020,6 +1029,42 @@ def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
 
 
+def _stand_ins(
+    pool: list[dict[str, Any]], queue: list[dict[str, Any]], row: dict[str, Any], val: tuple
+) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` outside the ranking ``queue`` whose refit on the whole
+    record may be returned instead of candidate ``row`` as fitted on the estimation part
+    (:func:`_choose`, step 2): those not much worse than ``row`` (:func:`much_worse`) on
+    the held-out part ``val``, by the windowed score that ranks the candidates and by the
+    simulation over the whole held-out part (:func:`whole_held_out_error`, which sees
+    the slow errors the windows hide: :func:`break_tie`), best held-out score first.
+
+    Why these.  ``row`` heads the candidates that passed the floor but whose refit did
+    not hold; returning it means returning a model that never saw the held-out part of
+    the record, a decision the user is warned of.  A candidate the one-standard-error
+    rule did not admit, but whose held-out error is within :data:`MUCH_WORSE_RATIO` of
+    ``row``'s, is one the selection would return without a warning in ``row``'s place
+    (:func:`_warn_if_much_worse` warns only beyond that ratio), and its refit, once it
+    holds (:func:`refit_holds`: as good on the held-out part as the candidate was
+    without seeing it) and passes the floor, uses the whole record.  A candidate much
+    worse than ``row`` is no stand-in: the held-out part resolves the difference on any
+    record (:func:`much_worse`), and the better model of part of the record is
+    returned, with the warning (an order the data reject does not replace the order
+    they choose because its refit happens to hold).  Both measures: a candidate close by
+    the windowed score can simulate the held-out part many times worse (a wrong slow
+    mode or static gain, which each window's fitted initial state absorbs), and the
+    selection's tie-break already defers to the whole simulation where the windows
+    cannot tell."""
+    crit, whole = row["criterion"], whole_held_out_error(row["model"], val)
+    near = [
+        r
+        for r in pool
+        if r not in queue and r is not row and not much_worse(r["criterion"], crit)[0]
+    ]
+    near = [r for r in near if not much_worse(whole_held_out_error(r["model"], val), whole)[0]]
+    return sorted(near, key=lambda r: r["criterion"].total)
+
+
 def _choose(
     get_method: Any,
     ok: list[dict[str, Any]],
@@ -1039,13 +1084,16 @@ def _choose(
     1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
        :func:`instability_problem`) and whose refit on the whole record holds
        (:func:`_first_that_holds`);
-    2. else, if a candidate of ``queue`` passed the floor, that candidate's own model,
-       fitted on the estimation part (:func:`_candidate_itself`; with ``refined`` the
-       start of the refinement on the whole record, the front end warns only if that
-       does not happen), with a :class:`SelectionWarning`: the held-out part judged
-       exactly that model, while the refit is a different one (the method's data-driven
-       settings, chosen again on the whole record, changed it), so the candidate is the
-       model the evidence supports;
+    2. else, if a candidate of ``queue`` passed the floor, the first candidate outside
+       ``queue`` that is not much worse than it on the held-out part (:func:`_stand_ins`),
+       passes the floor and whose refit holds: a refit that fails its checks yields to
+       the next candidate whose refit holds before any part-record model is returned;
+       only when none holds, the first candidate's own model, fitted on the estimation
+       part (:func:`_candidate_itself`; with ``refined`` the start of the refinement on
+       the whole record, the front end warns only if that does not happen), with a
+       :class:`SelectionWarning`: the held-out part judged exactly that model, while the
+       refit is a different one (the method's data-driven settings, chosen again on the
+       whole record, changed it), so the candidate is the model the evidence supports;
     3. else every candidate of ``queue`` failed the floor: they are no models of the
        held-out data, so they leave the ranking and the one-standard-error rule is applied
        again to the rest (a candidate the rule rejected against a better one is never
@@ -1071,6 +1119,14 @@ def _choose(
             return model, failures, ""
         sound = [r for r in queue if r.get("passed_floor")]
         if sound:
+            stand_ins = _stand_ins(pool, queue, sound[0], val)
+            model, more, row = _first_that_holds(
+                get_method, stand_ins, est, whole, val, windows, opts, pool=_admitted(pool)
+            )
+            failures += more
+            if model is not None:
+                _warn_if_much_worse(row, model, failures)
+                return model, failures, ""
             model = _candidate_itself(sound[0], where, warn=not refined)
             _warn_if_much_worse(sound[0], model, failures)
             return (
