@@ -708,8 +708,8 @@ def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> 
             return (
                 f"unstable (eigenvalue {_worst_eigenvalue(model):.3g}) where the record does "
                 f"not need the growth: the stable {r['method']} order {r['order']} predicts "
-                f"the held-out part as well (they differ by {abs(stats[0] - stats[1]):.2g} "
-                f"standard errors, within the one-standard-error rule)"
+                f"the held-out part at least as well by the one-standard-error rule (the two "
+                f"differ by {abs(stats[0] - stats[1]):.2g} standard errors)"
             )
     return ""
 
