@@ -18,6 +18,8 @@ import pytest
 
 pytest.importorskip("numba")
 
+from slbasis.numeric import engine  # noqa: E402 (after the numba check)
+
 
 def _run(code: str, cache_dir) -> dict:
     """Run ``code`` (which prints one JSON line last) with numba's cache in ``cache_dir``."""
@@ -95,6 +97,9 @@ print(json.dumps({"uses_kernels": kernels is not None, "compiles": compiles}))
 
 # short noisy records: the basis-size rule's warning is expected and beside the point here
 @pytest.mark.filterwarnings("ignore:hermite. the basis-size rule:RuntimeWarning")
+@pytest.mark.skipif(
+    engine._disabled(), reason="NUMBA_DISABLE_JIT or SLBASIS_NO_NUMBA: nothing is compiled"
+)
 def test_warm_signatures_cover_the_library_calls(monkeypatch):
     """Every signature the library's calls compile is one the background process
     compiles ahead (else the first such call would wait): projections on one and on
