@@ -152,10 +152,10 @@ def identify(
     ``D`` is a parameter only with ``feedthrough=True`` (a free ``D`` lets closed-loop
     data predict the noise through the controller): from the HD-PBSID, Legendre and
     CT-PBSID models of the closed-loop quadrotor the fit reaches the same optimum in
-    30-60 evaluations.  Measured on the closed-loop quadrotor
-    (``hdpbsid study table1 --runs 30 --seed 7``): median worst eigenvalue error of
-    HD-PBSID 24 % -> 3.6 % at SNR 10 dB and 41 % -> 4.7 % at 6 dB; on the open-loop stiff
-    benchmark (``dt``, order 3) 1.5-8.3 % -> 0.34-0.65 % at 20 dB.
+    30-60 evaluations.  The refinement matters most at low SNR, where the subspace
+    estimate is biased by the noise and the prediction-error minimum is not (Ljung,
+    *System Identification*, 2nd ed., ch. 8-9); the measured effect is in the
+    benchmark pages (``hdpbsid study table1``).
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
     :class:`~hdpbsid.data.chunked.ChunkedRecord` in ``t``) take a bounded path

@@ -109,14 +109,10 @@ def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
     coefficient equation holds for any ``N`` (the cut of the derivative operator is a
     pseudo-input), so input energy above the basis band does no harm by itself, but the
     coefficients between the outputs' energy band and the input band are where a fast,
-    weakly visible mode is seen.  Measured (5 seeds, true order, median of the worst
-    eigenvalue error): sizing ``N`` (and the default window) from twice the 95 % output
-    band made the random-binary 10^4-sample second-order record 3-4 times cheaper and
-    no less accurate, but the fourth-order Rao-Garnier system (modes at 2 and 20 rad/s,
-    one record) went from 0.22 % to 0.90 % at 20 dB (explicit ``N``: 400 -> 1.2 %,
-    800 -> 0.35 %, 1600 -> 0.18 %), and the 2x2 system with pairs at 2 and 20 rad/s
-    from 0.03 % to 0.09 % at 40 dB; a band up to where the smoothed output spectrum
-    leaves its noise floor was worse on the 2x2 system at 20 dB (2.2 % -> 25 %).
+    weakly visible mode is seen.  Sizing ``N`` from the outputs' band alone is cheaper
+    but loses a fast mode whose output share is small (systems with modes a decade
+    apart), and a band read from where the output spectrum leaves its noise floor moves
+    with the noise; the comparisons are in the benchmark pages.
     """
     return clip_basis_size(
         BAND_MARGIN * omega_b * T / HERMITE_BAND,

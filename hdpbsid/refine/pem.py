@@ -71,11 +71,9 @@ refinement; with finite-difference Jacobians and both starts run to convergence 
 (eigenvalue errors identical to the printed digits).
 
 Measured on the closed-loop quadrotor at SNR 20 dB (seeds 0-11, order 3, from the
-HD-PBSID model): largest eigenvalue error 0.2-5.9 % (median 1.7 %, 11 of 12 within 5 %)
-against 1.6-10.1 % (median 2.4 %, also 11 of 12) for HD-PBSID alone; the refinement
-mostly removes outliers (10.1 -> 1.7 %) and cuts the spread (std of the real pole 3.3 ->
-about 2 %, the linearised bound at the truth being 2.1 %); the reported standard
-deviations matched the errors (error / std below 2.4 in 11 of 12 seeds, 3.2 in the last).
+HD-PBSID model): the refinement mostly removes outliers and brings the spread of the
+real pole to about the linearised bound at the truth, and the reported standard
+deviations match the errors (the numbers are in the benchmark pages).
 """
 
 from __future__ import annotations
@@ -376,14 +374,10 @@ def _fit_starts(
     predicted 0.9229, reached 0.92295), while the probe of the other start is spent for
     nothing (the subspace gain there: 0.941 predicted, 0.962 after six evaluations).  The
     prediction is not a bound: from a start far from the minimum the fit can also go
-    lower than one step predicts.  Measured on 118 refinements of records of random
-    stable systems of order 1-4 (open and closed loop, binary and smooth inputs, 20 dB;
-    HD-PBSID and ``dt`` starts), this module against its former rules (probes of the
-    starts, a 12-evaluation probe of the other hold from the first hold's end point):
-    the same cost on 102, a lower one on 13 (eigenvalue errors 130 -> 0.19 %, 68 000 ->
-    4.4 %, 2.2 -> 0.81 %, ...), a higher one on 3 (the worst: a fourth-order system's
-    real pole 9.6 -> 16.7 %, 3.6 likelihood units, where the skipped gain predicted
-    0.530 and would have reached 0.523); 1.5 times less CPU time in all.
+    lower than one step predicts, so a start skipped on its prediction can, rarely,
+    have led lower; on random stable systems of order 1-4 (open and closed loop) the
+    rule reached the same or a lower cost on almost every record at less CPU time than
+    probing every start (``bench/regression.py`` guards it).
     """
     screen = {name: _gauss_newton_cost(th, lay, residuals) for name, th in starts.items()}
     predicted = {name: sc[1] for name, sc in screen.items()}
