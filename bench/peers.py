@@ -800,10 +800,16 @@ def results_markdown(
     cells: Sequence[dict[str, object]],
     timing: Sequence[dict[str, object]],
     command: str,
+    load: float | None = None,
 ) -> str:
     """The tables as markdown, headed by the command and the machine (the commit measured
-    is in ``summary.json`` of ``--out``)."""
+    is in ``summary.json`` of ``--out``); ``load``: the load average when the timing began."""
     runs = max(int(c["runs"]) for c in cells)
+    busy = (
+        "the load average was not recorded"
+        if load is None
+        else f"the 1-minute load average was {load:.2f} on {os.cpu_count()} cores when it began"
+    )
     return "\n".join(
         [
             f"Produced by `{command}` on {machine_line()}. "
@@ -813,8 +819,8 @@ def results_markdown(
             f"does not apply); all methods get the true order and identical data. "
             f"Ours run with defaults; peers with their defaults and *tuned*: the horizon "
             f"of a grid with the best median error over the same seeds, i.e. chosen with "
-            f"the true eigenvalues (the best a user could get). Times are noisy: the two "
-            f"cores were shared with other jobs. How it is measured: the docstring of "
+            f"the true eigenvalues (the best a user could get). Timing: {busy}. "
+            f"How it is measured: the docstring of "
             f"`bench/peers.py`.",
             "",
             summary_table(cells),
@@ -868,6 +874,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         type=Path,
         help="re-render the tables (and --results) from a summary.json of an earlier run",
     )
+    ap.add_argument(
+        "--timing-from",
+        type=Path,
+        help="take the accuracy cells from a summary.json of an earlier run (e.g. one with "
+        "--no-timing on a shared machine) and run only the timing, on an idle one",
+    )
     args = ap.parse_args(argv)
 
     if args.from_json:
@@ -875,39 +887,53 @@ def main(argv: Sequence[str] | None = None) -> None:
         cells, timing, command = saved["cells"], saved["timing"], saved["command"]
         print(summary_table(cells))
         if args.results:
-            write_results(results_markdown(cells, timing, command.strip()), "peers")
+            md = results_markdown(cells, timing, command.strip(), saved.get("load"))
+            write_results(md, "peers")
         return
 
     command = "python bench/peers.py " + " ".join(sys.argv[1:] if argv is None else list(argv))
     import_all_methods()
     version = code_version()
     print(f"# {machine_line()}; {version}", flush=True)
-    rows, cells = run_bench(
-        args.cases, args.snr, args.methods, args.runs, log=lambda s: print(s, flush=True)
-    )
+    if args.timing_from:
+        saved = json.loads(args.timing_from.read_text())
+        rows, cells = [], saved["cells"]
+        command = f"{saved['command'].strip()}; then {command}"
+    else:
+        rows, cells = run_bench(
+            args.cases, args.snr, args.methods, args.runs, log=lambda s: print(s, flush=True)
+        )
     tuned_h = {
         str(c["case"]): int(c["horizon"])
         for c in cells
         if c["method"] == "sippy-n4sid-tuned" and c["snr"] == "20 dB"
     }
+    load = None if args.no_timing else os.getloadavg()[0]
     timing = [] if args.no_timing else timing_table(tuned_h, log=lambda s: print(s, flush=True))
     print()
     print(summary_table(cells))
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
-        with open(args.out / "runs.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        if rows:
+            with open(args.out / "runs.csv", "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+                w.writeheader()
+                w.writerows(rows)
         (args.out / "summary.json").write_text(
             json.dumps(
-                {"cells": cells, "timing": timing, "command": command, "version": version},
+                {
+                    "cells": cells,
+                    "timing": timing,
+                    "command": command,
+                    "version": version,
+                    "load": load,
+                },
                 indent=1,
             )
         )
-        (args.out / "tables.md").write_text(results_markdown(cells, timing, command.strip()))
+        (args.out / "tables.md").write_text(results_markdown(cells, timing, command.strip(), load))
     if args.results:
-        write_results(results_markdown(cells, timing, command.strip()), "peers")
+        write_results(results_markdown(cells, timing, command.strip(), load), "peers")
 
 
 if __name__ == "__main__":
