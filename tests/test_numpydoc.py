@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import docstrings  # noqa: E402
 
 #: packages and modules whose public objects all have their numpydoc sections
-COMPLETE = ["hdpbsid/models"]
+COMPLETE = ["hdpbsid/models", "hdpbsid/data"]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
 #: packages: each has a runnable ``Examples`` section
@@ -49,6 +49,10 @@ WITH_EXAMPLES = {
     "hdpbsid.models.metrics": ["match_eigenvalues", "eigenvalue_errors"],
     "hdpbsid.models.assessment": ["fit_percent", "residual_tests"],
     "hdpbsid.models.uncertainty": ["response_band"],
+    "hdpbsid.data.io": ["read_columns", "read_record", "open_chunked"],
+    "hdpbsid.data.records": ["as_records", "split_windows"],
+    "hdpbsid.data.detrend": ["detrend_record"],
+    "hdpbsid.data.chunked": ["ChunkedRecord"],
 }
 
 
