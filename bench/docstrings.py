@@ -16,7 +16,10 @@ underscore (properties need only a summary line).  The rule, per object:
   than ``None``); a ``Raises`` section naming ``ValueError``/``TypeError`` when the body
   raises them itself (checks delegated to a helper are not seen: read the code);
 * classes: every ``__init__`` parameter, or every field of a dataclass / named tuple,
-  named in ``Parameters`` or ``Attributes``.
+  named in ``Parameters`` or ``Attributes``;
+* every entry of ``Parameters`` / ``Attributes`` has its description on the indented
+  lines below ``name : type`` (a one-line ``name : what it is`` puts the description in
+  the type's place, where the rendered page shows it as a type).
 
 The sections are read by numpydoc's own parser (``numpydoc.docscrape``), the one the
 documentation build uses.
@@ -82,6 +85,15 @@ def _sections(doc: str) -> NumpyDocString | None:
             return NumpyDocString(doc)
         except Exception:  # numpydoc raises plain ValueError/Exception on malformed text
             return None
+
+
+def _undescribed(parsed: NumpyDocString) -> list[str]:
+    return [
+        e.name
+        for section in ("Parameters", "Other Parameters", "Attributes")
+        for e in parsed[section]
+        if not any(line.strip() for line in e.desc)
+    ]
 
 
 def _documented(entries) -> set[str]:
@@ -161,6 +173,9 @@ def function_gaps(func: ast.FunctionDef | ast.AsyncFunctionDef) -> tuple[str, ..
     unknown = sorted(documented - set(params))
     if unknown:
         missing.append("Parameters not in the signature: " + ", ".join(unknown))
+    bare = _undescribed(parsed)
+    if bare:
+        missing.append("no description: " + ", ".join(bare))
     if _returns_value(func) and not (parsed["Returns"] or parsed["Yields"]):
         missing.append("Returns")
     listed = {e.type.strip() for e in parsed["Raises"]} | {e.name for e in parsed["Raises"]}
@@ -203,7 +218,11 @@ def class_gaps(cls: ast.ClassDef) -> tuple[str, ...]:
         return ("unparsable docstring",)
     documented = _documented(parsed["Parameters"]) | _documented(parsed["Attributes"])
     lacking = [f for f in class_fields(cls) if f not in documented]
-    return ("Parameters/Attributes: " + ", ".join(lacking),) if lacking else ()
+    missing = ["Parameters/Attributes: " + ", ".join(lacking)] if lacking else []
+    bare = _undescribed(parsed)
+    if bare:
+        missing.append("no description: " + ", ".join(bare))
+    return tuple(missing)
 
 
 def module_gaps(tree: ast.Module, module: str) -> list[Gap]:

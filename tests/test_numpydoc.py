@@ -6,7 +6,8 @@ lacks).  For every public function, class and method of a complete package the s
 rule of ``bench/docstrings.py`` holds: a summary; ``Parameters`` naming every parameter
 of the signature and nothing else; ``Returns`` when a value is returned; ``Raises``
 naming the ``ValueError``/``TypeError`` the body raises; a class's constructor
-arguments under ``Parameters`` or ``Attributes``.  The user-facing names of those
+arguments under ``Parameters`` or ``Attributes``; every entry described on its own
+indented lines.  The user-facing names of those
 packages (exported by ``hdpbsid``) carry ``Examples``, and every ``>>>`` example of a
 complete package runs and prints what it says (``doctest``).
 """
@@ -27,7 +28,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import docstrings  # noqa: E402
 
 #: packages and modules whose public objects all have their numpydoc sections
-COMPLETE = ["hdpbsid/models", "hdpbsid/data"]
+COMPLETE = ["hdpbsid/models", "hdpbsid/data", "hdpbsid/frequency", "hdpbsid/design"]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
 #: packages: each has a runnable ``Examples`` section
@@ -53,6 +54,18 @@ WITH_EXAMPLES = {
     "hdpbsid.data.records": ["as_records", "split_windows"],
     "hdpbsid.data.detrend": ["detrend_record"],
     "hdpbsid.data.chunked": ["ChunkedRecord"],
+    "hdpbsid.frequency.fit": ["frf_welch", "frf_periodic", "identify_frequency"],
+    "hdpbsid.frequency.delay": ["delay_from_frf", "estimate_delay"],
+    "hdpbsid.design.inputs": [
+        "crest_factor",
+        "random_binary",
+        "prbs",
+        "multisine",
+        "chirp",
+        "hermite_sweep",
+        "schroeder_phases",
+        "reduce_crest_factor",
+    ],
 }
 
 
@@ -142,6 +155,8 @@ def test_the_rule_reports_each_missing_section() -> None:
     renamed = _GOOD.replace("    name : str", "    label : str")
     assert _gaps(renamed) == [("f", ("Parameters: name", "Parameters not in the signature: label"))]
     assert _gaps("def g(a):\n    return a\n") == [("g", ("docstring",))]
+    one_line = _GOOD.replace("    x : int\n        A number.\n", "    x : a number.\n")
+    assert _gaps(one_line) == [("f", ("no description: x",))]
 
 
 def test_the_rule_checks_classes_and_their_public_methods_only() -> None:

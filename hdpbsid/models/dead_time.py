@@ -241,12 +241,18 @@ def delayed_input_terms(
 
     Parameters
     ----------
-    A, B : the delay-free system's matrices.
-    t : (Ns,) sample times.
-    u : (Ns, m) deviation input.
-    delay : (m,) dead times.
-    hold : ``"zoh"`` or ``"foh"``.
-    Phi, inv : the step matrices of the grid and each step's index into them.
+    A, B : ndarray
+        The delay-free system's matrices.
+    t : ndarray, shape (Ns,)
+        Sample times.
+    u : ndarray, shape (Ns, m)
+        Deviation input.
+    delay : ndarray, shape (m,)
+        Dead times.
+    hold : str
+        ``"zoh"`` or ``"foh"``.
+    Phi, inv : ndarray
+        The step matrices of the grid and each step's index into them.
 
     Returns
     -------
