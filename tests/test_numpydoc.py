@@ -28,7 +28,13 @@ sys.path.insert(0, str(ROOT / "bench"))
 import docstrings  # noqa: E402
 
 #: packages and modules whose public objects all have their numpydoc sections
-COMPLETE = ["hdpbsid/models", "hdpbsid/data", "hdpbsid/frequency", "hdpbsid/design"]
+COMPLETE = [
+    "hdpbsid/models",
+    "hdpbsid/data",
+    "hdpbsid/frequency",
+    "hdpbsid/design",
+    "hdpbsid/systems",
+]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
 #: packages: each has a runnable ``Examples`` section
@@ -66,6 +72,8 @@ WITH_EXAMPLES = {
         "schroeder_phases",
         "reduce_crest_factor",
     ],
+    "hdpbsid.systems.quadrotor": ["pitch_model", "simulate_pitch_closed_loop"],
+    "hdpbsid.systems.linear": ["second_order", "simulate_zoh", "add_noise", "random_steps"],
 }
 
 
