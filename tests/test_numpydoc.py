@@ -27,13 +27,18 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 import docstrings  # noqa: E402
 
-#: packages and modules whose public objects all have their numpydoc sections
+#: packages and modules whose public objects all have their numpydoc sections (the others
+#: join as their docstrings are completed: bases, core, methods, selection, refine, identify,
+#: cli, runtime)
 COMPLETE = [
     "hdpbsid/models",
     "hdpbsid/data",
     "hdpbsid/frequency",
     "hdpbsid/design",
     "hdpbsid/systems",
+    "hdpbsid/plots.py",
+    "hdpbsid/frequency_cli.py",
+    "hdpbsid/studies",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
