@@ -499,8 +499,8 @@ def multisine(
         Peak of each channel.
     channels : int, optional
         Number of inputs.
-    phases : str, optional
-        ``"crest"``, ``"schroeder"`` or ``"random"``.
+    phases : {"crest", "schroeder", "random"}, optional
+        The phases of the lines (above).
     rng : numpy.random.Generator or None, optional
         Generator, needed for ``phases="random"``.
     iterations : int, optional
@@ -596,8 +596,8 @@ def chirp(
         Sampling interval (s).
     f0, f1 : float
         Start and end frequencies (Hz), below Nyquist; both positive for a logarithmic sweep.
-    method : str, optional
-        ``"linear"`` or ``"logarithmic"``.
+    method : {"linear", "logarithmic"}, optional
+        How the instantaneous frequency moves from ``f0`` to ``f1``.
     taper : float, optional
         Fraction of the record in the tapered ends (0: none, 1: a Hann window).
     amplitude : float, optional

@@ -180,9 +180,9 @@ def delay_from_frf(
 
     Parameters
     ----------
-    w : ndarray, shape (nf,)
+    w : ndarray, shape (nf,), or FrequencyResponse
         Angular frequencies, or a :class:`~hdpbsid.frequency.fit.FrequencyResponse`.
-    H : ndarray, shape (nf,) or (l, m, nf), optional
+    H : ndarray of complex, shape (nf,) or (l, m, nf), optional
         Response (not with a ``FrequencyResponse``).
     step : float or None, optional
         Spacing of the candidate delays.  With ``hold`` it is the sampling interval of the
@@ -190,14 +190,14 @@ def delay_from_frf(
         else ``pi / max(w)``.
     max_delay : float or None, optional
         The largest delay tried; default 100 steps.
-    weight
+    weight : str, array_like or None, optional
         As :func:`~hdpbsid.frequency.fit.identify_frequency`'s.
     order : int or None, optional
         The order of the delay-free dynamics, when known: only that order is fitted
         (``max_order`` times faster than the joint search).
     max_order : int, optional
         Largest model order tried with the delays (``order=None``).
-    hold : str or None, optional
+    hold : {None, "zoh", "foh"}, optional
         ``None``: ``H`` is a continuous-time response ``G(jw)`` (e.g. the lines of a
         band-limited periodic input); ``"zoh"`` / ``"foh"``: ``H`` is the response of a record
         sampled every ``step`` whose input is held between samples (zero order) or linear
@@ -306,7 +306,7 @@ def estimate_delay(
         Order of the delay-free dynamics if known (:func:`delay_from_frf`).
     nperseg : int or None, optional
         Welch segment length (default :func:`~hdpbsid.frequency.fit.frf_welch`'s).
-    hold : str or None, optional
+    hold : {None, "zoh", "foh"}, optional
         The input between samples, ``"zoh"`` (held, as a random binary or a digital controller's
         output, and as :func:`hdpbsid.identify`'s discrete-time method assumes), ``"foh"``
         (linear) or ``None`` (band-limited, e.g. a multisine well below the Nyquist frequency:

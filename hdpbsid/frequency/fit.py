@@ -81,8 +81,8 @@ class FrequencyResponse:
     dof : float or None, optional
         Real degrees of freedom of ``variance`` (``2 n - 2`` for ``n`` averages or periods), or
         ``None``.
-    method : str, optional
-        ``"welch"``, ``"welch-reference"`` or ``"periodic"``.
+    method : {"welch", "welch-reference", "periodic", "given"}, optional
+        How the estimate was made (``"given"``: built by hand).
     options : dict, optional
         Settings used.
     """
@@ -582,7 +582,7 @@ def identify_frequency(
 
     Parameters
     ----------
-    w : ndarray, shape (nf,)
+    w : ndarray, shape (nf,), or FrequencyResponse
         Angular frequencies (rad/s), or a :class:`FrequencyResponse` (then ``H`` is taken from
         it).
     H : ndarray of complex, shape (nf,) or (l, m, nf), optional
