@@ -17,12 +17,12 @@ one extra eigenvalue that the truth does not explain) and the fit (NRMSE, and VA
 identification record and on a fresh validation record (same excitation, new noise)
 - the simulated-vs-measured comparison of the thesis's Figure 2.
 
-Measured (20 dB, seed 0, runs 0-3, HD-PBSID defaults but N = 400): with ``q, q_dot``
-the validation VAF is 98.5-99.1 / 99.4 % but the order-3 real pole is 88-154 % off (the
-unstable ``+3.08`` is not found; the pair 15-34 %) and the singular values (~125, 3-4,
-1, 0.7) have one dominant direction; with ``q, theta`` the worst order-3 error is
-1.0-5.7 % and the singular values (~175, ~100, 2.2-2.5, 0.6) two dominant ones.
-Neither set motivates order 4: a 4th-order model adds a spurious eigenvalue.
+What to look for (the study's table and figures give the numbers): a high validation
+fit does not mean the eigenvalues are right.  With ``q, q_dot`` the singular values
+have one dominant direction and the unstable real pole is poorly determined, although
+both outputs are fitted well; with ``q, theta`` two directions dominate and the order-3
+eigenvalues are close to the truth.  Neither set of singular values motivates order 4:
+a fourth-order model adds an eigenvalue the truth does not have.
 """
 
 from __future__ import annotations
