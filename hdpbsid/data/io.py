@@ -476,9 +476,11 @@ def read_columns(
     Examples
     --------
     >>> import pathlib, tempfile
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "r.csv"
-    >>> _ = path.write_text("t;u;y\n0;1;2\n0.1;1;2.5\n")
-    >>> {k: v.tolist() for k, v in read_columns(path, ["y", "t"]).items()}
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.csv"
+    ...     _ = path.write_text("t;u;y\n0;1;2\n0.1;1;2.5\n")  # the delimiter is sniffed
+    ...     cols = read_columns(path, ["y", "t"])
+    >>> {k: v.tolist() for k, v in cols.items()}
     {'y': [2.0, 2.5], 't': [0.0, 0.1]}
     """
     path = Path(path)
@@ -575,9 +577,10 @@ def read_record(
     Examples
     --------
     >>> import pathlib, tempfile
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "r.csv"
-    >>> _ = path.write_text("force,pos\n1.0,0.0\n1.0,0.1\n0.0,0.3\n")
-    >>> rec = read_record(path, inputs=["force"], outputs=["pos"], time=None, fs=100.0)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.csv"
+    ...     _ = path.write_text("force,pos\n1.0,0.0\n1.0,0.1\n0.0,0.3\n")
+    ...     rec = read_record(path, inputs=["force"], outputs=["pos"], time=None, fs=100.0)
     >>> rec.t.tolist(), rec.u.shape, rec.y.shape
     ([0.0, 0.01, 0.02], (3, 1), (3, 1))
     """
@@ -738,10 +741,12 @@ def open_chunked(
     --------
     >>> import pathlib, tempfile
     >>> import numpy as np
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "r.npy"
-    >>> np.save(path, np.arange(30.0).reshape(10, 3))
-    >>> rec = open_chunked(path, inputs=[0], outputs=[1, 2], dt=0.5)
-    >>> rec.ns, rec.m, rec.l, rec.checked(0, 2)[1].tolist()
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.npy"
+    ...     np.save(path, np.arange(30.0).reshape(10, 3))
+    ...     rec = open_chunked(path, inputs=[0], outputs=[1, 2], dt=0.5)
+    ...     first = rec.checked(0, 2)[1].tolist()  # read while the file exists
+    >>> rec.ns, rec.m, rec.l, first
     (10, 1, 2, [[1.0, 2.0], [4.0, 5.0]])
     """
     from hdpbsid.data.chunked import ChunkedRecord

@@ -163,8 +163,9 @@ def save_model(model: StateSpaceModel, path: str | Path) -> Path:
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel, load_model
     >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], input_names=["F"])
-    >>> p = save_model(m, pathlib.Path(tempfile.mkdtemp()) / "model.json")
-    >>> load_model(p).input_names
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_model(save_model(m, pathlib.Path(tmp) / "model.json"))
+    >>> back.input_names
     ['F']
     """
     path = Path(path)
@@ -554,10 +555,10 @@ def load_model(path: str | Path, max_bytes: int = MAX_BYTES) -> StateSpaceModel:
     --------
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel
-    >>> p = pathlib.Path(tempfile.mkdtemp()) / "m.json"
     >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], time_unit="ms")
-    >>> _ = m.save(p)
-    >>> load_model(p).time_unit
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_model(m.save(pathlib.Path(tmp) / "m.json"))
+    >>> back.time_unit
     'ms'
     """
     if not isinstance(path, str | Path):
