@@ -20,7 +20,12 @@ What is measured (statically, from the sources; nothing is imported):
   (a literal, a signed one, or arithmetic of literals), dunder names excluded;
 * **``options`` keys read** by library code: ``x.options[key]``, ``x.options.get(key)``
   and ``key in x.options`` in a load context (the model's free-form dictionary used as a
-  channel between modules).
+  channel between modules);
+* **public functions and classes without numpydoc sections**, and public methods of public
+  classes without them (the rule of ``bench/docstrings.py``: a summary, ``Parameters``
+  naming every parameter, ``Returns`` when a value is returned, ``Raises`` for the
+  ``ValueError``/``TypeError`` raised in the body; ``tests/test_numpydoc.py`` holds the
+  completed packages to it).
 
 The table is printed and written as Markdown to ``--out``; ``--list`` adds the offending
 functions, modules, cycles, constants and keys one per line.  Not a test.
@@ -36,6 +41,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import docstrings
 from radon.complexity import cc_visit
 from radon.raw import analyze
 
@@ -61,6 +67,9 @@ class Report:
     constants: list[tuple[str, str]] = field(default_factory=list)  # module, name
     option_reads: Counter = field(default_factory=Counter)  # key -> reads
     option_sites: dict[str, set[str]] = field(default_factory=lambda: defaultdict(set))
+    public: int = 0  # public functions and classes
+    public_methods: int = 0  # public methods of public classes
+    doc_gaps: list[docstrings.Gap] = field(default_factory=list)
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -239,6 +248,10 @@ def measure(package: str, root: Path = REPO) -> Report:
         for key in option_reads(tree):
             report.option_reads[key] += 1
             report.option_sites[key].add(name)
+        top, methods = docstrings.count_public(tree)
+        report.public += top
+        report.public_methods += methods
+        report.doc_gaps += docstrings.module_gaps(tree, name)
     report.cycles = strongly_connected(graph)
     report.mutual_pairs = sorted(
         (a, b) for a in graph for b in graph[a] if a < b and a in graph.get(b, ())
@@ -273,6 +286,14 @@ def summary_rows(report: Report) -> list[tuple[str, str]]:
         ("module-level numeric constants", f"{len(report.constants)}"),
         ("`.options` keys read", f"{len(report.option_reads)}"),
         ("  reads", f"{sum(report.option_reads.values())}"),
+        (
+            "public functions and classes without numpydoc sections",
+            f"{sum(not g.is_method for g in report.doc_gaps)} of {report.public}",
+        ),
+        (
+            "  public methods without numpydoc sections",
+            f"{sum(g.is_method for g in report.doc_gaps)} of {report.public_methods}",
+        ),
     ]
 
 
@@ -307,6 +328,13 @@ def markdown(report: Report) -> str:
         for k, n in sorted(report.option_reads.items(), key=lambda x: (-x[1], x[0]))
     ]
     lines += _md_table(["key", "reads", "modules"], rows)
+    lines += ["", "## Public functions, classes and methods without numpydoc sections", ""]
+    lines += ["(`bench/docstrings.py`: what each docstring lacks)", ""]
+    per_module: dict[str, list[str]] = defaultdict(list)
+    for gap in report.doc_gaps:
+        per_module[gap.module].append(gap.name)
+    rows = [(m, len(v), ", ".join(f"`{n}`" for n in v)) for m, v in sorted(per_module.items())]
+    lines += _md_table(["module", "count", "objects"], rows)
     return "\n".join(lines) + "\n"
 
 
@@ -327,6 +355,8 @@ def main(argv: list[str] | None = None) -> None:
             print("cycle     " + " <-> ".join(cycle))
         for key, n in report.option_reads.most_common():
             print(f"option    {key}  {n}")
+        for gap in report.doc_gaps:
+            print(f"numpydoc  {gap.module}.{gap.name}  lacks {'; '.join(gap.missing)}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(markdown(report), encoding="utf-8")
     print(f"written: {args.out}")

@@ -25,7 +25,13 @@ COMMANDS = ("frf", "input")
 
 
 def add_parsers(sub: Any) -> None:
-    """Register ``frf`` and ``input`` on the ``hdpbsid`` subparsers."""
+    """Register the ``frf`` and ``input`` commands on the ``hdpbsid`` subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``add_subparsers()`` object of the ``hdpbsid`` parser.
+    """
     f = sub.add_parser(
         "frf",
         help="frequency response, coherence and a model from frequency data",
@@ -100,7 +106,30 @@ def add_parsers(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace, out: TextIO) -> int:
-    """Run ``frf`` or ``input``; returns the exit code (0)."""
+    """Run the ``frf`` or ``input`` command.
+
+    ``frf`` reads a record (:func:`hdpbsid.data.io.read_record`), estimates its frequency
+    response (:func:`hdpbsid.frequency.fit.frf_periodic` with ``--period``, else
+    :func:`~hdpbsid.frequency.fit.frf_welch`) and optionally fits a model to it;
+    ``input`` designs an excitation (:mod:`hdpbsid.design.inputs`).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (``args.command`` is ``"frf"`` or ``"input"``).
+    out : file-like
+        Where the text report goes.
+
+    Returns
+    -------
+    int
+        The exit code, 0; errors raise (the CLI turns them into messages).
+
+    Raises
+    ------
+    ValueError
+        From the readers and estimators on a bad file, column or setting.
+    """
     if args.command == "frf":
         return _run_frf(args, out)
     return _run_input(args, out)

@@ -41,10 +41,20 @@ __all__ = [
 
 @dataclass
 class DisplayFit:
-    """Simulated output for display: ``y_sim (Ns, l)``, ``fit`` (percent per output, the
-    NRMSE fit of MATLAB's ``compare``, :func:`hdpbsid.models.assessment.fit_percent`), ``vaf``
-    (percent per output, the variance accounted for) and ``kind`` describing how it was
-    obtained (see :func:`display_fit`)."""
+    """Simulated output for display, and how it was obtained (:func:`display_fit`).
+
+    Parameters
+    ----------
+    y_sim : ndarray, shape (Ns, l)
+        The simulated output.
+    fit : ndarray, shape (l,)
+        Percent per output, the NRMSE fit of MATLAB's ``compare``
+        (:func:`hdpbsid.models.assessment.fit_percent`).
+    vaf : ndarray, shape (l,)
+        Percent per output, the variance accounted for.
+    kind : str
+        How ``y_sim`` was obtained (whole record, or segments and their length).
+    """
 
     y_sim: NDArray[np.float64]
     fit: NDArray[np.float64]
@@ -58,14 +68,35 @@ class DisplayFit:
 def display_fit(
     model: StateSpaceModel, t: Any, u: Any, y: Any, growth: float = 100.0
 ) -> DisplayFit:
-    """Measured-vs-simulated fit that stays meaningful for open-loop *unstable* models.
+    r"""Measured-vs-simulated fit that stays meaningful for open-loop *unstable* models.
 
-    A stable model is simulated over the whole record (:meth:`StateSpaceModel.fit`,
-    initial state by least squares).  A free-run simulation of an unstable model (the
-    quadrotor's ``+3.08`` pole: ``e^{3.08 * 30}`` ~ 1e40 over a 30 s flight) diverges even
-    for the true model, so the record is cut into segments over which the fastest
-    unstable mode grows by at most ``growth`` (``T_seg = ln(growth) / max Re(lambda)``)
-    and each segment is simulated from its own least-squares initial state.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+    t : array_like, shape (Ns,)
+        Sample times.
+    u : array_like, shape (Ns, m)
+        Input.
+    y : array_like, shape (Ns, l)
+        Measured output.
+    growth : float, optional
+        The largest factor by which the fastest unstable mode may grow over one segment.
+
+    Returns
+    -------
+    DisplayFit
+        The simulated output, its fit and VAF, and how it was obtained.
+
+    Notes
+    -----
+    A stable model is simulated over the whole record (:meth:`StateSpaceModel.fit`, initial
+    state by least squares).  A free-run simulation of an unstable model diverges even for
+    the true model (a pole at :math:`+3` grows by :math:`e^{90} \approx 10^{39}` over 30 s),
+    so the record is cut into segments over which the fastest unstable mode grows by at
+    most ``growth``, :math:`T_{\mathrm{seg}} = \ln(\mathrm{growth}) / \max
+    \operatorname{Re}\lambda`, and each segment is simulated from its own least-squares
+    initial state.
     """
     t, u, y = check_data(t, u, y)
     max_re = float(np.max(model.eigenvalues.real)) if model.n else -1.0
@@ -110,7 +141,26 @@ def _names(
 
 
 def new_figure(figsize: tuple[float, float] = (10.0, 8.0)) -> Any:
-    """A :class:`matplotlib.figure.Figure` attached to an Agg canvas."""
+    """A :class:`matplotlib.figure.Figure` attached to an Agg canvas.
+
+    Built without ``pyplot``, so the library neither changes the global backend nor keeps
+    figures alive.
+
+    Parameters
+    ----------
+    figsize : tuple of two float, optional
+        Width and height in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The empty figure.
+
+    Raises
+    ------
+    ImportError
+        If matplotlib is not installed (extra ``plots``).
+    """
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -122,7 +172,23 @@ def new_figure(figsize: tuple[float, float] = (10.0, 8.0)) -> Any:
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> Path:
-    """Write ``fig`` as an image (format from the suffix, PNG by default); returns the path."""
+    """Write a figure as an image.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or path-like
+        The file; the format follows the suffix (PNG when there is none); missing parent
+        directories are created.
+    dpi : int, optional
+        Resolution of raster formats.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written (with ``.png`` added when it had no suffix).
+    """
     path = Path(path)
     if not path.suffix:
         path = path.with_suffix(".png")
@@ -150,15 +216,26 @@ def order_criterion(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], float | None] | None:
     """The held-out criterion per order from a model's ``options["order_selection"]``.
 
-    The table (:func:`hdpbsid.selection.auto.select_model`) has one row per candidate with its
-    held-out error ``error`` (0 = perfect, 1 = no better than the mean) and ``z``, its
-    excess over the best candidate's error in standard errors of that error
-    (:func:`hdpbsid.models.criteria.choose_smallest_adequate`).  Per order the best candidate's
-    error is returned, with the standard error ``(error - best) / z``: both are the same
-    sums divided by the same held-out output energy, so every row with a finite, nonzero
-    ``z`` gives the same value (their median is returned; ``None`` when no row has one).
-    Returns ``(orders, errors, se)``, or ``None`` when the table is not a list of rows (the
-    order was given, or chosen by the singular values).
+    Parameters
+    ----------
+    table : list of dict or object
+        The selection table (:func:`hdpbsid.selection.auto.select_model`): one row per
+        candidate with its held-out error ``error`` (0 = perfect, 1 = no better than the
+        mean), its ``order`` and ``z``, its excess over the best candidate's error in
+        standard errors (:func:`hdpbsid.models.criteria.choose_smallest_adequate`).
+
+    Returns
+    -------
+    tuple (orders, errors, se) or None
+        Per order the best candidate's error, and the standard error
+        ``(error - best) / z`` (``None`` when no row has a finite, nonzero ``z``); ``None``
+        when the table is not a list of rows (the order was given, or chosen by the
+        singular values).
+
+    Notes
+    -----
+    Every row with a finite, nonzero ``z`` gives the same standard error (both are the same
+    sums divided by the same held-out output energy); their median is returned.
     """
     if not isinstance(table, list):
         return None
@@ -185,13 +262,26 @@ def order_criterion(
 
 
 def plot_order_criterion(model: StateSpaceModel, ax: Any) -> bool:
-    """Draw on ``ax`` what chose the order (:func:`order_criterion`): per order, the best
-    candidate's held-out error above the best of all, in standard errors of that error
-    (bars: one standard error), the line of the one-standard-error rule (the smallest
-    order below it is chosen) and the model's order marked.  The vertical axis is linear
-    up to 1 and logarithmic beyond, so an order far off and the close calls both show.
-    Without a standard error the errors themselves are drawn (log scale).  Returns
-    ``False`` (drawing a note instead) when the model carries no selection table."""
+    """Draw what chose the order (:func:`order_criterion`).
+
+    Per order, the best candidate's held-out error above the best of all, in standard errors
+    of that error (bars: one standard error), the line of the one-standard-error rule (the
+    smallest order below it is chosen) and the model's order marked.  The vertical axis is
+    linear up to 1 and logarithmic beyond, so an order far off and the close calls both
+    show.  Without a standard error the errors themselves are drawn (log scale).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model, with its selection table in ``options["order_selection"]``.
+    ax : matplotlib.axes.Axes
+        Where to draw.
+
+    Returns
+    -------
+    bool
+        ``False`` (a note drawn instead) when the model carries no selection table.
+    """
     crit = order_criterion(model.options.get("order_selection"))
     if crit is None:
         ax.text(
@@ -240,18 +330,42 @@ def plot_identification(
 ) -> Any:
     """Summary figure: what decided the order, the frequency response, the fit.
 
-    * the held-out criterion per order (:func:`plot_order_criterion`: the error above the
-      best in standard errors, the one-standard-error line, the chosen order) beside the singular
+    * the held-out criterion per order (:func:`plot_order_criterion`) beside the singular
       values of the PBSID SVD step (log scale, the order marked);
-    * Bode magnitude (dB) and phase (degrees) of every input-output pair (``w`` in rad
-      per the model's ``time_unit``; default from the record length to Nyquist), dashed
-      for ``true_model`` if given;
+    * Bode magnitude (dB) and phase (degrees) of every input-output pair, dashed for
+      ``true_model`` if given;
     * each output measured vs simulated (:func:`display_fit`: whole record for a stable
       model, short segments for an unstable one), the fit (NRMSE, percent) in the legend.
 
-    Channel names default to the model's ``input_names`` / ``output_names``; the axes
-    carry its ``time_unit``.  Returns the :class:`matplotlib.figure.Figure` (save it with
-    :func:`save_figure`).
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The identified model.
+    t : array_like, shape (Ns,)
+        Sample times.
+    u : array_like, shape (Ns, m)
+        Input.
+    y : array_like, shape (Ns, l)
+        Measured output.
+    output_names, input_names : list of str, optional
+        Channel names (default the model's ``output_names`` / ``input_names``).
+    w : array_like, optional
+        Angular frequencies of the Bode plot in rad per the model's ``time_unit``; default
+        from the record length to the Nyquist frequency, widened to every eigenvalue.
+    true_model : StateSpaceModel, optional
+        Drawn dashed for comparison.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Save it with :func:`save_figure`.
+
+    Raises
+    ------
+    ValueError
+        If the record fails :func:`hdpbsid.data.checks.check_data`.
     """
     t, u, y = check_data(t, u, y)
     l = y.shape[1]
@@ -329,8 +443,24 @@ def _bode_pair(
 def plot_eigenvalues(
     identified: Any, true: Any | None = None, title: str = "Eigenvalues", time_unit: str = "s"
 ) -> Any:
-    """Identified (crosses) and true (circles) eigenvalues in the complex plane (axes in
-    rad per ``time_unit``)."""
+    """Identified (crosses) and true (circles) eigenvalues in the complex plane.
+
+    Parameters
+    ----------
+    identified : array_like of complex
+        The identified eigenvalues.
+    true : array_like of complex, optional
+        The true ones.
+    title : str, optional
+        The axes' title.
+    time_unit : str, optional
+        The axes are in rad per this unit.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+    """
     fig = new_figure((5.5, 4.5))
     ax = fig.add_subplot(1, 1, 1)
     ev = np.asarray(identified, dtype=complex).ravel()
@@ -353,7 +483,21 @@ def plot_singular_values(
 ) -> Any:
     """Singular values of the PBSID SVD step on a log scale, ``order`` marked.
 
-    Draws on ``ax`` if given (returns it), else on a new figure (returns the figure).
+    Parameters
+    ----------
+    singular_values : array_like
+        The singular values.
+    order : int, optional
+        The chosen order, marked.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; a new figure when ``None``.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib.axes.Axes or matplotlib.figure.Figure
+        ``ax`` when given, else the new figure.
     """
     fig = None
     if ax is None:
@@ -380,9 +524,33 @@ def plot_bode(
     output_names: list[str] | None = None,
     title: str = "Bode diagram",
 ) -> Any:
-    """Magnitude and phase of every input-output pair of several models (solid) and of
-    ``true_model`` (black dashed) over ``w`` (rad per the first model's ``time_unit``);
-    one column per output; channel names default to the first model's."""
+    """Magnitude and phase of every input-output pair of several models.
+
+    The models are drawn solid, ``true_model`` dashed; one column per output.
+
+    Parameters
+    ----------
+    models : dict of str to StateSpaceModel
+        Label -> model.
+    w : array_like
+        Angular frequencies (rad per the models' time unit).
+    true_model : StateSpaceModel, optional
+        Drawn dashed.
+    input_names, output_names : list of str, optional
+        Channel names (default the first model's).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
+
+    Raises
+    ------
+    ValueError
+        If ``models`` is empty.
+    """
     w = np.asarray(w, dtype=float).ravel()
     first = next(iter(models.values())) if models else true_model
     if first is None:
@@ -424,13 +592,26 @@ def plot_eigenvalue_scatter(
     title: str = "Identified eigenvalues",
     time_unit: str = "s",
 ) -> Any:
-    """One panel per group (e.g. per method) of Monte Carlo eigenvalues (dots) with the
-    true ones (circles), as in the thesis's Figure 1.
+    """One panel per group of Monte Carlo eigenvalues (dots) with the true ones (circles).
 
-    ``groups``: label -> array of complex eigenvalues (all runs pooled).  ``zoom``: the
-    axes span the truth's bounding box widened by ``zoom * max |true|`` ("zoomed for
-    detail"); points outside are counted in the panel title.  ``None``: autoscale.
-    ``time_unit`` labels the axes (rad per that unit).
+    Parameters
+    ----------
+    groups : dict of str to array_like
+        Label (e.g. a method) -> complex eigenvalues of all runs pooled.
+    true : array_like of complex, optional
+        The true eigenvalues.
+    zoom : float or None, optional
+        The axes span the truth's bounding box widened by ``zoom * max |true|`` (points
+        outside are counted in the panel title); ``None``: autoscale.
+    title : str, optional
+        The figure's title.
+    time_unit : str, optional
+        The axes are in rad per this unit.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure.
     """
     k = max(len(groups), 1)
     fig = new_figure((4.2 * k, 4.2))
@@ -472,9 +653,30 @@ def plot_outputs(
     window: tuple[float, float] | None = None,
     time_unit: str = "s",
 ) -> Any:
-    """Measured outputs (grey) with one or more simulated ones (the thesis's Figure 2 style);
-    ``window`` restricts the time axis (a few seconds are readable, 30 s are not);
-    ``time_unit`` labels it."""
+    """Measured outputs (grey) with one or more simulated ones.
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Sample times.
+    measured : array_like, shape (Ns, l)
+        Measured outputs.
+    simulated : dict of str to array_like
+        Label -> simulated outputs of shape ``(Ns, l)``.
+    output_names : list of str, optional
+        Channel names (default ``y1, ...``).
+    title : str, optional
+        The figure's title.
+    window : tuple of two float, optional
+        Restricts the time axis (a few seconds are readable, a long record is not).
+    time_unit : str, optional
+        Labels the time axis.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per output.
+    """
     t = np.asarray(t, dtype=float).ravel()
     y = np.asarray(measured, dtype=float).reshape(t.size, -1)
     l = y.shape[1]
@@ -510,18 +712,47 @@ def plot_validation(
     input_names: list[str] | None = None,
     title: str | None = None,
 ) -> Any:
-    """Validation figure of ``model`` on the record ``(t, u, y)``.
+    r"""Validation figure of a model on a record.
 
     * per output: measured vs simulated (:meth:`StateSpaceModel.compare`, initial state by
       least squares) and, with ``k``, the ``k``-step-ahead prediction, fits in the legend;
-    * per output: autocorrelation of the one-step prediction errors over lags ``1..M``
-      with the 99 % band ``+-2.58 / sqrt(N)`` and the Ljung-Box verdict;
+    * per output: autocorrelation of the one-step prediction errors over lags ``1..M`` with
+      the 99 % band :math:`\pm 2.58/\sqrt N` and the Ljung-Box verdict;
     * per output and input: residual-input cross-correlation over lags ``-M..M`` with its
-      99 % band (:mod:`hdpbsid.models.assessment`).
+      99 % band (:mod:`hdpbsid.models.assessment`; Ljung, *System Identification*, 2nd ed.,
+      1999, sec. 16.6).
 
-    ``report``: a :class:`~hdpbsid.models.assessment.ResidualReport` already computed (else
-    :meth:`StateSpaceModel.residuals` with ``max_lag``).  Channel names default to the
-    model's; the time axis carries its ``time_unit``.  Returns the figure.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+    t : array_like, shape (Ns,)
+        Sample times.
+    u : array_like, shape (Ns, m)
+        Input.
+    y : array_like, shape (Ns, l)
+        Measured output.
+    k : int, optional
+        Also draw the ``k``-step-ahead prediction.
+    report : ResidualReport, optional
+        Residual tests already computed (else :meth:`StateSpaceModel.residuals`).
+    max_lag : int, optional
+        ``M`` when the report is computed here.
+    output_names, input_names : list of str, optional
+        Channel names (default the model's).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure; the time axis carries the model's ``time_unit``.
+
+    Raises
+    ------
+    ValueError
+        If the record fails :func:`hdpbsid.data.checks.check_data` or ``max_lag`` is out of
+        range.
     """
     t, u, y = check_data(t, u, y)
     l, m = y.shape[1], u.shape[1]

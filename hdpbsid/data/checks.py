@@ -40,7 +40,36 @@ __all__ = [
 
 
 def as_float_array(x: Any, name: str) -> NDArray[np.float64]:
-    """Convert ``x`` to a float64 array, rejecting complex, object and non-numeric data."""
+    """Convert to a finite float64 array, rejecting complex, object and non-numeric data.
+
+    Parameters
+    ----------
+    x : array_like
+        Real numbers (booleans and integers are converted).
+    name : str
+        The argument's name in the messages.
+
+    Returns
+    -------
+    ndarray of float64
+        Same shape as ``x``.
+
+    Raises
+    ------
+    TypeError
+        If ``x`` is ``None``, complex, text or objects.
+    ValueError
+        If an entry is NaN or infinite (the message gives the count and the first index).
+
+    Examples
+    --------
+    >>> as_float_array([1, 2], "u").dtype
+    dtype('float64')
+    >>> as_float_array([1.0, float("nan")], "u")
+    Traceback (most recent call last):
+    ...
+    ValueError: u must be finite, but contains 1 NaN/inf value(s) (first NaN at index (1,))
+    """
     if x is None:
         raise TypeError(f"{name} must be an array of real numbers, got None")
     try:
@@ -85,7 +114,37 @@ def check_step(dt: Any, name: str = "dt") -> float:
 
 
 def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.float64]:
-    """Check a time vector: 1-D, finite, strictly increasing, at least ``min_samples`` long."""
+    """Check a time vector.
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Sample times.
+    name : str, optional
+        The argument's name in the messages.
+    min_samples : int, optional
+        The fewest samples accepted.
+
+    Returns
+    -------
+    ndarray, shape (Ns,)
+        ``t`` as float64.
+
+    Raises
+    ------
+    ValueError
+        If ``t`` is not 1-D, shorter than ``min_samples``, not finite, or not strictly
+        increasing (the message names the first duplicate or decreasing pair).
+    TypeError
+        If ``t`` is not real numbers.
+
+    Examples
+    --------
+    >>> check_time([0.0, 0.1, 0.1], "t")
+    Traceback (most recent call last):
+    ...
+    ValueError: t must be strictly increasing, but has duplicate times at indices 1 and 2 (0.1, 0.1)
+    """
     arr = as_float_array(t, name)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array of shape (Ns,), got shape {arr.shape}")
@@ -97,7 +156,7 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
         what = "duplicate" if d[k] == 0 else "decreasing"
         raise ValueError(
             f"{name} must be strictly increasing, but has {what} times at indices "
-            f"{k} and {k + 1} ({arr[k]!r}, {arr[k + 1]!r})"
+            f"{k} and {k + 1} ({float(arr[k])!r}, {float(arr[k + 1])!r})"
         )
     return arr
 
@@ -107,19 +166,40 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
 #: least-squares steps also take norms of stacks of up to ~10^4 regressors (a factor up to
 #: 10^4) and condition estimates square such norms again (10^8): the energy must stay
 #: 10^12 below overflow (values up to ~1e148 pass for 10^4 samples; no physical record
-#: comes near; 1e200 overflowed the squares themselves, a ZeroDivisionError deep inside)
+#: comes near, and beyond it the squares themselves overflow deep inside a method)
 ENERGY_HEADROOM = 1e-12
 
 
 def check_signal(
     x: Any, name: str, ns: int | None = None, limit_energy: bool = True
 ) -> NDArray[np.float64]:
-    """Check a signal array of shape ``(Ns, channels)`` (1-D means one channel).
+    r"""Check a signal array of shape ``(Ns, channels)``; 1-D means one channel.
 
-    Returns a 2-D float array.  If ``ns`` is given the number of rows must equal it.  A
-    channel whose energy is not below :data:`ENERGY_HEADROOM` of the float64 range is
-    refused (the sums of the least-squares steps would overflow) unless ``limit_energy``
-    is false (a simulation forms no such sums).
+    Parameters
+    ----------
+    x : array_like, shape (Ns, channels) or (Ns,)
+        The signal.
+    name : str
+        The argument's name in the messages.
+    ns : int or None, optional
+        The number of rows required (the record's samples).
+    limit_energy : bool, optional
+        Refuse a channel whose energy :math:`\sum_k x_k^2` is not below
+        :data:`ENERGY_HEADROOM` of the float64 range (the sums of the least-squares steps
+        would overflow); off for a simulation, which forms no such sums.
+
+    Returns
+    -------
+    ndarray, shape (Ns, channels)
+        As float64.
+
+    Raises
+    ------
+    ValueError
+        If ``x`` has more than two dimensions, a channel is too large, or the number of
+        rows is not ``ns`` (with a hint when the transpose would fit).
+    TypeError
+        If ``x`` is not real numbers.
     """
     arr = as_float_array(x, name)
     if arr.ndim == 1:
@@ -156,8 +236,30 @@ def check_data(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Check an identification record ``(t, u, y)``.
 
-    ``u`` may be ``None`` (no measured input, a pure time series): it becomes an
-    ``(Ns, 0)`` array.  Returns ``t`` (Ns,), ``u`` (Ns, m), ``y`` (Ns, l).
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Strictly increasing sample times.
+    u : array_like, shape (Ns, m) or (Ns,), or None
+        Input; ``None`` (no measured input, a pure time series) becomes ``(Ns, 0)``.
+    y : array_like, shape (Ns, l) or (Ns,)
+        Output, at least one channel.
+    min_samples : int, optional
+        The fewest samples accepted.
+
+    Returns
+    -------
+    t : ndarray, shape (Ns,)
+    u : ndarray, shape (Ns, m)
+    y : ndarray, shape (Ns, l)
+
+    Raises
+    ------
+    ValueError
+        If ``y`` has no channel, or :func:`check_time` / :func:`check_signal` refuse an
+        argument.
+    TypeError
+        If an argument is not real numbers.
     """
     t = check_time(t, "t", min_samples=min_samples)
     ns = t.shape[0]
@@ -169,9 +271,23 @@ def check_data(
 
 
 def check_varies(y: NDArray[np.float64], name: str = "y") -> None:
-    """Raise ``ValueError`` when a channel of ``y`` (``(Ns, channels)``) is constant: a
-    constant output holds no dynamics to identify (every method would divide by its zero
-    variation somewhere), and the message names the channel to drop."""
+    """Refuse a constant channel.
+
+    A constant output holds no dynamics to identify (every method would divide by its zero
+    variation somewhere), so the message names the channel to drop.
+
+    Parameters
+    ----------
+    y : ndarray, shape (Ns, channels)
+        The signal.
+    name : str, optional
+        The argument's name in the messages.
+
+    Raises
+    ------
+    ValueError
+        If a channel of ``y`` is constant.
+    """
     flat = np.flatnonzero(np.ptp(y, axis=0) == 0) if y.shape[0] else np.zeros(0, dtype=int)
     if flat.size:
         k = int(flat[0])
@@ -182,13 +298,30 @@ def check_varies(y: NDArray[np.float64], name: str = "y") -> None:
 
 
 def time_resolution(t: NDArray[np.float64]) -> float:
-    """Absolute resolution of the time stamps ``t``: twice the float64 spacing at
-    ``max |t|``.
+    """Absolute resolution of time stamps: twice the float64 spacing at ``max |t|``.
 
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Time stamps.
+
+    Returns
+    -------
+    float
+        ``2 spacing(max |t|)``; 0 for an empty ``t``.
+
+    Notes
+    -----
     A stamp is stored to half its spacing, so a difference of two stamps is known only to
     one spacing; the factor 2 covers stamps computed as ``t0 + k h`` (one more rounding).
     Records stamped with Unix time (``t ~ 1.7e9 s``) have a resolution of ``4.8e-7 s``:
     ``5e-5`` of a 10 ms sample interval, far above any relative tolerance on the spacing.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> time_resolution(np.array([1.7e9, 1.7e9 + 0.01]))
+    4.76837158203125e-07
     """
     return 2.0 * float(np.spacing(np.max(np.abs(t)))) if t.size else 0.0
 
@@ -201,31 +334,69 @@ UNIFORM_RTOL = 1e-6
 
 
 def uniform_tolerance(t: NDArray[np.float64], h: float, rtol: float = UNIFORM_RTOL) -> float:
-    """The largest deviation ``|diff(t)_k - h|`` of a uniform grid ``t`` with spacing
-    ``h``: ``rtol * h + 2 * time_resolution(t)``.
+    """The largest deviation ``|diff(t)_k - h|`` of a uniform grid with spacing ``h``.
 
-    Every difference of two stamps is known to :func:`time_resolution` (one spacing of
-    ``max |t|`` from storing each stamp, one more when it was computed as ``t0 + k h``),
-    and so is the reference ``h`` when it is itself a difference of stamps (the median
-    spacing), hence twice the resolution; the stamps cannot say more.  ``rtol * h`` is
-    the uniformity asked of the grid itself (:data:`UNIFORM_RTOL`).  The same grid
-    shifted by a constant (``t = 0`` or Unix time ``t ~ 1.7e9``) is then uniform in both
-    forms, whatever ``rtol``.
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Time stamps.
+    h : float
+        The grid's spacing (the median step).
+    rtol : float, optional
+        The uniformity asked of the grid itself (:data:`UNIFORM_RTOL`).
+
+    Returns
+    -------
+    float
+        ``rtol * h + 2 * time_resolution(t)``.
+
+    Notes
+    -----
+    Every difference of two stamps is known to :func:`time_resolution`, and so is the
+    reference ``h`` when it is itself a difference of stamps (the median spacing), hence
+    twice the resolution; the stamps cannot say more.  The same grid shifted by a constant
+    (``t = 0`` or Unix time ``t ~ 1.7e9``) is then uniform in both forms, whatever ``rtol``.
     """
     return rtol * h + 2.0 * time_resolution(t)
 
 
 def check_uniform(t: NDArray[np.float64], rtol: float = UNIFORM_RTOL, name: str = "t") -> float:
-    """Return the sampling interval of a uniformly sampled ``t``; the one uniformity test
-    of the package (every path that treats a grid as uniform asks this one).
+    """The sampling interval of a uniformly sampled ``t``; the package's one uniformity test.
 
-    The spacing is computed on ``t - t[0]`` and compared with its median ``h``: ``t`` is
-    uniform when ``max |diff(t) - h| <= uniform_tolerance(t, h, rtol)``, i.e.
-    ``rtol * h`` plus the rounding of the stamps themselves (:func:`uniform_tolerance`):
-    without it a record stamped with Unix time (``t ~ 1.7e9``, ``h = 0.01``) fails any
-    ``rtol`` below ``5e-5`` although it is as uniform as its stamps can say.  Raises
-    ``ValueError`` naming the largest deviation otherwise.  The returned interval is the
-    mean spacing ``(t[-1] - t[0]) / (Ns - 1)``.
+    Every path that treats a grid as uniform asks this one.
+
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Strictly increasing time stamps.
+    rtol : float, optional
+        Relative tolerance of the spacing (:data:`UNIFORM_RTOL`).
+    name : str, optional
+        The argument's name in the messages.
+
+    Returns
+    -------
+    float
+        The mean spacing ``(t[-1] - t[0]) / (Ns - 1)`` (0 for a single sample).
+
+    Raises
+    ------
+    ValueError
+        If ``max |diff(t) - h| > uniform_tolerance(t, h, rtol)`` with ``h`` the median
+        spacing; the message names the largest deviation and its index.
+
+    Notes
+    -----
+    The spacing is computed on ``t - t[0]`` and the tolerance includes the rounding of the
+    stamps themselves (:func:`uniform_tolerance`): without it a record stamped with Unix time
+    (``t ~ 1.7e9``, ``h = 0.01``) would fail any ``rtol`` below ``5e-5`` although it is as
+    uniform as its stamps can say.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> round(check_uniform(1.7e9 + 0.01 * np.arange(1000)), 6)
+    0.01
     """
     tr = t - t[0]
     d = np.diff(tr)
@@ -246,8 +417,26 @@ def check_uniform(t: NDArray[np.float64], rtol: float = UNIFORM_RTOL, name: str 
 
 
 def is_uniform(t: Any, rtol: float = UNIFORM_RTOL) -> bool:
-    """True when :func:`check_uniform` accepts ``t`` (same tolerance); a grid of fewer
-    than three samples is uniform."""
+    """Whether :func:`check_uniform` accepts ``t`` (same tolerance).
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Time stamps.
+    rtol : float, optional
+        Relative tolerance of the spacing.
+
+    Returns
+    -------
+    bool
+        True for a uniform grid; a grid of fewer than three samples is uniform.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> is_uniform(np.arange(10) * 0.1), is_uniform(np.array([0.0, 0.1, 0.3]))
+    (True, False)
+    """
     t = np.asarray(t, dtype=float)
     if t.size < 3:
         return True
@@ -259,7 +448,36 @@ def is_uniform(t: Any, rtol: float = UNIFORM_RTOL) -> bool:
 
 
 def check_positive_int(value: Any, name: str, minimum: int = 1) -> int:
-    """Check that ``value`` is an integer ``>= minimum`` (bools are rejected)."""
+    """Check that a value is an integer ``>= minimum``.
+
+    Parameters
+    ----------
+    value : int
+        The value (``bool`` is rejected although it is an ``int``).
+    name : str
+        The argument's name in the messages.
+    minimum : int, optional
+        The smallest value accepted.
+
+    Returns
+    -------
+    int
+        ``value`` as a Python ``int``.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not an integer (or is a bool).
+    ValueError
+        If ``value < minimum``.
+
+    Examples
+    --------
+    >>> check_positive_int(0, "order")
+    Traceback (most recent call last):
+    ...
+    ValueError: order must be an integer >= 1, got 0
+    """
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
     if value < minimum:
@@ -268,7 +486,29 @@ def check_positive_int(value: Any, name: str, minimum: int = 1) -> int:
 
 
 def check_matrix(x: Any, name: str, shape: tuple[int | None, int | None]) -> NDArray[np.float64]:
-    """Check a finite real 2-D matrix; ``None`` entries in ``shape`` are free."""
+    """Check a finite real 2-D matrix.
+
+    Parameters
+    ----------
+    x : array_like
+        The matrix.
+    name : str
+        The argument's name in the messages.
+    shape : tuple of (int or None)
+        The required shape; ``None`` entries are free.
+
+    Returns
+    -------
+    ndarray, 2-D
+        As float64.
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not 2-D, has the wrong shape, or is not finite.
+    TypeError
+        If ``x`` is not real numbers.
+    """
     arr = as_float_array(x, name)
     if arr.ndim != 2:
         raise ValueError(f"{name} must be a 2-D matrix, got shape {arr.shape}")
@@ -284,8 +524,31 @@ def check_state_space(
 ) -> tuple[NDArray[np.float64], ...]:
     """Check state-space matrices for consistent shapes.
 
-    Returns ``(A, B, C, D, K)`` with ``D`` defaulting to zeros ``(l, m)`` and ``K`` to
-    zeros ``(n, l)``.
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        State matrix.
+    B : array_like, shape (n, m)
+        Input matrix.
+    C : array_like, shape (l, n)
+        Output matrix.
+    D : array_like, shape (l, m), or None, optional
+        Feedthrough (default zeros).
+    K : array_like, shape (n, l), or None, optional
+        Innovation gain (default zeros).
+
+    Returns
+    -------
+    A, B, C, D, K : ndarray
+        As float64.
+
+    Raises
+    ------
+    ValueError
+        If ``A`` is not square, a shape disagrees with ``n``, ``m``, ``l``, or an entry is
+        not finite.
+    TypeError
+        If a matrix is not real numbers.
     """
     A = check_matrix(A, "A", (None, None))
     n = A.shape[0]
@@ -328,8 +591,27 @@ MAX_LABEL = 256
 
 
 def check_label(value: Any, name: str) -> str:
-    """A short printable string (a time unit or a channel name); ``TypeError`` /
-    ``ValueError`` naming ``name`` otherwise."""
+    """Check a short printable string (a time unit or a channel name).
+
+    Parameters
+    ----------
+    value : str
+        The label.
+    name : str
+        The argument's name in the messages.
+
+    Returns
+    -------
+    str
+        ``value`` unchanged.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a string.
+    ValueError
+        If it is blank, longer than :data:`MAX_LABEL` characters or not printable.
+    """
     if not isinstance(value, str):
         raise TypeError(f"{name} must be a string, got {type(value).__name__}")
     if not value.strip() or len(value) > MAX_LABEL or not value.isprintable():
@@ -341,8 +623,37 @@ def check_label(value: Any, name: str) -> str:
 
 
 def check_names(names: Any, name: str, size: int, prefix: str) -> list[str]:
-    """``size`` distinct channel names (:func:`check_label` each), or ``prefix1``,
-    ``prefix2``, ... when ``names`` is ``None``."""
+    """Check ``size`` distinct channel names, or make the default ones.
+
+    Parameters
+    ----------
+    names : list or tuple of str, or None
+        The names; ``None`` gives ``prefix1, prefix2, ...``.
+    name : str
+        The argument's name in the messages.
+    size : int
+        The number of channels.
+    prefix : str
+        Prefix of the default names.
+
+    Returns
+    -------
+    list of str
+        ``size`` names, each checked by :func:`check_label`.
+
+    Raises
+    ------
+    TypeError
+        If ``names`` is not a list or tuple (a single string is refused), or an entry is
+        not a string.
+    ValueError
+        If the count is not ``size`` or a name repeats.
+
+    Examples
+    --------
+    >>> check_names(None, "input_names", 2, "u")
+    ['u1', 'u2']
+    """
     if names is None:
         return [f"{prefix}{i + 1}" for i in range(size)]
     if isinstance(names, str) or not isinstance(names, list | tuple):
@@ -362,19 +673,41 @@ def check_names(names: Any, name: str, size: int, prefix: str) -> list[str]:
 #: products of up to four samples over up to 10^10 samples, ``(2^100)^4 10^10 < 2^434``
 #: and ``(2^-100)^4 > 2^-400`` -- stays far from overflow and from the subnormal range,
 #: so records in any physical unit run unchanged; outside it, squares and their products
-#: overflow or underflow (a record scaled by 1e-200 had every square round to zero).
+#: overflow or underflow (at 1e-200 every square rounds to zero).
 SCALE_EXPONENT = 100
 
 
 def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:
-    """Per channel of ``x`` (``(Ns,)`` or ``(Ns, k)``): the exponent ``p`` that brings the
-    channel's largest finite magnitude into ``[0.5, 1)`` by ``x * 2^p`` when it lies
-    outside the band of :data:`SCALE_EXPONENT`, else 0.
+    """Per channel, the power of two that brings an extreme channel to unit size.
 
-    Multiplying by a power of two changes only the floating-point exponent, so it is
-    exact (no rounding) unless a value underflows, and the scaled record is the same
-    record in another unit.  ``x`` that is not a numeric array (the data checks report
-    it), an all-zero channel and ``None`` give zeros.
+    Parameters
+    ----------
+    x : array_like, shape (Ns,) or (Ns, k)
+        The signal.  Data that is not a numeric array (the checks report it) and ``None``
+        give zeros.
+    name : str
+        The argument's name (kept for symmetry with the checks; nothing is raised).
+
+    Returns
+    -------
+    ndarray of int64, shape (k,)
+        The exponent ``p`` with the channel's largest finite magnitude times ``2^p`` in
+        ``[0.5, 1)`` when that magnitude lies outside ``[2^-SCALE_EXPONENT,
+        2^SCALE_EXPONENT]``; 0 inside the band and for an all-zero channel.
+
+    Notes
+    -----
+    Multiplying by a power of two changes only the floating-point exponent, so it is exact
+    (no rounding) unless a value underflows, and the scaled record is the same record in
+    another unit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.array([[1e-200, 3.0], [2e-200, 1.0]])
+    >>> p = scale_exponents(x, "y")
+    >>> int(p[1]), 0.5 <= float(np.ldexp(2e-200, int(p[0]))) < 1.0  # 3.0 needs no scaling
+    (0, True)
     """
     if x is None:
         return np.zeros(0, dtype=np.int64)
@@ -405,9 +738,21 @@ def _real_array(x: Any) -> NDArray[np.float64] | None:
 
 
 def require_joblib(n_jobs: Any, name: str = "n_jobs") -> None:
-    """Raise ``ImportError`` naming the extra to install when ``n_jobs`` asks for parallel
-    workers (anything but ``None`` and 1) and joblib is missing -- before the work starts,
-    not when the first parallel section is reached."""
+    """Refuse parallel workers early when joblib is missing.
+
+    Parameters
+    ----------
+    n_jobs : int or None
+        The requested workers; anything but ``None`` and 1 needs joblib.
+    name : str, optional
+        The argument's name in the message.
+
+    Raises
+    ------
+    ImportError
+        Naming the extra to install, before the work starts rather than when the first
+        parallel section is reached.
+    """
     if n_jobs is None or (isinstance(n_jobs, int | np.integer) and n_jobs == 1):
         return
     import importlib.util

@@ -47,10 +47,43 @@ def _two_d(x: Array) -> Array:
 class ChunkedRecord:
     """A uniformly sampled record read in pieces.
 
-    ``read(a, b)`` returns ``(u, y)`` of samples ``a..b-1`` as ``(b-a, m)`` and ``(b-a,
-    l)`` float arrays; ``ns`` samples, ``m`` inputs, ``l`` outputs, sampling interval
-    ``dt`` and absolute start ``t0``.  ``read`` must be picklable for ``use_dask`` on a
-    distributed cluster (the readers of :func:`hdpbsid.data.io.open_chunked` are).
+    Parameters
+    ----------
+    read : callable
+        ``read(a, b) -> (u, y)``: samples ``a..b-1`` as ``(b - a, m)`` and ``(b - a, l)``
+        float arrays.  It must be picklable for ``use_dask`` on a distributed cluster (the
+        readers of :func:`hdpbsid.data.io.open_chunked` are).
+    ns : int
+        Number of samples, at least 3.
+    m : int
+        Number of inputs, ``>= 0``.
+    l : int
+        Number of outputs, ``>= 1``.
+    dt : float
+        Sampling interval, positive and finite.
+    t0 : float, optional
+        Absolute time of the first sample.
+
+    Attributes
+    ----------
+    duration : float
+        ``(ns - 1) dt``.
+
+    Raises
+    ------
+    ValueError
+        If ``ns < 3``, ``dt`` is not positive and finite, or ``m < 0`` or ``l < 1``.
+    TypeError
+        If ``ns`` is not an integer or ``dt`` not a number.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rec = ChunkedRecord.from_arrays(np.zeros(1000), np.ones((1000, 2)), dt=0.01)
+    >>> rec.m, rec.l, round(rec.duration, 6)
+    (1, 2, 9.99)
+    >>> [x.shape for x in rec.checked(10, 20)]
+    [(10, 1), (10, 2)]
     """
 
     read: Callable[[int, int], tuple[Array, Array]]
@@ -71,9 +104,30 @@ class ChunkedRecord:
 
     @classmethod
     def from_arrays(cls, u: Any, y: Any, dt: float, t0: float = 0.0) -> ChunkedRecord:
-        """A record over sliceable arrays ``u`` (``(Ns,)``, ``(Ns, m)`` or None) and ``y``
-        (``(Ns,)`` or ``(Ns, l)``): ``np.memmap``, ``h5py`` datasets, ``zarr`` or
-        ``dask.array`` arrays; nothing is read until identification."""
+        """A record over sliceable arrays; nothing is read until identification.
+
+        Parameters
+        ----------
+        u : array_like, shape (Ns,) or (Ns, m), or None
+            Input: ``np.memmap``, ``h5py`` datasets, ``zarr`` or ``dask.array`` arrays, anything
+            ``np.asarray(u[a:b])`` accepts; ``None`` for a time series.
+        y : array_like, shape (Ns,) or (Ns, l)
+            Output, of the same kinds.
+        dt : float
+            Sampling interval.
+        t0 : float, optional
+            Absolute time of the first sample.
+
+        Returns
+        -------
+        ChunkedRecord
+            Reading slices of ``u`` and ``y``.
+
+        Raises
+        ------
+        ValueError
+            If ``y`` is not 1-D or 2-D, or ``u`` is not 1-D or 2-D with as many rows as ``y``.
+        """
         ys = tuple(np.shape(y))
         if len(ys) not in (1, 2):
             raise ValueError(f"y must be (Ns,) or (Ns, l), got shape {ys}")
@@ -91,7 +145,24 @@ class ChunkedRecord:
         return float((self.ns - 1) * self.dt)
 
     def checked(self, a: int, b: int) -> tuple[Array, Array]:
-        """``read(a, b)`` with the shapes and finiteness checked."""
+        """``read(a, b)`` with the shapes and finiteness checked.
+
+        Parameters
+        ----------
+        a, b : int
+            The samples ``a..b-1``.
+
+        Returns
+        -------
+        u : ndarray, shape (b - a, m)
+        y : ndarray, shape (b - a, l)
+
+        Raises
+        ------
+        ValueError
+            If the reader returned other shapes, or a value is NaN or infinite (the message
+            gives its sample index).
+        """
         u, y = self.read(a, b)
         if u.shape != (b - a, self.m) or y.shape != (b - a, self.l):
             raise ValueError(

@@ -37,10 +37,21 @@ DETREND_CHOICES = ("mean", "linear", None)
 class Levels:
     """What :func:`detrend_record` removed from one record.
 
-    ``u0 (m,)``, ``y0 (l,)``: the channel means; with ``"linear"`` also ``t_ref`` (the
-    record's mean time) and the slopes ``u_slope (m,)``, ``y_slope (l,)`` of the
-    least-squares lines ``level(t) = x0 + slope (t - t_ref)`` (the line through the
-    means, so ``x0`` is the mean).  ``samples``: the record length.
+    Parameters
+    ----------
+    u0 : ndarray, shape (m,)
+        Input channel means.
+    y0 : ndarray, shape (l,)
+        Output channel means.
+    samples : int
+        The record length.
+    t_ref : float or None, optional
+        With ``"linear"``: the record's mean time.
+    u_slope : ndarray, shape (m,), or None, optional
+        With ``"linear"``: slopes of the input lines ``level(t) = u0 + slope (t - t_ref)``
+        (the least-squares line passes through the means, so ``u0`` is the mean).
+    y_slope : ndarray, shape (l,), or None, optional
+        With ``"linear"``: slopes of the output lines.
     """
 
     u0: Array
@@ -51,7 +62,13 @@ class Levels:
     y_slope: Array | None = None
 
     def as_dict(self) -> dict[str, object]:
-        """Plain lists, for ``model.options``."""
+        """The levels as plain lists, for ``model.options``.
+
+        Returns
+        -------
+        dict
+            ``u0``, ``y0``, ``samples`` and, after ``"linear"``, ``t_ref`` and the slopes.
+        """
         d: dict[str, object] = {
             "u0": self.u0.tolist(),
             "y0": self.y0.tolist(),
@@ -74,11 +91,46 @@ def _line(t: Array, x: Array) -> tuple[Array, Array]:
 
 
 def detrend_record(t: Array, u: Array, y: Array, kind: str | None) -> tuple[Array, Array, Levels]:
-    """Remove levels from a checked record ``t (Ns,)``, ``u (Ns, m)``, ``y (Ns, l)``.
+    r"""Remove levels from a checked record.
 
-    ``kind="mean"``: ``u - mean(u)``, ``y - mean(y)`` per column; ``"linear"``: the
-    least-squares line in ``t`` per column; ``None``: nothing (levels reported as 0).
-    Returns ``(u_detrended, y_detrended, Levels)``.
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Sample times.
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Output.
+    kind : {"mean", "linear", None}
+        ``"mean"``: each column's mean; ``"linear"``: each column's least-squares line in
+        ``t`` (MATLAB ``detrend(data, 1)``); ``None``: nothing (levels reported as 0).
+
+    Returns
+    -------
+    u_detrended : ndarray, shape (Ns, m)
+    y_detrended : ndarray, shape (Ns, l)
+    levels : Levels
+        What was removed.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is not one of :data:`DETREND_CHOICES`.
+
+    Notes
+    -----
+    The line of a column ``x`` is
+    :math:`x_0 + s\,(t - \bar t)` with :math:`x_0 = \bar x` and
+    :math:`s = \sum_k (t_k - \bar t)(x_k - \bar x) / \sum_k (t_k - \bar t)^2`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 1.0, 5)
+    >>> u, y = np.ones((5, 1)), (3.0 + 2.0 * t)[:, None]
+    >>> ud, yd, levels = detrend_record(t, u, y, "linear")
+    >>> bool(np.allclose(yd, 0.0)), round(float(levels.y_slope[0]), 12), float(levels.y0[0])
+    (True, 2.0, 4.0)
     """
     if kind not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {kind!r}")
@@ -94,11 +146,27 @@ def detrend_record(t: Array, u: Array, y: Array, kind: str | None) -> tuple[Arra
 
 
 def warn_if_levels_dominate(u: Array, y: Array, where: str = "", stacklevel: int = 3) -> None:
-    """``UserWarning`` when a channel's mean outweighs its variation, ``|mean| > std``.
+    """Warn when a channel's mean outweighs its variation, ``|mean| > std``.
 
     Then the constant part carries more of the channel's mean-square power than the
     variation does (``mean^2 > var``), so an identification that keeps the level treats
     mostly a constant as signal; the rule is scale-free and refers to no record.
+
+    Parameters
+    ----------
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Output.
+    where : str, optional
+        Prefix of the message (e.g. the record's name).
+    stacklevel : int, optional
+        Passed to :func:`warnings.warn`, so the warning points at the user's call.
+
+    Warns
+    -----
+    UserWarning
+        For each channel whose level dominates.
     """
     for name, x in (("u", u), ("y", y)):
         for j in range(x.shape[1]):

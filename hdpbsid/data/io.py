@@ -25,9 +25,8 @@ UTF-16 with its byte-order mark; other encodings are refused with the line of th
 byte that is not UTF-8.  Numbers take a decimal point: a decimal comma is refused with a
 hint, as are digit separators and numbers beyond the float64 range; a spreadsheet's
 ``sep=;`` first line sets the delimiter.  A plain text (numbers only, every line with the
-header's fields) is parsed by :func:`numpy.loadtxt`'s C reader (about a second per
-million lines); any other text, and every error, by a reader that checks field by field
-and names the line and column.
+header's fields) is parsed by :func:`numpy.loadtxt`'s compiled reader; any other text,
+and every error, by a reader that checks field by field and names the line and column.
 
 A variable may be stored as a row or a column (``(1, N)``, ``(N, 1)`` or ``(N,)``);
 anything with more than one non-singleton dimension is refused.
@@ -73,8 +72,29 @@ SUFFIXES: dict[str, str] = {
 
 @dataclass
 class Record:
-    """A measured record: ``t (Ns,)``, ``u (Ns, m)`` or ``None``, ``y (Ns, l)`` and the
-    names they were read from (``time`` is ``None`` when ``t`` was built from ``dt``)."""
+    """A measured record and the names its signals were read from.
+
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Sample times, strictly increasing.
+    u : ndarray, shape (Ns, m), or None
+        Input (``None`` for a time series).
+    y : ndarray, shape (Ns, l)
+        Output.
+    inputs : list of str
+        The input columns.
+    outputs : list of str
+        The output columns.
+    time : str or None
+        The time column; ``None`` when ``t`` was built from ``dt``.
+    source : str
+        The file read.
+    dt : float or None, optional
+        The sampling interval given instead of a time column.
+    extra : dict, optional
+        Further information a reader keeps.
+    """
 
     t: Array
     u: Array | None
@@ -87,7 +107,13 @@ class Record:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def as_tuple(self) -> tuple[Array, Array | None, Array]:
-        """``(t, u, y)`` as :func:`hdpbsid.identify` takes it."""
+        """The record as :func:`hdpbsid.identify` takes it.
+
+        Returns
+        -------
+        tuple
+            ``(t, u, y)``.
+        """
         return self.t, self.u, self.y
 
     def __repr__(self) -> str:
@@ -421,12 +447,41 @@ def _read_hdf5(path: Path, columns: Sequence[str]) -> dict[str, Array]:
 def read_columns(
     path: str | Path, columns: Sequence[str], delimiter: str | None = None
 ) -> dict[str, Array]:
-    """The named columns of ``path`` as float vectors of equal length (module docstring).
+    r"""The named columns of a file as float vectors of equal length (module docstring).
 
-    Raises ``ValueError`` for a missing file, an unknown type, an unknown column (the
-    message lists the available ones), non-numeric, missing or non-finite values, a
-    non-vector variable, columns of different lengths and an empty file; ``ImportError``
-    when the Parquet / HDF5 reader is not installed.
+    Parameters
+    ----------
+    path : str or path-like
+        A CSV-like text, ``.mat``, ``.npz``, Parquet or HDF5 file (:data:`SUFFIXES`).
+    columns : sequence of str
+        Column, variable or dataset names, each once.
+    delimiter : str or None, optional
+        The CSV delimiter; sniffed (``, ; tab`` space) when ``None``.
+
+    Returns
+    -------
+    dict of str to ndarray
+        One 1-D float64 vector per column, all of the same length.
+
+    Raises
+    ------
+    ValueError
+        Naming the file (and the column and line where it applies): a missing file, an
+        unknown type, an unknown column (the message lists the available ones), a column
+        selected twice, non-numeric, missing or non-finite values, a non-vector variable,
+        columns of different lengths, an empty file, or an unreadable file.
+    ImportError
+        When the Parquet / HDF5 reader is not installed (extra ``io``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.csv"
+    ...     _ = path.write_text("t;u;y\n0;1;2\n0.1;1;2.5\n")  # the delimiter is sniffed
+    ...     cols = read_columns(path, ["y", "t"])
+    >>> {k: v.tolist() for k, v in cols.items()}
+    {'y': [2.0, 2.5], 't': [0.0, 0.1]}
     """
     path = Path(path)
     _check_file(path, "data file")
@@ -486,13 +541,48 @@ def read_record(
     fs: float | None = None,
     delimiter: str | None = None,
 ) -> Record:
-    """Read an identification record: the ``time`` column (or ``t = k dt`` from the
-    sampling interval ``dt`` or the sampling rate ``fs = 1 / dt``, exactly one of the
-    three), the ``inputs`` (may be empty: a time series) and the ``outputs``.
+    r"""Read an identification record ``(t, u, y)`` from a file.
 
-    Raises ``ValueError`` as :func:`read_columns` does and for unsorted or repeated
-    times, fewer than two samples, a column used twice, a missing time column (the
-    message says how to give ``dt`` instead) or an invalid ``dt`` / ``fs``.
+    Parameters
+    ----------
+    path : str or path-like
+        The file (:func:`read_columns`).
+    inputs : sequence of str
+        Input columns; may be empty (a time series).
+    outputs : sequence of str
+        Output columns, at least one.
+    time : str or None, optional
+        The time column; ``None`` when ``dt`` or ``fs`` is given.
+    dt : float or None, optional
+        Sampling interval: ``t = k dt``.
+    fs : float or None, optional
+        Sampling rate, ``dt = 1 / fs``.  Exactly one of ``time``, ``dt``, ``fs``.
+    delimiter : str or None, optional
+        The CSV delimiter (sniffed when ``None``).
+
+    Returns
+    -------
+    Record
+        ``t``, ``u`` (``None`` without inputs), ``y`` and the names.
+
+    Raises
+    ------
+    ValueError
+        As :func:`read_columns` does, and for unsorted or repeated times, fewer than two
+        samples, a column used twice, no output, a missing time column (the message says
+        how to give ``dt`` instead), or both or none of a time column and ``dt``/``fs``.
+    TypeError
+        If ``dt`` or ``fs`` is not a number.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.csv"
+    ...     _ = path.write_text("force,pos\n1.0,0.0\n1.0,0.1\n0.0,0.3\n")
+    ...     rec = read_record(path, inputs=["force"], outputs=["pos"], time=None, fs=100.0)
+    >>> rec.t.tolist(), rec.u.shape, rec.y.shape
+    ([0.0, 0.01, 0.02], (3, 1), (3, 1))
     """
     path = Path(path)
     inputs, outputs = list(inputs), list(outputs)
@@ -612,14 +702,52 @@ def open_chunked(
 ) -> Any:
     """A uniformly sampled record in a file, read chunk by chunk during identification.
 
-    Returns a :class:`hdpbsid.data.chunked.ChunkedRecord` for
-    :func:`hdpbsid.methods.chunked.identify_chunked`; nothing but the lengths is read
-    here.  ``.h5 .hdf5 .hdf``: ``inputs``/``outputs`` name vector datasets (paths
-    ``group/name``); ``.parquet .pq``: column names (rows are read by row group);
-    ``.npy``: a 2-D ``(Ns, channels)`` array, ``inputs``/``outputs`` are column indices
-    (memory-mapped).  Exactly one of ``dt`` (sampling interval) and ``fs`` (rate).  Raises
-    ``ValueError`` for an unknown suffix, missing signals, signals of different lengths
-    or a bad ``dt`` / ``fs``.
+    Nothing but the lengths is read here.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``.h5 .hdf5 .hdf`` (vector datasets), ``.parquet .pq`` (columns, read by row group)
+        or ``.npy`` (a memory-mapped 2-D ``(Ns, channels)`` array).
+    inputs : sequence
+        Dataset paths ``group/name``, column names, or column indices for ``.npy``; may be
+        empty.
+    outputs : sequence
+        As ``inputs``, at least one.
+    dt : float or None, optional
+        Sampling interval.
+    fs : float or None, optional
+        Sampling rate; exactly one of ``dt`` and ``fs``.
+    t0 : float, optional
+        Absolute time of the first sample.
+
+    Returns
+    -------
+    ChunkedRecord
+        For :func:`hdpbsid.methods.chunked.identify_chunked`.
+
+    Raises
+    ------
+    ValueError
+        For a missing file, an unknown suffix, missing signals, signals of different
+        lengths, a ``.npy`` that is not 2-D or an index outside it, no output, or not
+        exactly one of ``dt``/``fs``.
+    TypeError
+        If a ``.npy`` column is not an integer index.
+    ImportError
+        When the HDF5 / Parquet reader is not installed (extra ``io``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = pathlib.Path(tmp) / "r.npy"
+    ...     np.save(path, np.arange(30.0).reshape(10, 3))
+    ...     rec = open_chunked(path, inputs=[0], outputs=[1, 2], dt=0.5)
+    ...     first = rec.checked(0, 2)[1].tolist()  # read while the file exists
+    >>> rec.ns, rec.m, rec.l, first
+    (10, 1, 2, [[1.0, 2.0], [4.0, 5.0]])
     """
     from hdpbsid.data.chunked import ChunkedRecord
 

@@ -31,9 +31,28 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Record:
-    """One record: ``t`` relative to its first sample (``t[0] = 0``), ``u (Ns, m)``,
-    ``y (Ns, l)``, the absolute start ``t0`` and the resolution of the original stamps
-    (:func:`hdpbsid.data.checks.time_resolution`)."""
+    """One checked record with its time relative to its first sample.
+
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Times relative to the first sample (``t[0] = 0``).
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Output.
+    t0 : float, optional
+        Absolute time of the first sample.
+    resolution : float, optional
+        Resolution of the original stamps (:func:`hdpbsid.data.checks.time_resolution`).
+
+    Attributes
+    ----------
+    ns : int
+        Number of samples.
+    duration : float
+        ``t[-1] - t[0]``.
+    """
 
     t: Array
     u: Array
@@ -53,8 +72,26 @@ class Record:
 
 
 def is_record_list(t: Any) -> bool:
-    """True when ``t`` is a list/tuple of ``(t_i, u_i, y_i)`` records rather than a time
-    vector (its first entry is itself a 3-sequence whose first element is an array)."""
+    """Whether ``t`` is a list of ``(t_i, u_i, y_i)`` records rather than a time vector.
+
+    Parameters
+    ----------
+    t : object
+        The ``t`` argument of a method.
+
+    Returns
+    -------
+    bool
+        True when ``t`` is a non-empty list or tuple whose first entry is a 3-sequence with
+        a 1-D first element.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(5.0)
+    >>> is_record_list(t), is_record_list([(t, t, t)])
+    (False, True)
+    """
     if not isinstance(t, list | tuple) or len(t) == 0:
         return False
     first = t[0]
@@ -68,18 +105,36 @@ def _one(t: Any, u: Any, y: Any, min_samples: int) -> Record:
 
 
 def relative_times(t: Array) -> Array:
-    """``t - t[0]``, and for a uniform grid (:func:`hdpbsid.data.checks.is_uniform`, judged on
-    the stamps as given, so with their resolution) exactly ``k h`` with ``h`` the mean
-    spacing.
+    """Times relative to the first sample; exactly ``k h`` for a uniform grid.
 
-    Why: the deviations a uniform grid is allowed are the rounding of its stamps and a
-    relative ``1e-6`` of the spacing, which no path resolves (one sampled model serves
-    every step).  Kept in the relative axis they would be judged again without the
-    stamps' resolution, which ``t - t[0]`` no longer shows (a record stamped with Unix
-    time, ``t ~ 1.7e9``, carries ``2.4e-7 s`` per stamp: its relative axis failed the
-    uniformity test that the same record from ``t = 0`` passed, and ``method="auto"``
-    left ``dt`` out).  As ``k h`` the relative axis of a record is the same, to the
-    rounding of ``h``, whatever its absolute start.
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Absolute, strictly increasing stamps.
+
+    Returns
+    -------
+    ndarray, shape (Ns,)
+        ``t - t[0]``, or ``k h`` with ``h`` the mean spacing when ``t`` is uniform
+        (:func:`hdpbsid.data.checks.is_uniform`, judged on the stamps as given, so with
+        their resolution).
+
+    Notes
+    -----
+    The deviations a uniform grid is allowed are the rounding of its stamps and a relative
+    ``1e-6`` of the spacing, which no path resolves (one sampled model serves every step).
+    Kept in the relative axis they would be judged again without the stamps' resolution,
+    which ``t - t[0]`` no longer shows (a record stamped with Unix time, ``t ~ 1.7e9``,
+    carries ``2.4e-7 s`` per stamp), and the same record would be uniform from ``t = 0``
+    but not from its absolute start.  As ``k h`` the relative axis is the same, to the
+    rounding of ``h``, whatever the absolute start.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = 1.7e9 + 0.01 * np.arange(1000)  # Unix time: each stamp rounded to 2.4e-7 s
+    >>> bool(np.ptp(np.diff(t - t[0])) > 1e-8), bool(np.ptp(np.diff(relative_times(t))) < 1e-12)
+    (True, True)
     """
     tr = t - t[0]
     if t.size > 2 and is_uniform(t):
@@ -88,12 +143,43 @@ def relative_times(t: Array) -> Array:
 
 
 def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> list[Record]:
-    """Normalise ``(t, u, y)`` or a list of ``(t_i, u_i, y_i)`` tuples to records.
+    """Normalise ``(t, u, y)`` or a list of ``(t_i, u_i, y_i)`` tuples to checked records.
 
-    Each record is checked with :func:`hdpbsid.data.checks.check_data` and
-    :func:`hdpbsid.data.checks.check_varies`; errors name the record index.  All records must
-    have the same numbers of input and output channels.  With a list, ``u`` and ``y``
-    must be ``None`` (``TypeError`` otherwise).
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of (t_i, u_i, y_i)
+        One record's times, or several records (experiments on the same system, each with
+        its own time axis and initial state).
+    u : array_like, shape (Ns, m), or None, optional
+        The input of one record; ``None`` with a list.
+    y : array_like, shape (Ns, l), or None, optional
+        The output of one record; ``None`` with a list.
+    min_samples : int, optional
+        The fewest samples a record may have.
+
+    Returns
+    -------
+    list of Record
+        Each checked with :func:`hdpbsid.data.checks.check_data` and
+        :func:`hdpbsid.data.checks.check_varies`.
+
+    Raises
+    ------
+    TypeError
+        If ``u`` or ``y`` is given with a list, or an entry of the list is not a
+        ``(t, u, y)`` tuple with a 1-D ``t``.
+    ValueError
+        If a record fails its checks (the message names its index), or the records'
+        channel counts differ.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(50) * 0.1
+    >>> rng = np.random.default_rng(0)
+    >>> recs = as_records([(t, rng.standard_normal(50), rng.standard_normal(50))] * 2)
+    >>> len(recs), recs[0].u.shape
+    (2, (50, 1))
     """
     if not is_record_list(t):
         if isinstance(t, list | tuple) and len(t) > 0 and isinstance(t[0], list | tuple):
@@ -128,15 +214,37 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
 
 
 def split_windows(record: Record, length: float, uniform: bool) -> list[Record]:
-    """Cut ``record`` into ``K = floor(T / length)`` windows of (nearly) equal length,
-    each at least ``length`` long (and shorter than ``2 length``).
+    """Cut a record into windows of (nearly) equal length.
 
-    Consecutive windows share their edge sample, so every sample interval belongs to
-    exactly one window (nothing of the record is lost; the state at each edge is unknown
-    to both windows, which is what their boundary pseudo-inputs absorb).  With ``uniform``
-    each window's relative time axis is ``k h`` exactly (``h`` the record's mean
-    spacing), so windows of equal sample count share one time axis (and one projection);
-    otherwise it is ``t[a:b+1] - t[a]``.
+    Parameters
+    ----------
+    record : Record
+        The record.
+    length : float
+        The shortest window length; ``K = floor(T / length)`` windows are made, each at
+        least ``length`` and shorter than ``2 length`` (and at least 3 samples).
+    uniform : bool
+        Give each window the relative time axis ``k h`` exactly (``h`` the record's mean
+        spacing), so that windows of equal sample count share one time axis (and one
+        projection); otherwise ``t[a:b+1] - t[a]``.
+
+    Returns
+    -------
+    list of Record
+        The windows, with their absolute starts.
+
+    Notes
+    -----
+    Consecutive windows share their edge sample, so every sample interval belongs to exactly
+    one window: nothing of the record is lost, and the state at each edge is unknown to both
+    windows, which is what their boundary pseudo-inputs absorb.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rec = as_records(np.arange(101) * 0.1, np.zeros(101), np.sin(np.arange(101.0)))[0]
+    >>> [(w.ns, round(w.t0, 6)) for w in split_windows(rec, 3.0, uniform=True)]
+    [(34, 0.0), (35, 3.3), (34, 6.7)]
     """
     ns = record.ns
     K = max(1, int(np.floor(record.duration / length + 1e-9)))

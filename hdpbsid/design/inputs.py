@@ -79,18 +79,27 @@ class InputDesign:
 
     Attributes
     ----------
-    t : (Ns,) sample times (s), starting at 0.
-    u : (Ns, m) input samples.
-    kind : name of the generator.
-    freqs : (nf,) frequencies (Hz) of the DFT lines of :attr:`power`.
-    power : (nf, m) one-sided power of each line (:func:`line_power`): over one period for
-        a periodic design, over the record otherwise; each column sums to the channel's
-        mean square (Parseval).
-    crest_factor : (m,) ``max|u| / rms(u)`` per channel (over one period if periodic).
-    period : samples per period for a periodic design, else ``None``.
-    lines : per channel, the indices of the excited DFT lines of one period (multisines
-        only, else ``None``).
-    options : every setting used, defaults included.
+    t : ndarray, shape (Ns,)
+        Sample times (s), starting at 0.
+    u : ndarray, shape (Ns, m)
+        Input samples.
+    kind : str
+        Name of the generator.
+    freqs : ndarray, shape (nf,)
+        Frequencies (Hz) of the DFT lines of :attr:`power`.
+    power : ndarray, shape (nf, m)
+        One-sided power of each line (:func:`line_power`): over one period for a periodic
+        design, over the record otherwise; each column sums to the channel's mean square
+        (Parseval).
+    crest_factor : ndarray, shape (m,)
+        ``max|u| / rms(u)`` per channel (over one period if periodic).
+    period : int or None, optional
+        Samples per period for a periodic design, else ``None``.
+    lines
+        Per channel, the indices of the excited DFT lines of one period (multisines only, else
+        ``None``).
+    options : dict, optional
+        Every setting used, defaults included.
     """
 
     t: Array
@@ -127,7 +136,8 @@ def crest_factor(u: Any) -> Array:
 
     Parameters
     ----------
-    u : array (Ns,) or (Ns, m)
+    u : array_like, shape (Ns,) or (Ns, m)
+        The signal, one column per channel.
 
     Returns
     -------
@@ -155,9 +165,12 @@ def line_power(u: Any, dt: float, period: int | None = None) -> tuple[Array, Arr
 
     Parameters
     ----------
-    u : (Ns,) or (Ns, m) samples.
-    dt : sampling interval (s).
-    period : samples per period, or ``None``.
+    u : ndarray, shape (Ns,) or (Ns, m)
+        Samples.
+    dt : float
+        Sampling interval (s).
+    period : int or None, optional
+        Samples per period, or ``None``.
 
     Returns
     -------
@@ -205,13 +218,20 @@ def random_binary(
 
     Parameters
     ----------
-    n_samples : number of samples.
-    dt : sampling interval (s).
-    rng : the random generator.
-    clock : seconds between possible switches, a multiple of ``dt`` (rounded to one).
-    band : optional pass band (Hz) of the underlying Gaussian noise.
-    amplitude : level (peak) of the signal.
-    channels : number of inputs.
+    n_samples : int
+        Number of samples.
+    dt : float
+        Sampling interval (s).
+    rng : numpy.random.Generator
+        The random generator.
+    clock : float or None, optional
+        Seconds between possible switches, a multiple of ``dt`` (rounded to one).
+    band : tuple of two float or None, optional
+        Optional pass band (Hz) of the underlying Gaussian noise.
+    amplitude : float, optional
+        Level (peak) of the signal.
+    channels : int, optional
+        Number of inputs.
 
     Returns
     -------
@@ -275,12 +295,18 @@ def prbs(
 
     Parameters
     ----------
-    order : register length ``k`` (2-32).
-    dt : sampling interval (s).
-    clock : samples per bit.
-    periods : number of periods generated.
-    amplitude : level (peak).
-    channels : number of inputs (at most the number of bits of a period).
+    order : int
+        Register length ``k`` (2-32).
+    dt : float
+        Sampling interval (s).
+    clock : int, optional
+        Samples per bit.
+    periods : int, optional
+        Number of periods generated.
+    amplitude : float, optional
+        Level (peak).
+    channels : int, optional
+        Number of inputs (at most the number of bits of a period).
 
     Returns
     -------
@@ -327,11 +353,18 @@ def schroeder_phases(power: Any) -> Array:
 
     Parameters
     ----------
-    power : (K,) non-negative relative powers of the excited lines, in frequency order.
+    power : ndarray, shape (K,)
+        Non-negative relative powers of the excited lines, in frequency order.
 
     Returns
     -------
-    (K,) phases (rad).
+    ndarray, shape (K,)
+        Phases (rad).
+
+    Raises
+    ------
+    ValueError
+        If the powers are empty, negative, not finite or sum to zero.
 
     Examples
     --------
@@ -372,15 +405,29 @@ def reduce_crest_factor(
 
     Parameters
     ----------
-    n : samples per period.
-    lines : (K,) excited DFT lines (``1 <= line < n / 2``).
-    amplitudes : (K,) amplitude of each line.
-    phases : (K,) starting phases (e.g. :func:`schroeder_phases`).
-    iterations : number of iterations.
+    n : int
+        Samples per period.
+    lines : ndarray, shape (K,)
+        Excited DFT lines (``1 <= line < n / 2``).
+    amplitudes : ndarray, shape (K,)
+        Amplitude of each line.
+    phases : ndarray, shape (K,)
+        Starting phases (e.g. :func:`schroeder_phases`).
+    iterations : int, optional
+        Number of iterations.
 
     Returns
     -------
-    (phases, crest_factor) of the best iterate.
+    phases : ndarray, shape (K,)
+        The phases of the best iterate.
+    crest_factor : float
+        Its crest factor ``max|u| / rms(u)``.
+
+    Raises
+    ------
+    ValueError
+        If ``lines``, ``amplitudes`` and ``phases`` differ in length or are empty, or
+        ``n < 4``.
 
     Examples
     --------
@@ -438,16 +485,26 @@ def multisine(
 
     Parameters
     ----------
-    period : samples per period ``N`` (frequency resolution ``1 / (N dt)``).
-    dt : sampling interval (s).
-    band : ``(f_lo, f_hi)`` Hz, ``0 <= f_lo <= f_hi <= 1 / (2 dt)``.
-    grid : keep every ``grid``-th harmonic.
-    periods : number of periods generated.
-    amplitude : peak of each channel.
-    channels : number of inputs.
-    phases : ``"crest"``, ``"schroeder"`` or ``"random"``.
-    rng : generator, needed for ``phases="random"``.
-    iterations : clipping iterations for ``"crest"``.
+    period : int
+        Samples per period ``N`` (frequency resolution ``1 / (N dt)``).
+    dt : float
+        Sampling interval (s).
+    band : tuple of two float
+        ``(f_lo, f_hi)`` Hz, ``0 <= f_lo <= f_hi <= 1 / (2 dt)``.
+    grid : int, optional
+        Keep every ``grid``-th harmonic.
+    periods : int, optional
+        Number of periods generated.
+    amplitude : float, optional
+        Peak of each channel.
+    channels : int, optional
+        Number of inputs.
+    phases : {"crest", "schroeder", "random"}, optional
+        The phases of the lines (above).
+    rng : numpy.random.Generator or None, optional
+        Generator, needed for ``phases="random"``.
+    iterations : int, optional
+        Clipping iterations for ``"crest"``.
 
     Returns
     -------
@@ -533,13 +590,18 @@ def chirp(
 
     Parameters
     ----------
-    n_samples : number of samples.
-    dt : sampling interval (s).
-    f0, f1 : start and end frequencies (Hz), below Nyquist; both positive for a
-        logarithmic sweep.
-    method : ``"linear"`` or ``"logarithmic"``.
-    taper : fraction of the record in the tapered ends (0: none, 1: a Hann window).
-    amplitude : peak.
+    n_samples : int
+        Number of samples.
+    dt : float
+        Sampling interval (s).
+    f0, f1 : float
+        Start and end frequencies (Hz), below Nyquist; both positive for a logarithmic sweep.
+    method : {"linear", "logarithmic"}, optional
+        How the instantaneous frequency moves from ``f0`` to ``f1``.
+    taper : float, optional
+        Fraction of the record in the tapered ends (0: none, 1: a Hann window).
+    amplitude : float, optional
+        Peak.
 
     Returns
     -------
@@ -601,11 +663,16 @@ def hermite_sweep(
 
     Parameters
     ----------
-    n_samples : number of samples.
-    dt : sampling interval (s).
-    f0, f1 : start and end of the sweep (Hz).
-    n_max_u : number of Hermite functions.
-    amplitude : peak.
+    n_samples : int
+        Number of samples.
+    dt : float
+        Sampling interval (s).
+    f0, f1 : float
+        Start and end of the sweep (Hz).
+    n_max_u : int, optional
+        Number of Hermite functions.
+    amplitude : float, optional
+        Peak.
 
     Returns
     -------
@@ -649,12 +716,20 @@ def plot_input(design: InputDesign, axes: Any | None = None) -> Any:
 
     Parameters
     ----------
-    design : an :class:`InputDesign`.
-    axes : two matplotlib axes, or ``None`` for a new figure.
+    design : InputDesign
+        An :class:`InputDesign`.
+    axes : sequence of two matplotlib.axes.Axes, optional
+        Where to draw; ``None`` for a new figure.
 
     Returns
     -------
-    The matplotlib figure.
+    matplotlib.figure.Figure
+        The figure drawn on.
+
+    Raises
+    ------
+    TypeError
+        If ``design`` is not an :class:`InputDesign`.
     """
     import matplotlib.pyplot as plt
 

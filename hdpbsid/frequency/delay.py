@@ -89,11 +89,18 @@ class DelayEstimate:
 
     Attributes
     ----------
-    delay : (m,) dead time of each input (time unit of the frequencies' inverse).
-    samples : (m,) the best candidate of each input in steps (whole numbers).
-    step : the spacing of the candidates (the sampling interval for a record).
-    order : (m,) the model order chosen with each input's delay.
-    criterion : list of (orders, candidates) Schwarz criteria, one array per input.
+    delay : ndarray, shape (m,)
+        Dead time of each input (time unit of the frequencies' inverse).
+    samples : ndarray, shape (m,)
+        The best candidate of each input in steps (whole numbers).
+    step : float
+        The spacing of the candidates (the sampling interval for a record).
+    order : ndarray, shape (m,)
+        The model order chosen with each input's delay.
+    criterion : list of ndarray
+        Schwarz criteria, one ``(orders, candidates)`` array per input.
+    options : dict
+        Every setting used, defaults included.
     """
 
     delay: Array
@@ -173,21 +180,28 @@ def delay_from_frf(
 
     Parameters
     ----------
-    w : (nf,) angular frequencies, or a :class:`~hdpbsid.frequency.fit.FrequencyResponse`.
-    H : (nf,) or (l, m, nf) response (not with a ``FrequencyResponse``).
-    step : spacing of the candidate delays.  With ``hold`` it is the sampling interval
-        of the record (default a ``FrequencyResponse``'s ``options["dt"]``); without,
-        default that or else ``pi / max(w)``.
-    max_delay : the largest delay tried; default 100 steps.
-    weight : as :func:`~hdpbsid.frequency.fit.identify_frequency`'s.
-    order : the order of the delay-free dynamics, when known: only that order is
-        fitted (``max_order`` times faster than the joint search).
-    max_order : largest model order tried with the delays (``order=None``).
-    hold : ``None``: ``H`` is a continuous-time response ``G(jw)`` (e.g. the lines of a
-        band-limited periodic input); ``"zoh"`` / ``"foh"``: ``H`` is the response of a
-        record sampled every ``step`` whose input is held between samples (zero order)
-        or linear between them (first order), fitted by discrete-time models (module
-        docstring).
+    w : ndarray, shape (nf,), or FrequencyResponse
+        Angular frequencies, or a :class:`~hdpbsid.frequency.fit.FrequencyResponse`.
+    H : ndarray of complex, shape (nf,) or (l, m, nf), optional
+        Response (not with a ``FrequencyResponse``).
+    step : float or None, optional
+        Spacing of the candidate delays.  With ``hold`` it is the sampling interval of the
+        record (default a ``FrequencyResponse``'s ``options["dt"]``); without, default that or
+        else ``pi / max(w)``.
+    max_delay : float or None, optional
+        The largest delay tried; default 100 steps.
+    weight : str, array_like or None, optional
+        As :func:`~hdpbsid.frequency.fit.identify_frequency`'s.
+    order : int or None, optional
+        The order of the delay-free dynamics, when known: only that order is fitted
+        (``max_order`` times faster than the joint search).
+    max_order : int, optional
+        Largest model order tried with the delays (``order=None``).
+    hold : {None, "zoh", "foh"}, optional
+        ``None``: ``H`` is a continuous-time response ``G(jw)`` (e.g. the lines of a
+        band-limited periodic input); ``"zoh"`` / ``"foh"``: ``H`` is the response of a record
+        sampled every ``step`` whose input is held between samples (zero order) or linear
+        between them (first order), fitted by discrete-time models (module docstring).
 
     Returns
     -------
@@ -204,7 +218,7 @@ def delay_from_frf(
     --------
     >>> w = np.logspace(-1, 1.5, 80)
     >>> H = np.exp(-0.3j * w) / (1j * w + 1.0)  # 1 / (s + 1) delayed by 0.3
-    >>> est = delay_from_frf(w, H, step=0.05, max_delay=1.0)
+    >>> est = delay_from_frf(w, H, step=0.05, max_delay=0.5, order=1)
     >>> round(float(est.delay[0]), 2)
     0.3
     """
@@ -279,17 +293,24 @@ def estimate_delay(
 
     Parameters
     ----------
-    t : (Ns,) uniformly sampled times.
-    u : (Ns,) or (Ns, m) inputs (open loop: H1 is biased under feedback).
-    y : (Ns,) or (Ns, l) outputs.
-    max_delay : largest delay tried (time unit of ``t``); default a tenth of the
-        record, at most 100 samples.
-    order : order of the delay-free dynamics if known (:func:`delay_from_frf`).
-    nperseg : Welch segment length (default :func:`~hdpbsid.frequency.fit.frf_welch`'s).
-    hold : the input between samples, ``"zoh"`` (held, as a random binary or a digital
-        controller's output, and as :func:`hdpbsid.identify`'s discrete-time method
-        assumes), ``"foh"`` (linear) or ``None`` (band-limited, e.g. a multisine well
-        below the Nyquist frequency: the response is ``G(jw)``); :func:`delay_from_frf`.
+    t : ndarray, shape (Ns,)
+        Uniformly sampled times.
+    u : ndarray, shape (Ns,) or (Ns, m)
+        Inputs (open loop: H1 is biased under feedback).
+    y : ndarray, shape (Ns,) or (Ns, l)
+        Outputs.
+    max_delay : float or None, optional
+        Largest delay tried (time unit of ``t``); default a tenth of the record, at most 100
+        samples.
+    order : int or None, optional
+        Order of the delay-free dynamics if known (:func:`delay_from_frf`).
+    nperseg : int or None, optional
+        Welch segment length (default :func:`~hdpbsid.frequency.fit.frf_welch`'s).
+    hold : {None, "zoh", "foh"}, optional
+        The input between samples, ``"zoh"`` (held, as a random binary or a digital controller's
+        output, and as :func:`hdpbsid.identify`'s discrete-time method assumes), ``"foh"``
+        (linear) or ``None`` (band-limited, e.g. a multisine well below the Nyquist frequency:
+        the response is ``G(jw)``); :func:`delay_from_frf`.
 
     Returns
     -------
@@ -308,7 +329,8 @@ def estimate_delay(
     >>> t = np.arange(6000) * 0.01
     >>> u = rng.standard_normal(6000)
     >>> m = StateSpaceModel([[-5.0]], [[5.0]], [[1.0]], [[0.0]], [[0.0]], delay=0.07)
-    >>> int(estimate_delay(t, u, m.simulate(t, u)).samples[0])
+    >>> est = estimate_delay(t, u, m.simulate(t, u), order=1, max_delay=0.1)  # order known
+    >>> int(est.samples[0])
     7
     """
     from hdpbsid.data.checks import check_uniform

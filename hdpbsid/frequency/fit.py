@@ -66,18 +66,25 @@ class FrequencyResponse:
 
     Attributes
     ----------
-    w : (nf,) angular frequencies (rad/s).
-    H : (l, m, nf) complex response (python-control layout, as
+    w : ndarray, shape (nf,)
+        Angular frequencies (rad/s).
+    H : ndarray of complex, shape (l, m, nf)
+        Complex response (python-control layout, as
         :meth:`hdpbsid.models.model.StateSpaceModel.frequency_response`); ``nan`` where an input
         does not excite a line (orthogonal multi-input periodic designs).
-    coherence : (l, nf) multiple coherence of each output with the inputs (or, closed
-        loop, with the reference), or ``None``.
-    variance : (l, m, nf) variance estimate of each complex value (``E|H_hat - H|^2``
-        scaled as the module docstring says), or ``None``.
-    dof : real degrees of freedom of ``variance`` (``2 n - 2`` for ``n`` averages or
-        periods), or ``None``.
-    method : ``"welch"``, ``"welch-reference"`` or ``"periodic"``.
-    options : settings used.
+    coherence : ndarray, shape (l, nf), or None, optional
+        Multiple coherence of each output with the inputs (or, closed loop, with the reference),
+        or ``None``.
+    variance : ndarray, shape (l, m, nf), or None, optional
+        Variance estimate of each complex value (``E|H_hat - H|^2`` scaled as the module
+        docstring says), or ``None``.
+    dof : float or None, optional
+        Real degrees of freedom of ``variance`` (``2 n - 2`` for ``n`` averages or periods), or
+        ``None``.
+    method : {"welch", "welch-reference", "periodic", "given"}, optional
+        How the estimate was made (``"given"``: built by hand).
+    options : dict, optional
+        Settings used.
     """
 
     w: Array
@@ -107,6 +114,16 @@ class FrequencyResponse:
         """Radius of the ``1 - alpha`` confidence circle of each complex value:
         ``sqrt(variance F_{2, dof}(1 - alpha))`` (module docstring).
 
+        Parameters
+        ----------
+        alpha : float, optional
+            The circle's level is ``1 - alpha``.
+
+        Returns
+        -------
+        ndarray, shape (l, m, nf)
+            The radius around each complex value.
+
         Raises
         ------
         ValueError
@@ -126,6 +143,16 @@ class FrequencyResponse:
         1 / (2 (n - 1))`` and variance ``1 / (2 n - 2)`` for ``n`` independent averages
         (Bendat & Piersol 2010, eq. 9.81-9.82; Enochson & Goodman 1965), ``n = (dof + 2)
         / 2``.
+
+        Parameters
+        ----------
+        alpha : float, optional
+            The bounds' level is ``1 - alpha``.
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (l, nf)
+            Bounds of the squared coherence.
 
         Raises
         ------
@@ -155,9 +182,12 @@ def effective_averages(window: Array, step: int, segments: int) -> float:
 
     Parameters
     ----------
-    window : (L,) window samples.
-    step : samples between segment starts.
-    segments : number of segments ``K``.
+    window : ndarray, shape (L,)
+        Window samples.
+    step : int
+        Samples between segment starts.
+    segments : int
+        Number of segments ``K``.
 
     Returns
     -------
@@ -213,15 +243,24 @@ def frf_welch(
 
     Parameters
     ----------
-    u : (Ns,) or (Ns, m) inputs.
-    y : (Ns,) or (Ns, l) outputs.
-    dt : sampling interval (s).
-    r : optional (Ns, m) reference.
-    nperseg : samples per segment; default ``floor(2 Ns / 9)``, eight segments at 50 %
-        overlap (MATLAB's ``tfestimate``).
-    noverlap : overlap in samples; default ``nperseg // 2``.
-    window : window name or tuple for :func:`scipy.signal.get_window`.
-    detrend : passed to :func:`scipy.signal.csd`.
+    u : ndarray, shape (Ns,) or (Ns, m)
+        Inputs.
+    y : ndarray, shape (Ns,) or (Ns, l)
+        Outputs.
+    dt : float
+        Sampling interval (s).
+    r : ndarray, shape (Ns, m), optional
+        Measured reference (closed loop): the response is then ``S_yr S_ur^{-1}``, unbiased
+        by the feedback.
+    nperseg : int or None, optional
+        Samples per segment; default ``floor(2 Ns / 9)``, eight segments at 50 % overlap
+        (MATLAB's ``tfestimate``).
+    noverlap : int or None, optional
+        Overlap in samples; default ``nperseg // 2``.
+    window : str or tuple, optional
+        Window name or tuple for :func:`scipy.signal.get_window`.
+    detrend : str or bool, optional
+        Passed to :func:`scipy.signal.csd`.
 
     Returns
     -------
@@ -353,14 +392,20 @@ def frf_periodic(
 
     Parameters
     ----------
-    u : (Ns,) or (Ns, m) inputs.
-    y : (Ns,) or (Ns, l) outputs.
-    dt : sampling interval (s).
-    period : samples per period ``N``.
-    skip : whole periods dropped at the start.
-    lines : optional excited lines, one array per input (e.g. ``design.lines``); by
-        default the lines whose input power exceeds :data:`EXCITED_LINE_FLOOR` of that
-        input's strongest line.
+    u : ndarray, shape (Ns,) or (Ns, m)
+        Inputs.
+    y : ndarray, shape (Ns,) or (Ns, l)
+        Outputs.
+    dt : float
+        Sampling interval (s).
+    period : int
+        Samples per period ``N``.
+    skip : int, optional
+        Whole periods dropped at the start.
+    lines : sequence of ndarray of int, optional
+        Excited lines, one array per input (e.g. ``design.lines``); by default the
+        lines whose input power exceeds :data:`EXCITED_LINE_FLOOR` of that input's strongest
+        line.
 
     Returns
     -------
@@ -537,15 +582,22 @@ def identify_frequency(
 
     Parameters
     ----------
-    w : (nf,) angular frequencies (rad/s), or a :class:`FrequencyResponse` (then ``H`` is
-        taken from it).
-    H : (nf,) complex (SISO) or (l, m, nf) frequency response.
-    order : model order, or ``None`` to choose it.
-    weight : see above.
-    max_order : largest order tried (default
-        :data:`hdpbsid.data.checks.DEFAULT_MAX_ORDER`, at most what the lines support).
-    feedthrough : fit ``D`` (default: strictly proper, ``D = 0``).
-    refine : run the nonlinear refinement (else the subspace start is returned).
+    w : ndarray, shape (nf,), or FrequencyResponse
+        Angular frequencies (rad/s), or a :class:`FrequencyResponse` (then ``H`` is taken from
+        it).
+    H : ndarray of complex, shape (nf,) or (l, m, nf), optional
+        Frequency response (SISO or MIMO); not with a ``FrequencyResponse``.
+    order : int or None, optional
+        Model order, or ``None`` to choose it.
+    weight : {"auto", "coherence", "relative"}, array_like or None, optional
+        The weights ``W`` described above.
+    max_order : int or None, optional
+        Largest order tried (default :data:`hdpbsid.data.checks.DEFAULT_MAX_ORDER`, at most what
+        the lines support).
+    feedthrough : bool, optional
+        Fit ``D`` (default: strictly proper, ``D = 0``).
+    refine : bool, optional
+        Run the nonlinear refinement (else the subspace start is returned).
 
     Returns
     -------
@@ -985,14 +1037,24 @@ def plot_frf(
 
     Parameters
     ----------
-    frf : the estimate.
-    model : optional model drawn over it.
-    alpha : level of the bands.
-    output, input : the channel drawn.
+    frf : FrequencyResponse
+        The estimate.
+    model : StateSpaceModel or None, optional
+        Optional model drawn over it.
+    alpha : float, optional
+        Level of the bands.
+    output, input : int
+        The channel drawn.
 
     Returns
     -------
-    The matplotlib figure (three axes: magnitude, phase, coherence).
+    matplotlib.figure.Figure
+        Three axes: magnitude, phase, coherence.
+
+    Raises
+    ------
+    TypeError
+        If ``frf`` is not a :class:`FrequencyResponse`.
     """
     import matplotlib.pyplot as plt
 

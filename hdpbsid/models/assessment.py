@@ -54,11 +54,35 @@ CONFIDENCE = 0.99
 
 
 def fit_percent(y: Array, y_hat: Array) -> Array:
-    """MATLAB's ``compare`` fit per output column:
-    ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent (``-inf`` is possible: a model
-    worse than the mean; ``nan`` for a constant output).  The columns are scaled by a
-    power of two first (exact; :func:`~hdpbsid.data.checks.scale_exponents`), so the norms of
-    a record in extreme units neither underflow nor overflow."""
+    r"""MATLAB's ``compare`` fit per output column, in percent.
+
+    Parameters
+    ----------
+    y : array_like, shape (Ns, l) or (Ns,)
+        Measured output.
+    y_hat : array_like, same shape as ``y``
+        Simulated or predicted output.
+
+    Returns
+    -------
+    ndarray, shape (l,)
+        :math:`100\,(1 - \|y - \hat y\| / \|y - \bar y\|)` per column: 100 for a
+        perfect model, 0 for one no better than the mean, negative (down to ``-inf``) for
+        one worse than the mean; ``nan`` for a constant output.
+
+    Notes
+    -----
+    The columns are scaled by a power of two first (exact;
+    :func:`~hdpbsid.data.checks.scale_exponents`), so the norms of a record in extreme
+    units neither underflow nor overflow.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> y = np.array([[1.0], [2.0], [3.0], [4.0]])
+    >>> fit_percent(y, y).tolist(), fit_percent(y, np.full((4, 1), 2.5)).tolist()
+    ([100.0], [0.0])
+    """
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)
     p = scale_exponents(y, "y")
@@ -72,9 +96,24 @@ def fit_percent(y: Array, y_hat: Array) -> Array:
 
 @dataclass
 class Comparison:
-    """Result of :meth:`hdpbsid.StateSpaceModel.compare`: ``fit`` (percent per output,
-    :func:`fit_percent`), ``y_hat (Ns, l)`` the simulated (``k is None``) or ``k``-step
-    predicted output, ``x0`` the initial deviation state fitted by least squares."""
+    """Result of :meth:`hdpbsid.StateSpaceModel.compare`.
+
+    Parameters
+    ----------
+    fit : ndarray, shape (l,)
+        Percent per output (:func:`fit_percent`).
+    y_hat : ndarray, shape (Ns, l)
+        The simulated (``k is None``) or ``k``-step predicted output.
+    x0 : ndarray, shape (n,)
+        The initial deviation state fitted by least squares.
+    k : int or None
+        The prediction horizon, ``None`` for simulation.
+
+    Attributes
+    ----------
+    kind : str
+        ``"simulation"`` or ``"<k>-step-ahead prediction"``.
+    """
 
     fit: Array
     y_hat: Array
@@ -91,8 +130,29 @@ class Comparison:
 
 
 def correlation(a: Array, b: Array, lags: Array) -> Array:
-    """``R_ab(tau) = (1/N) sum_t a(t) b(t - tau)`` for integer ``lags`` (any sign), the
-    biased estimator of Ljung eq. (16.55); ``a``, ``b`` 1-D of equal length ``N``."""
+    r"""Biased cross-covariance estimate at integer lags of any sign.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (N,)
+        Two signals of equal length.
+    lags : array_like of int
+        The lags :math:`\tau`.
+
+    Returns
+    -------
+    ndarray, shape (len(lags),)
+        :math:`R_{ab}(\tau) = \frac1N \sum_t a(t)\, b(t - \tau)` (Ljung, *System
+        Identification*, 2nd ed., 1999, eq. 16.55): the sum over the overlap divided by
+        ``N``, not by the overlap's length, so that the sequence is positive semidefinite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([1.0, 2.0, 3.0])
+    >>> correlation(a, a, [0, 1, -1]).tolist()  # (1+4+9)/3, (2+6)/3, (2+6)/3
+    [4.666666666666667, 2.6666666666666665, 2.6666666666666665]
+    """
     n = a.size
     out = np.empty(len(lags))
     for i, tau in enumerate(lags):
@@ -106,14 +166,49 @@ def correlation(a: Array, b: Array, lags: Array) -> Array:
 
 @dataclass
 class ResidualReport:
-    """Residual tests (module docstring) of ``l`` outputs against ``m`` inputs.
+    r"""Residual tests (module docstring) of ``l`` outputs against ``m`` inputs.
 
-    ``residuals (N, l)``; ``lags`` ``0..M``; ``autocorrelation (M + 1, l)`` (``r_e``,
-    lag 0 equal to 1); ``band`` ``2.58 / sqrt(N)``; ``ljung_box (l,)`` with
-    ``ljung_box_threshold`` (99 % quantile of ``chi^2(M)``) and ``ljung_box_pvalue``;
-    ``cross_lags`` ``-M..M``; ``cross_correlation (2M + 1, l, m)``; ``cross_band (l, m)``
-    ``2.58 sqrt(P / N)``; ``cross_statistic (l, m)``, ``cross_dof (l, m)``,
-    ``cross_threshold (l, m)`` and ``cross_pvalue (l, m)``.
+    Parameters
+    ----------
+    residuals : ndarray, shape (N, l)
+        The one-step prediction errors tested.
+    lags : ndarray of int, shape (M + 1,)
+        ``0..M``.
+    autocorrelation : ndarray, shape (M + 1, l)
+        :math:`r_e(\tau)`, lag 0 equal to 1.
+    band : float
+        The 99 % band of the autocorrelation for white errors, :math:`2.58/\sqrt N`.
+    ljung_box : ndarray, shape (l,)
+        The Ljung-Box statistic :math:`Q` per output.
+    ljung_box_threshold : float
+        The 99 % quantile of :math:`\chi^2(M)`.
+    ljung_box_pvalue : ndarray, shape (l,)
+        The p-value of :math:`Q`.
+    cross_lags : ndarray of int, shape (2M + 1,)
+        ``-M..M``.
+    cross_correlation : ndarray, shape (2M + 1, l, m)
+        :math:`r_{eu}(\tau)`.
+    cross_band : ndarray, shape (l, m)
+        The 99 % band :math:`2.58\sqrt{P/N}`.
+    cross_statistic : ndarray, shape (l, m)
+        :math:`\zeta = N r^T P^{-1} r` per pair.
+    cross_dof : ndarray of int, shape (l, m)
+        Its degrees of freedom (``2M + 1`` less the directions without excitation).
+    cross_threshold : ndarray, shape (l, m)
+        The 99 % quantile of :math:`\chi^2` with ``cross_dof`` degrees of freedom.
+    cross_pvalue : ndarray, shape (l, m)
+        The p-value of :math:`\zeta`.
+
+    Attributes
+    ----------
+    max_lag : int
+        ``M``.
+    white_per_output : ndarray of bool, shape (l,)
+        Whiteness not rejected at the 1 % level (Ljung-Box).
+    independent_per_pair : ndarray of bool, shape (l, m)
+        Independence from each input not rejected at the 1 % level.
+    white, independent : bool
+        Every output passes, every pair passes.
     """
 
     residuals: Array
@@ -175,7 +270,19 @@ class ResidualReport:
     def summary(
         self, output_names: list[str] | None = None, input_names: list[str] | None = None
     ) -> str:
-        """The verdicts as text, one line per test."""
+        """The verdicts as text, one line per test.
+
+        Parameters
+        ----------
+        output_names, input_names : list of str, optional
+            Channel names for the lines (default ``y1, ...`` and ``u1, ...``).
+
+        Returns
+        -------
+        str
+            A header with ``N``, ``M`` and the band, then per output the Ljung-Box line and
+            per input the cross-correlation line, each ending in its verdict.
+        """
         n, l = self.residuals.shape
         m = self.cross_correlation.shape[2]
         onames = output_names or [f"y{i + 1}" for i in range(l)]
@@ -205,11 +312,52 @@ class ResidualReport:
 
 
 def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualReport:
-    """Whiteness and input-independence tests of prediction errors (module docstring).
+    r"""Whiteness and input-independence tests of prediction errors (module docstring).
 
-    ``e (N, l)`` the one-step prediction errors, ``u (N, m)`` the input (``None`` or
-    ``(N, 0)`` for a time series), ``max_lag`` ``M`` (MATLAB's default 25); needs
-    ``1 <= M < N / 2``.
+    Parameters
+    ----------
+    e : array_like, shape (N, l) or (N,)
+        The one-step prediction errors.  Their mean is not removed: a constant error (a
+        wrong operating point) is a model defect and should show.
+    u : array_like, shape (N, m) or (N,), or None
+        The input (``None`` or ``(N, 0)`` for a time series); its mean is removed.
+    max_lag : int, optional
+        ``M`` (MATLAB's default 25), ``1 <= M < N / 2``.
+
+    Returns
+    -------
+    ResidualReport
+        The correlations, bands, statistics, thresholds and p-values.
+
+    Raises
+    ------
+    ValueError
+        If ``u`` has another number of rows than ``e``, ``max_lag`` is out of range, or a
+        value is not finite (the model's predictions diverged).
+    TypeError
+        If ``max_lag`` is not an integer.
+
+    Notes
+    -----
+    Ljung (*System Identification*, 2nd ed., 1999, sec. 16.6).  Whiteness: for white ``e``
+    the Ljung-Box statistic
+
+    .. math:: Q = N (N + 2) \sum_{\tau=1}^{M} \frac{r_e(\tau)^2}{N - \tau}
+
+    is asymptotically :math:`\chi^2(M)` (Ljung & Box, Biometrika 65, 1978).  Independence:
+    :math:`\zeta = N r^T P^{-1} r` over the ``2M + 1`` cross-correlation lags with
+    :math:`P_{ij} = \sum_k r_e(k)\, r_u(k + \tau_i - \tau_j)` is asymptotically
+    :math:`\chi^2(2M + 1)` (eqs. 16.59-16.62); directions of ``P`` with eigenvalues below
+    1e-10 of the largest (an input without excitation at those lags) are dropped with their
+    degrees of freedom.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> e, u = rng.standard_normal((2000, 1)), rng.standard_normal((2000, 1))
+    >>> residual_tests(e, u).white, residual_tests(np.cumsum(e, axis=0), u).white
+    (True, False)
     """
     e = np.asarray(e, dtype=float)
     if e.ndim == 1:

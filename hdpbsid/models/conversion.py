@@ -33,10 +33,11 @@ eigenvalues of ``Ad``, ``f(Ad) = V f(Lambda) V^{-1}``, when its eigenvector matr
 ``cond(V) <= MAX_LOG_CONDITION`` (rounding ``cond(V) eps``, Higham, *Functions of
 Matrices*, 2008, sec. 4.5), or up to ``CHECKED_LOG_CONDITION`` when the exponential of
 the result gives back the augmented matrix to ``LOG_BACKWARD_TOL`` (a backward-error
-check, ~0.1 ms), and with :func:`scipy.linalg.logm` of the whole augmented matrix
-otherwise (nearly defective ``Ad``): the generic algorithm (inverse scaling and squaring
-with norm estimates) costs about 5-9 ms for a 6-10 x 6-10 matrix, the eigenvalue route
-20 us, and an order sweep of ``method="dt"`` converts one model per order.
+check), and with :func:`scipy.linalg.logm` of the whole augmented matrix otherwise
+(nearly defective ``Ad``).  The eigenvalue route comes first because it is one
+eigendecomposition, while the generic algorithm (inverse scaling and squaring with norm
+estimates, Al-Mohy & Higham 2012) takes many matrix square roots, and an order sweep of
+``method="dt"`` converts one model per order.
 """
 
 from __future__ import annotations
@@ -69,9 +70,10 @@ MAX_LOG_CONDITION = 1e4
 #: up to this ``cond(V)`` the eigenvalue route is still tried, and kept when its result
 #: passes the backward check of :func:`_reproduces` (the exponential of the logarithm
 #: found gives back the augmented matrix to :data:`LOG_BACKWARD_TOL`): an a posteriori
-#: test instead of the a priori bound.  Measured: the dt candidates of orders 6-8 on the
-#: closed-loop quadrotor have ``cond(V) = 2e4-5e4``, where the generic logarithm cost
-#: 8-9 ms a conversion (a quarter of the dt sweep there)
+#: test instead of the a priori bound.  Sampled models of closed-loop records of
+#: moderate order often have ``cond(V)`` of a few times 1e4, where the a priori bound
+#: would send them to the much slower generic logarithm although the eigenvalue route is
+#: exact to rounding; the check keeps what is exact and rejects what is not
 CHECKED_LOG_CONDITION = 1e8
 #: largest relative backward error ``||expm(L) - M||_1 / ||M||_1`` of the checked
 #: eigenvalue route: a hundred times the rounding of the exponential itself
@@ -129,22 +131,53 @@ def _augmented_steps(
 def sampled_steps(
     A: Array, B: Array, K: Array | None, h: Array, hold: str
 ) -> tuple[Array, Array, Array | None, Array | None]:
-    """Exact one-step matrices of ``dx/dt = A x + B u (+ K e)`` for every step ``h``
-    (``(k,)``): ``(Phi, G1, G2, Gk)``, each ``(k, n, .)``.
+    r"""Exact one-step matrices of ``dx/dt = A x + B u (+ K e)`` for every step length.
 
-    From the augmented exponential ``expm([[A h, B h, 0, K h], [0, 0, I, 0], [0, 0, 0,
-    0], [0, 0, 0, 0]])`` (Franklin, Powell & Workman, *Digital Control*, sec. 6.3):
-    ``Phi = e^{A h}``, ``G1 = h phi_1(A h) B`` multiplies ``u_k``, ``G2 = h phi_2(A h) B``
-    (``hold="foh"`` only, else None) multiplies ``u_{k+1} - u_k``, ``Gk = h phi_1(A h) K``
-    (``K`` given only) the innovation held over the step (the module's convention), with
-    ``phi_1(z) = (e^z - 1) / z``, ``phi_2(z) = (e^z - 1 - z) / z^2`` (the series of the
-    augmented exponential's blocks).  With many distinct steps (non-uniform times) they
-    are evaluated on the eigenvalues of ``A``, ``f(A h) = V f(Lambda h) V^{-1}``, for all
-    steps at once, when ``cond(V) <= MAX_LOG_CONDITION`` (rounding ``~ cond(V) eps``) and
-    the longest step agrees with its augmented exponential to :data:`LOG_BACKWARD_TOL`
-    relative; otherwise (few steps, nearly defective ``A``) by the augmented exponential
-    of every step, one ``expm`` per step (about 10 us each: 80 000 of them were 70 % of an
-    order selection on a record of 4000 random times).
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    B : ndarray, shape (n, m)
+        Input matrix.
+    K : ndarray, shape (n, l), or None
+        Innovation gain; ``None`` when the innovation steps are not needed.
+    h : array_like, shape (k,)
+        The step lengths (positive).
+    hold : {"zoh", "foh"}
+        The input between samples: held (``"zoh"``) or linear (``"foh"``).
+
+    Returns
+    -------
+    Phi : ndarray, shape (k, n, n)
+        ``e^{A h}``.
+    G1 : ndarray, shape (k, n, m)
+        ``h phi_1(A h) B``, which multiplies ``u_k``.
+    G2 : ndarray, shape (k, n, m), or None
+        ``h phi_2(A h) B``, which multiplies ``u_{k+1} - u_k`` (``hold="foh"`` only).
+    Gk : ndarray, shape (k, n, l), or None
+        ``h phi_1(A h) K``, which multiplies the innovation held over the step (the
+        module's convention; ``K`` given only).
+
+    Notes
+    -----
+    The blocks of the augmented exponential (Franklin, Powell & Workman, *Digital Control
+    of Dynamic Systems*, 3rd ed., 1998, sec. 6.3)
+
+    .. math::
+
+        \exp\begin{bmatrix} A h & B h & 0 & K h \\ 0 & 0 & I & 0 \\ 0 & 0 & 0 & 0
+        \\ 0 & 0 & 0 & 0 \end{bmatrix}
+
+    are :math:`e^{Ah}`, :math:`h\varphi_1(Ah)B`, :math:`h\varphi_2(Ah)B` and
+    :math:`h\varphi_1(Ah)K` with :math:`\varphi_1(z) = (e^z - 1)/z` and
+    :math:`\varphi_2(z) = (e^z - 1 - z)/z^2`.  With many distinct steps (non-uniform times)
+    they are evaluated on the eigenvalues of ``A``, :math:`f(Ah) = V f(\Lambda h) V^{-1}`,
+    for all steps at once, when :math:`\operatorname{cond}(V) \le`
+    :data:`MAX_LOG_CONDITION` (rounding about :math:`\operatorname{cond}(V)\,\epsilon`,
+    Higham, *Functions of Matrices*, 2008, sec. 4.5) and the longest step agrees with its
+    augmented exponential to :data:`LOG_BACKWARD_TOL` relative; otherwise (few steps, a
+    nearly defective ``A``) by one augmented exponential per step, whose cost grows with the
+    number of distinct steps.
     """
     h = np.asarray(h, dtype=float)
     foh = hold == "foh"
@@ -214,10 +247,53 @@ def _check_dt(dt: float) -> float:
 def c2d(
     A: Array, B: Array, C: Array, D: Array | None, K: Array | None, dt: float
 ) -> tuple[Array, Array, Array, Array, Array]:
-    """Zero-order-hold sampling of ``(A, B, C, D, K)`` with period ``dt``.
+    r"""Zero-order-hold sampling of an innovation model ``(A, B, C, D, K)``.
 
-    Implements the augmented exponential of the module docstring.  ``D`` and ``K``
-    default to zeros.  Returns ``(Ad, Bd, C, D, Kd)``.
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Continuous state matrix.
+    B : array_like, shape (n, m)
+        Input matrix.
+    C : array_like, shape (l, n)
+        Output matrix.
+    D : array_like, shape (l, m), or None
+        Feedthrough (default zeros).
+    K : array_like, shape (n, l), or None
+        Innovation gain (default zeros).
+    dt : float
+        Sampling interval, positive and finite.
+
+    Returns
+    -------
+    Ad, Bd, C, D, Kd : ndarray
+        The sampled model ``x_{k+1} = Ad x_k + Bd u_k + Kd e_k``, ``y_k = C x_k + D u_k + e_k``.
+
+    Raises
+    ------
+    ValueError
+        If the shapes disagree, an entry is not finite, or ``dt`` is not positive.
+    TypeError
+        If ``dt`` is not a real number.
+
+    Notes
+    -----
+    With ``u`` and ``e`` both held over each interval (the module's convention; Van Loan,
+    *Computing integrals involving the matrix exponential*, IEEE TAC 23, 1978)
+
+    .. math::
+
+        \exp\left(\begin{bmatrix} A & B & K \\ 0 & 0 & 0 \\ 0 & 0 & 0 \end{bmatrix}
+        T\right) = \begin{bmatrix} A_d & B_d & K_d \\ 0 & I & 0 \\ 0 & 0 & I
+        \end{bmatrix}.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import c2d
+    >>> Ad, Bd, C, D, Kd = c2d([[-1.0]], [[1.0]], [[1.0]], None, None, 0.5)
+    >>> bool(np.isclose(Ad[0, 0], np.exp(-0.5))), bool(np.isclose(Bd[0, 0], 1 - np.exp(-0.5)))
+    (True, True)
     """
     A, B, C, D, K = check_state_space(A, B, C, D, K)
     dt = _check_dt(dt)
@@ -231,10 +307,22 @@ def c2d(
 
 
 def check_log_exists(Ad: Array, rtol: float = 1e-10) -> None:
-    """Raise ``ValueError`` if ``Ad`` has no real logarithm (eigenvalue on (-inf, 0]).
+    """Raise when ``Ad`` has no real matrix logarithm.
 
-    An eigenvalue counts as real when ``|Im| <= rtol * max(|lambda|, 1)``; zero counts as
-    on the axis when ``|lambda| <= rtol * max(1, ||Ad||)``.
+    Parameters
+    ----------
+    Ad : ndarray, shape (n, n)
+        A sampled state matrix.
+    rtol : float, optional
+        An eigenvalue counts as real when ``|Im| <= rtol * max(|lambda|, 1)``; as zero when
+        ``|lambda| <= rtol * max(1, ||Ad||_2)``.
+
+    Raises
+    ------
+    ValueError
+        If ``Ad`` has an eigenvalue at zero (``e^{A dt}`` is invertible, so no continuous
+        model exists) or on the negative real axis (no real logarithm: a sign-alternating
+        mode faster than Nyquist, or an identification artefact).
     """
     ev = np.linalg.eigvals(Ad)
     scale = max(1.0, float(np.linalg.norm(Ad, 2))) if Ad.size else 1.0
@@ -256,13 +344,57 @@ def check_log_exists(Ad: Array, rtol: float = 1e-10) -> None:
 def d2c(
     Ad: Array, Bd: Array, C: Array, D: Array | None, Kd: Array | None, dt: float
 ) -> tuple[Array, Array, Array, Array, Array]:
-    """Exact inverse of :func:`c2d`: ``[A, B, K] = logm([[Ad, Bd, Kd], [0, I, 0],
-    [0, 0, I]]) / dt`` (first block row, principal logarithm).
+    r"""Exact inverse of :func:`c2d` by the principal logarithm of the augmented matrix.
 
-    Raises ``ValueError`` when ``Ad`` has an eigenvalue on the closed negative real axis
-    (no real logarithm).  Eigenvalues close to the negative real axis give
-    ``|Im(lambda)| dt`` close to ``pi`` (the Nyquist limit); a ``RuntimeWarning`` is issued
-    when the result needed a complex logarithm with a non-negligible imaginary part.
+    Parameters
+    ----------
+    Ad : array_like, shape (n, n)
+        Sampled state matrix.
+    Bd : array_like, shape (n, m)
+        Sampled input matrix.
+    C : array_like, shape (l, n)
+        Output matrix.
+    D : array_like, shape (l, m), or None
+        Feedthrough (default zeros).
+    Kd : array_like, shape (n, l), or None
+        Sampled innovation gain (default zeros).
+    dt : float
+        Sampling interval, positive and finite.
+
+    Returns
+    -------
+    A, B, C, D, K : ndarray
+        The continuous model whose :func:`c2d` is the input.
+
+    Raises
+    ------
+    ValueError
+        If ``Ad`` has an eigenvalue on the closed negative real axis (no real logarithm:
+        :func:`check_log_exists`), the shapes disagree, or ``dt`` is not positive.
+
+    Warns
+    -----
+    RuntimeWarning
+        When the logarithm needed a complex part of non-negligible size (eigenvalues of
+        ``Ad`` near the negative real axis, ``|Im(lambda)| dt`` near ``pi``).
+
+    Notes
+    -----
+    ``[A, B, K]`` is the first block row of
+    :math:`\log\begin{bmatrix} A_d & B_d & K_d \\ 0 & I & 0 \\ 0 & 0 & I \end{bmatrix}
+    / \Delta t = [\log A_d,\; \phi(A_d)[B_d, K_d]] / \Delta t`,
+    :math:`\phi(x) = \log(x)/(x - 1)` (module docstring); it returns the sampled
+    continuous model only when every continuous eigenvalue has
+    :math:`|\operatorname{Im}\lambda|\,\Delta t < \pi` (no aliasing).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import c2d, d2c
+    >>> A, B, C = [[0.0, 1.0], [-4.0, -0.4]], [[0.0], [1.0]], [[1.0, 0.0]]
+    >>> A2, B2, _, _, _ = d2c(*c2d(A, B, C, None, None, 0.1), 0.1)
+    >>> bool(np.allclose(A2, A)), bool(np.allclose(B2, B))
+    (True, True)
     """
     Ad, Bd, C, D, Kd = check_state_space(Ad, Bd, C, D, Kd)
     dt = _check_dt(dt)

@@ -85,13 +85,21 @@ SAMPLES_PER_STATE = 3
 
 @dataclass
 class WindowedError:
-    """Windowed simulation error of one model on one record.
+    """Windowed simulation (or prediction) error of one model on one record.
 
-    ``per_window`` (W,): variance-weighted residual sum of squares of each window;
-    ``total``: their sum divided by the weighted sum of squares of the detrended
-    windows' outputs (0 = perfect, 1 = no better than each window's mean);
-    ``fit``: ``100 (1 - sqrt(total))`` (MATLAB-style fit percent, pooled over outputs).
-    ``finite`` is False when the simulation overflowed (a model unusable on this record).
+    Parameters
+    ----------
+    per_window : ndarray, shape (W,)
+        Variance-weighted residual sum of squares of each window, divided by its degrees of
+        freedom (module docstring).
+    total : float
+        Their sum divided by the weighted sum of squares of the detrended windows' outputs
+        (0 = perfect, 1 = no better than each window's mean).
+    fit : float
+        ``100 (1 - sqrt(total))``, a MATLAB-style fit percent pooled over the outputs.
+    finite : bool
+        False when the simulation overflowed or the predictor is unstable (a model unusable
+        on this record); then the errors are ``inf``.
     """
 
     per_window: Array
@@ -101,8 +109,29 @@ class WindowedError:
 
 
 def default_windows(ns: int, max_states: int) -> int:
-    """Number of windows: ``MAX_WINDOWS`` if every window keeps at least
-    ``SAMPLES_PER_STATE * max_states`` samples, fewer otherwise (at least 1)."""
+    """Number of windows a record of ``ns`` samples is cut into.
+
+    Parameters
+    ----------
+    ns : int
+        Samples of the record.
+    max_states : int
+        The largest state dimension among the models compared.
+
+    Returns
+    -------
+    int
+        :data:`MAX_WINDOWS` if every window keeps at least ``SAMPLES_PER_STATE *
+        max_states`` samples, fewer otherwise, at least 1: each window's least-squares
+        initial state must be determined by many more samples than it has entries, and the
+        standard error of :func:`choose_smallest_adequate` wants as many windows as that
+        allows.
+
+    Examples
+    --------
+    >>> default_windows(10_000, 8), default_windows(60, 10)
+    (16, 2)
+    """
     per = SAMPLES_PER_STATE * max(max_states, 1)
     return int(max(1, min(MAX_WINDOWS, ns // per)))
 
@@ -136,13 +165,38 @@ def windowed_simulation_error(
     hold: str | None = None,
     weights: Array | None = None,
 ) -> WindowedError:
-    """Windowed simulation error of ``model`` on a uniformly sampled record (module docstring).
+    """Windowed simulation error of a model on a uniformly sampled record (module docstring).
 
-    ``t`` (Ns,) uniform, ``u`` (Ns, m), ``y`` (Ns, l) (already checked); ``windows``
-    consecutive windows of ``Ns // windows`` samples (the remainder at the end is not
-    scored).  ``hold``: the model's ``options["input_hold"]`` when ``None`` (``"zoh"`` if
-    it has none).  ``weights`` (l,): per-output weights of the squared residuals, default
-    ``1 / var(y)``.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model scored.
+    t : ndarray, shape (Ns,)
+        Sample times (already checked); non-uniform times are simulated window by window
+        with :meth:`StateSpaceModel.fit`.
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Output.
+    windows : int
+        Number of consecutive windows of ``Ns // windows`` samples (the remainder at the end
+        is not scored).
+    hold : {"zoh", "foh"} or None, optional
+        Input between samples; ``None``: the model's ``options["input_hold"]``, ``"zoh"`` if
+        it has none.
+    weights : ndarray, shape (l,), optional
+        Per-output weights of the squared residuals, default ``1 / var(y)`` (each output
+        counts equally, whatever its unit).
+
+    Returns
+    -------
+    WindowedError
+        Per-window and total errors.
+
+    Raises
+    ------
+    ValueError
+        If a window has no more samples than the model has states.
     """
     return _windowed_error(model, t, u, y, windows, hold, weights, predict=False)
 
@@ -157,31 +211,61 @@ def windowed_prediction_error(
     weights: Array | None = None,
     carry_state: bool = False,
 ) -> WindowedError:
-    """Windowed one-step-ahead prediction error of ``model`` (module docstring).
+    r"""Windowed one-step-ahead prediction error of a model (module docstring).
 
-    As :func:`windowed_simulation_error`, but the output is predicted one sample ahead
-    by the model's sampled innovation predictor (Ljung, *System Identification*, 2nd
-    ed., eq. 4.87; the innovation held over each step as in
-    :meth:`hdpbsid.models.model.StateSpaceModel.predict`),
+    As :func:`windowed_simulation_error`, but the output is predicted one sample ahead by
+    the model's sampled innovation predictor.
 
-        x_{k+1|k} = Phi x_{k|k-1} + G1 u_k [+ G2 (u_{k+1} - u_k)] + Gk (y_k - C x_{k|k-1} - D u_k),
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model scored.
+    t : ndarray, shape (Ns,)
+        Uniform sample times.
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Output.
+    windows : int
+        Number of consecutive windows.
+    hold : {"zoh", "foh"} or None, optional
+        As in :func:`windowed_simulation_error`.
+    weights : ndarray, shape (l,), optional
+        As in :func:`windowed_simulation_error`.
+    carry_state : bool, optional
+        Fit the initial state once, at the start of the scored samples, and run the
+        predictor through every window; the windows then only split the residuals for the
+        standard error.  This is the score of a model whose prediction is all it has, a
+        time series: fitted per window, the initial state of a predictor with slow modes
+        (``|eig(Phi - Gk C)|`` near 1) is a fit of slow curves to each window's own later
+        outputs, not a prediction of them, and it favours models with spurious slow modes.
 
-    ``yhat_k = C x_{k|k-1} + D u_k``; the predictions are affine in the window's initial
-    state through ``C (Phi - Gk C)^k``, which is fitted by least squares as in the
-    simulation error.  A model whose sampled predictor ``Phi - Gk C`` is unstable
-    (:func:`predictor_is_stable`) scores ``finite=False``: with the window's initial
-    state fitted it would not be a predictor (module docstring).  Non-uniform ``t``
-    raises ``ValueError``.
+    Returns
+    -------
+    WindowedError
+        ``finite=False`` when the sampled predictor ``Phi - Gk C`` is unstable
+        (:func:`predictor_is_stable`): with the window's initial state fitted it would not
+        be a predictor.
 
-    ``carry_state=True``: the initial state is fitted once, at the start of the scored
-    samples, and the predictor runs through every window; the windows only split the
-    residuals for the standard error (:func:`choose_smallest_adequate`).  This is the
-    score of a model whose prediction is all it has, a time series (no input): fitted
-    per window, the initial state of a predictor with slow modes (``|eig(Phi - Gk C)|``
-    near 1) is a fit of slow curves to each window's own later outputs, not a
-    prediction of them (a fifth-order model of a stationary second-order process scored
-    0.022 against the true order's 0.039 per window, 0.27 against 0.017 with one initial
-    state).
+    Raises
+    ------
+    ValueError
+        If ``t`` is not uniform or a window has no more samples than the model has states.
+
+    Notes
+    -----
+    The sampled innovation predictor (Ljung, *System Identification*, 2nd ed., 1999,
+    eq. 4.87; the innovation held over each step as in
+    :meth:`hdpbsid.models.model.StateSpaceModel.predict`)
+
+    .. math::
+
+        \hat x_{k+1|k} = \Phi \hat x_{k|k-1} + G_1 u_k\,[+\,G_2 (u_{k+1} - u_k)]
+        + G_k (y_k - C \hat x_{k|k-1} - D u_k),
+        \qquad \hat y_k = C \hat x_{k|k-1} + D u_k;
+
+    the predictions are affine in the window's initial state through
+    :math:`C (\Phi - G_k C)^k`, fitted by least squares as in the simulation error.
     """
     if carry_state and windows > 1:
         L = y.shape[0] // windows
@@ -196,18 +280,35 @@ def windowed_prediction_error(
 
 
 def predictor_is_stable(F: Array) -> bool:
-    """Whether the sampled predictor matrix ``F = Phi - Gk C`` is stable: spectral radius
-    at most ``1 + PREDICTOR_STABILITY_TOL``.
+    r"""Whether the sampled predictor matrix ``F = Phi - Gk C`` is stable.
 
-    An unstable ``F`` makes the windowed prediction error meaningless.  The predictions
-    are affine in the window's initial state through ``C F^k``; the least-squares
-    initial state cancels the growing modes of the data-driven part, i.e. it subtracts
-    ``sum_j lambda^(k-1-j) ...`` over *all* samples ``j`` of the window, so what is left
-    of the prediction of ``y_k`` depends on ``y_k`` and later outputs through
-    ``lambda^-(j-k)``, a stable anti-causal filter: a smoother, not a predictor.  It can
-    score below the noise floor (a spurious order-8 model with ``rho(F) = 1.3`` did on
-    white output noise, where no predictor can).  A unit eigenvalue (an integrator the
-    gain leaves alone) is allowed: its free response is a constant, not a growing mode.
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        The predictor's state matrix.
+
+    Returns
+    -------
+    bool
+        Spectral radius at most ``1 + PREDICTOR_STABILITY_TOL`` and every entry finite.
+
+    Notes
+    -----
+    An unstable ``F`` makes the windowed prediction error meaningless.  The predictions are
+    affine in the window's initial state through :math:`C F^k`; the least-squares initial
+    state cancels the growing modes of the data-driven part, i.e. it subtracts
+    :math:`\sum_j \lambda^{k-1-j}\cdots` over *all* samples ``j`` of the window, so what
+    is left of the prediction of :math:`y_k` depends on :math:`y_k` and later outputs
+    through :math:`\lambda^{-(j-k)}`, a stable anti-causal filter: a smoother, not a
+    predictor, which can score below the noise floor where no predictor can.  A unit
+    eigenvalue (an integrator the gain leaves alone) is allowed: its free response is a
+    constant, not a growing mode.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> predictor_is_stable(np.diag([0.9, 1.0])), predictor_is_stable(np.diag([0.9, 1.3]))
+    (True, False)
     """
     if F.size == 0:
         return True
@@ -308,14 +409,14 @@ def _windowed_nonuniform(
     hold: str,
     weights: Array | None,
 ) -> WindowedError:
-    """:func:`windowed_simulation_error` for non-uniform times: each window is simulated
-    with :meth:`StateSpaceModel.fit` (exact steps for every spacing, fitted initial state),
-    its residual energy divided by its degrees of freedom as on a uniform grid
-    (``L l - n``: the fitted initial state takes ``n``; without it a model with more
-    states fitted each held-out window's noise better, and order selection on jittered
-    records favoured extra states: a third-order system at 20 dB, 4000 random times,
-    chose order 5-6 on 3 of 3 seeds, the true model scoring 0.0245 against 0.0225 for
-    order 8)."""
+    """:func:`windowed_simulation_error` for non-uniform times.
+
+    Each window is simulated with :meth:`StateSpaceModel.fit` (exact steps for every
+    spacing, fitted initial state), its residual energy divided by its degrees of freedom
+    as on a uniform grid (``L l - n``: the fitted initial state takes ``n``; without it a
+    model with more states fits each held-out window's noise better by about
+    ``n / (L l)``, and order selection would favour extra states).
+    """
     ns, l = y.shape
     L = ns // windows
     dof = L * l / (L * l - min(model.n, L * l - 1))
@@ -337,16 +438,47 @@ def _windowed_nonuniform(
 def choose_smallest_adequate(
     errors: Sequence[WindowedError], z: float = SIGNIFICANCE_Z
 ) -> tuple[int, list[float]]:
-    """Index of the first (smallest) model whose windowed error is within ``z`` standard
-    errors of the best model's, and every model's excess in those standard errors.
+    r"""The smallest model whose windowed error is within ``z`` standard errors of the best's.
 
-    ``errors`` are ordered by complexity (e.g. orders 1, 2, ...).  The standard error of
-    the best model's total is estimated from its per-window errors,
-    ``SE = sqrt(W) std(r_w)`` (the sum of ``W`` window errors); a model's statistic is
-    ``(sum r_w - sum r_w(best)) / SE`` (``inf`` for a model that could not be simulated).
-    This is the "one standard error" rule of cross-validation (Breiman et al. 1984;
-    Hastie, Tibshirani & Friedman, sec. 7.10): among models whose held-out error cannot
-    be told apart from the best's at the resolution of the held-out data, the simplest.
+    Parameters
+    ----------
+    errors : sequence of WindowedError
+        Ordered by complexity (e.g. orders 1, 2, ...), each on the same windows.
+    z : float, optional
+        The number of standard errors (:data:`SIGNIFICANCE_Z`, the "one standard error"
+        rule).
+
+    Returns
+    -------
+    chosen : int
+        Index of the first model within ``z`` standard errors of the best.
+    stats : list of float
+        Every model's excess over the best in standard errors (``inf`` for a model that
+        could not be simulated).
+
+    Raises
+    ------
+    ValueError
+        If no model could be simulated on the record.
+
+    Notes
+    -----
+    The standard error of the best model's total is estimated from its per-window errors,
+    :math:`\mathrm{SE} = \sqrt W \operatorname{std}(r_w)` (the sum of ``W`` window
+    errors); a model's statistic is :math:`(\sum r_w - \sum r_w^{\mathrm{best}}) /
+    \mathrm{SE}`.  This is the "one standard error" rule of cross-validation (Breiman et
+    al., *Classification and Regression Trees*, 1984; Hastie, Tibshirani & Friedman, *The
+    Elements of Statistical Learning*, 2nd ed., 2009, sec. 7.10): among models whose
+    held-out error cannot be told apart from the best's at the resolution of the held-out
+    data, the simplest.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> e = [WindowedError(np.full(4, r), 4 * r, 0.0, True) for r in (5.0, 1.0, 1.0)]
+    >>> e[1].per_window[:] = [0.9, 1.1, 0.9, 1.1]  # the best has a spread
+    >>> choose_smallest_adequate(e)[0]  # order 2: order 3 is no better beyond its spread
+    1
     """
     finite = [i for i, e in enumerate(errors) if e.finite]
     if not finite:

@@ -66,8 +66,21 @@ SNAP = 1e-9
 
 
 def check_delay(delay: Any, m: int, name: str = "delay") -> Array:
-    """Dead times as an ``(m,)`` array: ``None`` is no delay, a scalar is the same delay on
-    every input; each must be finite and ``>= 0``.
+    """Dead times as one number per input.
+
+    Parameters
+    ----------
+    delay : float, array_like of shape (m,), or None
+        ``None`` is no delay, a scalar is the same delay on every input.
+    m : int
+        Number of inputs.
+    name : str, optional
+        The argument's name in the messages.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        The dead times, finite and ``>= 0`` (negative zeros made positive).
 
     Raises
     ------
@@ -75,6 +88,11 @@ def check_delay(delay: Any, m: int, name: str = "delay") -> Array:
         When ``delay`` is not numeric.
     ValueError
         Naming ``name``: a negative or non-finite entry, or a count other than 1 or ``m``.
+
+    Examples
+    --------
+    >>> check_delay(0.2, 3).tolist(), check_delay(None, 2).tolist()
+    ([0.2, 0.2, 0.2], [0.0, 0.0])
     """
     if delay is None:
         return np.zeros(m)
@@ -149,10 +167,29 @@ def pade(tau: float, order: int) -> tuple[Array, Array, Array, Array]:
 
 
 def pade_order(tau: Array, w_max: float) -> int:
-    """The smallest Pade order whose phase is within 1 degree of every delay ``tau`` up
-    to ``w_max`` (rad per time unit), from :data:`PADE_PHASE_RANGE`; at most
-    :data:`MAX_PADE_ORDER` (then the approximation holds only up to
-    ``PADE_PHASE_RANGE[-1] / max(tau)``)."""
+    """The smallest Pade order whose phase is within 1 degree of every delay up to ``w_max``.
+
+    Parameters
+    ----------
+    tau : ndarray, shape (m,)
+        The dead times.
+    w_max : float
+        Highest angular frequency (rad per time unit) where the phase must hold.
+
+    Returns
+    -------
+    int
+        From :data:`PADE_PHASE_RANGE` (the ``(N, N)`` approximant's phase is within 1 degree
+        of ``-w tau`` for ``w tau`` up to ``PADE_PHASE_RANGE[N]``); 0 without delay; at most
+        :data:`MAX_PADE_ORDER`, where the approximation holds only up to
+        ``PADE_PHASE_RANGE[-1] / max(tau)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pade_order(np.array([0.1, 0.5]), 4.0)  # w tau = 2 needs N = 3 (range 3.07)
+    3
+    """
     x = float(np.max(tau, initial=0.0)) * float(w_max)
     if x == 0.0:
         return 0
@@ -204,12 +241,18 @@ def delayed_input_terms(
 
     Parameters
     ----------
-    A, B : the delay-free system's matrices.
-    t : (Ns,) sample times.
-    u : (Ns, m) deviation input.
-    delay : (m,) dead times.
-    hold : ``"zoh"`` or ``"foh"``.
-    Phi, inv : the step matrices of the grid and each step's index into them.
+    A, B : ndarray
+        The delay-free system's matrices.
+    t : ndarray, shape (Ns,)
+        Sample times.
+    u : ndarray, shape (Ns, m)
+        Deviation input.
+    delay : ndarray, shape (m,)
+        Dead times.
+    hold : str
+        ``"zoh"`` or ``"foh"``.
+    Phi, inv : ndarray
+        The step matrices of the grid and each step's index into them.
 
     Returns
     -------

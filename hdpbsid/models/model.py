@@ -66,15 +66,34 @@ Array = NDArray[np.float64]
 
 @dataclass
 class FitResult:
-    """Simulation fit of a model on a record.
+    r"""Simulation fit of a model on a record (:meth:`StateSpaceModel.fit`).
 
-    ``nrmse`` (per output) ``= ||y - y_sim|| / ||y - mean(y)||``; :attr:`fit` (percent,
-    per output) ``= 100 (1 - nrmse)``, the fit of MATLAB's ``compare`` and the measure
-    every printed summary uses; ``vaf`` (percent, per output)
-    ``= 100 (1 - var(y - y_sim) / var(y))``, the variance accounted for, kept for those
-    who quote it (``vaf = 100 (1 - (1 - fit/100)^2)`` for a zero-mean error, so a VAF
-    of 99 % is a fit of 90 %); ``y_sim`` the simulated output; ``x0`` the initial state
-    used.
+    Parameters
+    ----------
+    vaf : ndarray, shape (l,)
+        Variance accounted for, percent per output,
+        ``100 (1 - var(y - y_sim) / var(y))``; kept for those who quote it.
+    nrmse : ndarray, shape (l,)
+        Normalised root-mean-square error per output, ``||y - y_sim|| / ||y - mean(y)||``.
+    y_sim : ndarray, shape (Ns, l)
+        The simulated output (absolute: the operating point added).
+    x0 : ndarray, shape (n,)
+        The initial deviation state used (estimated or given).
+
+    Attributes
+    ----------
+    fit : ndarray, shape (l,)
+        ``100 (1 - nrmse)`` percent per output, the fit of MATLAB's ``compare`` and the
+        measure every printed summary uses.
+
+    Notes
+    -----
+    For a zero-mean error the two measures are tied,
+
+    .. math:: \mathrm{VAF} = 100\,\bigl(1 - (1 - \mathrm{fit}/100)^2\bigr),
+
+    so a VAF of 99 % is a fit of 90 %: VAF flatters a model, which is why the summaries
+    quote the fit.
     """
 
     vaf: Array
@@ -92,11 +111,38 @@ class FitResult:
 
 
 def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
-    """VAF (percent) and NRMSE per output column of ``y`` (Ns, l) vs ``y_sim``.
+    """VAF (percent) and NRMSE per output column of a measured and a simulated output.
 
+    Parameters
+    ----------
+    y : ndarray, shape (Ns, l)
+        Measured output.
+    y_sim : ndarray, shape (Ns, l)
+        Simulated (or predicted) output.
+
+    Returns
+    -------
+    vaf : ndarray, shape (l,)
+        ``100 (1 - var(y - y_sim) / var(y))``; NaN for a constant output column.
+    nrmse : ndarray, shape (l,)
+        ``||y - y_sim|| / ||y - mean(y)||``; NaN for a constant output column.
+
+    Notes
+    -----
     Both are ratios, computed on the columns scaled by the power of two of
-    :func:`~hdpbsid.data.checks.scale_exponents` (exact), so that the squares of a record in
-    extreme units (1e-200) neither underflow nor overflow."""
+    :func:`~hdpbsid.data.checks.scale_exponents` (an exact change of exponent), so that the
+    squares of a record in extreme units (1e-200) neither underflow nor overflow.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> y = np.array([[0.0], [1.0], [2.0], [3.0]])
+    >>> vaf, nrmse = fit_statistics(y, y + 0.1)
+    >>> print(np.round(vaf, 6), np.round(nrmse, 4))
+    [100.] [0.0894]
+
+    A constant offset leaves the VAF (a variance) untouched but not the NRMSE.
+    """
     p = scale_exponents(y, "y")
     y, y_sim = np.ldexp(y, p), np.ldexp(y_sim, p)
     err = y - y_sim
@@ -109,9 +155,27 @@ def fit_statistics(y: Array, y_sim: Array) -> tuple[Array, Array]:
 
 @dataclass
 class LinearTrend:
-    """Linear drift of the operating point: at time ``t`` the input level is
-    ``u0 + u_slope (t - t_ref)`` and the output level ``y0 + y_slope (t - t_ref)``.
+    """Linear drift of the operating point of a model.
 
+    At time ``t`` the input level is ``u0 + u_slope (t - t_ref)`` and the output level
+    ``y0 + y_slope (t - t_ref)``.
+
+    Parameters
+    ----------
+    t_ref : float
+        Reference time (in the model's ``time_unit``), finite.
+    u_slope : array_like, shape (m,)
+        Drift of each input level per time unit.
+    y_slope : array_like, shape (l,)
+        Drift of each output level per time unit.
+
+    Raises
+    ------
+    ValueError
+        If ``t_ref`` is not finite or a slope is not finite.
+
+    Notes
+    -----
     Stored by ``identify(..., detrend="linear")`` from the least-squares line through each
     channel of the identification record (``t_ref`` its mean time, so ``u0``, ``y0`` are
     the record's means).  The line is a function of absolute time: on a record outside the
@@ -339,31 +403,91 @@ def _step_groups(t: Array) -> tuple[Array, Array, Array]:
 class StateSpaceModel(_ModelBase):
     """Continuous-time innovation model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
 
-    Attributes: ``A (n, n)``, ``B (n, m)``, ``C (l, n)``, ``D (l, m)``, ``K (n, l)``,
-    ``singular_values`` (of the SVD step, for order selection), ``options`` (every
-    setting actually used, defaults included), ``noise_covariance`` (innovation
-    covariance estimate, ``None`` if unknown) and ``discrete`` (the sampled model it was
-    converted from, if any).  ``K`` follows the hold convention of
-    :mod:`hdpbsid.models.conversion`.
+    The matrices describe deviations from the operating point ``(u0, y0)`` (module
+    docstring); :meth:`simulate`, :meth:`fit`, :meth:`predict` and :meth:`compare` take and
+    return absolute signals.
 
-    Labels: ``time_unit`` (the unit of the times ``t``, default ``"s"``; the eigenvalues
-    are in rad per that unit), ``input_names`` and ``output_names`` (default ``u1, ...``
-    and ``y1, ...``) and ``sampling_interval`` (the median step of the identification
-    record in ``time_unit``, ``None`` when unknown): :meth:`check_record` compares a
-    record with them, and :meth:`save` / :func:`hdpbsid.load_model` keep them.
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        State matrix (rad per ``time_unit``: its eigenvalues are the poles).
+    B : array_like, shape (n, m)
+        Input matrix.
+    C : array_like, shape (l, n)
+        Output matrix.
+    D : array_like, shape (l, m)
+        Direct feedthrough.
+    K : array_like, shape (n, l)
+        Innovation gain, in the hold convention of :mod:`hdpbsid.models.conversion`.
+    singular_values : ndarray or None, optional
+        The singular values of the SVD step the order was chosen from.
+    options : dict, optional
+        Every setting the identification used, defaults included.
+    noise_covariance : ndarray, shape (l, l), or None, optional
+        Innovation covariance estimate; ``None`` when unknown.
+    u0, y0 : array_like, shape (m,) and (l,), optional
+        Operating point (default zeros: a model built by hand is exactly its matrices).
+    trend : LinearTrend or None, optional
+        Linear drift of the operating point (``detrend="linear"``).
+    time_unit : str, optional
+        Unit of the times ``t`` (default ``"s"``); the eigenvalues are in rad per that unit.
+    input_names, output_names : list of str, optional
+        Channel names (default ``u1, ...`` and ``y1, ...``).
+    discrete : DiscreteModel or None, optional
+        The sampled model this one was converted from, if any.
+    sampling_interval : float or None, optional
+        Median step of the identification record in ``time_unit``; :meth:`check_record`
+        compares a record with it.
+    delay : float or array_like, shape (m,), optional
+        Dead time of each input, ``>= 0`` in ``time_unit`` (a scalar is used for every
+        input): ``dx/dt = A x + B u(t - delay) + K e``, ``y = C x + D u(t - delay) + e``
+        (:mod:`hdpbsid.models.dead_time`).  The matrices are the delay-free part.
+    parameter_covariance : ParameterCovariance or None, optional
+        Covariance of ``[vec A, vec B, vec C, vec D]`` from the fit (set by
+        ``refine="pem"`` and :func:`hdpbsid.frequency.fit.identify_frequency`), which
+        :func:`hdpbsid.models.uncertainty.response_band` turns into a band of the frequency
+        response.
 
-    Dead times: ``delay`` (``m`` numbers ``>= 0`` in ``time_unit``, one per input; a
-    scalar or ``None`` is accepted and stored as ``m`` numbers) delays each input,
-    ``dx/dt = A x + B u(t - delay) + K e``, ``y = C x + D u(t - delay) + e``
-    (:mod:`hdpbsid.models.dead_time`).  :meth:`simulate`, :meth:`fit`, :meth:`predict`,
-    :meth:`frequency_response` honour it exactly; :meth:`to_control` and :meth:`to_scipy`
-    by a Pade approximant (:meth:`pade_order`); :meth:`to_discrete` refuses a delayed
-    model.  The matrices are the delay-free part.
+    Attributes
+    ----------
+    n, m, l : int
+        State, input and output dimensions.
+    eigenvalues : ndarray of complex
+        Eigenvalues of ``A`` sorted by real, then imaginary part.
+    has_delay : bool
+        Whether any input has a dead time.
 
-    ``parameter_covariance``: the covariance of ``[vec A, vec B, vec C, vec D]`` from the
-    fit (:class:`hdpbsid.models.uncertainty.ParameterCovariance`, set by ``refine="pem"`` and
-    :func:`hdpbsid.frequency.fit.identify_frequency`; ``None`` when unknown), which
-    :func:`hdpbsid.models.uncertainty.response_band` turns into a band of the frequency response.
+    Raises
+    ------
+    ValueError
+        If the matrices' shapes disagree, an entry is not finite, a name list has the wrong
+        length or repeats a name, ``sampling_interval`` is not positive or a delay is
+        negative.
+    TypeError
+        If a label is not a string or ``parameter_covariance`` has the wrong type.
+
+    Notes
+    -----
+    Dead times are honoured exactly by :meth:`simulate`, :meth:`fit`, :meth:`predict` and
+    :meth:`frequency_response`; :meth:`to_control` and :meth:`to_scipy` replace them by a
+    Pade approximant (:meth:`pade_order`); :meth:`to_discrete` refuses a delayed model
+    (its exact sampled model needs extra states).
+
+    Examples
+    --------
+    A first-order low-pass ``G(s) = 1 / (s + 1)``:
+
+    >>> import numpy as np
+    >>> from hdpbsid import StateSpaceModel
+    >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.5]])
+    >>> model
+    StateSpaceModel(continuous, n=1, m=1, l=1, eigenvalues=[-1])
+    >>> t = np.arange(0.0, 20.0, 0.01)
+    >>> y = model.simulate(t, np.ones((t.size, 1)))
+    >>> round(float(y[-1, 0]), 4)  # the step response settles at the DC gain G(0) = 1
+    1.0
+    >>> np.round(model.frequency_response([0.0, 1.0])[0, 0], 3)  # G(0), G(j) = 1 / (1 + j)
+    array([1. +0.j , 0.5-0.5j])
     """
 
     discrete: DiscreteModel | None = None
@@ -390,23 +514,71 @@ class StateSpaceModel(_ModelBase):
         return bool(np.any(self.delay))
 
     def save(self, path: Any) -> Any:
-        """Write the model to ``path`` as JSON (:func:`hdpbsid.models.model_io.save_model`);
-        :func:`hdpbsid.load_model` reads it back.  Returns the path."""
+        """Write the model to a JSON file.
+
+        Parameters
+        ----------
+        path : str or path-like
+            File to write (:func:`hdpbsid.models.model_io.save_model`); :func:`hdpbsid.load_model`
+            reads it back with every label, the operating point and the dead times.
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
+
+        Raises
+        ------
+        ValueError
+            If the path's suffix is not ``.json`` (:func:`~hdpbsid.models.model_file.write_model`).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> from hdpbsid import StateSpaceModel, load_model
+        >>> model = StateSpaceModel(A=[[-2.0]], B=[[1.0]], C=[[3.0]], D=[[0.0]], K=[[0.0]])
+        >>> with tempfile.TemporaryDirectory() as tmp:
+        ...     path = model.save(pathlib.Path(tmp) / "model.json")
+        ...     back = load_model(path)
+        >>> back.eigenvalues.real.tolist(), back.C.tolist()
+        ([-2.0], [[3.0]])
+        """
         from hdpbsid.models.model_file import write_model
 
         return write_model(self, path)
 
     def check_record(self, t: Any, time_unit: str | None = None, name: str = "t") -> None:
-        """Warn (:class:`TimeScaleWarning`) when the record with times ``t`` does not
-        match the model's time scale.
+        """Warn when a record's time scale does not match the model's.
 
         Two checks, each only when both sides are known: ``time_unit`` (the record's)
         differs from ``model.time_unit`` (the message gives the conversion factor for the
         units of :data:`TIME_UNITS`); the record's median step differs from
-        ``model.sampling_interval`` by more than :data:`SAMPLING_RATIO_LIMIT` either
-        way, the signature of times in another unit (its docstring says why that
-        factor).  The exact sampled model simulates any step size, so neither is an
-        error: the fit of a record in the wrong unit is merely meaningless.
+        ``model.sampling_interval`` by more than :data:`SAMPLING_RATIO_LIMIT` either way, the
+        signature of times in another unit (its comment says why that factor).
+
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            The record's sample times.
+        time_unit : str or None, optional
+            The unit of ``t``, if known.
+        name : str, optional
+            The argument's name in the messages.
+
+        Warns
+        -----
+        TimeScaleWarning
+            When either check fails.
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not a strictly increasing finite vector, or ``time_unit`` is empty.
+
+        Notes
+        -----
+        The exact sampled model simulates any step size, so neither finding is an error: the
+        fit of a record in the wrong unit is merely meaningless.
         """
         if time_unit is not None:
             unit = check_label(time_unit, "time_unit")
@@ -459,17 +631,62 @@ class StateSpaceModel(_ModelBase):
         method: str = "zoh",
         return_states: bool = False,
     ) -> Array | tuple[Array, Array]:
-        """Deterministic response (``e = 0``) at the times ``t`` (need not be uniform).
+        r"""Deterministic response (``e = 0``) at the times ``t``, which need not be uniform.
 
-        ``u`` and the returned ``y`` are absolute signals: the model runs on
-        ``u - u0`` and adds ``y0`` (module docstring; both zero for a model built by
-        hand).  ``x0`` is the initial *deviation* state (default 0: the system at its
-        operating point).  ``method="zoh"``: ``u[k]`` held on ``[t_k, t_{k+1})`` (the
-        assumption under which :func:`~hdpbsid.identify_dt` data are sampled);
-        ``method="foh"``: ``u`` linear between samples, as :func:`scipy.signal.lsim` does
-        by default.  Each step uses the exact exponential of the augmented matrix for its
-        own ``h = t_{k+1} - t_k`` (steps equal to 1e-12 relative share one exponential).
-        Returns ``y (Ns, l)`` (and ``x (Ns, n)`` with ``return_states``).
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Strictly increasing sample times in ``time_unit``.
+        u : array_like, shape (Ns, m) or (Ns,)
+            Absolute input: the model runs on ``u - u0`` and adds ``y0`` to its output.
+            ``None`` is accepted for a model without inputs.
+        x0 : array_like, shape (n,), optional
+            Initial *deviation* state (default 0: the system at its operating point).
+        method : {"zoh", "foh"}, optional
+            ``"zoh"``: ``u[k]`` held on ``[t_k, t_{k+1})`` (the assumption under which
+            :func:`~hdpbsid.identify_dt` data are sampled); ``"foh"``: ``u`` linear between
+            samples, as :func:`scipy.signal.lsim` does by default.
+        return_states : bool, optional
+            Also return the deviation states.
+
+        Returns
+        -------
+        y : ndarray, shape (Ns, l)
+            The absolute output.
+        x : ndarray, shape (Ns, n)
+            The deviation states (only with ``return_states``).
+
+        Raises
+        ------
+        ValueError
+            If ``method`` is unknown, ``t`` is not strictly increasing, ``u`` has the wrong
+            shape or ``x0`` the wrong length.
+
+        Notes
+        -----
+        Each step uses the exact exponential of the augmented matrix for its own
+        ``h = t_{k+1} - t_k`` (Franklin, Powell & Workman, *Digital Control of Dynamic
+        Systems*, sec. 6.3),
+
+        .. math::
+
+            \exp\begin{bmatrix} A h & B h & 0 \\ 0 & 0 & I \\ 0 & 0 & 0 \end{bmatrix}
+            = \begin{bmatrix} \Phi & \Gamma_1 & \Gamma_2 \\ 0 & I & I \\ 0 & 0 & I
+            \end{bmatrix},
+            \qquad x_{k+1} = \Phi x_k + \Gamma_1 u_k + \Gamma_2 (u_{k+1} - u_k),
+
+        with the last term only for the first-order hold; steps equal to 1e-12 relative share
+        one exponential, so a uniform record needs one.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]])
+        >>> t = np.array([0.0, 0.5, 1.0, 3.0])  # non-uniform steps are exact too
+        >>> y = model.simulate(t, np.ones(4))
+        >>> np.allclose(y[:, 0], 1.0 - np.exp(-t))  # the step response 1 - e^{-t}
+        True
         """
         t, u = self._check_input(t, u, method)
         U0, Y0 = self.operating_point(t)
@@ -575,11 +792,46 @@ class StateSpaceModel(_ModelBase):
     ) -> FitResult:
         """Simulate on ``(t, u)`` and compare with ``y``: VAF and NRMSE per output.
 
-        ``u``, ``y`` and ``FitResult.y_sim`` are absolute signals (operating point in the
-        module docstring).  ``x0="estimate"`` (default) fits the initial deviation state
-        by least squares (the output is affine in ``x0``); ``"zero"`` or an array use that
-        state.  ``time_unit``: the unit of ``t``, if known; a record whose time scale does
-        not match the model's draws a :class:`TimeScaleWarning` (:meth:`check_record`).
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Strictly increasing sample times in ``time_unit``.
+        u : array_like, shape (Ns, m)
+            Absolute input.
+        y : array_like, shape (Ns, l)
+            Absolute measured output.
+        x0 : {"estimate", "zero"} or array_like, shape (n,), optional
+            ``"estimate"`` (default) fits the initial deviation state by least squares (the
+            output is affine in ``x0``); ``"zero"`` or an array use that state.
+        method : {"zoh", "foh"}, optional
+            Input between samples, as in :meth:`simulate`.
+        time_unit : str or None, optional
+            The unit of ``t``, if known; a record whose time scale does not match the model's
+            draws a :class:`TimeScaleWarning` (:meth:`check_record`).
+
+        Returns
+        -------
+        FitResult
+            ``vaf``, ``nrmse``, ``fit`` per output, the simulated output and the initial state.
+
+        Raises
+        ------
+        ValueError
+            If ``x0`` is an unknown string or has the wrong length, or the signals' shapes
+            disagree with the model's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]])
+        >>> rng = np.random.default_rng(0)
+        >>> t = np.arange(0.0, 20.0, 0.01)
+        >>> u = np.repeat(rng.standard_normal(20), 100)[:, None]  # steps held for 1 s
+        >>> y = model.simulate(t, u, x0=[2.0])  # started away from rest
+        >>> result = model.fit(t, u, y)
+        >>> print(np.round(result.fit, 6), np.round(result.x0, 6))  # x0 recovered by least squares
+        [100.] [2.]
         """
         self.check_record(t, time_unit)
         return self._fit(t, u, y, x0, method)
@@ -691,23 +943,66 @@ class StateSpaceModel(_ModelBase):
         method: str = "zoh",
         time_unit: str | None = None,
     ) -> Array:
-        """``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
+        r"""``k``-step-ahead predictions ``y_hat(t_j | t_{j-k})`` of the measured ``y``.
 
-        The sampled innovation model (hold convention of :mod:`hdpbsid.models.conversion`: ``u``
-        and ``e`` held over each step, exact exponentials per step, so ``t`` need not be
-        uniform) gives the one-step predictor (Ljung, *System Identification*, 2nd ed.,
-        eq. 4.87)
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Strictly increasing sample times (need not be uniform).
+        u : array_like, shape (Ns, m)
+            Absolute input.
+        y : array_like, shape (Ns, l)
+            Absolute measured output.
+        k : int, optional
+            Prediction horizon in samples, ``>= 1``.  ``k = 1`` is the one-step predictor whose
+            errors are the model's innovations; a large ``k`` approaches :meth:`simulate`.
+        x0 : {"estimate", "zero"} or array_like, shape (n,), optional
+            ``"estimate"`` (least squares on the prediction errors, in which the predictions
+            are affine), ``"zero"`` or the initial deviation state.
+        method : {"zoh", "foh"}, optional
+            Input between samples.
+        time_unit : str or None, optional
+            As in :meth:`fit`.
 
-            x_{j+1|j} = Phi_j x_{j|j-1} + G_j u_j + Gk_j (y_j - C x_{j|j-1} - D u_j),
+        Returns
+        -------
+        ndarray, shape (Ns, l)
+            The predicted absolute output.
 
-        and ``x_{j|j-k}`` follows from ``x_{j-k+1|j-k}`` by ``k - 1`` steps of the model
-        without the correction term; ``y_hat = C x_{j|j-k} + D u_j``.  ``k = 1`` is the
-        one-step predictor whose errors are the model's innovations; large ``k``
-        approaches :meth:`simulate`.  Signals are absolute (operating point in the module
-        docstring).  ``x0``: ``"estimate"`` (least squares on the prediction errors; the
-        predictions are affine in it), ``"zero"`` or the initial deviation state.
-        ``method``: ``"zoh"`` or ``"foh"`` for ``u`` between samples.  ``time_unit``:
-        as in :meth:`fit`.  Returns ``y_hat (Ns, l)``.
+        Raises
+        ------
+        ValueError
+            If ``k`` is not a positive integer, ``x0`` an unknown string, or the signals' shapes
+            disagree with the model's.
+        TypeError
+            If ``k`` is not an integer.
+
+        Notes
+        -----
+        The sampled innovation model (hold convention of :mod:`hdpbsid.models.conversion`:
+        ``u`` and ``e`` held over each step, exact exponentials per step) gives the one-step
+        predictor (Ljung, *System Identification*, 2nd ed., 1999, eq. 4.87)
+
+        .. math::
+
+            \hat x_{j+1|j} = \Phi_j \hat x_{j|j-1} + \Gamma_j u_j
+            + G_j \bigl(y_j - C \hat x_{j|j-1} - D u_j\bigr),
+
+        and :math:`\hat x_{j|j-k}` follows from :math:`\hat x_{j-k+1|j-k}` by ``k - 1`` steps
+        of the model without the correction term; :math:`\hat y = C \hat x_{j|j-k} + D u_j`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[2.0]])
+        >>> rng = np.random.default_rng(1)
+        >>> t = np.arange(0.0, 10.0, 0.05)
+        >>> u = np.repeat(rng.standard_normal(10), 20)[:, None]
+        >>> y = model.simulate(t, u) + 0.1 * rng.standard_normal((t.size, 1))
+        >>> y1 = model.predict(t, u, y, k=1)
+        >>> y1.shape
+        (200, 1)
         """
         self.check_record(t, time_unit)
         return self._predict(t, u, y, k, x0, method)[0]
@@ -722,15 +1017,50 @@ class StateSpaceModel(_ModelBase):
         method: str = "zoh",
         time_unit: str | None = None,
     ) -> Comparison:
-        """Fit of the model on a record, as MATLAB's ``compare``: per output
-        ``fit = 100 (1 - ||y - y_hat|| / ||y - mean(y)||)`` percent.
+        r"""Fit of the model on a record, as MATLAB's ``compare``.
 
-        ``k=None``: ``y_hat`` is the simulation (:meth:`fit`, initial state by least
-        squares), which diverges for an unstable model; ``k`` given: the ``k``-step-ahead
-        prediction (:meth:`predict`, initial state by least squares).  ``time_unit``: the
-        unit of ``t``, if known; a record whose time scale does not match the model's
-        draws a :class:`TimeScaleWarning` (:meth:`check_record`).  Returns a
-        :class:`~hdpbsid.models.assessment.Comparison`.
+        Per output, :math:`\mathrm{fit} = 100\,(1 - \|y - \hat y\| / \|y - \bar y\|)`
+        percent.
+
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Strictly increasing sample times.
+        u : array_like, shape (Ns, m)
+            Absolute input.
+        y : array_like, shape (Ns, l)
+            Absolute measured output.
+        k : int or None, optional
+            ``None``: ``y_hat`` is the simulation (:meth:`fit`, initial state by least
+            squares), which diverges for an unstable model; an integer: the ``k``-step-ahead
+            prediction (:meth:`predict`, initial state by least squares).
+        method : {"zoh", "foh"}, optional
+            Input between samples.
+        time_unit : str or None, optional
+            The unit of ``t``, if known (:meth:`check_record`).
+
+        Returns
+        -------
+        Comparison
+            ``fit`` per output, ``y_hat``, the initial state and ``k``
+            (:class:`~hdpbsid.models.assessment.Comparison`).
+
+        Raises
+        ------
+        ValueError
+            If ``k`` is not a positive integer or the signals' shapes disagree with the model's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.5]])
+        >>> rng = np.random.default_rng(0)
+        >>> t = np.arange(0.0, 20.0, 0.01)
+        >>> u = np.repeat(rng.standard_normal(20), 100)[:, None]
+        >>> y = model.simulate(t, u) + 0.05 * rng.standard_normal((t.size, 1))
+        >>> bool(model.compare(t, u, y).fit[0] > 85)  # the noise caps the fit below 100 %
+        True
         """
         self.check_record(t, time_unit)
         if k is None:
@@ -752,12 +1082,52 @@ class StateSpaceModel(_ModelBase):
         method: str = "zoh",
         time_unit: str | None = None,
     ) -> ResidualReport:
-        """Residual analysis as MATLAB's ``resid`` (Ljung, *System Identification*, 2nd
-        ed., sec. 16.6) of the one-step prediction errors ``e = y - y_hat(t | t - 1)``
-        (:meth:`predict` with ``k=1``, initial state by least squares) against the input
-        ``u``: whiteness (autocorrelation, Ljung-Box) and independence from the input
-        (cross-correlation) over lags up to ``max_lag``; see
-        :func:`hdpbsid.models.assessment.residual_tests`.  ``time_unit``: as in :meth:`compare`.
+        """Residual analysis of the one-step prediction errors, as MATLAB's ``resid``.
+
+        The errors ``e = y - y_hat(t | t - 1)`` (:meth:`predict` with ``k=1``, initial state
+        by least squares) are tested for whiteness (autocorrelation, Ljung-Box) and for
+        independence from the input (cross-correlation) over lags up to ``max_lag``
+        (Ljung, *System Identification*, 2nd ed., 1999, sec. 16.6;
+        :func:`hdpbsid.models.assessment.residual_tests`).
+
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Strictly increasing sample times.
+        u : array_like, shape (Ns, m)
+            Absolute input.
+        y : array_like, shape (Ns, l)
+            Absolute measured output.
+        max_lag : int, optional
+            Largest lag ``M`` tested (at most ``Ns - 1``).
+        method : {"zoh", "foh"}, optional
+            Input between samples.
+        time_unit : str or None, optional
+            As in :meth:`compare`.
+
+        Returns
+        -------
+        ResidualReport
+            The correlations, their bands and the tests' statistics
+            (:class:`~hdpbsid.models.assessment.ResidualReport`).
+
+        Raises
+        ------
+        ValueError
+            If ``max_lag`` is not a positive integer below ``Ns`` or the shapes disagree.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]])
+        >>> rng = np.random.default_rng(0)
+        >>> t = np.arange(0.0, 20.0, 0.01)
+        >>> u = np.repeat(rng.standard_normal(20), 100)[:, None]
+        >>> y = model.simulate(t, u) + 0.05 * rng.standard_normal((t.size, 1))
+        >>> report = model.residuals(t, u, y)  # output error: white noise, the right model
+        >>> report.white, report.independent
+        (True, True)
         """
         self.check_record(t, time_unit)
         y_hat, _, y_meas = self._predict(t, u, y, 1, "estimate", method)
@@ -767,10 +1137,33 @@ class StateSpaceModel(_ModelBase):
 
     # -- frequency domain and conversions -----------------------------------------------
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
-        """``G(jw) = (C (jw I - A)^{-1} B + D) diag(e^{-jw delay_j})`` for angular
-        frequencies ``w`` (rad per ``time_unit``); the dead times enter exactly.
+        r"""Frequency response with the dead times entering exactly.
 
-        Returns a complex array of shape ``(l, m, len(w))`` (python-control layout).
+        Parameters
+        ----------
+        w : array_like, shape (nw,)
+            Angular frequencies in rad per ``time_unit``.
+
+        Returns
+        -------
+        ndarray of complex, shape (l, m, nw)
+            :math:`G(j\omega) = \bigl(C (j\omega I - A)^{-1} B + D\bigr)
+            \operatorname{diag}(e^{-j\omega \tau_i})`, in python-control's layout.
+
+        Raises
+        ------
+        ValueError
+            If ``w`` is not finite.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]],
+        ...                         delay=0.1)
+        >>> G = model.frequency_response([1.0])[0, 0, 0]
+        >>> round(float(abs(G)), 4), round(float(np.angle(G)), 4)  # |1/(1+j)|, -pi/4 - 0.1
+        (0.7071, -0.8854)
         """
         w = as_float_array(w, "w").reshape(-1)
         s = 1j * w
@@ -780,14 +1173,22 @@ class StateSpaceModel(_ModelBase):
         return G
 
     def pade_order(self, w_max: float | None = None) -> int:
-        """The order of the Pade approximant :meth:`to_control` and :meth:`to_scipy` use
-        by default: the smallest whose phase is within 1 degree of every dead time's up
-        to ``w_max`` (:func:`hdpbsid.models.dead_time.pade_order`; at most
-        :data:`hdpbsid.models.dead_time.MAX_PADE_ORDER`).  Default ``w_max``: a decade above the
-        fastest eigenvalue (``10 max |lambda|``, where a strictly proper model's gain has
-        fallen by 20 dB or more from that mode's), or the Nyquist frequency ``pi /
-        sampling_interval`` when that is lower (the data say nothing above it).  0 for a
-        model without delay.
+        """Order of the Pade approximant :meth:`to_control` and :meth:`to_scipy` use by default.
+
+        Parameters
+        ----------
+        w_max : float or None, optional
+            Highest angular frequency (rad per ``time_unit``) at which the approximant's phase
+            must be within 1 degree of every dead time's.  Default: a decade above the fastest
+            eigenvalue (``10 max |lambda|``, where a strictly proper model's gain has fallen by
+            20 dB or more from that mode's), or the Nyquist frequency
+            ``pi / sampling_interval`` when that is lower (the data say nothing above it).
+
+        Returns
+        -------
+        int
+            The smallest such order (:func:`hdpbsid.models.dead_time.pade_order`, at most
+            :data:`hdpbsid.models.dead_time.MAX_PADE_ORDER`); 0 for a model without delay.
         """
         if not self.has_delay:
             return 0
@@ -818,11 +1219,38 @@ class StateSpaceModel(_ModelBase):
         return A, B, C, self.D @ Dp
 
     def to_discrete(self, dt: float) -> DiscreteModel:
-        """ZOH sampling (:func:`hdpbsid.models.conversion.c2d`, ``K`` by the hold convention).
+        """Zero-order-hold sampling of the model.
 
-        Raises ``ValueError`` for a model with a dead time (its exact sampled model needs
-        states for the delayed inputs, which :class:`DiscreteModel` does not hold):
-        sample ``model.to_control()`` (Pade) or simulate the continuous model."""
+        Parameters
+        ----------
+        dt : float
+            Sampling interval in ``time_unit``, positive.
+
+        Returns
+        -------
+        DiscreteModel
+            ``(Ad, Bd, C, D, Kd)`` of :func:`hdpbsid.models.conversion.c2d` (``K`` by the hold
+            convention), with the operating point and the labels.
+
+        Raises
+        ------
+        ValueError
+            For a model with a dead time (its exact sampled model needs states for the delayed
+            inputs, which :class:`DiscreteModel` does not hold: sample ``model.to_control()``,
+            the Pade approximant, or simulate the continuous model), or a ``dt`` that is not
+            positive.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdpbsid import StateSpaceModel
+        >>> model = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]])
+        >>> sampled = model.to_discrete(0.1)
+        >>> bool(np.isclose(sampled.A[0, 0], np.exp(-0.1)))  # Ad = e^{A dt}
+        True
+        >>> bool(np.allclose(sampled.to_continuous().A, model.A))  # d2c inverts c2d
+        True
+        """
         if self.has_delay:
             raise ValueError(
                 f"to_discrete: the model has dead times {self.delay.tolist()} "
@@ -843,12 +1271,21 @@ class StateSpaceModel(_ModelBase):
         )
 
     def to_scipy(self, pade_order: int | None = None) -> Any:
-        """``scipy.signal.StateSpace(A, B, C, D)`` (continuous; the ``u -> y`` part).
+        """The model as ``scipy.signal.StateSpace(A, B, C, D)`` (continuous; the ``u -> y`` part).
 
-        It describes *deviations* from the operating point: feed it ``u - model.u0`` and
-        add ``model.y0`` to its output (module docstring); scipy has no place for levels.
-        Dead times become Pade approximants of order ``pade_order`` (default
-        :meth:`pade_order`) on the inputs, their states after the model's.
+        It describes *deviations* from the operating point: feed it ``u - model.u0`` and add
+        ``model.y0`` to its output (module docstring); scipy has no place for levels.
+
+        Parameters
+        ----------
+        pade_order : int or None, optional
+            Order of the Pade approximants that replace the dead times on the inputs (their
+            states after the model's); default :meth:`pade_order`.
+
+        Returns
+        -------
+        scipy.signal.StateSpace
+            The continuous system.
         """
         from scipy.signal import StateSpace
 
@@ -857,22 +1294,35 @@ class StateSpaceModel(_ModelBase):
     def to_control(
         self, noise_inputs: bool = False, name: str | None = None, pade_order: int | None = None
     ) -> Any:
-        """``control.StateSpace`` with ``dt=0``, its signals named after the model's
-        ``input_names`` and ``output_names``; with ``noise_inputs`` the inputs are
-        ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``; the innovations named
-        ``e_<output>``, not delayed).  ``name``: the system's name (python-control's
-        default when ``None``).
+        """The model as a continuous ``control.StateSpace`` with named signals.
 
-        Dead times become ``(N, N)`` Pade approximants (:func:`hdpbsid.models.dead_time.pade`) in
-        series with each delayed input, ``N = pade_order`` or, by default,
-        :meth:`pade_order` (the smallest order whose phase is within 1 degree of the
-        delay's a decade above the fastest mode); the approximants' ``N m`` states follow
-        the model's ``n``.  The exact delayed response is :meth:`frequency_response` and
-        :meth:`simulate`.
+        The signals are named after ``input_names`` and ``output_names``.  Like :meth:`to_scipy`
+        it describes deviations (inputs ``u - model.u0``, outputs ``y - model.y0``) and time in
+        ``model.time_unit``: python-control has neither operating point nor unit.
 
-        Like :meth:`to_scipy` it describes deviations: inputs ``u - model.u0``, outputs
-        ``y - model.y0`` (python-control has no operating point either), and time in
-        ``model.time_unit`` (python-control has no unit).
+        Parameters
+        ----------
+        noise_inputs : bool, optional
+            With it the inputs are ``[u, e]`` (``B -> [B, K]``, ``D -> [D, I]``; the innovations
+            named ``e_<output>``, not delayed).
+        name : str or None, optional
+            The system's name (python-control's default when ``None``).
+        pade_order : int or None, optional
+            Dead times become ``(N, N)`` Pade approximants
+            (:func:`hdpbsid.models.dead_time.pade`) in series with each delayed input,
+            ``N = pade_order`` or, by default, :meth:`pade_order`; their ``N m`` states follow
+            the model's ``n``.  The exact delayed response is :meth:`frequency_response` and
+            :meth:`simulate`.
+
+        Returns
+        -------
+        control.StateSpace
+            With ``dt=0``.
+
+        Raises
+        ------
+        ImportError
+            If python-control is not installed.
         """
         control = _import_control()
         A, B, C, D = self._with_pade(pade_order)
@@ -886,8 +1336,23 @@ class StateSpaceModel(_ModelBase):
 
 @dataclass(repr=False)
 class DiscreteModel(_ModelBase):
-    """Sampled innovation model ``x_{k+1} = A x_k + B u_k + K e_k``, ``y_k = C x_k + D u_k
-    + e_k`` with sampling interval ``dt`` (``1.0`` when the index is just a sample count).
+    """Sampled innovation model ``x_{k+1} = A x_k + B u_k + K e_k``, ``y_k = C x_k + D u_k + e_k``.
+
+    Parameters
+    ----------
+    A, B, C, D, K : array_like
+        Shapes ``(n, n)``, ``(n, m)``, ``(l, n)``, ``(l, m)``, ``(n, l)``.
+    singular_values, options, noise_covariance, u0, y0, trend, time_unit, input_names, output_names
+        As in :class:`StateSpaceModel`.
+    dt : float, optional
+        Sampling interval in ``time_unit`` (``1.0`` when the index is just a sample count).
+
+    Examples
+    --------
+    >>> from hdpbsid import DiscreteModel
+    >>> model = DiscreteModel(A=[[0.5]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.0]], dt=0.1)
+    >>> model.simulate([[1.0], [0.0], [0.0]]).ravel().tolist()  # impulse response 0, 1, 0.5
+    [0.0, 1.0, 0.5]
     """
 
     dt: float = 1.0
@@ -897,10 +1362,28 @@ class DiscreteModel(_ModelBase):
 
     @library_call
     def simulate(self, u: Any, x0: Any | None = None, t: Any | None = None) -> Array:
-        """Deterministic response ``y (Ns, l)`` to ``u (Ns, m)`` from the deviation state
-        ``x0`` (default 0).  ``u`` and ``y`` are absolute: ``u0`` is removed and ``y0``
-        added (module docstring).  ``t`` (the sample times) is needed only when the model
-        has a :class:`LinearTrend`."""
+        """Deterministic response to an input sequence.
+
+        Parameters
+        ----------
+        u : array_like, shape (Ns, m)
+            Absolute input: ``u0`` is removed and ``y0`` added (module docstring).
+        x0 : array_like, shape (n,), optional
+            Initial deviation state (default 0).
+        t : array_like, shape (Ns,), optional
+            The sample times; needed only when the model has a :class:`LinearTrend`.
+
+        Returns
+        -------
+        ndarray, shape (Ns, l)
+            The absolute output.
+
+        Raises
+        ------
+        ValueError
+            If ``u`` has the wrong number of columns, ``x0`` the wrong length, or the model has
+            a trend and ``t`` is missing.
+        """
         u = check_signal(u, "u", limit_energy=False)
         if u.shape[1] != self.m:
             raise ValueError(f"u must have {self.m} column(s) (inputs), got shape {u.shape}")
@@ -918,12 +1401,35 @@ class DiscreteModel(_ModelBase):
         return X @ self.C.T + u @ self.D.T + Y0
 
     def frequency_response(self, w: Any) -> NDArray[np.complex128]:
-        """``G(e^{jw dt})`` for angular frequencies ``w`` (rad per time unit); (l, m, nw)."""
+        r"""Frequency response :math:`G(e^{j\omega\,dt}) = C (e^{j\omega\,dt} I - A)^{-1} B + D`.
+
+        Parameters
+        ----------
+        w : array_like, shape (nw,)
+            Angular frequencies in rad per time unit.
+
+        Returns
+        -------
+        ndarray of complex, shape (l, m, nw)
+            The response, in python-control's layout.
+        """
         w = as_float_array(w, "w").reshape(-1)
         return _transfer(self.A, self.B, self.C, self.D, np.exp(1j * w * self.dt))
 
     def to_continuous(self) -> StateSpaceModel:
-        """Exact ZOH inverse (:func:`hdpbsid.models.conversion.d2c`)."""
+        """The exact zero-order-hold inverse (:func:`hdpbsid.models.conversion.d2c`).
+
+        Returns
+        -------
+        StateSpaceModel
+            With ``discrete`` set to this model and ``sampling_interval = dt``.
+
+        Raises
+        ------
+        ValueError
+            If ``A`` has an eigenvalue on or near the negative real axis or at zero (no real
+            logarithm: :func:`~hdpbsid.models.conversion.check_log_exists`).
+        """
         A, B, C, D, K = d2c(self.A, self.B, self.C, self.D, self.K, self.dt)
         return StateSpaceModel(
             A,
@@ -940,31 +1446,71 @@ class DiscreteModel(_ModelBase):
         )
 
     def to_scipy(self) -> Any:
-        """``scipy.signal.StateSpace(A, B, C, D, dt=dt)``, in deviations from the operating
-        point (see :meth:`StateSpaceModel.to_scipy`)."""
+        """The model as ``scipy.signal.StateSpace(A, B, C, D, dt=dt)``.
+
+        Returns
+        -------
+        scipy.signal.StateSpace
+            In deviations from the operating point (see :meth:`StateSpaceModel.to_scipy`).
+        """
         from scipy.signal import StateSpace
 
         return StateSpace(self.A, self.B, self.C, self.D, dt=self.dt)
 
     def to_control(self, name: str | None = None) -> Any:
-        """``control.StateSpace(A, B, C, D, dt)``, in deviations from the operating point,
-        signals named as in :meth:`StateSpaceModel.to_control`."""
+        """The model as ``control.StateSpace(A, B, C, D, dt)`` with named signals.
+
+        Parameters
+        ----------
+        name : str or None, optional
+            The system's name.
+
+        Returns
+        -------
+        control.StateSpace
+            In deviations from the operating point, signals named as in
+            :meth:`StateSpaceModel.to_control`.
+        """
         labels = _control_labels(self.input_names, self.output_names, name)
         return _import_control().StateSpace(self.A, self.B, self.C, self.D, self.dt, **labels)
 
 
 def scale_signals(model: Any, pu: Any, py: Any, px: int = 0) -> Any:
-    """The same system for signals scaled by powers of two: ``u_new = u 2^pu``,
-    ``y_new = y 2^py`` (per channel) and states ``x_new = x 2^px``.
+    """The same system for signals scaled by powers of two.
 
+    ``u_new = u 2^pu``, ``y_new = y 2^py`` (per channel) and states ``x_new = x 2^px``:
     ``B -> 2^px B 2^-pu``, ``C -> 2^py C 2^-px``, ``D -> 2^py D 2^-pu``,
-    ``K -> 2^px K 2^-py`` (the innovations are in output units), the operating point
-    and trend, the noise covariance (``2^py N 2^py``) and the sampled model (if any) with
-    them; ``A`` and the eigenvalues are unchanged.  Every product is an exact change of
-    exponent (:func:`numpy.ldexp`) unless it leaves the float64 range: a ``ValueError``
-    when a matrix entry overflows (the system's gain is not representable).
-    ``model``: a :class:`StateSpaceModel` or :class:`DiscreteModel`; a new model is
-    returned.
+    ``K -> 2^px K 2^-py`` (the innovations are in output units), with the operating point
+    and trend, the noise covariance (``2^py N 2^py``), the parameter covariance and the
+    sampled model (if any); ``A`` and the eigenvalues are unchanged.
+
+    Parameters
+    ----------
+    model : StateSpaceModel or DiscreteModel
+        The model to rescale (not modified).
+    pu : array_like of int, shape (m,)
+        Power-of-two exponent of each input.
+    py : array_like of int, shape (l,)
+        Power-of-two exponent of each output.
+    px : int, optional
+        Power-of-two exponent of the states.
+
+    Returns
+    -------
+    StateSpaceModel or DiscreteModel
+        A new model of the same type.
+
+    Raises
+    ------
+    ValueError
+        If the exponents' lengths do not match the model's channels, or a matrix entry
+        leaves the float64 range (the system's gain is not representable in those units).
+
+    Notes
+    -----
+    Every product is an exact change of exponent (:func:`numpy.ldexp`): scaling and
+    unscaling round-trips bit for bit, which is why the identification works on signals
+    scaled to unit size and returns the model in the record's own units.
     """
     pu = np.asarray(pu, dtype=np.int64).reshape(-1)
     py = np.asarray(py, dtype=np.int64).reshape(-1)

@@ -46,7 +46,21 @@ def _jsonable(x: Any) -> Any:
 
 
 def describe(model: Any) -> dict[str, Any]:
-    """The JSON-ready description of a model (its type checked by the caller)."""
+    """The JSON-ready description of a continuous model.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model (its type is checked by the caller, :func:`write_model`'s).
+
+    Returns
+    -------
+    dict
+        Format name and version, dimensions, the matrices, operating point, trend, noise
+        and parameter covariances, eigenvalues (for readers without a linear-algebra
+        library), singular values, labels, sampling interval, dead times and the options
+        (numpy values converted, non-finite floats as their ``repr``).
+    """
     sv = model.singular_values
     tr = model.trend
     nc = model.noise_covariance
@@ -86,9 +100,24 @@ def describe(model: Any) -> dict[str, Any]:
 
 
 def write_model(model: Any, path: str | Path) -> Path:
-    """Write :func:`describe` of ``model`` to ``path`` as indented JSON; returns the path.
+    """Write :func:`describe` of a model to a file as indented JSON.
 
-    Missing parent directories are created; an existing directory raises ``ValueError``.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+    path : str or path-like
+        The file; missing parent directories are created.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` is an existing directory.
     """
     path = Path(path)
     if path.is_dir():

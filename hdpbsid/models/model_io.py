@@ -4,35 +4,35 @@
 :class:`~hdpbsid.models.model.StateSpaceModel`; ``hdpbsid.load_model("model.json")`` reads it
 back.  The file is plain JSON (readable by any language):
 
-=====================  ==========================================================
-key                    value
-=====================  ==========================================================
-``format``             ``"hdpbsid.StateSpaceModel"``
-``version``            ``4`` (files without it are version 1: no labels; version 2
-                       has no ``delay``; version 3 no ``parameter_covariance``)
-``time``               ``"continuous"``
-``n``, ``m``, ``l``    states, inputs, outputs (non-negative integers, ``l >= 1``)
-``A B C D K``          matrices as lists of rows: ``n x n``, ``n x m``, ``l x n``,
-                       ``l x m``, ``n x l`` (a matrix without rows is ``[]``)
-``u0``, ``y0``         operating point (``m`` and ``l`` numbers)
-``trend``              ``null`` or ``{"t_ref", "u_slope" (m), "y_slope" (l)}``
-``noise_covariance``   ``null`` or ``l x l``
-``singular_values``    ``null`` or a list of non-negative numbers
-``eigenvalues``        ``n`` objects ``{"real", "imag"}`` for readers of the file
-                       (recomputed from ``A`` on loading)
-``time_unit``          the unit of ``t`` (eigenvalues in rad per it), default ``"s"``
-``input_names``        ``m`` distinct strings; ``output_names``: ``l``
-``sampling_interval``  median step of the identification record, or ``null``
-``delay``              ``m`` dead times ``>= 0`` (one per input, in ``time_unit``);
-                       absent in files before version 3 (no delay)
-``parameter_covariance`` ``null`` or ``{"factor": p x k, "source": string}``, the
-                       covariance factor of ``[vec A, vec B, vec C, vec D]``
-                       (:class:`~hdpbsid.models.uncertainty.ParameterCovariance`, ``p = n^2 +
-                       nm + ln + lm``); a version-3 file kept it as
-                       ``options["parameter_covariance"]`` (a ``p x k`` matrix), which
-                       is read, checked the same way, into the attribute
-``options``            the settings the method used (any JSON object)
-=====================  ==========================================================
+========================  ==========================================================
+key                       value
+========================  ==========================================================
+``format``                ``"hdpbsid.StateSpaceModel"``
+``version``               ``4`` (files without it are version 1: no labels; version 2
+                          has no ``delay``; version 3 no ``parameter_covariance``)
+``time``                  ``"continuous"``
+``n``, ``m``, ``l``       states, inputs, outputs (non-negative integers, ``l >= 1``)
+``A B C D K``             matrices as lists of rows: ``n x n``, ``n x m``, ``l x n``,
+                          ``l x m``, ``n x l`` (a matrix without rows is ``[]``)
+``u0``, ``y0``            operating point (``m`` and ``l`` numbers)
+``trend``                 ``null`` or ``{"t_ref", "u_slope" (m), "y_slope" (l)}``
+``noise_covariance``      ``null`` or ``l x l``
+``singular_values``       ``null`` or a list of non-negative numbers
+``eigenvalues``           ``n`` objects ``{"real", "imag"}`` for readers of the file
+                          (recomputed from ``A`` on loading)
+``time_unit``             the unit of ``t`` (eigenvalues in rad per it), default ``"s"``
+``input_names``           ``m`` distinct strings; ``output_names``: ``l``
+``sampling_interval``     median step of the identification record, or ``null``
+``delay``                 ``m`` dead times ``>= 0`` (one per input, in ``time_unit``);
+                          absent in files before version 3 (no delay)
+``parameter_covariance``  ``null`` or ``{"factor": p x k, "source": string}``, the
+                          covariance factor of ``[vec A, vec B, vec C, vec D]``
+                          (:class:`~hdpbsid.models.uncertainty.ParameterCovariance`, ``p = n^2 +
+                          nm + ln + lm``); a version-3 file kept it as
+                          ``options["parameter_covariance"]`` (a ``p x k`` matrix), which
+                          is read, checked the same way, into the attribute
+``options``               the settings the method used (any JSON object)
+========================  ==========================================================
 
 Reading is strict, because a model file is input like any other: every key is checked
 (an unknown or repeated key is refused), every number must be a finite JSON number
@@ -163,8 +163,9 @@ def save_model(model: StateSpaceModel, path: str | Path) -> Path:
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel, load_model
     >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], input_names=["F"])
-    >>> p = save_model(m, pathlib.Path(tempfile.mkdtemp()) / "model.json")
-    >>> load_model(p).input_names
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_model(save_model(m, pathlib.Path(tmp) / "model.json"))
+    >>> back.input_names
     ['F']
     """
     path = Path(path)
@@ -554,10 +555,10 @@ def load_model(path: str | Path, max_bytes: int = MAX_BYTES) -> StateSpaceModel:
     --------
     >>> import tempfile, pathlib
     >>> from hdpbsid import StateSpaceModel
-    >>> p = pathlib.Path(tempfile.mkdtemp()) / "m.json"
     >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]], time_unit="ms")
-    >>> _ = m.save(p)
-    >>> load_model(p).time_unit
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_model(m.save(pathlib.Path(tmp) / "m.json"))
+    >>> back.time_unit
     'ms'
     """
     if not isinstance(path, str | Path):

@@ -1,7 +1,7 @@
 """Linear state recursions ``x_{k+1} = F x_k + w_k`` run as modal first-order filters.
 
-A Python loop over the samples costs about 5 us a step (0.2 s for 10^4 samples of a
-k-step predictor evaluated three times); the same recursion diagonalised,
+A Python loop over the samples pays the interpreter's overhead at every step, which
+dominates for the small ``n`` of identified models; the same recursion diagonalised,
 ``F = V diag(lam) V^{-1}``, ``z = V^{-1} x``, is ``n`` independent first-order filters
 ``z_{a,k+1} = lam_a z_{a,k} + (V^{-1} w_k)_a`` run by :func:`scipy.signal.lfilter` in
 compiled code.  Rounding: the change of coordinates multiplies the rounding error by at
@@ -10,9 +10,10 @@ ch. 7), so :func:`linear_recursion` falls back to the loop when ``cond(V)`` exce
 :data:`MAX_MODAL_CONDITION` (nearly defective ``F``).
 
 With numba installed (and ``SLBASIS_NO_NUMBA`` unset) the loop itself runs compiled
-(:mod:`hdpbsid.models.recursion_kernels`), about 20 times faster than the modal filters on the
-short windows of the held-out scores and without their rounding amplification; the
-modal filters are then the fallback (``engine="numpy"``).
+(:mod:`hdpbsid.models.recursion_kernels`): ``n^2`` multiply-adds a step without the
+filters' per-call overhead, which dominates on the short windows of the held-out scores,
+and without their rounding amplification; the modal filters are then the fallback
+(``engine="numpy"``).
 """
 
 from __future__ import annotations
@@ -53,9 +54,30 @@ ENGINES = ("auto", "numpy", "numba")
 
 
 def select_kernels(engine: str, load: Callable[[], Any]) -> Any:
-    """The compiled-kernel module ``load()`` returns, for ``engine`` (:data:`ENGINES`), or
-    None for the numpy evaluation; ``load`` raises ``ImportError`` for
-    ``engine="numba"`` without numba."""
+    """The compiled-kernel module to use for an engine, or ``None`` for numpy.
+
+    Parameters
+    ----------
+    engine : {"auto", "numpy", "numba"}
+        :data:`ENGINES`: ``"auto"`` uses the compiled kernels when numba can be used and
+        they are compiled (numpy while they compile in the background,
+        :mod:`slbasis.numeric.jit`).
+    load : callable
+        Returns the kernel module; raises ``ImportError`` for ``engine="numba"`` without
+        numba.
+
+    Returns
+    -------
+    module or None
+        The kernel module, or ``None`` for the numpy evaluation.
+
+    Raises
+    ------
+    ValueError
+        If ``engine`` is not one of :data:`ENGINES`.
+    ImportError
+        From ``load`` when ``engine="numba"`` and numba is missing.
+    """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     if engine == "numpy" or (engine == "auto" and not numba_available()):
@@ -78,11 +100,20 @@ def _kernels(engine: str) -> Any:
 
 
 def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
-    """``z_{k+1} = lam_a z_k + R[..., a, k]`` from ``z_0 = 0`` for every eigenvalue ``a``.
+    """First-order recursions ``z_{k+1} = lam_a z_k + R[..., a, k]`` from ``z_0 = 0``.
 
-    ``R`` has shape ``(..., n, Ns)``; the output has the same shape (complex),
-    ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when its row of
-    ``R`` is real.
+    Parameters
+    ----------
+    lam : ndarray of complex, shape (n,)
+        The eigenvalues, one filter each.
+    R : ndarray, shape (..., n, Ns)
+        The drive of each filter (real or complex).
+
+    Returns
+    -------
+    ndarray of complex, shape (..., n, Ns)
+        ``z`` with ``z[..., 0] = 0``.  A real eigenvalue is filtered in real arithmetic when
+        its row of ``R`` is real (:func:`scipy.signal.lfilter`).
     """
     from scipy.signal import lfilter  # here: scipy.signal costs a third of a second to import
 
@@ -99,8 +130,33 @@ def modal_filter(lam: NDArray[np.complex128], R: NDArray) -> NDArray:
 def modal_form(
     F: Array, max_condition: float = MAX_MODAL_CONDITION
 ) -> tuple[NDArray, NDArray, NDArray] | None:
-    """``(lam, V, V^{-1})`` with ``F = V diag(lam) V^{-1}`` when the eigenvectors are
-    finite with ``cond(V) <= max_condition`` (module docstring), else None."""
+    r"""The eigendecomposition of ``F`` when it is well conditioned.
+
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        The recursion matrix.
+    max_condition : float, optional
+        Largest accepted :math:`\operatorname{cond}(V)`; rounding of a change of
+        coordinates grows by at most that factor (Higham, *Accuracy and Stability of
+        Numerical Algorithms*, 2nd ed., 2002, ch. 7).
+
+    Returns
+    -------
+    tuple (lam, V, Vinv) or None
+        :math:`F = V \operatorname{diag}(\lambda) V^{-1}` when ``F`` and ``V`` are finite
+        and :math:`\operatorname{cond}(V) \le` ``max_condition``, else ``None`` (a nearly
+        defective ``F``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lam, V, Vi = modal_form(np.array([[0.5, 1.0], [0.0, 0.25]]))
+    >>> bool(np.allclose(V @ np.diag(lam) @ Vi, [[0.5, 1.0], [0.0, 0.25]]))
+    True
+    >>> modal_form(np.array([[0.5, 1.0], [0.0, 0.5]])) is None  # a Jordan block
+    True
+    """
     with np.errstate(all="ignore"):
         if not np.all(np.isfinite(F)):
             return None
@@ -111,13 +167,24 @@ def modal_form(
 
 
 def forced_responses(F: Array, W: Array, engine: str = "auto") -> Array:
-    """A batch of recursions from a zero state: ``X[b, 0] = 0``,
-    ``X[b, k + 1] = F X[b, k] + W[b, k]``.
+    """A batch of recursions from a zero state.
 
-    ``F (n, n)`` real, ``W (B, K, n)``; returns ``X (B, K + 1, n)``.  The compiled loop
-    (``engine``, module docstring); without it, modal filters over the whole batch at
-    once when ``F`` is well diagonalisable, else the plain loop over ``k`` (vectorised
-    over the batch).  Growing modes may overflow to ``inf``, as they would in the loop.
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        Real recursion matrix.
+    W : ndarray, shape (B, K, n)
+        The drives of ``B`` recursions of ``K`` steps.
+    engine : {"auto", "numpy", "numba"}, optional
+        The compiled loop (module docstring); without it, modal filters over the whole
+        batch at once when ``F`` is well diagonalisable, else the plain loop over ``k``
+        (vectorised over the batch).
+
+    Returns
+    -------
+    ndarray, shape (B, K + 1, n)
+        ``X[b, 0] = 0``, ``X[b, k + 1] = F X[b, k] + W[b, k]``.  Growing modes may overflow
+        to ``inf``, as they would in the loop.
     """
     F = np.asarray(F, dtype=float)
     W = np.asarray(W, dtype=float)
@@ -143,9 +210,31 @@ def forced_responses(F: Array, W: Array, engine: str = "auto") -> Array:
 
 
 def matrix_powers(F: Array, K: int, engine: str = "auto") -> Array:
-    """``P[k] = F^k`` for ``k = 0 .. K - 1``, shape ``(K, n, n)``: repeated products,
-    compiled (``engine``, module docstring); without them ``V diag(lam^k) V^{-1}`` when
-    ``F`` is well diagonalisable, else repeated products in numpy."""
+    r"""The powers ``P[k] = F^k`` for ``k = 0 .. K - 1``.
+
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        Real matrix.
+    K : int
+        Number of powers.
+    engine : {"auto", "numpy", "numba"}, optional
+        Repeated products, compiled (module docstring); without them
+        :math:`V \operatorname{diag}(\lambda^k) V^{-1}` when ``F`` is well
+        diagonalisable, else repeated products in numpy.
+
+    Returns
+    -------
+    ndarray, shape (K, n, n)
+        The powers.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P = matrix_powers(np.array([[0.0, 1.0], [0.0, 0.0]]), 3, engine="numpy")
+    >>> P[2].tolist()  # nilpotent: F^2 = 0
+    [[0.0, 0.0], [0.0, 0.0]]
+    """
     F = np.asarray(F, dtype=float)
     n = F.shape[0]
     kernels = _kernels(engine)
@@ -169,12 +258,32 @@ def matrix_powers(F: Array, K: int, engine: str = "auto") -> Array:
 
 
 def linear_recursion(F: Array, W: Array, x0: Array, engine: str = "auto") -> Array:
-    """States ``x_0 = x0``, ``x_{k+1} = F x_k + W[k]`` for ``k = 0 .. len(W) - 1``.
+    r"""States of ``x_{k+1} = F x_k + W[k]`` from ``x_0 = x0``.
 
-    ``F (n, n)`` real, ``W (Ns - 1, n)``, ``x0 (n,)``; returns ``X (Ns, n)``.  The
-    compiled loop (``engine``, module docstring); without it, modal filters when ``F``
-    is diagonalisable with ``cond(V) <= MAX_MODAL_CONDITION``, else the plain loop (the
-    oracle of the tests).
+    Parameters
+    ----------
+    F : ndarray, shape (n, n)
+        Real recursion matrix.
+    W : ndarray, shape (Ns - 1, n)
+        The drive.
+    x0 : ndarray, shape (n,)
+        Initial state.
+    engine : {"auto", "numpy", "numba"}, optional
+        The compiled loop (module docstring); without it, modal filters when ``F`` is
+        diagonalisable with :math:`\operatorname{cond}(V) \le`
+        :data:`MAX_MODAL_CONDITION`, else the plain loop (the oracle of the tests).
+
+    Returns
+    -------
+    ndarray, shape (Ns, n)
+        ``X[0] = x0``, ``X[k + 1] = F X[k] + W[k]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> X = linear_recursion(np.array([[0.5]]), np.ones((3, 1)), np.array([0.0]), engine="numpy")
+    >>> np.round(X[:, 0], 12).tolist()  # 0, 1, 1.5, 1.75
+    [0.0, 1.0, 1.5, 1.75]
     """
     F = np.asarray(F, dtype=float)
     W = np.asarray(W, dtype=float)

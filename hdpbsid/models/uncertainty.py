@@ -21,14 +21,13 @@ sampling cannot resolve; the band is then honest only for the hold the input rea
 (the refinement keeps its first hold, zero order, unless the data reject it,
 :data:`hdpbsid.refine.pem.HOLD_EVIDENCE`; pass ``input_hold`` when you know it).
 
-**Validity.**  The covariance is first-order asymptotic in the record's length.  Measured
-(tests and a seeded study: the second-order system at 2 rad/s, damping 0.2, 20 % white
-output noise, ``identify(method="dt", refine="pem")``, the 95 % band at the resonance):
-coverage 0.94-0.95 on 100-s records (dt 0.05 s and 0.2 s), but about 0.7 on 30-s records
-(twelve time constants of the mode), whose estimates scatter about twice the band's
-standard deviation.  A record shorter than a few tens of time constants of its slowest
-mode gets a band that is too narrow; the frequency-domain fit's band (exact lines with
-known noise) covered at its level in the tests.
+**Validity.**  The covariance is first-order asymptotic in the record's length (Ljung,
+sec. 9.3): it neglects the curvature of the fit's cost, whose share of the estimates'
+scatter falls only as the record grows against the slowest mode's time constant.  On a
+record of a few tens of time constants of its slowest mode the band covers at its level;
+on a shorter one the estimates scatter more widely than the band says, and the band is
+too narrow.  The frequency-domain fit's band (exact lines with known noise) rests on the
+same approximation.
 
 **Delta method** (:func:`response_band`).  ``G(s) = C (sI - A)^{-1} B + D`` is smooth in
 ``theta``; with ``Phi = C (sI - A)^{-1}`` and ``Psi = (sI - A)^{-1} B``,
@@ -75,13 +74,17 @@ def parameter_count(n: int, m: int, l: int) -> int:
 
 @dataclass(frozen=True)
 class ParameterCovariance:
-    """The covariance of ``theta = [vec A, vec B, vec C, vec D]`` (module docstring) as a
-    factor: ``cov(theta) = factor @ factor.T``.
+    """The covariance of ``theta = [vec A, vec B, vec C, vec D]`` as a square-root factor.
 
-    Attributes
+    ``cov(theta) = factor @ factor.T`` (module docstring).
+
+    Parameters
     ----------
-    factor : (p, k) finite array, ``p = n^2 + n m + l n + l m``.
-    source : the fit that produced it (``"refine_pem"``, ``"identify_frequency"``).
+    factor : array_like, shape (p, k)
+        Finite; ``p = n^2 + n m + l n + l m`` rows in the order of ``theta`` (row-major
+        ``vec``), in the units of the model's own matrices.
+    source : str
+        The fit that produced it (``"refine_pem"``, ``"identify_frequency"``).
 
     Raises
     ------
@@ -90,9 +93,10 @@ class ParameterCovariance:
 
     Examples
     --------
+    >>> import numpy as np
     >>> F = np.zeros((4, 1)); F[1, 0] = 0.1
-    >>> ParameterCovariance(F, "given").covariance()[1, 1]
-    np.float64(0.010000000000000002)
+    >>> round(float(ParameterCovariance(F, "given").covariance()[1, 1]), 12)
+    0.01
     """
 
     factor: Array
@@ -111,11 +115,28 @@ class ParameterCovariance:
         object.__setattr__(self, "factor", F)
 
     def covariance(self) -> Array:
-        """``F F^T``, ``(p, p)``."""
+        """The covariance itself.
+
+        Returns
+        -------
+        ndarray, shape (p, p)
+            :math:`F F^T`.
+        """
         return self.factor @ self.factor.T
 
     def check(self, n: int, m: int, l: int) -> None:
-        """Raise ``ValueError`` unless the factor has ``p`` rows for ``(n, m, l)``."""
+        """Check that the factor fits a model of dimensions ``(n, m, l)``.
+
+        Parameters
+        ----------
+        n, m, l : int
+            State, input and output dimensions.
+
+        Raises
+        ------
+        ValueError
+            Unless the factor has ``p = n^2 + n m + l n + l m`` rows.
+        """
         p = parameter_count(n, m, l)
         if self.factor.shape[0] != p:
             raise ValueError(
@@ -126,15 +147,49 @@ class ParameterCovariance:
     def scaled(
         self, n: int, m: int, l: int, sB: Array, sC: Array, sD: Array
     ) -> ParameterCovariance:
-        """The covariance after ``B``, ``C``, ``D`` are scaled entrywise
-        (:func:`scale_factor`)."""
+        """The covariance after ``B``, ``C``, ``D`` are scaled entrywise (:func:`scale_factor`).
+
+        Parameters
+        ----------
+        n, m, l : int
+            State, input and output dimensions.
+        sB : ndarray, shape (n, m)
+            Factors of the entries of ``B``.
+        sC : ndarray, shape (l, n)
+            Factors of the entries of ``C``.
+        sD : ndarray, shape (l, m)
+            Factors of the entries of ``D``.
+
+        Returns
+        -------
+        ParameterCovariance
+            A new object with the same ``source``.
+        """
         return ParameterCovariance(scale_factor(self.factor, n, m, l, sB, sC, sD), self.source)
 
 
 def covariance_factor(cov: Any) -> Array:
-    """A factor ``F`` with ``F F^T = cov`` for a symmetric positive semi-definite
-    ``cov``: ``V sqrt(max(lambda, 0))`` of its eigen-decomposition, the columns of zero
-    eigenvalues dropped (rounding below ``p eps max(lambda)`` counts as zero)."""
+    r"""A factor ``F`` with ``F F^T = cov`` for a symmetric positive semi-definite ``cov``.
+
+    Parameters
+    ----------
+    cov : array_like, shape (p, p)
+        The covariance (symmetrised first).
+
+    Returns
+    -------
+    ndarray, shape (p, k)
+        :math:`V \sqrt{\max(\Lambda, 0)}` of the eigendecomposition, the columns of zero
+        eigenvalues dropped (rounding below :math:`p\,\epsilon \max\lambda` counts as
+        zero), so a covariance of rank ``k`` keeps ``k`` columns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> F = covariance_factor([[4.0, 2.0], [2.0, 1.0]])  # rank 1
+    >>> F.shape, bool(np.allclose(F @ F.T, [[4.0, 2.0], [2.0, 1.0]]))
+    ((2, 1), True)
+    """
     cov = np.asarray(cov, dtype=float)
     cov = 0.5 * (cov + cov.T)
     lam, V = np.linalg.eigh(cov)
@@ -143,9 +198,32 @@ def covariance_factor(cov: Any) -> Array:
 
 
 def scale_factor(F: Any, n: int, m: int, l: int, sB: Array, sC: Array, sD: Array) -> Array:
-    """The factor of ``theta`` when ``B``, ``C``, ``D`` are multiplied entrywise by
-    ``sB (n, m)``, ``sC (l, n)``, ``sD (l, m)`` (``A`` unchanged): each row of ``F``
-    by its entry's factor."""
+    """The factor of ``theta`` when ``B``, ``C``, ``D`` are multiplied entrywise.
+
+    Parameters
+    ----------
+    F : array_like, shape (p, k)
+        The factor.
+    n, m, l : int
+        State, input and output dimensions.
+    sB : ndarray, shape (n, m)
+        Factors of the entries of ``B``.
+    sC : ndarray, shape (l, n)
+        Factors of the entries of ``C``.
+    sD : ndarray, shape (l, m)
+        Factors of the entries of ``D`` (``A`` is unchanged).
+
+    Returns
+    -------
+    ndarray, shape (p, k)
+        Each row of ``F`` multiplied by its entry's factor (a linear change of parameters
+        scales the covariance's factor by the same diagonal).
+
+    Raises
+    ------
+    ValueError
+        If ``F`` does not have ``p = n^2 + n m + l n + l m`` rows.
+    """
     F = np.asarray(F, dtype=float)
     s = np.concatenate([np.ones(n * n), np.ravel(sB), np.ravel(sC), np.ravel(sD)])
     if F.shape[0] != s.size:
@@ -154,8 +232,36 @@ def scale_factor(F: Any, n: int, m: int, l: int, sB: Array, sC: Array, sD: Array
 
 
 def transfer_jacobian(A: Array, B: Array, C: Array, s: NDArray[np.complex128]) -> Any:
-    """``dG / dtheta``, complex ``(l, m, ns, p)`` in the order of ``theta`` (module
-    docstring)."""
+    r"""Derivatives of the transfer matrix with respect to ``theta`` (module docstring).
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    B : ndarray, shape (n, m)
+        Input matrix.
+    C : ndarray, shape (l, n)
+        Output matrix.
+    s : ndarray of complex, shape (ns,)
+        Laplace variables (``1j w``).
+
+    Returns
+    -------
+    ndarray of complex, shape (l, m, ns, p)
+        :math:`\partial G_{ij}(s) / \partial \theta`, in the order of ``theta``.
+
+    Notes
+    -----
+    With :math:`\Phi = C (sI - A)^{-1}` and :math:`\Psi = (sI - A)^{-1} B`, from
+    :math:`d(M^{-1}) = -M^{-1}\, dM\, M^{-1}`:
+
+    .. math::
+
+        \frac{\partial G}{\partial A_{pq}} = \Phi_{:,p} \Psi_{q,:}, \quad
+        \frac{\partial G_{ij}}{\partial B_{pj}} = \Phi_{ip}, \quad
+        \frac{\partial G_{ij}}{\partial C_{ip}} = \Psi_{pj}, \quad
+        \frac{\partial G_{ij}}{\partial D_{ij}} = 1.
+    """
     n, m = B.shape
     l = C.shape[0]
     R = np.linalg.inv(s[:, None, None] * np.eye(n)[None] - A[None])  # (ns, n, n)
@@ -189,11 +295,22 @@ def _transfer(A: Array, B: Array, C: Array, D: Array, s: NDArray[np.complex128])
 
 @dataclass
 class ResponseBand:
-    """A model's frequency response with its pointwise ``level`` band (:func:`response_band`).
+    r"""A model's frequency response with its pointwise band (:func:`response_band`).
 
-    ``w`` (nf,), ``G`` (l, m, nf) complex (dead times included), ``magnitude_sd`` and
-    ``phase_sd`` (rad) the standard deviations of ``|G|`` and ``arg G``, ``z`` the
-    normal quantile of the band.
+    Parameters
+    ----------
+    w : ndarray, shape (nf,)
+        Angular frequencies.
+    G : ndarray of complex, shape (l, m, nf)
+        The response, dead times included.
+    magnitude_sd : ndarray, shape (l, m, nf)
+        Standard deviation of :math:`|G|`.
+    phase_sd : ndarray, shape (l, m, nf)
+        Standard deviation of :math:`\arg G` in rad.
+    z : float
+        The normal quantile of the band, :math:`z_{1 - \alpha/2}`.
+    level : float
+        The band's level, :math:`1 - \alpha`.
     """
 
     w: Array
@@ -204,41 +321,67 @@ class ResponseBand:
     level: float
 
     def magnitude_db(self) -> tuple[Array, Array, Array]:
-        """``(lower, centre, upper)`` of the magnitude in dB; a lower edge at or below
-        zero magnitude is drawn 40 dB below the centre."""
+        r"""The magnitude band in dB.
+
+        Returns
+        -------
+        lower, centre, upper : ndarray, shape (l, m, nf)
+            :math:`20 \log_{10}(|G| \mp z\,\sigma)`; a lower edge at or below zero
+            magnitude is drawn 40 dB below the centre.
+        """
         mag = np.abs(self.G)
         lo = np.maximum(mag - self.z * self.magnitude_sd, 0.01 * mag)
         hi = mag + self.z * self.magnitude_sd
         return 20 * np.log10(lo), 20 * np.log10(mag), 20 * np.log10(hi)
 
     def phase_deg(self) -> tuple[Array, Array, Array]:
-        """``(lower, centre, upper)`` of the phase (unwrapped along frequency), degrees."""
+        r"""The phase band in degrees.
+
+        Returns
+        -------
+        lower, centre, upper : ndarray, shape (l, m, nf)
+            The phase unwrapped along frequency, :math:`\mp z\,\sigma_\phi`.
+        """
         ph = np.unwrap(np.angle(self.G), axis=-1)
         half = self.z * self.phase_sd
         return np.degrees(ph - half), np.degrees(ph), np.degrees(ph + half)
 
 
 def response_band(model: Any, w: Any, alpha: float = 0.05) -> ResponseBand:
-    """Frequency response of ``model`` at ``w`` with its pointwise ``1 - alpha`` band
-    from the parameter covariance (module docstring).
+    r"""Frequency response of a model with its pointwise ``1 - alpha`` band (module docstring).
 
     Parameters
     ----------
     model : StateSpaceModel
         A model with a :class:`ParameterCovariance` (refined by ``refine="pem"`` or fitted
         by :func:`hdpbsid.frequency.fit.identify_frequency`).
-    w : (nf,) angular frequencies (rad per the model's time unit).
-    alpha : the band's level is ``1 - alpha``.
+    w : array_like, shape (nf,)
+        Angular frequencies (rad per the model's time unit).
+    alpha : float, optional
+        The band's level is ``1 - alpha``.
 
     Returns
     -------
     ResponseBand
+        The response and the standard deviations of its magnitude and phase.
 
     Raises
     ------
     ValueError
         When the model carries no covariance, its factor does not fit the model's
         dimensions, or ``alpha`` is not in ``(0, 1)``.
+
+    Notes
+    -----
+    Delta method: for each entry and frequency the row ``J`` of
+    :func:`transfer_jacobian` gives :math:`R = \operatorname{Re}(J) F` and
+    :math:`I = \operatorname{Im}(J) F`, the covariance of
+    :math:`(\operatorname{Re} G, \operatorname{Im} G)` is
+    :math:`\begin{bmatrix} R R^T & R I^T \\ I R^T & I I^T \end{bmatrix}` to first order,
+    and the gradients :math:`(\operatorname{Re} G, \operatorname{Im} G) / |G|` and
+    :math:`(-\operatorname{Im} G, \operatorname{Re} G) / |G|^2` give the standard
+    deviations of magnitude and phase (Pintelon & Schoukens, *System Identification: A
+    Frequency Domain Approach*, 2nd ed., 2012, sec. 9.3).
 
     Examples
     --------

@@ -59,7 +59,30 @@ STUDIES: dict[str, Study] = {
 
 
 def get_study(name: str) -> Study:
-    """The study called ``name`` (``-`` and ``_`` are interchangeable)."""
+    """The study called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`STUDIES`; ``-`` and ``_`` are interchangeable (``basis-order``).
+
+    Returns
+    -------
+    Study
+        The study.
+
+    Raises
+    ------
+    TypeError
+        If ``name`` is not a string.
+    ValueError
+        If no study has that name (the message lists the known ones).
+
+    Examples
+    --------
+    >>> get_study("basis_order") is get_study("basis-order")
+    True
+    """
     if not isinstance(name, str):
         raise TypeError(f"name must be a study name (str), got {type(name).__name__}")
     key = name.replace("-", "_")
@@ -82,16 +105,43 @@ def run_study(
     resume: bool = True,
     **settings: Any,
 ) -> StudyResult:
-    """Run study ``name`` and return its :class:`StudyResult`.
+    """Run a study and return its result.
 
-    ``runs``: Monte Carlo runs per case (default: the study's); ``seed``: base seed
-    (task ``(case, run)`` draws from ``SeedSequence([seed, hash(case data), run])``);
-    ``jobs``: local processes (joblib/loky) when > 1; ``scheduler``: Dask scheduler
-    address (``"tcp://host:port"``) or a ``dask.distributed.Client`` (takes precedence);
-    ``out``: directory for ``results.jsonl`` (per task, for resuming), ``summary.csv``,
-    ``summary.json``, ``records.csv`` and the PNG figures; ``progress``: tqdm bar;
-    ``resume``: reuse finished tasks from ``out/results.jsonl``.  ``settings``: the
-    study's own (see ``STUDIES[name].defaults``); unknown ones raise ``TypeError``.
+    Parameters
+    ----------
+    name : str
+        The study (:func:`get_study`).
+    runs : int or None, optional
+        Monte Carlo runs per case (default: the study's).
+    seed : int, optional
+        Base seed: task ``(case, run)`` draws from
+        ``SeedSequence([seed, data_id(case), run])`` (:func:`hdpbsid.studies.runner.task_rng`).
+    jobs : int, optional
+        Local processes (joblib/loky) when above 1; -1 for every core.
+    scheduler : str or dask.distributed.Client, optional
+        Dask scheduler address (``"tcp://host:port"``) or client; takes precedence over
+        ``jobs``.
+    out : str or path-like, optional
+        Directory for ``results.jsonl`` (per task, for resuming), ``summary.csv``,
+        ``summary.json``, ``records.csv`` and the PNG figures.
+    progress : bool, optional
+        Show a tqdm progress bar.
+    resume : bool, optional
+        Reuse the finished tasks of ``out/results.jsonl``.
+    **settings
+        The study's own settings (``STUDIES[name].defaults``).
+
+    Returns
+    -------
+    StudyResult
+        Records, summary rows, settings and the time taken.
+
+    Raises
+    ------
+    TypeError
+        On an unknown setting, or a ``runs`` / ``jobs`` that is not an integer.
+    ValueError
+        On an unknown study, ``runs < 1``, a negative ``seed``, or a bad setting value.
     """
     study = get_study(name)
     unknown = sorted(set(settings) - set(study.defaults))

@@ -41,13 +41,31 @@ DIVERGENCE = 10.0
 
 @dataclass(frozen=True)
 class Study:
-    """A Monte Carlo study.
+    """A Monte Carlo study: how settings become cases, the task per case, the summary.
 
-    ``name`` (CLI name), ``title``, ``source`` (section of the thesis it reproduces),
-    ``task(case, rng) -> dict``, ``make_cases(settings) -> list[dict]``,
-    ``summarize(records, settings) -> list[dict]`` (table rows), ``defaults`` (every
-    setting with its default, ``runs`` included), ``columns`` (table columns, ``None`` =
-    all keys of the first row), ``figures(result, out) -> {name: path}``.
+    Parameters
+    ----------
+    name : str
+        The study's name (``basis_order`` is ``basis-order`` on the command line).
+    title : str
+        One line describing it.
+    source : str
+        The section of the thesis it reproduces.
+    task : callable
+        ``task(case, rng) -> dict``, a module-level function (it pickles by reference for
+        joblib and Dask).
+    make_cases : callable
+        ``make_cases(settings) -> list[dict]``.
+    summarize : callable
+        ``summarize(records, settings) -> list[dict]``, the table rows.
+    defaults : dict
+        Every setting with its default, ``runs`` included.
+    columns : tuple of str or None, optional
+        Table columns (``None``: every key of the first row).
+    figures : callable or None, optional
+        ``figures(result, out) -> {name: path}``.
+    notes : str, optional
+        What the reader should know about the study (written to ``summary.json``).
     """
 
     name: str
@@ -66,10 +84,22 @@ class Study:
 class StudyResult:
     """What :func:`~hdpbsid.studies.run_study` returns.
 
-    ``records``: one plain dict per task (see :func:`~hdpbsid.studies.runner.execute_task`);
-    ``summary``: table rows (list of dicts); ``figures``: name -> PNG path (filled by
-    :meth:`write`); ``settings``: every setting used (``runs``, ``seed`` included);
-    ``elapsed``: wall seconds of the run (``None`` when loaded).
+    Parameters
+    ----------
+    name : str
+        The study's name.
+    settings : dict
+        Every setting used, ``runs`` and ``seed`` included.
+    records : list of dict
+        One plain dict per task (:func:`~hdpbsid.studies.runner.execute_task`).
+    summary : list of dict
+        The table rows.
+    study : Study or None, optional
+        The study (``None`` for results loaded without it).
+    figures : dict of str to pathlib.Path, optional
+        Name -> PNG path, filled by :meth:`write`.
+    elapsed : float or None, optional
+        Wall seconds of the run (``None`` when loaded).
     """
 
     name: str
@@ -81,7 +111,18 @@ class StudyResult:
     elapsed: float | None = None
 
     def table(self, columns: Sequence[str] | None = None) -> str:
-        """The summary as an aligned text table (numbers to 4 significant digits)."""
+        """The summary as an aligned text table (numbers to 4 significant digits).
+
+        Parameters
+        ----------
+        columns : sequence of str, optional
+            Columns shown (default the study's).
+
+        Returns
+        -------
+        str
+            The table with the study's title.
+        """
         cols = columns or (self.study.columns if self.study else None)
         title = f"{self.study.title} ({self.study.source})" if self.study else self.name
         return format_table(self.summary, cols, title=title)
@@ -95,9 +136,21 @@ class StudyResult:
         )
 
     def write(self, out: str | Path, figures: bool = True) -> dict[str, Path]:
-        """Write ``summary.csv``, ``summary.json`` (settings + summary + notes),
-        ``records.csv`` (one row per task, flattened) and, with ``figures``, the study's
-        PNG figures into ``out``.  Returns name -> path of everything written."""
+        """Write the result's files into a directory.
+
+        Parameters
+        ----------
+        out : str or path-like
+            The directory (created if missing).
+        figures : bool, optional
+            Also draw the study's PNG figures.
+
+        Returns
+        -------
+        dict of str to pathlib.Path
+            Name -> path of everything written: ``summary.csv``, ``summary.json`` (settings,
+            summary and notes), ``records.csv`` (one flattened row per task) and the figures.
+        """
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         written: dict[str, Path] = {}
@@ -186,7 +239,31 @@ def _fmt(v: Any) -> str:
 def format_table(
     rows: list[dict[str, Any]], columns: Sequence[str] | None = None, title: str = ""
 ) -> str:
-    """Aligned plain-text table of ``rows`` (list of dicts) over ``columns``."""
+    """Aligned plain-text table of a list of dicts.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The rows.
+    columns : sequence of str, optional
+        The columns (default the keys of the first row).
+    title : str, optional
+        A line above the table.
+
+    Returns
+    -------
+    str
+        Right-aligned columns; floats to 4 significant digits, ``-`` for missing or
+        non-finite values, ``yes``/``no`` for booleans.
+
+    Examples
+    --------
+    >>> print(format_table([{"snr": 20, "err": 0.012345}, {"snr": 6, "err": float("nan")}]))
+    snr      err
+    ---  -------
+     20  0.01235
+      6        -
+    """
     if not rows:
         return (title + "\n" if title else "") + "(no rows)"
     cols = list(columns) if columns else list(rows[0])
@@ -217,15 +294,26 @@ def _options_summary(options: dict[str, Any]) -> dict[str, Any]:
 
 
 def model_record(model: Any, true_eigenvalues: Any, n_sv: int = 12) -> dict[str, Any]:
-    """Plain data of an identified model against the truth.
+    r"""Plain data of an identified model against the truth.
 
-    ``eigenvalues`` (``[re, im]`` pairs, sorted by real then imaginary part),
-    ``matched`` (the estimate paired with each true eigenvalue by
-    :func:`~hdpbsid.models.metrics.match_eigenvalues`, in the order of the truth), ``errors``
-    (``|est - true| / |true|`` per true eigenvalue), ``max_error``, ``divergent``
-    (``max_error > DIVERGENCE``), the first ``n_sv`` singular values and the scalar
-    options the method used (its defaults).  With more identified than true eigenvalues
-    (order above the truth) the extra ones are only in ``eigenvalues``.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The identified model.
+    true_eigenvalues : array_like of complex
+        The true eigenvalues.
+    n_sv : int, optional
+        Number of singular values kept.
+
+    Returns
+    -------
+    dict
+        ``order``; ``eigenvalues`` (``[re, im]`` pairs sorted by real then imaginary part);
+        when the order reaches the truth's, ``matched`` (the estimate paired with each true
+        eigenvalue by :func:`~hdpbsid.models.metrics.match_eigenvalues`, in the order of the
+        truth), ``errors`` (:math:`|\hat\lambda - \lambda| / |\lambda|` per true
+        eigenvalue), ``max_error`` and ``divergent`` (``max_error > DIVERGENCE``); the first
+        ``n_sv`` singular values and the scalar options the method used.
     """
     ev = np.asarray(model.eigenvalues, dtype=complex)
     ev = ev[np.lexsort((ev.imag, ev.real))]
@@ -245,19 +333,45 @@ def model_record(model: Any, true_eigenvalues: Any, n_sv: int = 12) -> dict[str,
 
 
 def ok_results(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The ``result`` dicts of the successful records."""
+    """The ``result`` dicts of the successful records.
+
+    Parameters
+    ----------
+    records : list of dict
+        Task records (:func:`~hdpbsid.studies.runner.execute_task`).
+
+    Returns
+    -------
+    list of dict
+        ``record["result"]`` of each record with ``ok``.
+    """
     return [r["result"] for r in records if r["ok"]]
 
 
 def eigen_stats(results: list[dict[str, Any]], true: Any) -> dict[str, Any]:
-    """Bias and STD of matched eigenvalues over runs (the thesis's Table 1 quantities).
+    r"""Bias and STD of matched eigenvalues over runs (the thesis's Table 1 quantities).
 
-    For each true eigenvalue ``lambda_j`` (only ``Im >= 0`` of a conjugate pair), over
-    the runs that returned a model: ``bias_j = |mean(est_j) - lambda_j|`` and
-    ``std_j = sqrt(mean |est_j - mean(est_j)|^2)`` (absolute, in rad/s, like the
-    thesis's Table 1), and the same divided by ``|lambda_j|`` (``rel_``).  Also
-    ``median_error`` (median over runs of the worst relative error), ``divergent``
-    (runs with worst relative error > :data:`DIVERGENCE`), ``n`` (runs with a model).
+    Parameters
+    ----------
+    results : list of dict
+        Per-run results of :func:`model_record` (those without ``matched`` are skipped).
+    true : array_like of complex
+        The true eigenvalues.
+
+    Returns
+    -------
+    dict
+        ``n`` (runs with a model), ``median_error`` (median over runs of the worst relative
+        error), ``divergent`` (runs with worst relative error above :data:`DIVERGENCE`),
+        and per true eigenvalue (only ``Im >= 0`` of a conjugate pair) ``bias``, ``std``
+        (absolute, in rad/s) and ``rel_bias``, ``rel_std`` (divided by
+        :math:`|\lambda_j|`).
+
+    Notes
+    -----
+    Over the runs, :math:`\mathrm{bias}_j = |\overline{\hat\lambda_j} - \lambda_j|` and
+    :math:`\mathrm{std}_j = \sqrt{\overline{|\hat\lambda_j -
+    \overline{\hat\lambda_j}|^2}}`.
     """
     true = np.asarray(true, dtype=complex).ravel()
     res = [r for r in results if "matched" in r]

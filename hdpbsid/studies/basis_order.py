@@ -26,7 +26,23 @@ DEFAULTS: dict[str, Any] = {
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """One case per N; all share the record of a run."""
+    """One case per Hermite basis size ``N``.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        Cases with the option ``N``; all share the record of a run.
+
+    Raises
+    ------
+    ValueError
+        If a basis size is below 2.
+    """
     data = {k: s[k] for k in second_order.DATA_DEFAULTS}
     cases = []
     for N in s["basis_sizes"]:

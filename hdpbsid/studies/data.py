@@ -79,8 +79,23 @@ def _hermite_sweep_excitation(duration: float, n_max_u: int, amplitude: float) -
 
 @dataclass(frozen=True)
 class Record:
-    """A simulated record: ``t (Ns,)``, ``u (Ns, m)``, ``y (Ns, l)`` measured,
-    ``y_clean`` noise-free, ``true`` eigenvalues and the true model."""
+    """A simulated record with its truth.
+
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Sample times.
+    u : ndarray, shape (Ns, m)
+        Input.
+    y : ndarray, shape (Ns, l)
+        Measured (noisy) output.
+    y_clean : ndarray, shape (Ns, l)
+        Noise-free output.
+    true : ndarray of complex
+        The true eigenvalues.
+    model : StateSpaceModel
+        The true model.
+    """
 
     t: Array
     u: Array
@@ -110,10 +125,30 @@ def second_order_record(
     f1: float = 1.0,
     n_max_u: int | None = 100,
 ) -> Record:
-    """The second-order benchmark (the thesis, §5) excited by a linear sine sweep
-    ``f0 -> f1`` Hz projected on ``n_max_u`` Hermite functions (``None``: the plain
-    sweep), ``samples`` uniform samples over ``duration`` s, exact FOH response plus
-    white noise at ``snr_db`` (:func:`hdpbsid.systems.add_noise`, power SNR)."""
+    """The second-order benchmark (the thesis, sec. 5) excited by a projected sine sweep.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the noise.
+    snr_db : float or None, optional
+        Output SNR in dB on signal power (:func:`hdpbsid.systems.add_noise`); ``None``: no
+        noise.
+    samples : int, optional
+        Uniform samples over ``duration``.
+    duration : float, optional
+        Record length (s).
+    f0, f1 : float, optional
+        Band of the linear sweep (Hz).
+    n_max_u : int or None, optional
+        Hermite functions the sweep is projected on (``None``: the plain sweep).
+
+    Returns
+    -------
+    Record
+        The record (exact first-order-hold response plus noise) and its truth; records are
+        cached per process, so the methods compared on one run share it.
+    """
     settings = dict(snr_db=snr_db, samples=samples, duration=duration, f0=f0, f1=f1, n=n_max_u)
 
     def make() -> Record:
@@ -142,8 +177,28 @@ def quadrotor_record(
 
     Simulated by :func:`~hdpbsid.systems.quadrotor.simulate_pitch_closed_loop`.
 
-    ``excitation="hermite-sweep"`` uses :func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`
-    with ``n_max_u`` terms (the thesis, §5-6); ``"sweep"``/``"3211"`` the plain ones.
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the sensor noise.
+    snr_db : float or None, optional
+        Sensor SNR in dB (``None``: no noise).
+    duration : float, optional
+        Record length (s).
+    excitation : {"sweep", "3211", "hermite-sweep"}, optional
+        ``"hermite-sweep"`` uses :func:`~hdpbsid.systems.quadrotor.hermite_sweep_excitation`
+        with ``n_max_u`` terms (the thesis, sec. 5-6); the others the plain signals.
+    outputs : sequence of str, optional
+        Measured outputs (:func:`~hdpbsid.systems.quadrotor.pitch_output_matrices`).
+    amplitude : float, optional
+        Peak of the excitation.
+    n_max_u : int or None, optional
+        Hermite functions of ``"hermite-sweep"``.
+
+    Returns
+    -------
+    PitchData
+        The record and its truth.
     """
     outputs = tuple(outputs)
     settings = dict(

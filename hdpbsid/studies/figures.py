@@ -43,9 +43,22 @@ def _eigs(results: list[dict[str, Any]]) -> np.ndarray:
 
 
 def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
-    """Per SNR, the eigenvalue scatter of all runs per method (``table1_eig_<snr>dB.png``,
-    Figure 1 style, zoomed on the truth) and the STD of the pair / real pole vs SNR per
-    method (``table1_std.png``)."""
+    """The figures of the ``table1`` study.
+
+    Parameters
+    ----------
+    result : StudyResult
+        The study's result.
+    out : str or path-like
+        Directory written to.
+
+    Returns
+    -------
+    dict of str to pathlib.Path
+        Per SNR the eigenvalue scatter of all runs per method (``table1_eig_<snr>dB.png``,
+        zoomed on the truth) and the STD of the pair and of the real pole vs SNR per method
+        (``table1_std.png``).
+    """
     from hdpbsid.systems.quadrotor import pitch_model
 
     out = Path(out)
@@ -101,8 +114,29 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
 def curve_figure(
     result: Any, out: str | Path, *, x: str, xlabel: str, name: str, logx: bool = False
 ) -> dict[str, Path]:
-    """Median worst relative error (with every run as a dot) and relative STD vs ``x``,
-    one curve per method (``<name>.png``); failed runs are counted in the legend."""
+    """Median worst relative error and relative STD against a setting, one curve per method.
+
+    Parameters
+    ----------
+    result : StudyResult
+        The study's result.
+    out : str or path-like
+        Directory written to.
+    x : str
+        The case label on the horizontal axis (e.g. ``"snr_db"``).
+    xlabel : str
+        Its axis label.
+    name : str
+        The file's stem (``<name>.png``).
+    logx : bool, optional
+        Logarithmic horizontal axis.
+
+    Returns
+    -------
+    dict of str to pathlib.Path
+        ``{name: path}``; every run is drawn as a dot and failed runs are counted in the
+        legend.
+    """
     fig = new_figure((10.0, 4.2))
     ax1 = fig.add_subplot(1, 2, 1)
     ax2 = fig.add_subplot(1, 2, 2)
@@ -134,8 +168,21 @@ def curve_figure(
 
 
 def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
-    """Median worst relative error vs each operator parameter (``operator.png``); the
-    default value is marked, failed runs are drawn as crosses at the top."""
+    """Median worst relative error against each differentiation-operator parameter.
+
+    Parameters
+    ----------
+    result : StudyResult
+        The ``operator`` study's result.
+    out : str or path-like
+        Directory written to.
+
+    Returns
+    -------
+    dict of str to pathlib.Path
+        ``{"operator": path}``; the default value is marked and failed runs are drawn as
+        crosses at the top.
+    """
     fig = new_figure((12.0, 4.0))
     params = list(dict.fromkeys(row["parameter"] for row in result.summary))
     defaults = {"alpha/s": 4.0, "beta": 1.0, "gamma": 1.0}
@@ -162,10 +209,27 @@ def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
 
 
 def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, Path]:
-    """The quadrotor example's figures for run ``run``: singular values, eigenvalues vs
-    truth, measured vs simulated outputs on the validation record (the thesis's
-    Figure 2 style), Bode true vs identified.  The models come from the record's matrices and the
-    records are re-simulated from the seed (exactly; cached in the same process)."""
+    """The figures of the ``quadrotor`` study for one run.
+
+    Singular values, eigenvalues vs truth, measured vs simulated outputs on the validation
+    record and the Bode diagrams true vs identified.  The models come from the records'
+    matrices and the records are re-simulated from the seed (exactly; cached in the same
+    process).
+
+    Parameters
+    ----------
+    result : StudyResult
+        The study's result.
+    out : str or path-like
+        Directory written to.
+    run : int, optional
+        The Monte Carlo run drawn.
+
+    Returns
+    -------
+    dict of str to pathlib.Path
+        Name -> PNG path.
+    """
     from hdpbsid.models.model import StateSpaceModel
     from hdpbsid.plots import display_fit
     from hdpbsid.studies.data import quadrotor_record, validation_rng

@@ -39,7 +39,30 @@ LABELS: dict[str, str] = {
 
 
 def check_methods(methods: Any) -> tuple[str, ...]:
-    """``methods``: a non-empty sequence of names from :data:`METHODS`."""
+    """Check a non-empty sequence of study method names.
+
+    Parameters
+    ----------
+    methods : str or sequence of str
+        Names from :data:`METHODS` (a single string is one method).
+
+    Returns
+    -------
+    tuple of str
+        The names.
+
+    Raises
+    ------
+    TypeError
+        If ``methods`` is not a sequence of strings.
+    ValueError
+        If it is empty or names an unknown method.
+
+    Examples
+    --------
+    >>> check_methods("dt")
+    ('dt',)
+    """
     if isinstance(methods, str):
         methods = (methods,)
     try:
@@ -55,7 +78,28 @@ def check_methods(methods: Any) -> tuple[str, ...]:
 def identify_with(
     name: str, t: Any, u: Any, y: Any, order: int | None, options: dict[str, Any] | None = None
 ) -> StateSpaceModel:
-    """``identify(t, u, y, order, method=..., **fixed, **options)`` for study method ``name``."""
+    """Identify with a study method: ``identify(t, u, y, order, method=..., **fixed, **options)``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`METHODS` (the ``identify`` method and its fixed options).
+    t : array_like, shape (Ns,)
+        Sample times.
+    u : array_like, shape (Ns, m)
+        Input.
+    y : array_like, shape (Ns, l)
+        Output.
+    order : int or None
+        Model order (``None``: chosen by the method).
+    options : dict, optional
+        Further options of :func:`hdpbsid.identify`.
+
+    Returns
+    -------
+    StateSpaceModel
+        The identified model.
+    """
     method, fixed = METHODS[name]
     # the studies' records are simulated from rest around a zero operating point, as in
     # the thesis: no levels to remove (mean removal would add an O(1/T) level error)

@@ -28,7 +28,19 @@ DEFAULTS: dict[str, Any] = {
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """Cases labelled ``parameter`` / ``value``; all share the record of a run."""
+    """One case per value of each differentiation-operator parameter.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        Cases labelled ``parameter`` (``alpha/s``, ``beta``, ``gamma``) and ``value``; all
+        share the record of a run, so the parameters are compared on the same data.
+    """
     data = {k: s[k] for k in second_order.DATA_DEFAULTS}
     cases = []
     for name, key, values in (

@@ -17,12 +17,12 @@ one extra eigenvalue that the truth does not explain) and the fit (NRMSE, and VA
 identification record and on a fresh validation record (same excitation, new noise)
 - the simulated-vs-measured comparison of the thesis's Figure 2.
 
-Measured (20 dB, seed 0, runs 0-3, HD-PBSID defaults but N = 400): with ``q, q_dot``
-the validation VAF is 98.5-99.1 / 99.4 % but the order-3 real pole is 88-154 % off (the
-unstable ``+3.08`` is not found; the pair 15-34 %) and the singular values (~125, 3-4,
-1, 0.7) have one dominant direction; with ``q, theta`` the worst order-3 error is
-1.0-5.7 % and the singular values (~175, ~100, 2.2-2.5, 0.6) two dominant ones.
-Neither set motivates order 4: a 4th-order model adds a spurious eigenvalue.
+What to look for (the study's table and figures give the numbers): a high validation
+fit does not mean the eigenvalues are right.  With ``q, q_dot`` the singular values
+have one dominant direction and the unstable real pole is poorly determined, although
+both outputs are fitted well; with ``q, theta`` two directions dominate and the order-3
+eigenvalues are close to the truth.  Neither set of singular values motivates order 4:
+a fourth-order model adds an eigenvalue the truth does not have.
 """
 
 from __future__ import annotations
@@ -74,7 +74,23 @@ def _default_options(method: str, outputs: tuple[str, ...]) -> dict[str, Any]:
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """One case (the record and every order are handled in one task)."""
+    """The study's one case: the record and every order are handled in one task.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        One case with ``data``, ``method``, ``orders`` and ``options``.
+
+    Raises
+    ------
+    ValueError
+        If the method or an output name is unknown, or ``orders`` is empty or not positive.
+    """
     (method,) = check_methods((s["method"],))
     outputs = pitch_output_matrices(s["outputs"])[2]  # ValueError for unknown names
     orders = [int(o) for o in s["orders"]]
@@ -94,10 +110,28 @@ def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def identify_case(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-    """Records and models of a case: ``{"data", "validation", "models": {order: model},
-    "errors": {order: "Type: message"}, "auto": model with the order chosen from the
-    singular values, or None}``.  An order whose identification raises is reported in
-    ``errors`` (the others still count); if every order fails the first error is raised.
+    """Records and models of a case, every order identified.
+
+    Parameters
+    ----------
+    case : dict
+        The case (:func:`make_cases`).
+    rng : numpy.random.Generator
+        The task's generator; the validation record draws from its first child
+        (:func:`~hdpbsid.studies.data.validation_rng`).
+
+    Returns
+    -------
+    dict
+        ``data`` and ``validation`` (the records), ``models`` (order -> model), ``errors``
+        (order -> ``"Type: message"`` for an order whose identification raised; the others
+        still count), ``auto`` (the model with the order chosen from the singular values,
+        or ``None``).
+
+    Raises
+    ------
+    Exception
+        The first order's error, when every order fails.
     """
     data = quadrotor_record(rng, **case["data"])
     val = quadrotor_record(validation_rng(rng), **case["data"])
@@ -135,8 +169,22 @@ def _fits(model: Any, d: Any) -> tuple[list[float], list[float]]:
 
 
 def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-    """Identify every order; eigenvalues vs truth, fit (NRMSE) and VAF on both records,
-    singular values, and the held-out criterion per order of the order choice."""
+    """Identify every order of the case and compare with the truth.
+
+    Parameters
+    ----------
+    case : dict
+        The case (:func:`make_cases`).
+    rng : numpy.random.Generator
+        The task's generator.
+
+    Returns
+    -------
+    dict
+        Per order the eigenvalues vs truth, fit (NRMSE) and VAF on the identification and
+        validation records, the singular values, and the held-out criterion per order of the
+        order choice.
+    """
     r = identify_case(case, rng)
     data, val = r["data"], r["validation"]
     true = data.true_eigenvalues

@@ -12,9 +12,9 @@ the simulated record; the whole case if it has no ``"data"`` entry).  So
 * a task's numbers depend only on ``(seed, case data, run)``: identical whatever the
   backend, the number of jobs, the order in which tasks finish, the number of runs or
   the other cases in the study - provided the BLAS thread count is the same (threaded
-  BLAS reorders sums: last-bit differences, which the ill-conditioned DT fit amplified to
-  the third digit of a bias; the joblib workers and a serial run with one BLAS thread
-  gave bit-identical records for all 1437 table1 tasks compared);
+  BLAS reorders sums: last-bit differences, which an ill-conditioned fit can amplify to
+  visible digits; every backend runs its tasks with one BLAS thread, so their records
+  agree bit for bit);
 * cases that differ only in the method (``case["method"]``) see the *same* record for
   the same run (paired comparison, as in the thesis's Table 1).
 
@@ -71,10 +71,23 @@ def _canonical(obj: Any) -> str:
 
 
 def data_id(case: dict[str, Any]) -> int:
-    """Stable 32-bit integer of the case's data settings (``case["data"]`` or the case).
+    """Stable 32-bit integer of a case's data settings.
 
-    SHA-256 of the canonical JSON, so it is the same in every process and Python
-    version (unlike ``hash``).
+    Parameters
+    ----------
+    case : dict
+        The case; ``case["data"]`` is hashed when present, else the whole case.
+
+    Returns
+    -------
+    int
+        The first four bytes (little-endian) of the SHA-256 of the canonical JSON, the same
+        in every process and Python version (unlike ``hash``).
+
+    Examples
+    --------
+    >>> data_id({"data": {"snr": 20}, "method": "a"}) == data_id({"data": {"snr": 20}})
+    True
     """
     data = case.get("data", case)
     digest = hashlib.sha256(_canonical(data).encode()).digest()
@@ -82,17 +95,71 @@ def data_id(case: dict[str, Any]) -> int:
 
 
 def case_key(case: dict[str, Any]) -> str:
-    """The case's identity for resuming: its canonical JSON text."""
+    """A case's identity for resuming.
+
+    Parameters
+    ----------
+    case : dict
+        The case.
+
+    Returns
+    -------
+    str
+        Its canonical JSON text (sorted keys, no spaces).
+    """
     return _canonical(case)
 
 
 def task_rng(seed: int, case: dict[str, Any], run: int) -> np.random.Generator:
-    """``default_rng(SeedSequence([seed, data_id(case), run]))`` (module docstring)."""
+    """The generator of one task (module docstring).
+
+    Parameters
+    ----------
+    seed : int
+        The study's base seed.
+    case : dict
+        The case.
+    run : int
+        The Monte Carlo run.
+
+    Returns
+    -------
+    numpy.random.Generator
+        ``default_rng(SeedSequence([seed, data_id(case), run]))``: a task's numbers depend
+        only on ``(seed, case data, run)``, whatever the backend or the order of execution.
+
+    Examples
+    --------
+    >>> a = task_rng(0, {"data": {"snr": 20}, "method": "x"}, 3).standard_normal()
+    >>> b = task_rng(0, {"data": {"snr": 20}, "method": "y"}, 3).standard_normal()
+    >>> a == b  # the same record for every method of a run
+    True
+    """
     return np.random.default_rng(np.random.SeedSequence([int(seed), data_id(case), int(run)]))
 
 
 def check_runs(runs: Any, name: str = "runs") -> int:
-    """``runs`` must be an integer >= 1 (``ValueError``/``TypeError`` naming it)."""
+    """Check a number of Monte Carlo runs.
+
+    Parameters
+    ----------
+    runs : int
+        At least 1.
+    name : str, optional
+        The argument's name in the messages.
+
+    Returns
+    -------
+    int
+        ``runs``.
+
+    Raises
+    ------
+    TypeError
+        If ``runs`` is not an integer (or is a bool).
+    ValueError
+        If ``runs < 1``.
+    """
     if isinstance(runs, bool) or not isinstance(runs, int | np.integer):
         raise TypeError(f"{name} must be an integer >= 1, got {type(runs).__name__} {runs!r}")
     if runs < 1:
@@ -101,7 +168,25 @@ def check_runs(runs: Any, name: str = "runs") -> int:
 
 
 def check_jobs(jobs: Any) -> int:
-    """``jobs`` must be an integer >= 1, or -1 for every core."""
+    """Check a number of local processes.
+
+    Parameters
+    ----------
+    jobs : int
+        At least 1, or -1 for every core.
+
+    Returns
+    -------
+    int
+        The number of processes.
+
+    Raises
+    ------
+    TypeError
+        If ``jobs`` is not an integer (or is a bool).
+    ValueError
+        If ``jobs`` is 0 or below -1.
+    """
     if isinstance(jobs, bool) or not isinstance(jobs, int | np.integer):
         raise TypeError(f"jobs must be an integer >= 1 (or -1), got {type(jobs).__name__}")
     if jobs == -1:
@@ -113,8 +198,17 @@ def check_jobs(jobs: Any) -> int:
 
 @dataclass(frozen=True)
 class Task:
-    """One unit of work: ``case`` (settings dict) at position ``index`` of the study's
-    case list, Monte Carlo run ``run``."""
+    """One unit of work: a case at one Monte Carlo run.
+
+    Parameters
+    ----------
+    index : int
+        Position of the case in the study's case list.
+    case : dict
+        The case's settings.
+    run : int
+        The Monte Carlo run.
+    """
 
     index: int
     case: dict[str, Any]
@@ -122,18 +216,36 @@ class Task:
 
     @property
     def key(self) -> tuple[str, int]:
+        """``(case_key(case), run)``, the task's identity for resuming."""
         return case_key(self.case), self.run
 
 
 def execute_task(
     func: TaskFunc, study: str, seed: int, case: dict[str, Any], run: int
 ) -> dict[str, Any]:
-    """Run one task and return its record (plain JSON data); never raises for a
-    failing identification.
+    """Run one task and return its record; a failing identification is data, not a crash.
 
-    Record: ``study, seed, run, case, ok, time`` (wall seconds of the task), then
-    ``result`` (what ``func`` returned) when ``ok``, else ``error_type``, ``error``
-    and ``traceback`` (last lines); ``warnings`` lists the warning messages caught.
+    Parameters
+    ----------
+    func : callable
+        The study's ``task(case, rng) -> dict``.
+    study : str
+        The study's name.
+    seed : int
+        The study's base seed.
+    case : dict
+        The case.
+    run : int
+        The Monte Carlo run.
+
+    Returns
+    -------
+    dict
+        Plain JSON data: ``study, seed, run, case, ok, time`` (wall seconds), then
+        ``result`` (what ``func`` returned) when ``ok``, else ``error_type``, ``error`` and
+        ``traceback`` (last lines); ``warnings`` lists the warning messages caught (at most
+        10; resource warnings of earlier work in the process are left out, so a record does
+        not depend on what ran before it).
     """
     rng = task_rng(seed, case, run)
     rec: dict[str, Any] = {"study": study, "seed": int(seed), "run": int(run), "case": case}
@@ -188,10 +300,10 @@ def _plain(x: Any) -> Any:
 # -- backends: each yields (task, record) as tasks finish --------------------------------
 def _blas_limit() -> Any:
     """One BLAS thread while tasks run in this process, when ``threadpoolctl`` is
-    installed (else a no-op).  Measured under load on this 2-core machine: the DT
-    identification of the quadrotor record took 7.9 s with the default BLAS threads and
-    0.86 s with one (oversubscription); Monte Carlo parallelism is over tasks, so the
-    joblib workers already run with one thread each."""
+    installed (else a no-op).  Monte Carlo parallelism is over tasks: the workers already
+    use the cores, and a threaded BLAS inside each would oversubscribe them (small
+    matrices gain nothing from threads and lose much to their contention), so the joblib
+    workers run with one thread each too."""
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:
@@ -291,8 +403,23 @@ def _dask(func: TaskFunc, study: str, seed: int, tasks: Sequence[Task], schedule
 
 # -- persistence --------------------------------------------------------------------------
 def load_records(path: str | Path) -> list[dict[str, Any]]:
-    """Records of a ``results.jsonl`` file; a truncated last line (interrupted write) is
-    skipped with a ``RuntimeWarning``."""
+    """The records of a ``results.jsonl`` file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; a missing file gives no records.
+
+    Returns
+    -------
+    list of dict
+        One record per readable line.
+
+    Warns
+    -----
+    RuntimeWarning
+        When lines are unreadable (an interrupted write); they are skipped.
+    """
     path = Path(path)
     if not path.is_file():
         return []
@@ -338,13 +465,45 @@ def run_tasks(
     progress: bool = True,
     resume: bool = True,
 ) -> list[dict[str, Any]]:
-    """Run ``func`` on every ``(case, run)`` and return the records in task order
-    (case order, then run), whatever the backend.
+    """Run a task function on every ``(case, run)`` and return the records in task order.
 
-    ``out``: directory for ``results.jsonl`` (appended per task; ``resume=True`` reuses
-    the records of matching ``(study, seed, case, run)`` already there, ``resume=False``
-    starts the file afresh).  Records of runs beyond ``runs`` stay in the file but are
-    not returned.  ``scheduler`` (Dask) takes precedence over ``jobs``.
+    Parameters
+    ----------
+    func : callable
+        The study's ``task(case, rng) -> dict`` (module-level, so it pickles).
+    cases : sequence of dict
+        The cases, at least one.
+    runs : int
+        Monte Carlo runs per case.
+    study : str, optional
+        The study's name, stored in each record.
+    seed : int, optional
+        Base seed, non-negative.
+    jobs : int, optional
+        Local processes (joblib/loky) when above 1; -1 for every core.
+    scheduler : str or dask.distributed.Client, optional
+        Dask scheduler; takes precedence over ``jobs``.
+    out : str or path-like, optional
+        Directory for ``results.jsonl``, appended per task as it finishes.
+    progress : bool, optional
+        Show a tqdm progress bar.
+    resume : bool, optional
+        Reuse the records of matching ``(study, seed, case, run)`` already in
+        ``results.jsonl``; ``False`` starts the file afresh.
+
+    Returns
+    -------
+    list of dict
+        The records in case order, then run, whatever the backend and the order in which
+        tasks finished; records of runs beyond ``runs`` stay in the file but are not
+        returned.
+
+    Raises
+    ------
+    TypeError
+        If ``runs`` or ``jobs`` is not an integer.
+    ValueError
+        If ``runs < 1``, ``jobs`` is invalid, ``seed`` is negative or there are no cases.
     """
     runs = check_runs(runs)
     jobs = check_jobs(jobs)

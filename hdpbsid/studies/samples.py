@@ -25,7 +25,23 @@ DEFAULTS: dict[str, Any] = {
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """One case per sample count x method."""
+    """One case per sample count and method.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        Cases with ``data``, ``method``, ``order`` 2 and ``options``.
+
+    Raises
+    ------
+    ValueError
+        If a sample count is below 10 or a method name is unknown.
+    """
     methods = check_methods(s["methods"])
     cases = []
     for ns in s["sample_counts"]:

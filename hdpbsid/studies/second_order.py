@@ -34,13 +34,28 @@ COLUMNS = ("n", "failed", "divergent", "rel bias", "rel std", "median err", "tim
 
 
 def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-    """Simulate the second-order record and identify it (options may hold
-    ``alpha_factor``: ``alpha = alpha_factor * scale`` of the Hermite basis).
+    """Simulate the second-order record of a case and identify it.
 
-    These studies measure the subspace methods themselves (the thesis, §5: SNR, samples,
-    basis order, operator), so the prediction-error refinement is off unless the case
-    asks for it (``refine="auto"`` would rescue a grossly misfit model, e.g. ``alpha``
-    far too small, and hide what the study is about)."""
+    These studies measure the subspace methods themselves (the thesis, sec. 5: SNR, samples,
+    basis order, operator), so the prediction-error refinement is off unless the case asks
+    for it: ``refine="auto"`` would rescue a grossly misfit model (e.g. ``alpha`` far too
+    small) and hide what the study is about.
+
+    Parameters
+    ----------
+    case : dict
+        ``data`` (the record's settings, :func:`~hdpbsid.studies.data.second_order_record`),
+        ``method``, ``order`` and ``options`` (which may hold ``alpha_factor``:
+        ``alpha = alpha_factor * scale`` of the Hermite basis).
+    rng : numpy.random.Generator
+        The task's generator.
+
+    Returns
+    -------
+    dict
+        :func:`~hdpbsid.studies.base.model_record` of the model against the true
+        eigenvalues.
+    """
     rec = second_order_record(rng, **case["data"])
     options = {"refine": None, **(case.get("options") or {})}
     factor = options.pop("alpha_factor", None)
@@ -66,7 +81,23 @@ def _hermite_scale(t: np.ndarray, N: int | None, rec: Any) -> float:
 def rows(
     records: list[dict[str, Any]], keys: Sequence[str], true: Any = SECOND_ORDER_TRUE
 ) -> list[dict[str, Any]]:
-    """Summary rows grouped by the case labels ``keys`` (in first-seen order)."""
+    """Summary rows of the second-order studies, grouped by case labels.
+
+    Parameters
+    ----------
+    records : list of dict
+        The task records.
+    keys : sequence of str
+        The case labels to group by (e.g. ``("snr_db", "method")``), in first-seen order.
+    true : array_like of complex, optional
+        The true eigenvalues.
+
+    Returns
+    -------
+    list of dict
+        Per group the labels, the counts of runs and failures and
+        :func:`~hdpbsid.studies.base.eigen_stats`.
+    """
     groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
     for r in records:
         groups.setdefault(tuple(_label(r["case"], k) for k in keys), []).append(r)

@@ -26,7 +26,23 @@ DEFAULTS: dict[str, Any] = {
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """One case per SNR x method, the same record for every method."""
+    """One case per SNR and method; the methods of one SNR share the record of a run.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        Cases with ``data`` (the record's settings), ``method``, ``order`` 2 and ``options``.
+
+    Raises
+    ------
+    ValueError
+        If a method name is unknown (:func:`~hdpbsid.studies.methods.check_methods`).
+    """
     methods = check_methods(s["methods"])
     cases = []
     for snr in s["snrs"]:

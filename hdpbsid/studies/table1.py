@@ -60,7 +60,24 @@ COLUMNS = (
 
 
 def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
-    """One case per SNR x method; ``options`` maps a method to extra identify options."""
+    """One case per SNR and method; the methods of one SNR share the record of a run.
+
+    Parameters
+    ----------
+    s : dict
+        Every setting of the study (its ``DEFAULTS`` updated by the user's).
+
+    Returns
+    -------
+    list of dict
+        Cases with ``data`` (the closed-loop record's settings), ``method``, ``order`` and
+        ``options`` (``s["options"]`` maps a method to extra identify options).
+
+    Raises
+    ------
+    ValueError
+        If a method or an output name is unknown.
+    """
     methods = check_methods(s["methods"])
     pitch_output_matrices(s["outputs"])  # ValueError for unknown output names
     opts = s["options"] or {}
@@ -82,7 +99,21 @@ def make_cases(s: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
-    """Simulate the closed-loop record and identify it with the case's method."""
+    """Simulate the closed-loop record of a case and identify it with the case's method.
+
+    Parameters
+    ----------
+    case : dict
+        The case (:func:`make_cases`).
+    rng : numpy.random.Generator
+        The task's generator (:func:`~hdpbsid.studies.runner.task_rng`).
+
+    Returns
+    -------
+    dict
+        :func:`~hdpbsid.studies.base.model_record` of the model against the true
+        eigenvalues.
+    """
     d = case["data"]
     data = quadrotor_record(rng, **d)
     model = identify_with(case["method"], data.t, data.u, data.y, case["order"], case["options"])
@@ -92,7 +123,21 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
 
 
 def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str, Any]]:
-    """Table 1 rows (module docstring)."""
+    """The rows of the thesis's Table 1 (module docstring).
+
+    Parameters
+    ----------
+    records : list of dict
+        The task records.
+    s : dict
+        The study's settings.
+
+    Returns
+    -------
+    list of dict
+        One row per SNR and method: bias and STD of each true eigenvalue
+        (:func:`~hdpbsid.studies.base.eigen_stats`), failures and divergent runs.
+    """
     from hdpbsid.systems.quadrotor import pitch_model
 
     true = np.linalg.eigvals(pitch_model()[0])

@@ -86,10 +86,33 @@ OUTPUT_NAMES: tuple[str, ...] = ("u", "q", "theta", "a_x", "q_dot")
 
 
 def pitch_model() -> tuple[Array, Array, Array, Array]:
-    """Open-loop pitch model ``(A, B, C, D)`` with all three states as outputs.
+    r"""Open-loop pitch model with all three states as outputs.
 
-    ``C = I_3``, ``D = 0``.  Eigenvalues ``-2.92 +- 3.24i`` and ``+3.08`` (to three
-    significant digits; checked in ``tests/hdpbsid/systems/test_quadrotor.py``).
+    Returns
+    -------
+    A : ndarray, shape (3, 3)
+        ``[[Xu, Xq, -g], [Mu, Mq, 0], [0, 1, 0]]`` for the states ``[u, q, theta]``
+        (:data:`PITCH_PARAMETERS`).
+    B : ndarray, shape (3, 1)
+        ``[[Xd], [Md], [0]]``, the normalised pitching moment's entry.
+    C : ndarray, shape (3, 3)
+        The identity.
+    D : ndarray, shape (3, 1)
+        Zero.
+
+    Notes
+    -----
+    The airframe is unstable: eigenvalues :math:`-2.92 \pm 3.24j` and :math:`+3.08` (to three
+    significant digits; checked in ``tests/hdpbsid/systems/test_quadrotor.py``), which is
+    why its data come from the closed loop of :func:`simulate_pitch_closed_loop`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import pitch_model
+    >>> A, B, C, D = pitch_model()
+    >>> bool(np.max(np.linalg.eigvals(A).real) > 0)  # unstable in open loop
+    True
     """
     p = PITCH_PARAMETERS
     A = np.array(
@@ -104,11 +127,37 @@ def pitch_model() -> tuple[Array, Array, Array, Array]:
 
 
 def pitch_output_matrices(outputs: Any = ("q", "theta")) -> tuple[Array, Array, tuple[str, ...]]:
-    """Rows ``(C, D)`` of the chosen outputs among ``u, q, theta, a_x, q_dot``.
+    """Output rows ``(C, D)`` of the chosen measured signals.
 
-    ``a_x = Xu u + Xq q + Xd delta`` (the accelerometer: specific force, so no gravity
-    term); ``q_dot = Mu u + Mq q + Md delta`` (the angular acceleration the
-    thesis's §6 experiment measures).  Returns ``(C (l, 3), D (l, 1), names)``.
+    Parameters
+    ----------
+    outputs : str or sequence of str, optional
+        Names from :data:`OUTPUT_NAMES`: ``u`` (forward velocity), ``q`` (pitch rate),
+        ``theta`` (pitch angle), ``a_x = Xu u + Xq q + Xd delta`` (the accelerometer:
+        specific force, so no gravity term), ``q_dot = Mu u + Mq q + Md delta`` (the
+        angular acceleration).
+
+    Returns
+    -------
+    C : ndarray, shape (l, 3)
+        Output matrix.
+    D : ndarray, shape (l, 1)
+        Feedthrough (non-zero for the accelerations).
+    names : tuple of str
+        The outputs, in order.
+
+    Raises
+    ------
+    TypeError
+        If ``outputs`` is not a string or a sequence.
+    ValueError
+        If it is empty, names an unknown signal or repeats one.
+
+    Examples
+    --------
+    >>> C, D, names = pitch_output_matrices(("q", "a_x"))
+    >>> C.shape, D.ravel().tolist(), names
+    ((2, 3), [0.0, -10.1647], ('q', 'a_x'))
     """
     if isinstance(outputs, str):
         outputs = (outputs,)
@@ -147,15 +196,42 @@ def pitch_excitation(
     pulse: float = 0.1,
     period: float = 2.0,
 ) -> Array:
-    """Excitation added to the moment command (a 1-4 Hz sine sweep as in the thesis, §6, or
-    a 3211).
+    r"""Excitation added to the moment command: a sine sweep or a 3211 multistep.
 
-    * ``"sweep"``: linear chirp ``amplitude sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))``
-      over the record ``[0, T]`` (``f0 = 1``, ``f1 = 4`` Hz by default);
-    * ``"3211"``: the multistep of widths ``3, 2, 1, 1`` x ``pulse`` with signs
-      ``+, -, +, -``, repeated every ``period`` seconds, starting at ``period / 2``.
+    Parameters
+    ----------
+    kind : {"sweep", "3211"}
+        ``"sweep"``: the linear chirp
+        :math:`a \sin\bigl(2\pi (f_0 t + (f_1 - f_0) t^2 / (2T))\bigr)` over the record
+        ``[0, T]``; ``"3211"``: the multistep of widths ``3, 2, 1, 1`` x ``pulse`` with
+        signs ``+, -, +, -``, repeated every ``period`` seconds, starting at ``period / 2``.
+    t : array_like, shape (Ns,)
+        The controller sample times.
+    amplitude : float, optional
+        Peak of the excitation (normalised moment).
+    f0, f1 : float, optional
+        Start and end frequencies of the sweep (Hz).
+    pulse : float, optional
+        Unit width of the 3211 (s).
+    period : float, optional
+        Repetition period of the 3211 (s), at least ``7 pulse``.
 
-    ``t`` are the controller sample times (starting at 0).  Returns shape ``(Ns,)``.
+    Returns
+    -------
+    ndarray, shape (Ns,)
+        The excitation.
+
+    Raises
+    ------
+    ValueError
+        On an unknown ``kind``, or a 3211 with ``pulse <= 0`` or ``period < 7 pulse``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> e = pitch_excitation("3211", np.arange(20) * 0.1, amplitude=1.0, pulse=0.1)
+    >>> e[8:19].tolist()  # from t = period / 2 = 1 s: widths 3, 2, 1, 1 pulses
+    [0.0, 0.0, 1.0, 1.0, 1.0, -1.0, -1.0, 1.0, -1.0, 0.0, 0.0]
     """
     t = np.asarray(t, dtype=float)
     tt = t - t[0]
@@ -182,15 +258,45 @@ def pitch_excitation(
 
 @dataclass
 class PitchData:
-    """One closed-loop flight record (controller-rate samples, ``Ns`` of them).
+    """One closed-loop flight record, sampled at the controller rate.
 
-    ``t (Ns,)``; ``u (Ns, 1)`` the total applied moment (the identified input, after
-    saturation); ``y (Ns, l)`` the measured (noisy) chosen outputs and ``y_clean`` their
-    noise-free values; ``q``, ``theta``, ``a_x`` measured signals and ``q_clean``,
-    ``theta_clean``, ``a_x_clean``, ``x_clean (Ns, 3)`` noise-free ones; ``excitation``,
-    ``command`` (moment before saturation), ``saturated`` (bool per sample);
-    ``A, B, C, D`` the true open-loop model for the chosen ``outputs``;
-    ``noise_std`` per measured signal; ``options`` everything used.
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Sample times (s) from 0.
+    u : ndarray, shape (Ns, 1)
+        The total applied moment after saturation: the input to identify from.
+    y : ndarray, shape (Ns, l)
+        The measured (noisy) chosen outputs.
+    y_clean : ndarray, shape (Ns, l)
+        Their noise-free values in the same (noisy) run.
+    q, theta, a_x : ndarray, shape (Ns,)
+        Measured pitch rate, pitch angle and longitudinal acceleration.
+    q_clean, theta_clean, a_x_clean : ndarray, shape (Ns,)
+        Their noise-free values.
+    x_clean : ndarray, shape (Ns, 3)
+        Noise-free states ``[u, q, theta]``.
+    excitation : ndarray, shape (Ns,)
+        The excitation added to the moment command.
+    command : ndarray, shape (Ns,)
+        The moment command before saturation.
+    saturated : ndarray of bool, shape (Ns,)
+        Whether the command hit the saturation.
+    A, B, C, D : ndarray
+        The true open-loop model for the chosen ``outputs``.
+    outputs : tuple of str
+        The chosen outputs.
+    noise_std : dict of str to float, optional
+        Sensor noise standard deviation per measured signal.
+    options : dict, optional
+        Every setting used.
+
+    Attributes
+    ----------
+    saturation_fraction : float
+        Fraction of samples whose command hit the saturation.
+    true_eigenvalues : ndarray of complex
+        Open-loop eigenvalues of ``A``, what identification should recover.
     """
 
     t: Array
@@ -309,23 +415,65 @@ def simulate_pitch_closed_loop(
     pulse: float = 0.1,
     period: float = 2.0,
 ) -> PitchData:
-    """Simulate the ANT-X pitch dynamics in its cascade loop (module docstring).
+    r"""Simulate the ANT-X pitch dynamics in its cascade loop (module docstring).
 
-    ``rng`` (``numpy.random.Generator``) draws the sensor noise.  ``duration`` seconds at
-    the controller rate (250 Hz: ``Ns = round(duration * 250) + 1`` samples from 0).
-    ``excitation``: ``"sweep"`` (1-4 Hz chirp), ``"3211"`` or an array of ``Ns`` values
-    added to the moment command (``amplitude``, ``f0``, ``f1``, ``pulse``, ``period`` shape
-    the built-in ones, see :func:`pitch_excitation`).  ``outputs``: names from
-    ``u, q, theta, a_x``.  ``controller`` overrides entries of :data:`CONTROLLER_DEFAULTS`.
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws the sensor noise.
+    duration : float, optional
+        Seconds at the controller rate: ``Ns = round(duration * 250) + 1`` samples from 0.
+    snr_db : float or None, optional
+        Sensor signal-to-noise ratio in dB (``None``: no noise; Notes).
+    excitation : {"sweep", "3211"} or array_like, shape (Ns,), optional
+        Added to the moment command (:func:`pitch_excitation`).
+    outputs : sequence of str, optional
+        Names from :data:`OUTPUT_NAMES` (:func:`pitch_output_matrices`).
+    amplitude : float, optional
+        Peak of the built-in excitation.
+    velocity_loop : bool, optional
+        Close the outer velocity PI loop too.
+    u_ref : float, optional
+        Its forward-velocity reference.
+    x0 : array_like, shape (3,), optional
+        Initial state ``[u, q, theta]`` (default 0, hover).
+    controller : dict of str to float, optional
+        Overrides entries of :data:`CONTROLLER_DEFAULTS`.
+    f0, f1 : float, optional
+        Band of the sweep (Hz).
+    pulse, period : float, optional
+        Shape of the 3211 (s).
 
-    Noise: ``snr_db=None`` means none.  Otherwise the SNR is on signal power (mean
-    square, as :func:`hdpbsid.systems.add_noise`): a noise-free run of the same loop
-    gives each measured signal's power ``P``, and the sensor noise has standard
-    deviation ``sqrt(P) 10^(-snr_db/20)``.  (The noise then circulates through the
-    controller, so the noisy run's own clean signals differ slightly from the
-    noise-free run's; ``y_clean`` are the clean signals *of the noisy run*.)
+    Returns
+    -------
+    PitchData
+        ``data.u`` and ``data.y`` are what to identify from.
 
-    Returns a :class:`PitchData`; ``data.u`` and ``data.y`` are what to identify from.
+    Raises
+    ------
+    TypeError
+        If ``rng`` is not a :class:`numpy.random.Generator`.
+    ValueError
+        On an unknown controller key, a non-positive ``duration``, a non-finite
+        ``snr_db``, an excitation array of the wrong length or not finite, an ``x0`` of the
+        wrong size, unknown outputs, or a loop that diverges.
+
+    Notes
+    -----
+    The SNR is on signal power (mean square, as :func:`hdpbsid.systems.add_noise`): a
+    noise-free run of the same loop gives each measured signal's power :math:`P`, and the
+    sensor noise has standard deviation :math:`\sqrt P\,10^{-\mathrm{SNR}/20}`.  The noise
+    then circulates through the controller, so the noisy run's own clean signals differ
+    slightly from the noise-free run's; ``y_clean`` are the clean signals *of the noisy
+    run*.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import simulate_pitch_closed_loop
+    >>> data = simulate_pitch_closed_loop(np.random.default_rng(0), duration=2.0)
+    >>> data.u.shape, data.y.shape, data.outputs
+    ((501, 1), (501, 2), ('q', 'theta'))
     """
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
@@ -457,16 +605,40 @@ def hermite_sweep_excitation(
     f0: float = 1.0,
     f1: float = 4.0,
 ) -> Array:
-    """The thesis's excitation (§5-6): a ``f0``-``f1`` Hz linear sine sweep projected onto
-    the first ``n_terms`` Hermite functions (``n_max,u``) of the record ``[t0, tN]``.
+    r"""A linear sine sweep projected onto the first ``n_terms`` Hermite functions of the record.
 
-    The sweep of :func:`pitch_excitation` is projected (:meth:`slbasis.Basis.project`,
-    the record filling 90 % of the functions' effective support, as the HD-PBSID basis
-    does) and reconstructed at ``t``, so the excitation lies exactly in the span of
-    ``n_terms`` Hermite functions and fades to ~0 at the record's ends.  The functions
-    reach about ``3.6 n_terms / T`` rad/s: over 30 s, 300 terms cover 36 rad/s (5.7 Hz)
-    and keep the whole 1-4 Hz sweep; fewer than ``2 pi f1 T / 3.6`` terms (209 for 4 Hz
-    over 30 s) cut its fast end.  Returns shape ``(Ns,)``.
+    This is the excitation of the thesis (sec. 5-6): it lies exactly in the span of
+    ``n_terms`` Hermite functions (``n_max,u``) and fades to about 0 at the record's ends.
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Increasing sample times.
+    n_terms : int, optional
+        Number of Hermite functions.
+    amplitude : float, optional
+        Peak of the sweep before projection.
+    f0, f1 : float, optional
+        Band of the sweep (Hz).
+
+    Returns
+    -------
+    ndarray, shape (Ns,)
+        The projected sweep reconstructed at ``t``.
+
+    Raises
+    ------
+    ValueError
+        If ``t`` has fewer than 2 samples or is not increasing, or ``n_terms`` is not a
+        positive integer.
+
+    Notes
+    -----
+    The sweep of :func:`pitch_excitation` is projected (:meth:`slbasis.Basis.project`, the
+    record filling 90 % of the functions' effective support, as the HD-PBSID basis does).
+    The functions reach about :math:`3.6\,n/T` rad/s: over 30 s, 300 terms cover 36 rad/s
+    (5.7 Hz) and keep the whole 1-4 Hz sweep; fewer than :math:`2\pi f_1 T / 3.6` terms
+    (209 for 4 Hz over 30 s) cut its fast end.
     """
     import slbasis
 
