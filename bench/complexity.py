@@ -9,7 +9,9 @@ What is measured (statically, from the sources; nothing is imported):
   (``radon``: McCabe's complexity of the function's own branches, nested functions counted
   apart; source lines = radon's ``sloc``, without blank lines, comments and docstrings),
   and the count of blocks of grade C or worse (complexity above 10, radon's ranks);
-* **modules** above :data:`MAX_MODULE_LINES` physical lines;
+* **modules** above :data:`MAX_MODULE_LINES` source lines (radon's ``sloc``, as for the
+  functions: the numpydoc sections every public object must carry do not count against the
+  size of the code a reader has to follow; the physical lines are shown beside them);
 * **import cycles** between any two modules of the package: the strongly connected
   components of the graph "module a imports module b" (every ``import`` statement counts,
   also those inside functions: a lazy import defers the load, not the dependency);
@@ -60,6 +62,7 @@ class Report:
 
     package: str
     modules: dict[str, int] = field(default_factory=dict)  # dotted name -> physical lines
+    module_sloc: dict[str, int] = field(default_factory=dict)  # dotted name -> source lines
     functions: list[tuple[str, str, int, int]] = field(default_factory=list)  # mod, name, cc, sloc
     graded_c: int = 0
     cycles: list[list[str]] = field(default_factory=list)
@@ -231,6 +234,7 @@ def measure(package: str, root: Path = REPO) -> Report:
         text = f.read_text(encoding="utf-8")
         tree = ast.parse(text)
         report.modules[name] = len(text.splitlines())
+        report.module_sloc[name] = analyze(text).sloc
         lines = text.splitlines()
         ends = {
             n.lineno: n.end_lineno
@@ -267,19 +271,20 @@ def over_limits(report: Report) -> list[tuple[str, str, int, int]]:
 
 def summary_rows(report: Report) -> list[tuple[str, str]]:
     big = over_limits(report)
-    long_modules = [m for m, n in report.modules.items() if n > MAX_MODULE_LINES]
+    long_modules = [m for m, n in report.module_sloc.items() if n > MAX_MODULE_LINES]
     in_cycles = sum(len(c) for c in report.cycles)
     return [
         ("modules", f"{len(report.modules)}"),
-        ("lines", f"{sum(report.modules.values())}"),
+        ("lines (physical)", f"{sum(report.modules.values())}"),
+        ("source lines", f"{sum(report.module_sloc.values())}"),
         ("functions and methods", f"{len(report.functions)}"),
         (f"functions above complexity {MAX_CC} or {MAX_SLOC} source lines", f"{len(big)}"),
         (f"  of them above complexity {MAX_CC}", f"{sum(f[2] > MAX_CC for f in big)}"),
         (f"  of them above {MAX_SLOC} source lines", f"{sum(f[3] > MAX_SLOC for f in big)}"),
         (f"blocks of grade C or worse (complexity > {GRADE_C})", f"{report.graded_c}"),
         ("largest complexity", f"{max((f[2] for f in report.functions), default=0)}"),
-        (f"modules above {MAX_MODULE_LINES} lines", f"{len(long_modules)}"),
-        ("largest module (lines)", f"{max(report.modules.values(), default=0)}"),
+        (f"modules above {MAX_MODULE_LINES} source lines", f"{len(long_modules)}"),
+        ("largest module (source lines)", f"{max(report.module_sloc.values(), default=0)}"),
         ("import cycles (strongly connected groups)", f"{len(report.cycles)}"),
         ("  modules in a cycle", f"{in_cycles}"),
         ("  pairs importing each other directly", f"{len(report.mutual_pairs)}"),
@@ -310,11 +315,12 @@ def markdown(report: Report) -> str:
     lines += _md_table(["measure", "value"], summary_rows(report))
     lines += ["", f"## Functions above complexity {MAX_CC} or {MAX_SLOC} source lines", ""]
     lines += _md_table(["module", "function", "complexity", "source lines"], over_limits(report))
-    lines += ["", f"## Modules above {MAX_MODULE_LINES} lines", ""]
+    lines += ["", f"## Modules above {MAX_MODULE_LINES} source lines", ""]
     long_modules = sorted(
-        ((m, n) for m, n in report.modules.items() if n > MAX_MODULE_LINES), key=lambda x: -x[1]
+        ((m, n, report.modules[m]) for m, n in report.module_sloc.items() if n > MAX_MODULE_LINES),
+        key=lambda x: -x[1],
     )
-    lines += _md_table(["module", "lines"], long_modules)
+    lines += _md_table(["module", "source lines", "physical lines"], long_modules)
     lines += ["", "## Import cycles", ""]
     lines += [f"* {' <-> '.join(c)}" for c in report.cycles] or ["none"]
     lines += ["", "Pairs importing each other directly:", ""]
