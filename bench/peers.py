@@ -2,7 +2,10 @@
 """Head-to-head benchmark of hdpbsid against the Python tools users would pick instead.
 
 Run: ``.venv/bin/python bench/peers.py [--runs 10] [--cases ...] [--snr 40 20 10]
-[--methods ...] [--out DIR] [--results]`` (peers from ``pip install -e ".[bench]"``).
+[--methods ...] [--n-jobs 2] [--no-timing] [--timing-from SUMMARY.json] [--out DIR]
+[--results]`` (peers from ``pip install -e ".[bench]"``).  The whole grid takes hours on
+two cores: run the accuracy part with ``--n-jobs 2 --no-timing --out DIR`` (load does not
+change an error), then ``--timing-from DIR/summary.json --results`` on an idle machine.
 
 What is measured, per case (``bench/cases.py``), SNR and method, over seeded runs on
 *identical* data (every method sees the same estimation record):
@@ -468,76 +471,113 @@ def run_bench(
     method_names: Sequence[str],
     runs: int,
     log: Callable[[str], None] = print,
+    n_jobs: int = 1,
 ) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
     """Run every (case, SNR, method); returns (per-run rows, per-cell summaries).
 
     Tuned methods run at every horizon of their grid on every seed; the horizon with the
     best median error over these same seeds is kept (an oracle choice, favourable to the
-    peers), and only its models are scored on the validation records.
+    peers), and only its models are scored on the validation records.  With ``n_jobs > 1``
+    the (case, SNR) cells run in parallel processes (joblib): the errors are the same, the
+    per-run times of the detail table then share the cores.
     """
+    todo = [
+        (case_name, snr)
+        for case_name in case_names
+        for snr in ([None] if case_name in SNR_INDEPENDENT else list(snrs))
+    ]
+    if n_jobs == 1:
+        done = [_run_cell(c, s, method_names, runs, log) for c, s in todo]
+    else:
+        from joblib import Parallel, delayed
+
+        done = Parallel(n_jobs=n_jobs)(
+            delayed(_run_cell)(c, s, method_names, runs, None) for c, s in todo
+        )
     rows: list[dict[str, object]] = []
     cells: list[dict[str, object]] = []
-    for case_name in case_names:
-        case_snrs = [None] if case_name in SNR_INDEPENDENT else list(snrs)
-        for snr in case_snrs:
-            t_cell = time.perf_counter()
-            probe = make_case(case_name, EVAL_SEED0, snr)
-            active = [METHODS[m] for m in method_names if applies(METHODS[m], probe)]
-            n_out = probe.estimation.y.shape[1]
-            grids = {m.name: valid_horizons(m, probe.order, n_out) for m in active}
-            for m in active:  # warm up: imports, kernel caches (not timed, not scored)
-                run_one(m, probe, grids[m.name][0], score_fit=False)
-            cases = [make_case(case_name, EVAL_SEED0 + r, snr) for r in range(runs)]
-            # every (run function, horizon) once per seed: tuned grids include defaults
-            per_key: dict[tuple[int, int | None], list[Outcome]] = {}
-            for case in cases:
-                done: set[tuple[int, int | None]] = set()
-                for m in active:
-                    for h in grids[m.name]:
-                        key = (id(m.run), h)
-                        if key not in done:
-                            done.add(key)
-                            per_key.setdefault(key, []).append(run_one(m, case, h, score_fit=False))
-            for m in active:
-                by_h = {h: per_key[(id(m.run), h)] for h in grids[m.name]}
-                best_h = min(by_h, key=lambda h: _tuning_key(by_h[h]))
-                outcomes = by_h[best_h]
-                for case, o in zip(cases, outcomes, strict=True):
-                    score_fit_of(o, case)
-                s = summarize(outcomes)
-                s.update(
-                    {
-                        "case": case_name,
-                        "snr": snr_label(snr, case_name),
-                        "method": m.name,
-                        "label": m.label,
-                        "peer": m.peer,
-                        "horizon": best_h,
-                        "grid_median_errors": {str(h): _median_error(v) for h, v in by_h.items()}
-                        if m.tuned
-                        else None,
-                    }
-                )
-                cells.append(s)
-                log(_cell_line(s))
-                for seed, o in enumerate(outcomes, start=EVAL_SEED0):
-                    rows.append(
-                        {
-                            "case": case_name,
-                            "snr": snr_label(snr, case_name),
-                            "method": m.name,
-                            "seed": seed,
-                            "horizon": best_h,
-                            "status": o.status,
-                            "error": o.error,
-                            "fit": o.fit,
-                            "seconds": o.seconds,
-                            "cpu_seconds": o.cpu_seconds,
-                            "message": o.message,
-                        }
-                    )
-            log(f"# {case_name} {snr_label(snr, case_name)}: {time.perf_counter() - t_cell:.0f} s")
+    for (case_name, snr), (cell_rows, cell_cells, seconds) in zip(todo, done, strict=True):
+        if n_jobs != 1:
+            for c in cell_cells:
+                log(_cell_line(c))
+            log(f"# {case_name} {snr_label(snr, case_name)}: {seconds:.0f} s")
+        rows += cell_rows
+        cells += cell_cells
     return rows, cells
+
+
+def _run_cell(
+    case_name: str,
+    snr: float | None,
+    method_names: Sequence[str],
+    runs: int,
+    log: Callable[[str], None] | None,
+) -> tuple[list[dict[str, object]], list[dict[str, object]], float]:
+    """One (case, SNR) cell of :func:`run_bench`: its rows, summaries and wall time."""
+    import_all_methods()
+    rows: list[dict[str, object]] = []
+    cells: list[dict[str, object]] = []
+    t_cell = time.perf_counter()
+    probe = make_case(case_name, EVAL_SEED0, snr)
+    active = [METHODS[m] for m in method_names if applies(METHODS[m], probe)]
+    n_out = probe.estimation.y.shape[1]
+    grids = {m.name: valid_horizons(m, probe.order, n_out) for m in active}
+    for m in active:  # warm up: imports, kernel caches (not timed, not scored)
+        run_one(m, probe, grids[m.name][0], score_fit=False)
+    cases = [make_case(case_name, EVAL_SEED0 + r, snr) for r in range(runs)]
+    # every (run function, horizon) once per seed: tuned grids include defaults
+    per_key: dict[tuple[int, int | None], list[Outcome]] = {}
+    for case in cases:
+        done: set[tuple[int, int | None]] = set()
+        for m in active:
+            for h in grids[m.name]:
+                key = (id(m.run), h)
+                if key not in done:
+                    done.add(key)
+                    per_key.setdefault(key, []).append(run_one(m, case, h, score_fit=False))
+    for m in active:
+        by_h = {h: per_key[(id(m.run), h)] for h in grids[m.name]}
+        best_h = min(by_h, key=lambda h: _tuning_key(by_h[h]))
+        outcomes = by_h[best_h]
+        for case, o in zip(cases, outcomes, strict=True):
+            score_fit_of(o, case)
+        s = summarize(outcomes)
+        s.update(
+            {
+                "case": case_name,
+                "snr": snr_label(snr, case_name),
+                "method": m.name,
+                "label": m.label,
+                "peer": m.peer,
+                "horizon": best_h,
+                "grid_median_errors": {str(h): _median_error(v) for h, v in by_h.items()}
+                if m.tuned
+                else None,
+            }
+        )
+        cells.append(s)
+        if log is not None:
+            log(_cell_line(s))
+        for seed, o in enumerate(outcomes, start=EVAL_SEED0):
+            rows.append(
+                {
+                    "case": case_name,
+                    "snr": snr_label(snr, case_name),
+                    "method": m.name,
+                    "seed": seed,
+                    "horizon": best_h,
+                    "status": o.status,
+                    "error": o.error,
+                    "fit": o.fit,
+                    "seconds": o.seconds,
+                    "cpu_seconds": o.cpu_seconds,
+                    "message": o.message,
+                }
+            )
+    seconds = time.perf_counter() - t_cell
+    if log is not None:
+        log(f"# {case_name} {snr_label(snr, case_name)}: {seconds:.0f} s")
+    return rows, cells, seconds
 
 
 def _cell_line(s: dict[str, object]) -> str:
@@ -869,6 +909,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         "--results", action="store_true", help="write the tables to bench/results/peers.md"
     )
     ap.add_argument("--no-timing", action="store_true", help="skip the 10^4-sample timing")
+    ap.add_argument("--n-jobs", type=int, default=1, help="(case, SNR) cells in parallel")
     ap.add_argument(
         "--from-json",
         type=Path,
@@ -901,7 +942,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         command = f"{saved['command'].strip()}; then {command}"
     else:
         rows, cells = run_bench(
-            args.cases, args.snr, args.methods, args.runs, log=lambda s: print(s, flush=True)
+            args.cases,
+            args.snr,
+            args.methods,
+            args.runs,
+            log=lambda s: print(s, flush=True),
+            n_jobs=args.n_jobs,
         )
     tuned_h = {
         str(c["case"]): int(c["horizon"])
