@@ -45,7 +45,8 @@ above the bandwidth).
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -59,30 +60,30 @@ from hdpbsid.bases.basis_domain import (
     SolveLag,
     bandwidth,
     basis_values,
-    best_hold,
-    clip_basis_size,
-    integrator_model,
     resolve_holds,
     shared_basis,
 )
+from hdpbsid.bases.family import Choice, Integrator, IntegratorFamily, size_policy
 from hdpbsid.bases.memo import memoize
-from hdpbsid.bases.segments import (
-    default_window,
-    make_segments,
-    project_blocks,
-    records_bandwidth,
-    shared_keys,
-)
+from hdpbsid.bases.pipeline import make_blocks, one_or_all, project, solve
+from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
-from hdpbsid.core.blocks import BlockLag
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import as_records
+from hdpbsid.data.records import Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 from slbasis.numeric import operators
 
-__all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
+__all__ = [
+    "identify_sl",
+    "identify_legendre",
+    "identify_chebyshev",
+    "integration_matrix",
+    "SturmLiouvilleFamily",
+    "default_alpha",
+    "default_past_window",
+]
 
 Array = NDArray[np.float64]
 
@@ -269,6 +270,103 @@ def _integrator_lag(
     return lag, solve_rows, how
 
 
+@dataclass(frozen=True, eq=False)
+class SturmLiouvilleFamily(IntegratorFamily):
+    """A finite-interval ``slbasis`` family on the window, as a basis family
+    (:class:`~hdpbsid.bases.family.BasisFamily`; module docstring).
+
+    * size: ``N = 1.5 omega_b T / 2`` (degree-``N`` functions resolve ``2 N / T`` rad/s on
+      a window of ``T`` s); a given ``N`` must resolve the data band;
+    * lag: ``W -> W M`` with ``M = alpha gamma J (I + alpha beta J)^{-1}``, ``J`` the
+      causal integration matrix (:func:`integration_matrix`);
+    * pseudo-inputs: ``w J = e_{N-1}`` (truncation) and, with ``boundary``, ``w J = 1``
+      (the initial state; ``needs_ones``).
+
+    Functions singular at the interval ends get a window padded by ``PAD * T``.
+
+    Parameters
+    ----------
+    family : str or slbasis.SturmLiouville
+        A catalogue name with a finite interval or a problem.
+    params : dict
+        The family's parameters.
+    """
+
+    family: Any = "legendre"
+    params: dict = field(default_factory=dict)
+    n_min, n_max = N_MIN, N_MAX
+    q = (1, 2)
+    needs_ones = True
+    size_rule = f"N = {BAND_MARGIN} * bandwidth * T / 2"
+
+    @property
+    def label(self) -> str:  # type: ignore[override]
+        """The family's name in warnings."""
+        return f"{self.family}"
+
+    def size_rate(self, wb: float) -> float:
+        """``1.5 wb / 2`` functions per second."""
+        return BAND_MARGIN * wb / 2
+
+    def wanted_size(self, T: float, wb: float) -> float:
+        """``1.5 wb T / 2``."""
+        return BAND_MARGIN * wb * T / 2
+
+    def too_narrow(self, N: int, T: float, wb: float) -> str | None:
+        """Why ``N`` functions on ``T`` s do not resolve ``wb`` (``2 N / T < wb``)."""
+        if 2 * N / T >= wb:
+            return None
+        return (
+            f"N={N} functions on a record of {T:g} s resolve only {2 * N / T:.3g} "
+            f"rad/s, below the data bandwidth {wb:.3g} rad/s; use N >= "
+            f"{int(np.ceil(wb * T / 2))}"
+        )
+
+    def basis(self, N: int, T: float) -> Any:
+        """The basis on ``[0, T]``, padded when the functions are singular at the ends."""
+        span = (0.0, T)
+        try:
+            basis = shared_basis(self.family, N, span, **self.params)
+        except TypeError as exc:
+            raise TypeError(f"family/family_params: {exc}") from exc
+        if not np.all(np.isfinite(basis_values(basis, span))):
+            # functions singular at the interval ends (Chebyshev-T, ...): the basis window
+            # is padded by PAD * T on both sides; the record is the windowed signal in it
+            pad = PAD * T
+            basis = shared_basis(self.family, N, (-pad, T + pad), **self.params)
+        a_, b_ = basis.interval
+        if not (np.isfinite(a_) and np.isfinite(b_)):
+            raise ValueError(
+                f"family {self.family!r} lives on an infinite interval {basis.interval}; use "
+                f"identify_hermite / identify_laguerre for it"
+            )
+        return basis
+
+    def lag(self, basis: Any, operator: Integrator) -> SolveLag:
+        """The integrator lag of ``basis`` at ``operator`` (:func:`_integrator_lag`)."""
+        return _integrator_lag(basis, 0.0, operator.alpha, operator.beta, operator.gamma)[0]
+
+    def pseudo_rows(self, basis: Any, operator: Integrator, boundary: bool, ones: Any) -> Array:
+        """``w J = e_{N-1}`` (truncation) and, with ``boundary``, ``w J = 1`` (``ones``)."""
+        a = operator
+        jinv = _integrator_lag(basis, 0.0, a.alpha, a.beta, a.gamma)[1]
+        last = np.zeros(basis.N)
+        last[-1] = 1.0
+        r = [jinv(last)]
+        if boundary:
+            r.append(jinv(ones))
+        return np.array(r)
+
+    def integration(self, basis: Any) -> str:
+        """How the integration matrix of ``basis`` is computed (:func:`integration_matrix`)."""
+        return _integration(basis, 0.0)[1]
+
+    @staticmethod
+    def padding(basis: Any) -> float:
+        """The padding (s) of the basis window before the record."""
+        return 0.0 - float(basis.t_span[0])
+
+
 @library_call
 def identify_sl(
     t: Any,
@@ -319,139 +417,92 @@ def identify_sl(
     order = check_order(order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
-    if N is not None:
-        N = check_positive_int(N, "N", 2)
+    N = None if N is None else check_positive_int(N, "N", 2)
+    fam = SturmLiouvilleFamily(family, dict(family_params or {}))
     wb = records_bandwidth(records)
-    # default p: the smallest window that shows the order (order selection: 3 singular
-    # values); larger p was erratic at SNR 20 dB in this basis (second-order system,
-    # 8 seeds: median error 0.1 % for p = 2, 0.3 % with outliers to 14 % for p = 3,
-    # 11 % for AIC over 2..6)
-    need = order if order is not None else 3
-    p_def = max(2, -(-need // l))
-    segs, w_info = make_segments(
+    p_def = default_past_window(order, l)
+    q = fam.q[st.boundary]
+    blocks = make_blocks(
         records,
+        fam,
         st.window,
-        lambda: default_window(records, BAND_MARGIN * wb / 2, 2 if st.boundary else 1, p_def),
+        lambda: default_window(records, fam.size_rate(wb), q, p_def),
+        size_policy(fam, N, wb),
     )
-    if alpha is None:
-        # the integrator's pole alpha belongs to the system's dynamics, not to the input:
-        # a step or ZOH input is broadband (half the data bandwidth gave alpha ~ 50 rad/s
-        # and 2-3e-2 error on the second-order system, whose poles are at |lambda| = 2);
-        # the outputs are the input low-passed by the system, so their bandwidth is used
-        wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
-        if wy <= 0:
-            raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
-        alpha = ALPHA_FACTOR * wy
-        alpha_rule = f"{ALPHA_FACTOR} * output bandwidth ({OUTPUT_FRACTION:.0%} of the energy)"
-    else:
-        alpha = _real(alpha, "alpha")
-        alpha_rule = "given"
-    keys = shared_keys(segs)
-    bases: dict[int, Any] = {}
-    n_rules, pads = [], []
-    for i, seg in enumerate(segs):
-        if keys[i] in bases:
-            continue
-        T, ns = seg.duration, seg.ns
-        if N is None:
-            Nb, n_rule = clip_basis_size(
-                BAND_MARGIN * wb * T / 2,
-                N_MIN,
-                N_MAX,
-                ns,
-                f"{family}",
-                f"N = {BAND_MARGIN} * bandwidth * T / 2",
-            )
-        else:
-            Nb, n_rule = N, "given"
-            if 2 * N / T < wb:
-                raise ValueError(
-                    f"N={N} functions on a record of {T:g} s resolve only {2 * N / T:.3g} "
-                    f"rad/s, below the data bandwidth {wb:.3g} rad/s; use N >= "
-                    f"{int(np.ceil(wb * T / 2))}"
-                )
-            if N > ns:
-                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-        n_rules.append(n_rule)
-        span = (0.0, T)
-        try:
-            basis = shared_basis(family, Nb, span, **(family_params or {}))
-        except TypeError as exc:
-            raise TypeError(f"family/family_params: {exc}") from exc
-        pad = 0.0
-        if not np.all(np.isfinite(basis_values(basis, span))):
-            # functions singular at the interval ends (Chebyshev-T, ...): the basis window
-            # is padded by PAD * T on both sides; the record is the windowed signal in it
-            pad = PAD * T
-            basis = shared_basis(family, Nb, (-pad, T + pad), **(family_params or {}))
-        a_, b_ = basis.interval
-        if not (np.isfinite(a_) and np.isfinite(b_)):
-            raise ValueError(
-                f"family {family!r} lives on an infinite interval {basis.interval}; use "
-                f"identify_hermite / identify_laguerre for it"
-            )
-        pads.append(pad)
-        bases[keys[i]] = basis
-    lags: dict[int, SolveLag] = {}
-    jinv: dict[int, Any] = {}
-    j_hows = []
-    for k, basis in bases.items():
-        lags[k], jinv[k], j_how = _integrator_lag(basis, 0.0, alpha, beta, gamma)
-        j_hows.append(j_how)
-    seg_bases = [bases[k] for k in keys]
-    holds = resolve_holds(st.input_hold, m)
-    Us, Yc, ones = project_blocks(
-        seg_bases, segs, holds, y_extra=lambda tau: np.ones(tau.size), n_jobs=st.n_jobs
-    )
-    rows: dict[int, Array] = {}
-    for i, k in enumerate(keys):
-        if k in rows:
-            continue
-        Nb = bases[k].N
-        last = np.zeros(Nb)
-        last[-1] = 1.0
-        r = [jinv[k](last)]  # truncation: w J = e_{N-1}
-        if st.boundary:
-            r.append(jinv[k](ones[i]))  # initial state: w J = coefficients of 1
-        rows[k] = np.array(r)
-    lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
-    P = [rows[k] for k in keys]
-
-    core_options = st.core_options(order)
-    # the hold is judged as in the other basis methods (the VARX over the preferred
-    # range of windows), not at this method's own small window: the same for every order
-    out, hold, hold_crit = best_hold(
-        holds, Us, Yc, P, lag, hold_range=P_DEFAULT_RANGE, **core_options, p_range=(p_def, p_def)
-    )
-    Ns_ = [b.N for b in seg_bases]
+    a = default_alpha(records) if alpha is None else Choice(_real(alpha, "alpha"), "given")
+    proj = project(blocks, resolve_holds(st.input_hold, m), st.n_jobs)
+    bases = blocks.bases.values()
     options = {
         "method": "legendre" if family == "legendre" else "sl",
         "family": family if isinstance(family, str) else repr(family),
         "family_params": dict(family_params or {}),
-        "N": int(max(Ns_)),
-        "N_per_block": Ns_ if len(Ns_) > 1 else None,
-        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
+        **blocks.options(),
         "bandwidth": wb,
-        "scale": seg_bases[0].scale,
-        "centre": records[0].t0 + seg_bases[0].centre,
-        "alpha_rule": alpha_rule,
+        "scale": blocks.seg_bases[0].scale,
+        "centre": records[0].t0 + blocks.seg_bases[0].centre,
+        "alpha_rule": a.reason,
         "boundary": st.boundary,
-        "integration": j_hows[0] if len(set(j_hows)) == 1 else j_hows,
-        "window_padding": pads[0] if len(set(pads)) == 1 else pads,
-        "n_samples": int(sum(r.ns for r in records)),
-        "t0": records[0].t0,
-        **w_info,
+        "integration": one_or_all([fam.integration(b) for b in bases]),
+        "window_padding": one_or_all([fam.padding(b) for b in bases]),
     }
-    return integrator_model(
-        out,
-        alpha,
-        beta,
-        gamma,
-        options,
-        settings=st,
-        hold=hold,
-        hold_criterion=hold_crit,
-        order=order,
+    # the hold is judged as in the other basis methods (the VARX over the preferred
+    # range of windows), not at this method's own small window: the same for every order
+    op = Integrator(a.value, beta, gamma)
+    fit = solve(proj, op, st, order, options, hold_range=P_DEFAULT_RANGE, p_range=(p_def, p_def))
+    return fit.model
+
+
+def default_past_window(order: int | None, l: int) -> int:
+    """The default past window ``p = max(2, ceil(n / l))`` (``n`` = the order, or 3 for
+    order selection): the smallest window that shows the order.
+
+    Larger windows were erratic at SNR 20 dB in this basis (second-order system, 8 seeds:
+    median error 0.1 % for ``p = 2``, 0.3 % with outliers to 14 % for ``p = 3``, 11 % for
+    AIC over 2..6).
+
+    Parameters
+    ----------
+    order : int or None
+        The model order, or None (order selection).
+    l : int
+        Number of outputs.
+
+    Returns
+    -------
+    int
+    """
+    need = order if order is not None else 3
+    return max(2, -(-need // l))
+
+
+def default_alpha(records: Sequence[Record]) -> Choice[float]:
+    """The integrator's pole: ``alpha = ALPHA_FACTOR * omega_y``, ``omega_y`` the largest
+    bandwidth holding ``OUTPUT_FRACTION`` of an output's energy.
+
+    ``alpha`` belongs to the system's dynamics, not to the input: a step or ZOH input is
+    broadband (half the data bandwidth gave ``alpha ~ 50`` rad/s and 2-3e-2 error on the
+    second-order system, whose poles are at ``|lambda| = 2``); the outputs are the input
+    low-passed by the system, so their bandwidth is used.
+
+    Parameters
+    ----------
+    records : sequence of Record
+
+    Returns
+    -------
+    Choice of float
+
+    Raises
+    ------
+    ValueError
+        When the outputs have no bandwidth (constant outputs).
+    """
+    wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
+    if wy <= 0:
+        raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
+    return Choice(
+        ALPHA_FACTOR * wy,
+        f"{ALPHA_FACTOR} * output bandwidth ({OUTPUT_FRACTION:.0%} of the energy)",
     )
 
 
