@@ -361,6 +361,16 @@ class SturmLiouvilleFamily(IntegratorFamily):
         """How the integration matrix of ``basis`` is computed (:func:`integration_matrix`)."""
         return _integration(basis, 0.0)[1]
 
+    @property
+    def name(self) -> str:
+        """The family as reported: its catalogue name, or the problem's ``repr``."""
+        return self.family if isinstance(self.family, str) else repr(self.family)
+
+    @property
+    def method(self) -> str:
+        """The method name the models report (``"legendre"`` or ``"sl"``)."""
+        return "legendre" if self.family == "legendre" else "sl"
+
     @staticmethod
     def padding(basis: Any) -> float:
         """The padding (s) of the basis window before the record."""
@@ -393,7 +403,8 @@ def identify_sl(
 
     ``family``: an ``slbasis`` catalogue name with a finite interval (``"legendre"``,
     ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``) or an
-    :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters.  See the
+    :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters; or a
+    :class:`SturmLiouvilleFamily` (``family_params`` then unused).  See the
     module docstring for the integrator ``M`` and why it is stable.  Defaults (in
     ``model.options``):
 
@@ -418,7 +429,11 @@ def identify_sl(
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
     N = None if N is None else check_positive_int(N, "N", 2)
-    fam = SturmLiouvilleFamily(family, dict(family_params or {}))
+    fam = (
+        family
+        if isinstance(family, SturmLiouvilleFamily)
+        else SturmLiouvilleFamily(family, dict(family_params or {}))
+    )
     wb = records_bandwidth(records)
     p_def = default_past_window(order, l)
     q = fam.q[st.boundary]
@@ -433,9 +448,9 @@ def identify_sl(
     proj = project(blocks, resolve_holds(st.input_hold, m), st.n_jobs)
     bases = blocks.bases.values()
     options = {
-        "method": "legendre" if family == "legendre" else "sl",
-        "family": family if isinstance(family, str) else repr(family),
-        "family_params": dict(family_params or {}),
+        "method": fam.method,
+        "family": fam.name,
+        "family_params": dict(fam.params),
         **blocks.options(),
         "bandwidth": wb,
         "scale": blocks.seg_bases[0].scale,
