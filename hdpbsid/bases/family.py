@@ -39,7 +39,6 @@ from numpy.typing import NDArray
 from hdpbsid.bases.basis_domain import CoreOut, clip_basis_size, integrator_model
 from hdpbsid.bases.settings import BasisSettings
 from hdpbsid.core.varx import LagOperator
-from hdpbsid.data.records import Record
 from hdpbsid.models.model import StateSpaceModel
 
 __all__ = ["Choice", "Integrator", "BasisFamily", "IntegratorFamily", "size_policy"]
@@ -180,7 +179,9 @@ class IntegratorFamily(BasisFamily):
         )
 
 
-def size_policy(family: BasisFamily, N: int | None, wb: float) -> Callable[[Record], Choice[int]]:
+def size_policy(
+    family: BasisFamily, N: int | None, wb: float
+) -> Callable[[float, int], Choice[int]]:
     """The basis size of every block: ``N`` when given (checked against the block), else
     the family's default rule at the data bandwidth ``wb``.
 
@@ -196,7 +197,7 @@ def size_policy(family: BasisFamily, N: int | None, wb: float) -> Callable[[Reco
     Returns
     -------
     callable
-        ``size(block) -> Choice[int]``.
+        ``size(T, ns) -> Choice[int]`` for a block of ``T`` seconds and ``ns`` samples.
 
     Raises
     ------
@@ -205,8 +206,7 @@ def size_policy(family: BasisFamily, N: int | None, wb: float) -> Callable[[Reco
         its number of samples.
     """
 
-    def size(seg: Record) -> Choice[int]:
-        T, ns = seg.duration, seg.ns
+    def size(T: float, ns: int) -> Choice[int]:
         if N is None:
             return family.default_size(T, wb, ns)
         why = family.too_narrow(N, T, wb)

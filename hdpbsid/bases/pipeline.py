@@ -88,7 +88,7 @@ def make_blocks(
     family: BasisFamily,
     window: Any,
     window_rule: Callable[[], tuple[float | None, dict[str, Any]]],
-    size: Callable[[Record], Choice[int]],
+    size: Callable[[float, int], Choice[int]],
 ) -> Blocks:
     """Cut the records into blocks and give each its basis.
 
@@ -103,7 +103,7 @@ def make_blocks(
     window_rule : callable
         ``() -> (length or None, report)``, the default window (``window="auto"``).
     size : callable
-        ``size(block) -> Choice[int]``, the basis size of a block
+        ``size(T, ns) -> Choice[int]``, the basis size of a block of ``T`` s, ``ns`` samples
         (:func:`~hdpbsid.bases.family.size_policy`).
 
     Returns
@@ -117,7 +117,7 @@ def make_blocks(
     for i, seg in enumerate(segs):
         if keys[i] in bases:
             continue
-        sizes[keys[i]] = size(seg)
+        sizes[keys[i]] = size(seg.duration, seg.ns)
         bases[keys[i]] = family.basis(int(sizes[keys[i]].value), float(seg.duration))
     return Blocks(family, list(records), segs, keys, bases, sizes, w_info)
 
