@@ -60,6 +60,7 @@ from hdpbsid.bases.basis_domain import (
     spectrum_bandwidth,
 )
 from hdpbsid.bases.family import Integrator, size_policy
+from hdpbsid.bases.hermite_family import HermiteFamily
 from hdpbsid.bases.pipeline import one_or_all
 from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
@@ -67,7 +68,6 @@ from hdpbsid.core import streamed
 from hdpbsid.core.blocks import BlockLag, BlockPseudo
 from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
-from hdpbsid.methods.hermite import HermiteFamily
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from hdpbsid.bases.sl_family import SturmLiouvilleFamily
 from hdpbsid.methods.hermite import _real
-from hdpbsid.methods.sturm_liouville import SturmLiouvilleFamily, identify_sl
+from hdpbsid.methods.sturm_liouville import identify_sl
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from hdpbsid.bases.family import Choice, size_policy
+from hdpbsid.bases.hermite_family import HermiteFamily
 from hdpbsid.bases.pipeline import make_blocks, one_or_all
+from hdpbsid.bases.sl_family import SturmLiouvilleFamily
 from hdpbsid.data.records import as_records
-from hdpbsid.methods.hermite import HermiteFamily
-from hdpbsid.methods.sturm_liouville import SturmLiouvilleFamily
 
 
 def test_size_policy_applies_the_band_rule_and_checks_a_given_size() -> None:
