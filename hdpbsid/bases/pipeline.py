@@ -33,7 +33,7 @@ from hdpbsid.core.blocks import BlockLag
 from hdpbsid.data.records import Record
 from hdpbsid.models.model import StateSpaceModel
 
-__all__ = ["Blocks", "Projection", "Fit", "make_blocks", "project", "solve", "one_or_all"]
+__all__ = ["Blocks", "Projection", "Fit", "make_blocks", "project", "lag", "solve", "one_or_all"]
 
 Array = NDArray[np.float64]
 
