@@ -24,8 +24,9 @@ in three passes over the data, never holding more than one batch of samples:
 With ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
 ``dask.distributed`` client, if any) and the factors are combined pairwise by tasks as
 well, so only the final factors reach the caller.  The basis-domain problem of all
-windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (same bases,
-lags, pseudo-inputs, rules of ``p`` and of the input hold), solved from triangular
+windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (the same
+family, :class:`~hdpbsid.methods.hermite.HermiteFamily`: bases, size rule, lags,
+pseudo-inputs, map back; the same rules of ``p`` and of the input hold), solved from triangular
 factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so on the
 same windows the model is the in-memory one to rounding, up to the sign of each state
 coordinate.  Memory: one batch of samples and its coefficients, the projection maps
@@ -45,7 +46,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-import slbasis
 from hdpbsid.bases.basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
@@ -54,19 +54,20 @@ from hdpbsid.bases.basis_domain import (
     _largest_determined_p,
     _power_spectra,
     best_hold,
-    integrator_model,
     project_record,
     resolve_holds,
     spectra_data_bandwidth,
     spectrum_bandwidth,
 )
+from hdpbsid.bases.family import Integrator, size_policy
+from hdpbsid.bases.hermite_family import HermiteFamily
+from hdpbsid.bases.pipeline import one_or_all
 from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core import streamed
 from hdpbsid.core.blocks import BlockLag, BlockPseudo
 from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
-from hdpbsid.methods.hermite import BAND_MARGIN, HERMITE_BAND, default_hermite_N, hermite_lag
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
@@ -499,58 +500,74 @@ def identify_chunked(
     chunk_samples = check_positive_int(chunk_samples, "chunk_samples", 2)
     st = resolve_settings(settings, shared, "identify_chunked")
     order = check_order(order)
-    if N is not None:
-        N = check_positive_int(N, "N", 2)
-    m, h = record.m, record.dt
+    N = None if N is None else check_positive_int(N, "N", 2)
+    family = HermiteFamily()
     w, Pu, Py = averaged_spectra(record, spectrum_samples, use_dask)
     wb = spectra_data_bandwidth(w, Pu, w, Py)
-    q = 3 if st.boundary else 1  # truncation row and the two boundary rows
-    info: dict[str, Any] = {}
-    window = st.window
-    if window is None:
-        length, info["window_rule"] = None, "none (window=None)"
-    elif window == "auto":
-        w_low = spectrum_bandwidth(w, Py, LOW_FRACTION)
-        n_per_band = BAND_MARGIN * wb / HERMITE_BAND
-        length, info = window_rule(w_low, record.duration, n_per_band, q, P_DEFAULT_RANGE[1])
-    else:
-        length = float(window)
-        info["window_rule"] = "given"
+    length, info = _window(record, st, family, wb, lambda: spectrum_bandwidth(w, Py, LOW_FRACTION))
     edges = _window_edges(record, length)
     sizes = np.diff(edges) + 1  # samples per window (edge samples shared)
-    # one basis per distinct window length, in order of first appearance
-    bases: dict[int, Any] = {}
-    n_rules: list[str] = []
-    for n in sizes:
-        n = int(n)
-        if n in bases:
-            continue
-        T = (n - 1) * h
-        if N is None:
-            Nb, rule = default_hermite_N(T, wb, n)
-        else:
-            Nb, rule = N, "given"
-            if HERMITE_BAND * N / T < wb:
-                raise ValueError(
-                    f"N={N} Hermite functions over a window of {T:g} s cover only "
-                    f"{HERMITE_BAND * N / T:.3g} rad/s, below the data bandwidth {wb:.3g} rad/s"
-                )
-            if N > n:
-                raise ValueError(f"N={N} exceeds the number of samples per window {n}; reduce N")
-        n_rules.append(rule)
-        bases[n] = slbasis.basis("hermite", Nb, (0.0, T))
+    bases, n_rules = _bases(record, family, sizes, size_policy(family, N, wb))
     s_ref = float(np.median([b.scale for b in bases.values()]))
-    alpha, beta, gamma = 4.0 * s_ref, 1.0, 1.0
-    lags, rows = {}, {}
-    for n, b in bases.items():
-        lags[n] = hermite_lag(b.derivative_matrix("square"), alpha, beta, gamma)[0]
-        r = [np.eye(1, b.N, b.N - 1)[0]]
-        if st.boundary:
-            r += list(b.eval(np.array([0.0, (n - 1) * h])).T)
-        rows[n] = np.array(r)
-    holds = resolve_holds(st.input_hold, m)
-    # batches: consecutive windows, about chunk_samples samples each, read at once; a
-    # window whose projection map would be too large is a batch of its own
+    op = Integrator(4.0 * s_ref, 1.0, 1.0)
+    holds = resolve_holds(st.input_hold, record.m)
+    kinds = {
+        n: _Kind(family.lag(b, op), b.N, family.pseudo_rows(b, op, st.boundary, None), b)
+        for n, b in bases.items()
+    }
+    jobs, single = _plan_batches(edges, sizes, bases, len(holds), chunk_samples)
+    maps = {n: _window_maps(b, n, record.dt, holds) for n, b in bases.items() if n not in single}
+    ctx = _Batches(jobs, _Shared(record, maps, kinds, holds), use_dask)
+    if st.feedthrough:
+        # not covered by the streamed core: every window's coefficients held at once
+        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
+    else:
+        out, hold, hold_crit = _best_hold_streamed(ctx, sizes, record.m, record.l, st, order)
+    options = {
+        **_report(record, bases, sizes, n_rules, s_ref, st.boundary),
+        "bandwidth": wb,
+        "bandwidth_rule": (
+            f"periodograms averaged over chunks of {min(record.ns, spectrum_samples)} samples"
+        ),
+        "chunked": {
+            "batches": len(jobs),
+            "chunk_samples": chunk_samples,
+            "dask": use_dask,
+            "core": "in memory" if st.feedthrough else "streamed",
+        },
+        **info,
+        "window": length,
+    }
+    return family.model(
+        out, op, options, settings=st, hold=hold, hold_criterion=hold_crit, order=order
+    )
+
+
+def _window(
+    record: ChunkedRecord,
+    st: BasisSettings,
+    family: HermiteFamily,
+    wb: float,
+    w_low: Callable[[], float],
+) -> tuple[float | None, dict[str, Any]]:
+    """The window length (s) of the ``window`` setting, or None, and its report: the rule
+    of :func:`~hdpbsid.bases.segments.window_rule` for ``"auto"``, with the lowest
+    significant output frequency ``w_low()`` from the averaged spectra."""
+    if st.window is None:
+        return None, {"window_rule": "none (window=None)"}
+    if st.window == "auto":
+        q = family.q[st.boundary]  # truncation row and the two boundary rows
+        return window_rule(w_low(), record.duration, family.size_rate(wb), q, P_DEFAULT_RANGE[1])
+    return float(st.window), {"window_rule": "given"}
+
+
+def _plan_batches(
+    edges: Array, sizes: Array, bases: dict[int, Any], n_holds: int, chunk_samples: int
+) -> tuple[list[tuple[int, int, list[int], bool]], set[int]]:
+    """Batches of consecutive windows, about ``chunk_samples`` samples each, read at once:
+    ``(first sample, end, window sizes, single)``; a window whose projection map would be
+    too large (:data:`~hdpbsid.bases.segments.MAP_BYTES`) is a batch of its own.  Returns
+    the batches and the window lengths projected one by one."""
     jobs: list[tuple[int, int, list[int], bool]] = []
     batch: list[int] = []
     single: set[int] = set()
@@ -562,7 +579,7 @@ def identify_chunked(
             batch.clear()
 
     for k, n in enumerate(int(n) for n in sizes):
-        if bases[n].N * n * 8 * (len(holds) + 1) > MAP_BYTES:  # too large a map: one by one
+        if bases[n].N * n * 8 * (n_holds + 1) > MAP_BYTES:  # too large a map: one by one
             flush()
             single.add(n)
             jobs.append((int(edges[k]), int(edges[k + 1]) + 1, [n], True))
@@ -571,57 +588,57 @@ def identify_chunked(
             flush()
         batch.append(k)
     flush()
-    maps: dict[int, list[Array]] = {}
-    for n, b in bases.items():
-        if n not in single:
-            Gu, Gy = _maps(b, np.arange(n) * h, holds)
-            maps[n] = Gu + [Gy]
-    kinds = {n: _Kind(lags[n], b.N, rows[n], b) for n, b in bases.items()}
-    shared_data = _Shared(record, maps, kinds, holds)
-    ctx = _Batches(jobs, shared_data, use_dask)
-    if st.feedthrough:
-        # not covered by the streamed core: every window's coefficients held at once
-        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
-    else:
-        out, hold, hold_crit = _best_hold_streamed(ctx, sizes, m, record.l, st, order)
-    keys = [int(n) for n in np.unique(sizes)]
-    seg_bases = [bases[n] for n in keys]
+    return jobs, single
+
+
+def _bases(
+    record: ChunkedRecord,
+    family: HermiteFamily,
+    sizes: Array,
+    size: Callable[[float, int], Any],
+) -> tuple[dict[int, Any], dict[int, str]]:
+    """One basis per distinct window length (samples), in order of first appearance, of
+    the size ``size(T, n)`` chooses; and the reason for each size."""
+    bases: dict[int, Any] = {}
+    n_rules: dict[int, str] = {}
+    for n in dict.fromkeys(int(n) for n in sizes):
+        T = (n - 1) * record.dt
+        choice = size(T, n)
+        n_rules[n] = choice.reason
+        bases[n] = family.basis(int(choice.value), T)
+    return bases, n_rules
+
+
+def _report(
+    record: ChunkedRecord,
+    bases: dict[int, Any],
+    sizes: Array,
+    n_rules: dict[int, str],
+    s_ref: float,
+    boundary: bool,
+) -> dict[str, Any]:
+    """The options of the blocks as :func:`~hdpbsid.methods.hermite.identify_hermite`
+    reports them."""
     Ns_all = [bases[int(n)].N for n in sizes]
-    options = {
+    return {
         "method": "hermite",
-        "N": int(max(b.N for b in seg_bases)),
+        "N": int(max(Ns_all)),
         "N_per_block": Ns_all if len(Ns_all) > 1 else None,
-        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
-        "bandwidth": wb,
-        "bandwidth_rule": (
-            f"periodograms averaged over chunks of {min(record.ns, spectrum_samples)} samples"
-        ),
+        "N_rule": one_or_all(list(n_rules.values())),
         "scale": s_ref,
         "centre": record.t0 + bases[int(sizes[0])].centre,
         "alpha_rule": "4 * scale (median over blocks)",
-        "boundary": st.boundary,
+        "boundary": boundary,
         "truncation": "last column of the cut D absorbed as a pseudo-input",
         "n_samples": record.ns,
         "t0": record.t0,
-        "chunked": {
-            "batches": len(jobs),
-            "chunk_samples": chunk_samples,
-            "dask": use_dask,
-            "core": "in memory" if st.feedthrough else "streamed",
-        },
-        **info,
-        "window": length,
         "n_records": 1,
         "n_segments": int(sizes.size),
     }
-    return integrator_model(
-        out,
-        alpha,
-        beta,
-        gamma,
-        options,
-        settings=st,
-        hold=hold,
-        hold_criterion=hold_crit,
-        order=order,
-    )
+
+
+def _window_maps(basis: Any, n: int, dt: float, holds: tuple[str, ...]) -> list[Array]:
+    """The projection maps of a window of ``n`` samples, ``[G_hold ..., G_y]``
+    (:func:`~hdpbsid.bases.segments._maps`)."""
+    Gu, Gy = _maps(basis, np.arange(n) * dt, holds)
+    return Gu + [Gy]

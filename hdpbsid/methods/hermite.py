@@ -28,23 +28,23 @@ absorbed exactly as a pseudo-input with row ``e_{N-1}^T``, like the two boundary
 
 from __future__ import annotations
 
-import functools
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dgttrf, dgttrs
 
 from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
-    SolveLag,
     bandwidth,
-    basis_values,
-    best_hold,
-    clip_basis_size,
-    integrator_model,
     resolve_holds,
-    shared_basis,
+)
+from hdpbsid.bases.family import Choice, Integrator, size_policy
+from hdpbsid.bases.hermite_family import (
+    HERMITE_BAND,
+    HermiteFamily,
+    default_hermite_N,
+    hermite_lag,
 )
 from hdpbsid.bases.operator_scale import (
     MODE_ENERGY_FRACTION,
@@ -53,34 +53,25 @@ from hdpbsid.bases.operator_scale import (
     held_out_comparison,
     in_sample_screen,
 )
-from hdpbsid.bases.segments import (
-    default_window,
-    make_segments,
-    project_blocks,
-    records_bandwidth,
-    shared_keys,
-)
+from hdpbsid.bases.pipeline import Projection, make_blocks, project, solve
+from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core.blocks import BlockLag
 from hdpbsid.data.checks import check_data, check_order, check_positive_int
-from hdpbsid.data.records import as_records
+from hdpbsid.data.records import Record, as_records
 from hdpbsid.methods.hermite_iv import reference_instruments, with_reference
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_hermite", "hermite_lag", "default_hermite_N", "HERMITE_BAND"]
+__all__ = [
+    "identify_hermite",
+    "HermiteFamily",
+    "hermite_lag",
+    "default_hermite_N",
+    "HERMITE_BAND",
+]
 
 Array = NDArray[np.float64]
-
-#: highest angular frequency (rad/s) of N Hermite functions filling 90 % of the support
-#: over a record of length T: ``scale * sqrt(2N) = 0.9 * 2 N * 2 / T = 3.6 N / T``
-HERMITE_BAND = 3.6
-#: default N covers this multiple of the data bandwidth
-BAND_MARGIN = 2.0
-#: limits of the default N; the upper one only bounds the cost (evaluation is exact to
-#: rounding at N = 5000, bench/basis.py): it binds on records longer than ~10^3 bandwidth
-#: periods, with a warning
-N_MIN, N_MAX = 100, 4000
 
 
 #: the named rules ``alpha`` accepts besides a number (:func:`identify_hermite`)
@@ -93,96 +84,6 @@ ALPHA_RULES = ("basis", "dynamics")
 #: record 157 -> 67 ms without them); it is judged on the held-out data for the chosen
 #: candidate only.
 SWEEP_SETTINGS: dict[str, Any] = {"alpha": "basis"}
-
-
-def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:
-    """``N`` so that the basis covers ``BAND_MARGIN`` times the data bandwidth ``omega_b``.
-
-    ``N = BAND_MARGIN omega_b T / 3.6`` clipped to ``[N_MIN, N_MAX]`` (measured in
-    early runs: N = 200-300 worked on 20-40 s records; below ~30 the thesis, §5, reports poor
-    identification)
-    and to ``Ns / 2`` (the samples must resolve the fastest basis function), with a
-    warning when an upper limit binds (:func:`~hdpbsid.bases.basis_domain.clip_basis_size`).
-
-    Why the band includes the input's (``omega_b`` from
-    :func:`~hdpbsid.bases.basis_domain.data_bandwidth`), not only the outputs': the
-    coefficient equation holds for any ``N`` (the cut of the derivative operator is a
-    pseudo-input), so input energy above the basis band does no harm by itself, but the
-    coefficients between the outputs' energy band and the input band are where a fast,
-    weakly visible mode is seen.  Sizing ``N`` from the outputs' band alone is cheaper
-    but loses a fast mode whose output share is small (systems with modes a decade
-    apart), and a band read from where the output spectrum leaves its noise floor moves
-    with the noise; the comparisons are in the benchmark pages.
-    """
-    return clip_basis_size(
-        BAND_MARGIN * omega_b * T / HERMITE_BAND,
-        N_MIN,
-        N_MAX,
-        ns,
-        "hermite",
-        f"N = {BAND_MARGIN} * bandwidth * T / {HERMITE_BAND}",
-    )
-
-
-def _hermite_basis(N: int, T: float, scale: float | None) -> Any:
-    """``slbasis.basis("hermite", N, (0, T), scale=scale)``, the same object for the same
-    arguments (:func:`~hdpbsid.bases.basis_domain.shared_basis`)."""
-    return shared_basis("hermite", N, (0.0, T), scale=scale)
-
-
-def _boundary_rows(N: int, T: float, scale: float | None) -> Array:
-    """``phi_n(0)``, ``phi_n(T)`` of :func:`_hermite_basis` (``N x 2``, read-only)."""
-    return basis_values(_hermite_basis(N, T, scale), (0.0, T))
-
-
-@functools.lru_cache(maxsize=16)
-def _derivative_matrix(N: int, T: float, scale: float | None) -> Any:
-    """The square d/dt matrix of :func:`_hermite_basis` (``N x N`` CSR), kept like the
-    basis: every operator-scale pass builds its lag from it (not modified by
-    :func:`hermite_lag`, which reads its diagonals)."""
-    return _hermite_basis(N, T, scale).derivative_matrix("square")
-
-
-def _diagonal(Dmat: Any, k: int) -> Array:
-    return np.asarray(Dmat.diagonal(k), dtype=float)
-
-
-def hermite_lag(
-    Dmat: Any, alpha: float, beta: float, gamma: float
-) -> tuple[SolveLag, NDArray[np.float64]]:
-    """The integrator lag ``W -> W D'^{-1}`` for ``D' = (Dd/alpha + beta I)/gamma``.
-
-    ``Dmat`` is the square ``N x N`` d/dt matrix (tridiagonal, sparse or dense);
-    ``Dd = -Dmat``.  The banded storage of ``D'^T`` (``scipy.linalg.solve_banded``
-    layout, rows: super-, main, sub-diagonal) is filled from the three diagonals of
-    ``Dmat`` directly, never forming an ``N x N`` array, and factored once.  Returns the
-    :class:`~hdpbsid.bases.basis_domain.SolveLag` (banded solve with ``D'^T``) and the
-    banded storage.
-    """
-    N = Dmat.shape[0]
-    ab = np.zeros((3, N))
-    # D'^T = (-Dmat^T / alpha + beta I) / gamma: its super-diagonal is Dmat's sub-diagonal
-    ab[0, 1:] = -_diagonal(Dmat, -1) / (alpha * gamma)
-    ab[1] = (-_diagonal(Dmat, 0) / alpha + beta) / gamma
-    ab[2, :-1] = -_diagonal(Dmat, 1) / (alpha * gamma)
-
-    # LU factors of the tridiagonal D'^T (partial pivoting, LAPACK gttrf) computed once:
-    # the core applies the lag some twenty times per fit, each then one O(N) gttrs
-    dl, d, du, du2, ipiv, info = dgttrf(ab[2, :-1], ab[1], ab[0, 1:])
-    if info != 0:
-        raise ValueError(f"D' is singular (LAPACK gttrf info = {info}); change alpha or beta")
-
-    def solve(W: Array) -> Array:
-        # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
-        if W.shape[0] == 0:
-            return np.zeros_like(W)
-        X, err = dgttrs(dl, d, du, du2, ipiv, np.asfortranarray(W.T, dtype=float))
-        if err != 0:
-            raise ValueError(f"LAPACK gttrs failed (info = {err})")
-        return X.T
-
-    name = f"D'^-1, D' = (D/{alpha:.4g} + {beta:g} I)/{gamma:g}"
-    return SolveLag(solve, name, key=ab), ab
 
 
 def _real(x: Any, name: str, positive: bool = True) -> float:
@@ -288,227 +189,239 @@ def identify_hermite(
       the excitation added to the command; one array per record), consistent up to the
       VARX truncation (:mod:`hdpbsid.methods.hermite_iv`).
     """
+    c = _validate(
+        t, u, y, order, N, alpha, beta, gamma, scale, estimator, reference, settings, shared
+    )
+    family = HermiteFamily(c.scale)
+    wb = records_bandwidth(c.records)
+    q = family.q[c.st.boundary]
+    blocks = make_blocks(
+        c.proj_records,
+        family,
+        c.st.window,
+        lambda: default_window(c.records, family.size_rate(wb), q, P_DEFAULT_RANGE[1]),
+        size_policy(family, c.N, wb),
+    )
+    s_ref = float(np.median([b.scale for b in blocks.bases.values()]))
+    alpha0 = 4.0 * s_ref if c.alpha is None else c.alpha
+    proj = project(blocks, resolve_holds(c.st.input_hold, c.m), c.st.n_jobs)
+    R = None
+    if c.m_r:
+        proj, R = proj.split_inputs(c.m)
+    options = {
+        "method": "hermite",
+        **blocks.options(),
+        "bandwidth": wb,
+        "scale": s_ref,
+        "centre": c.records[0].t0 + blocks.seg_bases[0].centre,
+        "alpha_rule": "given",
+        "boundary": c.st.boundary,
+        "truncation": "last column of the cut D absorbed as a pseudo-input",
+        "estimator": c.estimator,
+    }
+    fit = _Passes(c, proj, R, options)
+    if c.alpha is not None:
+        return fit(alpha0)
+    if c.alpha_rule == "basis" or len(c.records) > 1:
+        return _basis_rule(fit(alpha0), c.alpha_rule)
+    band = (
+        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in c.records),
+        min(family.band(b) for b in blocks.bases.values()),
+    )
+    return _dynamics_rule(fit, c, alpha0, band, held_out)
+
+
+identify_hermite.sweep_settings = SWEEP_SETTINGS  # type: ignore[attr-defined]
+
+
+@dataclass(frozen=True)
+class _Call:
+    """The validated arguments of :func:`identify_hermite`."""
+
+    records: list[Record]
+    proj_records: list[Record]
+    m: int
+    m_r: int
+    st: BasisSettings
+    order: int | None
+    N: int | None
+    scale: float | None
+    beta: float
+    gamma: float
+    estimator: str
+    alpha: float | None
+    alpha_rule: str | None
+
+
+def _validate(
+    t: Any,
+    u: Any,
+    y: Any,
+    order: Any,
+    N: Any,
+    alpha: Any,
+    beta: Any,
+    gamma: Any,
+    scale: Any,
+    estimator: Any,
+    reference: Any,
+    settings: Any,
+    shared: dict[str, Any],
+) -> _Call:
+    """Check the arguments of :func:`identify_hermite` before any computation."""
     records = as_records(t, u, y)
-    m = records[0].u.shape[1]
     st = resolve_settings(settings, shared, "identify_hermite")
     order = check_order(order)
     # with a reference the records carry it as extra input columns (projected alike)
     proj_records, m_r = with_reference(records, estimator, reference)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
-    if N is not None:
-        N = check_positive_int(N, "N", 2)
-    if scale is not None:
-        scale = _real(scale, "scale")
-    wb = records_bandwidth(records)
-    q = 3 if st.boundary else 1
-    segs, w_info = make_segments(
-        proj_records,
-        st.window,
-        lambda: default_window(records, BAND_MARGIN * wb / HERMITE_BAND, q, P_DEFAULT_RANGE[1]),
+    N = None if N is None else check_positive_int(N, "N", 2)
+    scale = None if scale is None else _real(scale, "scale")
+    rule = alpha if isinstance(alpha, str) else None
+    if rule is not None and rule not in ALPHA_RULES:
+        raise ValueError(
+            f"alpha must be a positive number, None or one of {ALPHA_RULES}, got {alpha!r}"
+        )
+    a = None if alpha is None or rule is not None else _real(alpha, "alpha")
+    m = records[0].u.shape[1]
+    return _Call(
+        records, proj_records, m, m_r, st, order, N, scale, beta, gamma, estimator, a, rule
     )
-    keys = shared_keys(segs)
-    bases: dict[int, Any] = {}
-    n_rules: list[str] = []
-    for i, seg in enumerate(segs):
-        if keys[i] in bases:
-            continue
-        T, ns = seg.duration, seg.ns
-        if N is None:
-            Nb, rule = default_hermite_N(T, wb, ns)
-        else:
-            Nb, rule = N, "given"
-            if HERMITE_BAND * N / T < wb:
-                raise ValueError(
-                    f"N={N} Hermite functions over a record of {T:g} s cover only "
-                    f"{HERMITE_BAND * N / T:.3g} rad/s, below the data bandwidth {wb:.3g} "
-                    f"rad/s (99 % of the energy); use N >= {int(np.ceil(wb * T / HERMITE_BAND))}"
-                )
-            if N > ns:
-                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-        n_rules.append(rule)
-        bases[keys[i]] = _hermite_basis(int(Nb), float(T), scale)
-    scales = np.array([b.scale for b in bases.values()])
-    s_ref = float(np.median(scales))
-    alpha_rule = alpha if isinstance(alpha, str) else None
-    if alpha_rule is not None:
-        if alpha_rule not in ALPHA_RULES:
-            raise ValueError(
-                f"alpha must be a positive number, None or one of {ALPHA_RULES}, got {alpha!r}"
+
+
+class _Passes:
+    """HD-PBSID of one projection at the operator scales asked for, each fitted once (the
+    first pass's model is reused when the held-out check keeps its ``alpha``).
+
+    With ``input_hold="auto"`` only the first fit compares both holds; the later passes
+    (another ``alpha``) use the hold it chose.  The hold says how the input behaved
+    between its samples, a property of the record that the operator scale does not
+    change, and the first fit judges it on the same data and with the same criterion (the
+    AIC of the VARX fit) as a later pass would: each later pass would only repeat the
+    decision at the cost of two more VARX fits."""
+
+    def __init__(self, c: _Call, proj: Projection, R: Array | None, options: dict) -> None:
+        self.c, self.proj, self.R, self.options = c, proj, R, options
+        self.fitted: dict[float, StateSpaceModel] = {}
+        self.hold: Choice[str] | None = None
+        self.criterion: dict[str, float] = {}
+
+    def __call__(self, a: float) -> StateSpaceModel:
+        if a not in self.fitted:
+            self.fitted[a] = self._fit(a)
+        return self.fitted[a]
+
+    def instruments(self, lag: BlockLag) -> Array:
+        """The reference instruments of the blocks' lag (:mod:`~hdpbsid.methods.hermite_iv`)."""
+        st, R = self.c.st, self.R
+        p_max = st.p if st.p is not None else P_DEFAULT_RANGE[1]
+        return reference_instruments(R, lag, p_max * (self.c.m + self.proj.Y.shape[0]))
+
+    def _fit(self, a: float) -> StateSpaceModel:
+        c, opts = self.c, dict(self.options)
+        holds = None
+        if self.hold is not None:
+            holds = (self.hold.value,)
+            opts["input_hold_rule"] = self.hold.reason
+            opts["input_hold_criterion"] = self.criterion
+        op = Integrator(a, c.beta, c.gamma)
+        ivs = self.instruments if self.R is not None else None
+        fit = solve(self.proj, op, c.st, c.order, opts, holds=holds, instruments=ivs)
+        if self.hold is None and len(self.proj.holds) > 1:
+            self.criterion = fit.criterion
+            self.hold = Choice(
+                fit.hold,
+                f"auto: zoh and foh judged at alpha = {a:.4g} (the first pass) by the "
+                "AIC of the VARX fit, the smaller kept for every pass",
             )
-        alpha = None
-    alpha_given = alpha is not None
-    alpha0 = 4.0 * s_ref if alpha is None else _real(alpha, "alpha")
-    rows: dict[int, Array] = {}
-    for k, b in bases.items():
-        r = [np.eye(1, b.N, b.N - 1)[0]]  # truncation of the last column of the cut operator
-        if st.boundary:
-            r += list(_boundary_rows(b.N, b.t_span[1], scale).T)
-        rows[k] = np.array(r)
-    seg_bases = [bases[k] for k in keys]
-    holds = resolve_holds(st.input_hold, m)
-    Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)
-    R = Us[0][m:] if m_r else None
-    Us = [U_h[:m] for U_h in Us]
-    P = [rows[k] for k in keys]
-    Ns_ = [b.N for b in seg_bases]
-    options = {
-        "method": "hermite",
-        "N": int(max(Ns_)),
-        "N_per_block": Ns_ if len(Ns_) > 1 else None,
-        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
-        "bandwidth": wb,
-        "scale": s_ref,
-        "centre": records[0].t0 + seg_bases[0].centre,
-        "alpha_rule": "given",
-        "boundary": st.boundary,
-        "truncation": "last column of the cut D absorbed as a pseudo-input",
-        "n_samples": int(sum(r.ns for r in records)),
-        "t0": records[0].t0,
-        "estimator": estimator,
-        **w_info,
-    }
+        return fit.model
 
-    fitted: dict[float, StateSpaceModel] = {}
-    # the input hold is decided by the first fit (with both holds when "auto") and kept
-    # for the later operator-scale passes: see _fit
-    decided: dict[str, Any] = {}
+    @property
+    def used_hold(self) -> str:
+        """The input hold of the fits (the first pass's choice)."""
+        return self.hold.value if self.hold is not None else self.proj.holds[0]
 
-    def fit(a: float) -> StateSpaceModel:
-        """HD-PBSID with the operator scale ``alpha = a`` (each ``a`` fitted once: the
-        first pass's model is reused when the held-out check keeps its ``alpha``)."""
-        if a not in fitted:
-            fitted[a] = _fit(a)
-        return fitted[a]
 
-    def _fit(a: float) -> StateSpaceModel:
-        """One fit at ``alpha = a``.  With ``input_hold="auto"`` only the first fit tries
-        both holds; the later passes (another ``alpha``) use the hold it chose.  The hold
-        says how the input behaved between its samples, a property of the record that the
-        operator scale does not change, and the first fit judges it on the same data and
-        with the same criterion (the AIC of the VARX fit) as a later pass would: each
-        later pass would only repeat the decision at the cost of two more VARX fits."""
-        use = holds
-        opts = dict(options)
-        if "hold" in decided:
-            use = (decided["hold"],)
-            opts["input_hold_rule"] = decided["rule"]
-        lags = {
-            k: hermite_lag(_derivative_matrix(b.N, b.t_span[1], scale), a, beta, gamma)[0]
-            for k, b in bases.items()
-        }
-        lag = BlockLag([lags[k] for k in keys], Ns_)
-        Psi = None
-        if R is not None:
-            p_max = st.p if st.p is not None else P_DEFAULT_RANGE[1]
-            Psi = reference_instruments(R, lag, p_max * (m + Yc.shape[0]))
-        out, hold, hold_crit = best_hold(
-            use,
-            [Us[holds.index(h)] for h in use],
-            Yc,
-            P,
-            lag,
-            instruments=Psi,
-            **st.core_options(order),
-        )
-        if "hold" not in decided and len(holds) > 1:
-            decided.update(
-                hold=hold,
-                criterion=hold_crit,
-                rule=(
-                    f"auto: zoh and foh judged at alpha = {a:.4g} (the first pass) by the "
-                    "AIC of the VARX fit, the smaller kept for every pass"
-                ),
-            )
-        return integrator_model(
-            out,
-            a,
-            beta,
-            gamma,
-            opts,
-            settings=st,
-            hold=hold,
-            hold_criterion=decided.get("criterion", hold_crit),
-            order=order,
-        )
-
-    if alpha_given:
-        return fit(alpha0)
-    if alpha_rule == "basis" or len(records) > 1:
-        # asked for; or no single record to hold a part out of: a change of alpha could
-        # not be checked
-        model = fit(alpha0)
-        model.options["alpha_rule"] = "4 * scale (median over blocks); " + (
-            "asked for (alpha='basis')"
-            if alpha_rule == "basis"
-            else "several records: no held-out check of a change"
-        )
-        return model
-    # modes the data resolve: from the frequency below which MODE_ENERGY_FRACTION of the
-    # output energy lies (slower modes are drifts the data barely show) to the basis band
-    band = (
-        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records),
-        min(HERMITE_BAND * b.N / b.t_span[1] for b in bases.values()),
+def _basis_rule(model: StateSpaceModel, rule: str | None) -> StateSpaceModel:
+    """The model at ``alpha = 4 * scale``, asked for or the only checkable one."""
+    model.options["alpha_rule"] = "4 * scale (median over blocks); " + (
+        "asked for (alpha='basis')"
+        if rule == "basis"
+        else "several records: no held-out check of a change"
     )
+    return model
+
+
+def _dynamics_rule(
+    fit: _Passes, c: _Call, alpha0: float, band: tuple[float, float], held_out: Any
+) -> StateSpaceModel:
+    """``alpha`` from the identified modes
+    (:func:`~hdpbsid.bases.operator_scale.alpha_from_dynamics`), kept only when it proves
+    itself (:func:`_check_change`) unless asked for (``alpha="dynamics"``)."""
     a_new, model, info = alpha_from_dynamics(fit, alpha0, band)
     info["alpha_rule"] += " (4 * scale, median over blocks)"
-    if alpha_rule == "dynamics":
+    alpha = a_new
+    if c.alpha_rule == "dynamics":
         info["alpha_rule"] += "; taken without a held-out check (alpha='dynamics')"
-    elif a_new != alpha0 and held_out is not None:
-        keep, how = held_out_comparison(
-            fit(alpha0), model, check_data(*held_out), model.n, (alpha0, a_new)
-        )
-        info["alpha_check"] = how
-        if not keep:
-            model = fit(alpha0)
-            info["alpha_rule"] += (
-                "; not better on the held-out data by more than one SE: the first pass's alpha kept"
-            )
     elif a_new != alpha0:
-        rec = records[0]
-        ref = proj_records[0].u[:, m:] if m_r else None
-        # the necessary condition first: no refits when the change does not even fit the
-        # record better (operator_scale.in_sample_screen)
-        keep, how = in_sample_screen(fit(alpha0), model, (rec.t, rec.u, rec.y), (alpha0, a_new))
-        if keep:
-            keep, how = held_out_check(
-                lambda t_, u_, y_, a: identify_hermite(
-                    t_,
-                    u_,
-                    y_,
-                    order=model.n,
-                    alpha=a,
-                    N=N,
-                    beta=beta,
-                    gamma=gamma,
-                    scale=scale,
-                    estimator=estimator,
-                    reference=None if ref is None else ref[: t_.shape[0]],
-                    settings=st,
-                    # the hold the whole record's first pass chose (see _fit)
-                    input_hold=model.options["input_hold"],
-                ),
-                rec.t,
-                rec.u,
-                rec.y,
-                a_new,
-                alpha0,
-                model.n,
-            )
+        keep, how, where = _check_change(fit, c, model, alpha0, a_new, held_out)
         info["alpha_check"] = how
         if not keep:
-            model = fit(alpha0)
+            model, alpha = fit(alpha0), alpha0
             info["alpha_rule"] += (
-                "; not better on the held-out part by more than one SE: the first pass's alpha kept"
+                f"; not better on the {where} by more than one SE: the first pass's alpha kept"
             )
-
     model.options.update(info)
     if held_out is not None:
         # the rule the held-out data chose, for the refit on a longer record (whose basis
         # rule gives another 4 * scale and whose modes ask for their own alpha)
-        kept = model.options["alpha"] == alpha0
-        model.options["refit_settings"] = {"alpha": "basis" if kept else "dynamics"}
+        model.options["refit_settings"] = {"alpha": "basis" if alpha == alpha0 else "dynamics"}
     return model
 
 
-identify_hermite.sweep_settings = SWEEP_SETTINGS  # type: ignore[attr-defined]
+def _check_change(
+    fit: _Passes,
+    c: _Call,
+    model: StateSpaceModel,
+    alpha0: float,
+    a_new: float,
+    held_out: Any,
+) -> tuple[bool, str, str]:
+    """Whether ``a_new`` beats ``alpha0`` by more than one standard error: on the caller's
+    held-out data (:func:`~hdpbsid.bases.operator_scale.held_out_comparison`), else on the
+    record itself (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`, the necessary
+    condition, no refits) and then on its last third held out from refits on the rest
+    (:func:`~hdpbsid.bases.operator_scale.held_out_check`).  Returns
+    ``(keep, how, which data)``."""
+    if held_out is not None:
+        keep, how = held_out_comparison(
+            fit(alpha0), model, check_data(*held_out), model.n, (alpha0, a_new)
+        )
+        return keep, how, "held-out data"
+    rec = c.records[0]
+    keep, how = in_sample_screen(fit(alpha0), model, (rec.t, rec.u, rec.y), (alpha0, a_new))
+    if keep:
+        ref = c.proj_records[0].u[:, c.m :] if c.m_r else None
+        hold = fit.used_hold
+
+        def refit(t_: Array, u_: Array, y_: Array, a: float) -> StateSpaceModel:
+            return identify_hermite(
+                t_,
+                u_,
+                y_,
+                order=model.n,
+                alpha=a,
+                N=c.N,
+                beta=c.beta,
+                gamma=c.gamma,
+                scale=c.scale,
+                estimator=c.estimator,
+                reference=None if ref is None else ref[: t_.shape[0]],
+                settings=c.st,
+                # the hold the whole record's first pass chose (see _Passes)
+                input_hold=hold,
+            )
+
+        keep, how = held_out_check(refit, rec.t, rec.u, rec.y, a_new, alpha0, model.n)
+    return keep, how, "held-out part"

@@ -33,6 +33,7 @@ approximation valid as ``t -> inf``):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,29 +42,32 @@ from numpy.typing import NDArray
 from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
     BlockShift,
+    CoreOut,
     basis_values,
     best_hold,
-    clip_basis_size,
     resolve_holds,
     shared_basis,
 )
-from hdpbsid.bases.segments import (
-    default_window,
-    make_segments,
-    project_blocks,
-    records_bandwidth,
-    shared_keys,
-)
+from hdpbsid.bases.family import BasisFamily, size_policy
+from hdpbsid.bases.pipeline import make_blocks, project, solve
+from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core.blocks import BlockLag
 from hdpbsid.core.varx import SampleShift
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import as_records
+from hdpbsid.data.records import Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_laguerre", "cayley", "inverse_cayley", "laguerre_filter"]
+__all__ = [
+    "identify_laguerre",
+    "LaguerreFamily",
+    "laguerre_model",
+    "cayley",
+    "inverse_cayley",
+    "laguerre_filter",
+]
 
 Array = NDArray[np.float64]
 
@@ -119,6 +123,98 @@ def laguerre_filter(t: Array, x: Array, a: float, N: int) -> Array:
     return out
 
 
+@dataclass(frozen=True)
+class LaguerreFamily(BasisFamily):
+    """Laguerre functions with pole ``a`` on the window, as a basis family
+    (:class:`~hdpbsid.bases.family.BasisFamily`; module docstring, projection variant).
+
+    * size: the record fills 90 % of the support, ``N = 2 a T / 3.6``;
+    * lag: the sample shift in the Laguerre index (the all-pass ``(s - a) / (s + a)``);
+    * pseudo-inputs: with ``boundary``, the boundary rows ``l_n(0)``, ``l_n(T)``;
+    * model: the inverse Cayley map (:func:`inverse_cayley`); the Laguerre-domain ``Dd``
+      is always estimated (``feedthrough=True`` in the core).
+
+    Parameters
+    ----------
+    a : float
+        The Laguerre pole (rad/s), positive.
+    """
+
+    a: float
+    label = "laguerre"
+    n_min, n_max = N_MIN, N_MAX
+    q = (1, 2)
+    core_overrides = {"feedthrough": True}
+    size_rule = f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}"
+
+    def size_rate(self, wb: float) -> float:
+        """``2 a / 3.6`` functions per second, whatever the band."""
+        return 2 * self.a / LAGUERRE_SUPPORT
+
+    def wanted_size(self, T: float, wb: float) -> float:
+        """``2 a T / 3.6``."""
+        return 2 * self.a * T / LAGUERRE_SUPPORT
+
+    def basis(self, N: int, T: float) -> Any:
+        """:func:`slbasis.basis` ``("laguerre", N, (0, T), scale=2 a)``, shared."""
+        return shared_basis("laguerre", N, (0.0, T), scale=2 * self.a)
+
+    def lag(self, basis: Any, operator: Any) -> SampleShift:
+        """The sample shift in the Laguerre index."""
+        return SampleShift()
+
+    def pseudo_rows(self, basis: Any, operator: Any, boundary: bool, ones: Any) -> Array:
+        """``l_n(0)``, ``l_n(T)`` with ``boundary``, else no rows."""
+        if not boundary:
+            return np.zeros((0, basis.N))
+        return basis_values(basis, (0.0, basis.t_span[1])).T
+
+    def model(
+        self,
+        out: CoreOut,
+        operator: Any,
+        options: dict[str, Any],
+        *,
+        settings: BasisSettings,
+        hold: str,
+        hold_criterion: dict[str, float],
+        order: int | None,
+    ) -> StateSpaceModel:
+        """The continuous-time model by the inverse Cayley map, with the input hold."""
+        given = settings.input_hold != "auto"
+        held = {
+            "input_hold": hold,
+            "input_hold_rule": "given" if given else "auto: smaller VARX AIC",
+            "input_hold_criterion": hold_criterion,
+            "projection": "exact integral of the sample interpolants (Gauss nodes)",
+        }
+        return laguerre_model(out, self.a, {**held, **options}, settings, order)
+
+
+def laguerre_model(
+    out: CoreOut, a: float, options: dict[str, Any], settings: BasisSettings, order: int | None
+) -> StateSpaceModel:
+    """``(A, B, C, D)`` by :func:`inverse_cayley` of the core's Laguerre-domain system; ``K``
+    mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a non-identity
+    feedthrough, so ``K`` is approximate).  ``options`` are merged over the core's."""
+    A, B, C, D = inverse_cayley(out.A, out.B, out.C, out.D, a)
+    n = A.shape[0]
+    K = -np.sqrt(2 * a) * np.linalg.solve(out.A - np.eye(n), out.K)
+    merged = {**out.options, **options, "A_laguerre": out.A}
+    if order is None:
+        merged["max_order"] = settings.max_order
+    return StateSpaceModel(
+        A,
+        B,
+        C,
+        D,
+        K,
+        singular_values=out.core.singular_values,
+        options=merged,
+        noise_covariance=out.noise_covariance,
+    )
+
+
 @library_call
 def identify_laguerre(
     t: Any,
@@ -166,7 +262,6 @@ def identify_laguerre(
       non-identity feedthrough, so ``K`` is approximate); ``D`` is returned as identified.
     """
     records = as_records(t, u, y)
-    m = records[0].u.shape[1]
     if variant not in ("projection", "filter"):
         raise ValueError(f"variant must be 'projection' or 'filter', got {variant!r}")
     if variant == "filter" and len(records) > 1:
@@ -175,6 +270,7 @@ def identify_laguerre(
     # always estimated (module docstring) and reported in options["feedthrough"]
     st = resolve_settings(settings, shared, "identify_laguerre")
     order = check_order(order)
+    N = None if N is None else check_positive_int(N, "N", 2)
     wb = records_bandwidth(records)
     if a is None:
         if wb <= 0:
@@ -184,114 +280,60 @@ def identify_laguerre(
     else:
         a = _real(a, "a")
         a_rule = "given"
-    options: dict[str, Any] = {"method": "laguerre", "variant": variant, "a": a}
-    if variant == "projection":
-        if N is not None:
-            N = check_positive_int(N, "N", 2)
-        segs, w_info = make_segments(
-            records,
-            st.window,
-            lambda: default_window(
-                records, 2 * a / LAGUERRE_SUPPORT, 2 if st.boundary else 1, P_DEFAULT_RANGE[1]
-            ),
-        )
-        keys = shared_keys(segs)
-        bases: dict[int, Any] = {}
-        rows: dict[int, Array] = {}
-        n_rules = []
-        for i, seg in enumerate(segs):
-            if keys[i] in bases:
-                continue
-            T, ns = seg.duration, seg.ns
-            if N is None:
-                Nb, n_rule = clip_basis_size(
-                    2 * a * T / LAGUERRE_SUPPORT,
-                    N_MIN,
-                    N_MAX,
-                    ns,
-                    "laguerre",
-                    f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}",
-                )
-            else:
-                Nb, n_rule = N, "given"
-                if N > ns:
-                    raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-            n_rules.append(n_rule)
-            b = shared_basis("laguerre", Nb, (0.0, T), scale=2 * a)
-            bases[keys[i]] = b
-            rows[keys[i]] = basis_values(b, (0.0, T)).T if st.boundary else np.zeros((0, Nb))
-        seg_bases = [bases[k] for k in keys]
-        holds = resolve_holds(st.input_hold, m)
-        Us, Yc, _ = project_blocks(seg_bases, segs, holds, n_jobs=st.n_jobs)
-        shift = SampleShift()
-        lag = BlockLag([shift] * len(segs), [b.N for b in seg_bases])
-        P: Any = [rows[k] for k in keys]
-        Ns_ = [b.N for b in seg_bases]
-        options.update(
-            {
-                "N": int(max(Ns_)),
-                "N_per_block": Ns_ if len(Ns_) > 1 else None,
-                "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
-                "boundary": st.boundary,
-                **w_info,
-            }
-        )
-    else:
-        rec = records[0]
-        t, u, y = rec.t, rec.u, rec.y
-        T = rec.duration
-        N = 30 if N is None else check_positive_int(N, "N", 2)
-        burn = min(T / 4, 10.0 / a) if burn_in is None else _real(burn_in, "burn_in", False)
-        nt = 300 if n_times is None else check_positive_int(n_times, "n_times")
-        idx = np.flatnonzero(t >= t[0] + burn)
-        if idx.size < 2:
-            raise ValueError(f"burn_in={burn} leaves fewer than 2 samples of the record")
-        idx = idx[np.unique(np.linspace(0, idx.size - 1, min(nt, idx.size)).astype(int))]
-        fu = laguerre_filter(t, u, a, N)[idx] if m else np.zeros((idx.size, 0, N))
-        fy = laguerre_filter(t, y, a, N)[idx]
-        # columns: block per time, reversed Laguerre index inside the block
-        holds, Us = ("foh",), [fu[:, :, ::-1].transpose(1, 0, 2).reshape(m, -1)]
-        Yc = fy[:, :, ::-1].transpose(1, 0, 2).reshape(y.shape[1], -1)
-        P = None
-        lag = BlockLag([BlockShift(N)], [Yc.shape[1]])
-        options.update({"N": N, "burn_in": burn, "n_times": int(idx.size)})
+    options: dict[str, Any] = {
+        "method": "laguerre",
+        "variant": variant,
+        "a": a,
+        "a_rule": a_rule,
+        "bandwidth": wb,
+        "feedthrough": "Laguerre-domain Dd estimated (required); D mapped back",
+        "n_samples": int(sum(r.ns for r in records)),
+        "t0": records[0].t0,
+    }
+    if variant == "filter":
+        return _filter_variant(records[0], a, N, burn_in, n_times, st, order, options)
+    fam = LaguerreFamily(a)
+    q = fam.q[st.boundary]
+    blocks = make_blocks(
+        records,
+        fam,
+        st.window,
+        lambda: default_window(records, fam.size_rate(wb), q, P_DEFAULT_RANGE[1]),
+        size_policy(fam, N, wb),
+    )
+    proj = project(blocks, resolve_holds(st.input_hold, records[0].u.shape[1]), st.n_jobs)
+    options.update({**blocks.options(), "boundary": st.boundary})
+    return solve(proj, None, st, order, options).model
 
+
+def _filter_variant(
+    rec: Record,
+    a: float,
+    N: int | None,
+    burn_in: float | None,
+    n_times: int | None,
+    st: BasisSettings,
+    order: int | None,
+    options: dict[str, Any],
+) -> StateSpaceModel:
+    """The filter variant (module docstring): Laguerre filter outputs at ``n_times`` times
+    after ``burn_in`` seconds, blocks of ``N`` reversed Laguerre indices per time."""
+    t, u, y = rec.t, rec.u, rec.y
+    m = u.shape[1]
+    N = 30 if N is None else N
+    burn = min(rec.duration / 4, 10.0 / a) if burn_in is None else _real(burn_in, "burn_in", False)
+    nt = 300 if n_times is None else check_positive_int(n_times, "n_times")
+    idx = np.flatnonzero(t >= t[0] + burn)
+    if idx.size < 2:
+        raise ValueError(f"burn_in={burn} leaves fewer than 2 samples of the record")
+    idx = idx[np.unique(np.linspace(0, idx.size - 1, min(nt, idx.size)).astype(int))]
+    fu = laguerre_filter(t, u, a, N)[idx] if m else np.zeros((idx.size, 0, N))
+    fy = laguerre_filter(t, y, a, N)[idx]
+    # columns: block per time, reversed Laguerre index inside the block
+    Us = [fu[:, :, ::-1].transpose(1, 0, 2).reshape(m, -1)]
+    Yc = fy[:, :, ::-1].transpose(1, 0, 2).reshape(y.shape[1], -1)
+    lag = BlockLag([BlockShift(N)], [Yc.shape[1]])
     core_options = {**st.core_options(order), "feedthrough": True}
-    out, hold, hold_crit = best_hold(holds, Us, Yc, P, lag, **core_options)
-    if variant == "projection":
-        options.update(
-            {
-                "input_hold": hold,
-                "input_hold_rule": "given" if st.input_hold != "auto" else "auto: smaller VARX AIC",
-                "input_hold_criterion": hold_crit,
-                "projection": "exact integral of the sample interpolants (Gauss nodes)",
-            }
-        )
-    A, B, C, D = inverse_cayley(out.A, out.B, out.C, out.D, a)
-    n = A.shape[0]
-    K = -np.sqrt(2 * a) * np.linalg.solve(out.A - np.eye(n), out.K)
-    options.update(out.options)
-    options.update(
-        {
-            "method": "laguerre",
-            "a": a,
-            "a_rule": a_rule,
-            "bandwidth": wb,
-            "feedthrough": "Laguerre-domain Dd estimated (required); D mapped back",
-            "n_samples": int(sum(r.ns for r in records)),
-            "t0": records[0].t0,
-            "A_laguerre": out.A,
-        }
-    )
-    if order is None:
-        options["max_order"] = st.max_order
-    return StateSpaceModel(
-        A,
-        B,
-        C,
-        D,
-        K,
-        singular_values=out.core.singular_values,
-        options=options,
-        noise_covariance=out.noise_covariance,
-    )
+    out, _, _ = best_hold(("foh",), Us, Yc, None, lag, **core_options)
+    info = {"N": N, "burn_in": burn, "n_times": int(idx.size)}
+    return laguerre_model(out, a, {**info, **options}, st, order)

@@ -8,7 +8,8 @@ order=None, **options) -> StateSpaceModel``).
   time ``"dt"`` (:mod:`hdpbsid.methods.dt`), ``"hermite"``
   (:mod:`hdpbsid.methods.hermite`), ``"laguerre"`` (:mod:`hdpbsid.methods.laguerre`),
   ``"legendre"``, ``"chebyshev"`` or ``"sl"`` (any finite-interval Sturm-Liouville
-  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) is asked for, the module
+  family, option ``family=``; :mod:`hdpbsid.methods.sturm_liouville`) or ``"jacobi"``
+  (:mod:`hdpbsid.methods.jacobi`) is asked for, the module
   is imported and its ``identify_<name>`` function registered.  A module may also call
   :func:`register_method` itself when imported;
 * anything else can be added with :func:`register_method` (a user's own method, a
@@ -50,6 +51,7 @@ LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
     "legendre": (("hdpbsid.methods.sturm_liouville", "identify_legendre"),),
     "chebyshev": (("hdpbsid.methods.sturm_liouville", "identify_chebyshev"),),
     "sl": (("hdpbsid.methods.sturm_liouville", "identify_sl"),),
+    "jacobi": (("hdpbsid.methods.jacobi", "identify_jacobi"),),
     "auto": (("hdpbsid.selection.auto", "identify_auto"),),
 }
 

@@ -44,229 +44,43 @@ above the bandwidth).
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Callable
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
-import slbasis
 from hdpbsid.bases.basis_domain import (
     P_DEFAULT_RANGE,
-    SolveLag,
     bandwidth,
-    basis_values,
-    best_hold,
-    clip_basis_size,
-    integrator_model,
     resolve_holds,
-    shared_basis,
 )
-from hdpbsid.bases.memo import memoize
-from hdpbsid.bases.segments import (
-    default_window,
-    make_segments,
-    project_blocks,
-    records_bandwidth,
-    shared_keys,
-)
+from hdpbsid.bases.family import Choice, Integrator, size_policy
+from hdpbsid.bases.pipeline import make_blocks, one_or_all, project, solve
+from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
-from hdpbsid.core.blocks import BlockLag
+from hdpbsid.bases.sl_family import SturmLiouvilleFamily, integration_matrix
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import as_records
+from hdpbsid.data.records import Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
-from slbasis.numeric import operators
 
-__all__ = ["identify_sl", "identify_legendre", "identify_chebyshev", "integration_matrix"]
+__all__ = [
+    "identify_sl",
+    "identify_legendre",
+    "identify_chebyshev",
+    "integration_matrix",
+    "SturmLiouvilleFamily",
+    "default_alpha",
+    "default_past_window",
+]
 
 Array = NDArray[np.float64]
 
-#: band (rad/s) resolved by N functions on a window of length T: ``2 N / T`` (degree N
-#: polynomials resolve x-frequencies up to ~N; ``dx/dt = 2/T``)
-N_MIN, N_MAX = 50, 2000  # dense N x N integration matrix: the upper limit bounds the cost
-BAND_MARGIN = 1.5
 #: default alpha = ALPHA_FACTOR * (bandwidth holding OUTPUT_FRACTION of the output energy)
 ALPHA_FACTOR = 0.5
 OUTPUT_FRACTION = 0.95
-#: relative padding of the basis window for families singular at the interval ends
-PAD = 1e-3
-#: one-step lag results kept by the (memoised) integrator lag: the data and pseudo-input
-#: rows of both input holds at up to 8 powers, plus the order-dependent states
-LAG_STEPS_KEPT = 64
-#: an integration matrix with at most this many off-diagonals is solved in band form (the
-#: Legendre closed form from the window start has 2); a wider one is factored densely
-MAX_BANDS = 8
-
-
-def _legendre_integration(basis: Any, N: int, t0: float) -> sp.csr_matrix | None:
-    """``J`` in closed form (:func:`slbasis.numeric.operators.integration_matrix`) in time
-    units, ``(N + 1) x N`` and sparse, or None when the functions are not Legendre's.
-
-    ``phi_n(t) = sqrt(s) phi_n(x(t))`` and ``dt = dx / s`` (``s`` = scale) give the time
-    matrix as the ``x`` matrix divided by ``s``.  A ``t0`` that maps within rounding of an
-    end of the interval (the window start maps to ``a`` by construction, up to the
-    rounding of ``(t0 - centre) * scale``) is that end, as :meth:`slbasis.Basis.eval`
-    treats times outside by rounding.
-    """
-    kernel = basis.kernel
-    if not operators.is_legendre(kernel, N):
-        return None
-    a, b = basis.interval
-    x0 = float(basis.tmap.to_x(np.float64(t0)))
-    tol = 16 * np.finfo(float).eps * max(1.0, abs(a), abs(b))
-    for end in (a, b):
-        if abs(x0 - end) <= tol:
-            x0 = end
-    if not a <= x0 <= b:
-        raise ValueError(f"t0: {t0} lies outside the basis window {basis.t_span}")
-    return (operators.integration_matrix(kernel, N, x0) / basis.scale).tocsr()
-
-
-def _integration_exact(basis: Any, N: int, t0: float) -> Array | None:
-    """``J`` (column ``j`` = coefficients of ``int_{t0} phi_j``) from the exact derivative
-    matrix on ``N + 1`` functions, or None when the derivatives leave the span."""
-    b1 = slbasis.Basis(basis.kernel, N + 1, basis.t_span, scale=basis.scale, centre=basis.centre)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", RuntimeWarning)
-        try:
-            D = b1.derivative_matrix("rectangular")
-        except RuntimeWarning:
-            return None
-    D = D.toarray() if hasattr(D, "toarray") else np.asarray(D)
-    if D.shape[0] != N + 1:
-        return None
-    # int phi_j = g with D g = e_j (j < N) and g(t0) = 0: a consistent (N+2) x (N+1) system
-    phi0 = b1.eval(np.array([t0]))[:, 0]
-    upper = D[:N, 1:]
-    # the numerically solved derivative matrix carries rounding noise (~1e-11 relative,
-    # slbasis.numeric.operators) below the diagonal; 1e-8 relative separates it from terms
-    below = np.max(np.abs(np.tril(D, 0))) <= 1e-8 * np.max(np.abs(D))
-    if below and phi0[0] != 0 and np.all(np.diagonal(upper) != 0):
-        # polynomial families: d/dt lowers the degree, so rows 0..N-1 are an upper
-        # triangular system for g_1..g_N (diagonal D[i, i+1] != 0) and g_0 follows from
-        # g(t0) = 0 -- O(N^3 / 3) by back substitution instead of a dense least squares
-        G = np.zeros((N + 1, N))
-        G[1:] = sla.solve_triangular(upper, np.eye(N), lower=False)
-        G[0] = -(phi0[1:] @ G[1:]) / phi0[0]
-        return G
-    lhs = np.vstack([D, phi0[None, :]])
-    rhs = np.vstack([np.eye(N + 1)[:, :N], np.zeros((1, N))])
-    G = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-    return G
-
-
-def _integration_quadrature(basis: Any, N: int, K: int) -> Array:
-    """``J`` by quadrature in ``x = -cos(theta)`` (tames endpoint power singularities)."""
-    th = (np.arange(K) + 0.5) * np.pi / K
-    x = -np.cos(th)
-    tt = basis.tmap.to_t(x)
-    phi = basis.eval(tt)  # (N, K), time units
-    dt = np.sin(th) * (np.pi / K) / basis.scale  # dt = dx/scale, dx = sin(th) dth
-    integrand = phi * dt[None, :]
-    F = np.cumsum(integrand, axis=1) - 0.5 * integrand  # int_{t0}^{t_i} phi_j (midpoint)
-    G = (phi * dt[None, :]) @ F.T  # G[k, j] = int phi_k F_j dt
-    return G
-
-
-@memoize
-def _integration(basis: Any, t0: float, K: int | None = None) -> tuple[Any, str]:
-    """:func:`integration_matrix` with the closed form kept sparse (``N x N`` CSR)."""
-    N = basis.N
-    G = _legendre_integration(basis, N, t0)
-    if G is not None:
-        return G[:N].tocsr(), "exact (closed form: int P_n = (P_{n+1} - P_{n-1}) / (2n + 1))"
-    G = _integration_exact(basis, N, t0)
-    if G is not None:
-        return G[:N], "exact (from the derivative matrix on N+1 functions)"
-    K = 20 * N if K is None else K
-    return _integration_quadrature(basis, N, K), f"quadrature in x = -cos(theta), {K} points"
-
-
-def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Array, str]:
-    """The ``N x N`` causal integration matrix ``G`` (column ``j`` = ``int_{t0} phi_j``
-    projected on ``phi_0..phi_{N-1}``) and how it was computed: in closed form for
-    Legendre functions, else from the exact derivative matrix when the derivatives stay
-    in the span, else by quadrature with ``K`` points (default ``20 N``)."""
-    G, how = _integration(basis, t0, K)
-    return (G.toarray() if sp.issparse(G) else np.array(G)), how
-
-
-def _band_storage(G: sp.csr_matrix, lower: int, upper: int) -> Array:
-    """LAPACK band storage of ``G`` (``ab[upper + i - j, j] = G[i, j]``), as
-    :func:`scipy.linalg.solve_banded` takes it."""
-    C = G.tocoo()
-    ab = np.zeros((lower + upper + 1, G.shape[1]))
-    ab[upper + C.row - C.col, C.col] = C.data
-    return ab
-
-
-@memoize
-def _integrator_lag(
-    basis: Any, t0: float, alpha: float, beta: float, gamma: float
-) -> tuple[SolveLag, Callable[[Array], Array], str]:
-    """``W -> W M``, ``M = alpha gamma J (I + alpha beta J)^{-1}`` (module docstring), with
-    ``J = G^T``; also ``v -> w`` solving ``w J = v`` (pseudo-input rows) and how ``G`` was
-    computed.
-
-    ``(W M)^T = alpha gamma S^{-T} G W^T`` with ``S^T = I + alpha beta G``: a banded ``G``
-    (the Legendre closed form, tridiagonal) gives banded solves, ``O(N)`` per row of ``W``
-    (LAPACK ``gbsv``, LU with partial pivoting as the dense ``getrf`` but inside the band);
-    a dense ``G`` is LU-factored once.  Memoised by the basis (its kernel, ``N`` and time
-    map), not by the contents of ``G``.
-    """
-    G, how = _integration(basis, t0)
-    N = G.shape[0]
-    ab_ = alpha * beta
-    lower = upper = N
-    if sp.issparse(G):
-        C = G.tocoo()
-        lower = int(np.max(C.row - C.col, initial=0))
-        upper = int(np.max(C.col - C.row, initial=0))
-        if lower + upper > MAX_BANDS:
-            G = G.toarray()  # a lower limit inside the window fills row 0 of G
-    if sp.issparse(G):
-        ab_G = _band_storage(G, lower, upper)
-        ab_S = ab_ * ab_G
-        ab_S[upper] += 1.0  # S^T = I + alpha beta G
-        bands = (lower, upper)
-
-        def solve(W: Array) -> Array:
-            rhs = np.asarray(G @ W.T)
-            return alpha * gamma * sla.solve_banded(bands, ab_S, rhs, overwrite_b=True).T
-
-        def solve_rows(v: Array) -> Array:
-            return sla.solve_banded(bands, ab_G, v)
-
-        key: Any = ("banded", lower, upper, ab_G, alpha, beta, gamma)
-        remember = 0  # a banded step costs about what hashing W for a lookup would
-    else:
-        J = G.T  # row form: (X J)_k = sum_j X_j G[k, j]
-        lu = sla.lu_factor(np.eye(N) + ab_ * G)  # S^T
-
-        def solve(W: Array) -> Array:
-            return alpha * gamma * sla.lu_solve(lu, (W @ J).T).T
-
-        lu_G = sla.lu_factor(G)
-
-        def solve_rows(v: Array) -> Array:
-            return sla.lu_solve(lu_G, v)
-
-        key = (J, alpha, beta, gamma)
-        remember = LAG_STEPS_KEPT
-    # memoised, so the orders of a sweep share this object (and, for a dense M, its
-    # remembered steps)
-    lag = SolveLag(
-        solve,
-        f"alpha gamma J (I + alpha beta J)^-1 [{how}]",
-        key=key,
-        remember=remember,
-    )
-    return lag, solve_rows, how
 
 
 @library_call
@@ -295,7 +109,8 @@ def identify_sl(
 
     ``family``: an ``slbasis`` catalogue name with a finite interval (``"legendre"``,
     ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``) or an
-    :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters.  See the
+    :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters; or a
+    :class:`SturmLiouvilleFamily` (``family_params`` then unused).  See the
     module docstring for the integrator ``M`` and why it is stable.  Defaults (in
     ``model.options``):
 
@@ -319,139 +134,96 @@ def identify_sl(
     order = check_order(order)
     beta = _real(beta, "beta")
     gamma = _real(gamma, "gamma")
-    if N is not None:
-        N = check_positive_int(N, "N", 2)
+    N = None if N is None else check_positive_int(N, "N", 2)
+    fam = (
+        family
+        if isinstance(family, SturmLiouvilleFamily)
+        else SturmLiouvilleFamily(family, dict(family_params or {}))
+    )
     wb = records_bandwidth(records)
-    # default p: the smallest window that shows the order (order selection: 3 singular
-    # values); larger p was erratic at SNR 20 dB in this basis (second-order system,
-    # 8 seeds: median error 0.1 % for p = 2, 0.3 % with outliers to 14 % for p = 3,
-    # 11 % for AIC over 2..6)
-    need = order if order is not None else 3
-    p_def = max(2, -(-need // l))
-    segs, w_info = make_segments(
+    p_def = default_past_window(order, l)
+    q = fam.q[st.boundary]
+    blocks = make_blocks(
         records,
+        fam,
         st.window,
-        lambda: default_window(records, BAND_MARGIN * wb / 2, 2 if st.boundary else 1, p_def),
+        lambda: default_window(records, fam.size_rate(wb), q, p_def),
+        size_policy(fam, N, wb),
     )
-    if alpha is None:
-        # the integrator's pole alpha belongs to the system's dynamics, not to the input:
-        # a step or ZOH input is broadband (half the data bandwidth gave alpha ~ 50 rad/s
-        # and 2-3e-2 error on the second-order system, whose poles are at |lambda| = 2);
-        # the outputs are the input low-passed by the system, so their bandwidth is used
-        wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
-        if wy <= 0:
-            raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
-        alpha = ALPHA_FACTOR * wy
-        alpha_rule = f"{ALPHA_FACTOR} * output bandwidth ({OUTPUT_FRACTION:.0%} of the energy)"
-    else:
-        alpha = _real(alpha, "alpha")
-        alpha_rule = "given"
-    keys = shared_keys(segs)
-    bases: dict[int, Any] = {}
-    n_rules, pads = [], []
-    for i, seg in enumerate(segs):
-        if keys[i] in bases:
-            continue
-        T, ns = seg.duration, seg.ns
-        if N is None:
-            Nb, n_rule = clip_basis_size(
-                BAND_MARGIN * wb * T / 2,
-                N_MIN,
-                N_MAX,
-                ns,
-                f"{family}",
-                f"N = {BAND_MARGIN} * bandwidth * T / 2",
-            )
-        else:
-            Nb, n_rule = N, "given"
-            if 2 * N / T < wb:
-                raise ValueError(
-                    f"N={N} functions on a record of {T:g} s resolve only {2 * N / T:.3g} "
-                    f"rad/s, below the data bandwidth {wb:.3g} rad/s; use N >= "
-                    f"{int(np.ceil(wb * T / 2))}"
-                )
-            if N > ns:
-                raise ValueError(f"N={N} exceeds the number of samples Ns={ns}; reduce N")
-        n_rules.append(n_rule)
-        span = (0.0, T)
-        try:
-            basis = shared_basis(family, Nb, span, **(family_params or {}))
-        except TypeError as exc:
-            raise TypeError(f"family/family_params: {exc}") from exc
-        pad = 0.0
-        if not np.all(np.isfinite(basis_values(basis, span))):
-            # functions singular at the interval ends (Chebyshev-T, ...): the basis window
-            # is padded by PAD * T on both sides; the record is the windowed signal in it
-            pad = PAD * T
-            basis = shared_basis(family, Nb, (-pad, T + pad), **(family_params or {}))
-        a_, b_ = basis.interval
-        if not (np.isfinite(a_) and np.isfinite(b_)):
-            raise ValueError(
-                f"family {family!r} lives on an infinite interval {basis.interval}; use "
-                f"identify_hermite / identify_laguerre for it"
-            )
-        pads.append(pad)
-        bases[keys[i]] = basis
-    lags: dict[int, SolveLag] = {}
-    jinv: dict[int, Any] = {}
-    j_hows = []
-    for k, basis in bases.items():
-        lags[k], jinv[k], j_how = _integrator_lag(basis, 0.0, alpha, beta, gamma)
-        j_hows.append(j_how)
-    seg_bases = [bases[k] for k in keys]
-    holds = resolve_holds(st.input_hold, m)
-    Us, Yc, ones = project_blocks(
-        seg_bases, segs, holds, y_extra=lambda tau: np.ones(tau.size), n_jobs=st.n_jobs
-    )
-    rows: dict[int, Array] = {}
-    for i, k in enumerate(keys):
-        if k in rows:
-            continue
-        Nb = bases[k].N
-        last = np.zeros(Nb)
-        last[-1] = 1.0
-        r = [jinv[k](last)]  # truncation: w J = e_{N-1}
-        if st.boundary:
-            r.append(jinv[k](ones[i]))  # initial state: w J = coefficients of 1
-        rows[k] = np.array(r)
-    lag = BlockLag([lags[k] for k in keys], [b.N for b in seg_bases])
-    P = [rows[k] for k in keys]
-
-    core_options = st.core_options(order)
+    a = default_alpha(records) if alpha is None else Choice(_real(alpha, "alpha"), "given")
+    proj = project(blocks, resolve_holds(st.input_hold, m), st.n_jobs)
+    bases = blocks.bases.values()
+    options = {
+        "method": fam.method,
+        "family": fam.name,
+        "family_params": dict(fam.params),
+        **blocks.options(),
+        "bandwidth": wb,
+        "scale": blocks.seg_bases[0].scale,
+        "centre": records[0].t0 + blocks.seg_bases[0].centre,
+        "alpha_rule": a.reason,
+        "boundary": st.boundary,
+        "integration": one_or_all([fam.integration(b) for b in bases]),
+        "window_padding": one_or_all([fam.padding(b) for b in bases]),
+    }
     # the hold is judged as in the other basis methods (the VARX over the preferred
     # range of windows), not at this method's own small window: the same for every order
-    out, hold, hold_crit = best_hold(
-        holds, Us, Yc, P, lag, hold_range=P_DEFAULT_RANGE, **core_options, p_range=(p_def, p_def)
-    )
-    Ns_ = [b.N for b in seg_bases]
-    options = {
-        "method": "legendre" if family == "legendre" else "sl",
-        "family": family if isinstance(family, str) else repr(family),
-        "family_params": dict(family_params or {}),
-        "N": int(max(Ns_)),
-        "N_per_block": Ns_ if len(Ns_) > 1 else None,
-        "N_rule": n_rules[0] if len(set(n_rules)) == 1 else n_rules,
-        "bandwidth": wb,
-        "scale": seg_bases[0].scale,
-        "centre": records[0].t0 + seg_bases[0].centre,
-        "alpha_rule": alpha_rule,
-        "boundary": st.boundary,
-        "integration": j_hows[0] if len(set(j_hows)) == 1 else j_hows,
-        "window_padding": pads[0] if len(set(pads)) == 1 else pads,
-        "n_samples": int(sum(r.ns for r in records)),
-        "t0": records[0].t0,
-        **w_info,
-    }
-    return integrator_model(
-        out,
-        alpha,
-        beta,
-        gamma,
-        options,
-        settings=st,
-        hold=hold,
-        hold_criterion=hold_crit,
-        order=order,
+    op = Integrator(a.value, beta, gamma)
+    fit = solve(proj, op, st, order, options, hold_range=P_DEFAULT_RANGE, p_range=(p_def, p_def))
+    return fit.model
+
+
+def default_past_window(order: int | None, l: int) -> int:
+    """The default past window ``p = max(2, ceil(n / l))`` (``n`` = the order, or 3 for
+    order selection): the smallest window that shows the order.
+
+    Larger windows were erratic at SNR 20 dB in this basis (second-order system, 8 seeds:
+    median error 0.1 % for ``p = 2``, 0.3 % with outliers to 14 % for ``p = 3``, 11 % for
+    AIC over 2..6).
+
+    Parameters
+    ----------
+    order : int or None
+        The model order, or None (order selection).
+    l : int
+        Number of outputs.
+
+    Returns
+    -------
+    int
+    """
+    need = order if order is not None else 3
+    return max(2, -(-need // l))
+
+
+def default_alpha(records: Sequence[Record]) -> Choice[float]:
+    """The integrator's pole: ``alpha = ALPHA_FACTOR * omega_y``, ``omega_y`` the largest
+    bandwidth holding ``OUTPUT_FRACTION`` of an output's energy.
+
+    ``alpha`` belongs to the system's dynamics, not to the input: a step or ZOH input is
+    broadband (half the data bandwidth gave ``alpha ~ 50`` rad/s and 2-3e-2 error on the
+    second-order system, whose poles are at ``|lambda| = 2``); the outputs are the input
+    low-passed by the system, so their bandwidth is used.
+
+    Parameters
+    ----------
+    records : sequence of Record
+
+    Returns
+    -------
+    Choice of float
+
+    Raises
+    ------
+    ValueError
+        When the outputs have no bandwidth (constant outputs).
+    """
+    wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
+    if wy <= 0:
+        raise ValueError("cannot choose alpha: the outputs have no bandwidth; pass alpha")
+    return Choice(
+        ALPHA_FACTOR * wy,
+        f"{ALPHA_FACTOR} * output bandwidth ({OUTPUT_FRACTION:.0%} of the energy)",
     )
 
 

@@ -15,7 +15,7 @@ import pytest
 from basis_data import eig_error, make_data
 
 import slbasis
-from hdpbsid.methods import sturm_liouville as sl
+from hdpbsid.bases import sl_family as sl
 from hdpbsid.methods.sturm_liouville import (
     identify_chebyshev,
     identify_legendre,

@@ -1,0 +1,239 @@
+"""The basis-domain pipeline: records and a family -> the core's problem -> a model.
+
+Every basis method runs the same steps (docs/theory.md); only the family
+(:class:`~hdpbsid.bases.family.BasisFamily`) and the choices differ:
+
+1. :func:`make_blocks` -- the records, cut into windows by the window rule, each block with
+   its basis of the chosen size (blocks with the same relative time axis share one);
+2. :func:`project` -- the coefficient rows of every block side by side, one input
+   projection per input hold (:func:`~hdpbsid.bases.segments.project_blocks`);
+3. :func:`solve` -- the pseudo-input rows and lag of every block, the core on the stacked
+   problem with the input hold of the smaller VARX AIC
+   (:func:`~hdpbsid.bases.basis_domain.best_hold`), and the family's map back to a model.
+
+The pipeline makes no choices: the window rule, the basis size of a block, the operator
+scale, the input holds to compare and the past windows are passed in, chosen by the
+method's policies, and every choice is reported in the model's options as its reason.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdpbsid.bases.basis_domain import CoreOut, best_hold
+from hdpbsid.bases.family import BasisFamily, Choice
+from hdpbsid.bases.segments import make_segments, project_blocks, shared_keys
+from hdpbsid.bases.settings import BasisSettings
+from hdpbsid.core.blocks import BlockLag
+from hdpbsid.data.records import Record
+from hdpbsid.models.model import StateSpaceModel
+
+__all__ = ["Blocks", "Projection", "Fit", "make_blocks", "project", "lag", "solve", "one_or_all"]
+
+Array = NDArray[np.float64]
+
+
+def one_or_all(values: Sequence[Any]) -> Any:
+    """The value shared by all blocks, or the list of them when they differ."""
+    return values[0] if len(set(map(repr, values))) == 1 else list(values)
+
+
+@dataclass(frozen=True)
+class Blocks:
+    """Records cut into blocks, each with its basis.
+
+    ``segs``: the blocks (records or windows); ``keys[i]``: the first block with the same
+    relative time axis as block ``i`` (they share basis, lag and rows); ``bases``: basis per
+    key; ``sizes``: the basis-size choice per key; ``window``: the window rule's report.
+    """
+
+    family: BasisFamily
+    records: list[Record]
+    segs: list[Record]
+    keys: list[int]
+    bases: dict[int, Any]
+    sizes: dict[int, Choice[int]]
+    window: dict[str, Any]
+
+    @property
+    def seg_bases(self) -> list[Any]:
+        """The basis of every block."""
+        return [self.bases[k] for k in self.keys]
+
+    @property
+    def Ns(self) -> list[int]:
+        """The basis size of every block."""
+        return [b.N for b in self.seg_bases]
+
+    def options(self) -> dict[str, Any]:
+        """The report of the blocks: sizes and their rule, samples, window rule."""
+        Ns = self.Ns
+        return {
+            "N": int(max(Ns)),
+            "N_per_block": Ns if len(Ns) > 1 else None,
+            "N_rule": one_or_all([c.reason for c in self.sizes.values()]),
+            "n_samples": int(sum(r.ns for r in self.records)),
+            "t0": self.records[0].t0,
+            **self.window,
+        }
+
+
+def make_blocks(
+    records: Sequence[Record],
+    family: BasisFamily,
+    window: Any,
+    window_rule: Callable[[], tuple[float | None, dict[str, Any]]],
+    size: Callable[[float, int], Choice[int]],
+) -> Blocks:
+    """Cut the records into blocks and give each its basis.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The records (:func:`hdpbsid.data.records.as_records`).
+    family : BasisFamily
+        The basis family.
+    window : float, "auto" or None
+        The window setting (:class:`~hdpbsid.bases.settings.BasisSettings`).
+    window_rule : callable
+        ``() -> (length or None, report)``, the default window (``window="auto"``).
+    size : callable
+        ``size(T, ns) -> Choice[int]``, the basis size of a block of ``T`` s, ``ns`` samples
+        (:func:`~hdpbsid.bases.family.size_policy`).
+
+    Returns
+    -------
+    Blocks
+    """
+    segs, w_info = make_segments(records, window, window_rule)
+    keys = shared_keys(segs)
+    bases: dict[int, Any] = {}
+    sizes: dict[int, Choice[int]] = {}
+    for i, seg in enumerate(segs):
+        if keys[i] in bases:
+            continue
+        sizes[keys[i]] = size(seg.duration, seg.ns)
+        bases[keys[i]] = family.basis(int(sizes[keys[i]].value), float(seg.duration))
+    return Blocks(family, list(records), segs, keys, bases, sizes, w_info)
+
+
+@dataclass(frozen=True)
+class Projection:
+    """The coefficient rows of all blocks side by side: ``Us[h]`` (``m x sum N_b``) the inputs
+    under ``holds[h]``, ``Y`` the outputs, ``ones[i]`` the coefficients of the constant 1 on
+    block ``i`` (when the family needs them)."""
+
+    blocks: Blocks
+    holds: tuple[str, ...]
+    Us: list[Array]
+    Y: Array
+    ones: list[Any]
+
+    def split_inputs(self, m: int) -> tuple[Projection, Array]:
+        """The projection with the first ``m`` input rows, and the remaining rows of the
+        first hold (extra columns projected alike, e.g. a reference signal)."""
+        return replace(self, Us=[U[:m] for U in self.Us]), self.Us[0][m:]
+
+
+def project(blocks: Blocks, holds: tuple[str, ...], n_jobs: int | None = None) -> Projection:
+    """Project every block on its basis (:func:`~hdpbsid.bases.segments.project_blocks`).
+
+    Parameters
+    ----------
+    blocks : Blocks
+    holds : tuple of str
+        The input holds to project (:func:`~hdpbsid.bases.basis_domain.resolve_holds`).
+    n_jobs : int or None
+        joblib workers for blocks projected one by one.
+
+    Returns
+    -------
+    Projection
+    """
+    ones = (lambda tau: np.ones(tau.size)) if blocks.family.needs_ones else None
+    Us, Y, ex = project_blocks(blocks.seg_bases, blocks.segs, holds, y_extra=ones, n_jobs=n_jobs)
+    return Projection(blocks, tuple(holds), Us, Y, ex)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A fitted model and the input hold it used, with the criterion per hold compared."""
+
+    model: StateSpaceModel
+    hold: str
+    criterion: dict[str, float]
+
+
+def _rows(proj: Projection, operator: Any, boundary: bool) -> list[Array]:
+    b = proj.blocks
+    rows: dict[int, Array] = {}
+    for i, k in enumerate(b.keys):
+        if k not in rows:
+            rows[k] = b.family.pseudo_rows(b.bases[k], operator, boundary, proj.ones[i])
+    return [rows[k] for k in b.keys]
+
+
+def lag(blocks: Blocks, operator: Any) -> BlockLag:
+    """The block-diagonal lag of all blocks at the operator scale ``operator``."""
+    lags = {k: blocks.family.lag(b, operator) for k, b in blocks.bases.items()}
+    return BlockLag([lags[k] for k in blocks.keys], blocks.Ns)
+
+
+def solve(
+    proj: Projection,
+    operator: Any,
+    settings: BasisSettings,
+    order: int | None,
+    options: dict[str, Any],
+    *,
+    holds: tuple[str, ...] | None = None,
+    instruments: Callable[[BlockLag], Array] | None = None,
+    **hold_options: Any,
+) -> Fit:
+    """The core on the projected blocks at one operator scale, mapped back to a model.
+
+    Parameters
+    ----------
+    proj : Projection
+    operator : object
+        The family's operator scale (:class:`~hdpbsid.bases.family.Integrator`, or None
+        for a family without one).
+    settings : BasisSettings
+        The shared settings (core options, boundary rows).
+    order : int or None
+        The model order (None: chosen from the singular values).
+    options : dict
+        The method's report, merged into the model's options.
+    holds : tuple of str, optional
+        The input holds to compare (a subset of ``proj.holds``; default all).
+    instruments : callable, optional
+        ``instruments(lag) -> rows``: the instrumental-variable core.
+    **hold_options
+        ``hold_range``, ``p_range``: passed to
+        :func:`~hdpbsid.bases.basis_domain.best_hold`.
+
+    Returns
+    -------
+    Fit
+    """
+    family = proj.blocks.family
+    use = proj.holds if holds is None else holds
+    L = lag(proj.blocks, operator)
+    P = _rows(proj, operator, settings.boundary)
+    core = {**settings.core_options(order), **family.core_overrides}
+    psi = instruments(L) if instruments is not None else None
+    if psi is not None:
+        core["instruments"] = psi
+    out: CoreOut
+    out, hold, crit = best_hold(
+        use, [proj.Us[proj.holds.index(h)] for h in use], proj.Y, P, L, **hold_options, **core
+    )
+    model = family.model(
+        out, operator, options, settings=settings, hold=hold, hold_criterion=crit, order=order
+    )
+    return Fit(model, hold, crit)
