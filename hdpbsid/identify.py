@@ -39,7 +39,7 @@ from hdpbsid.refine.pem import (
 )
 from hdpbsid.runtime import library_call
 from hdpbsid.selection import long_records as scaling
-from hdpbsid.selection.feedback import refine_decision
+from hdpbsid.selection.feedback import closed_loop_start, refine_decision
 
 __all__ = ["identify"]
 
@@ -275,6 +275,7 @@ def identify(
             errors = _one_step_errors(model, tm, um, ym) if uniform else None
             do, rule, stats = refine_decision(model, tm, um, ym, uniform, errors=errors)
         if do:
+            model = closed_loop_start(model, tm, um, ym, stats)
             refined = refine_pem(model, tm, um, ym)
             unsound = _refinement_problem(model, refined, tm, um, ym)
             if unsound:

@@ -51,6 +51,7 @@ eigenvalue error); the report then says "closed loop" where "misfit" would be ac
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -63,8 +64,10 @@ from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "AR_ORDER",
+    "CLOSED_LOOP_START_METHOD",
     "FEEDBACK_LAGS",
     "FEEDBACK_LEVEL",
+    "closed_loop_start",
     "feedback_statistics",
     "refine_decision",
 ]
@@ -216,3 +219,73 @@ def refine_decision(
         f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop: refined"
     )
     return True, text, st
+
+
+#: the method whose model is offered as a further starting point in closed loop
+#: (:func:`closed_loop_start`): PBSID on the samples, consistent in closed loop
+CLOSED_LOOP_START_METHOD = "dt"
+#: that start's name in the refined model's ``options["refine_start"]``
+CLOSED_LOOP_START_NAME = "dt model (closed loop: consistent under feedback)"
+
+
+def closed_loop_start(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, statistics: dict[str, Any] | None
+) -> StateSpaceModel:
+    """``model``, offering the refinement a closed-loop-consistent starting point when
+    the feedback test (``statistics`` of :func:`feedback_statistics`) found feedback.
+
+    Why.  In closed loop the basis-domain least squares is biased (module docstring),
+    and the bias is not small when the loop is fast against the modes: the start can then
+    lie far from the prediction-error minimum, where Levenberg-Marquardt either runs out
+    of its evaluation budget (and the front end keeps the biased start) or stops at
+    another local minimum.  PBSID on the samples (``method="dt"``) is consistent in closed
+    loop (Chiuso, Automatica 43 (2007); the predictor form removes the feedback's
+    correlation), so its model is near the minimum on a long enough record.  It is
+    offered as the refinement's warm start (:data:`hdpbsid.refine.pem.WARM_START`) at
+    the model's order and direct term; the refinement's screen fits the most promising
+    start first (:func:`hdpbsid.refine.pem.refine_pem`), so a start that is not better
+    costs one evaluation.  Nothing changes in open loop (the basis estimate is consistent
+    there), for a ``dt`` model, or when a warm start is already offered
+    (``method="auto"`` passes its own).  The ``dt`` model carries no input hold into the
+    offer: no prediction-error fit chose one.  Returns a copy of ``model``, or ``model``
+    itself when nothing is offered (also when ``dt`` cannot fit the record).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model the refinement starts from.
+    t, u, y : array_like
+        The record it was identified from (the front end's detrended signals).
+    statistics : dict or None
+        :func:`feedback_statistics` of ``model`` on the record (None: not computed).
+
+    Returns
+    -------
+    StateSpaceModel
+        ``model``, or a copy with ``options["refine_warm_start"]`` set.
+    """
+    from hdpbsid.methods.registry import get_method
+    from hdpbsid.refine.pem import WARM_START
+
+    if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
+        return model
+    if model.options.get("method") == CLOSED_LOOP_START_METHOD or WARM_START in model.options:
+        return model
+    feedthrough = bool(model.options.get("feedthrough", False))
+    try:
+        with np.errstate(all="ignore"):
+            start = get_method(CLOSED_LOOP_START_METHOD)(
+                t, u, y, order=model.n, feedthrough=feedthrough
+            )
+    except (ValueError, np.linalg.LinAlgError):
+        return model  # no continuous-time model of that order: nothing to offer
+    if (start.n, start.m, start.l) != (model.n, model.m, model.l):
+        return model
+    offered = copy.copy(model)
+    offered.options = dict(model.options)
+    offered.options[WARM_START] = {
+        **{k: getattr(start, k) for k in "ABCDK"},
+        "input_hold": None,
+        "name": CLOSED_LOOP_START_NAME,
+    }
+    return offered
