@@ -19,8 +19,9 @@ No PI loop on the rate: a grid of proportional and integral gains of either sign
 The excitation ``r`` is a seeded random binary signal held 0.02 s (flat power up to
 about 20 Hz, above the fastest mode at 4.5 Hz), 30 s; white sensor noise on both outputs at
 ``snr`` dB of each sensor's noise-free power.  Per seed and loop it runs
-``identify(t, u, y, order=4)`` (every default), the same with ``feedthrough=True``, and
-``identify(t, u, y)`` (order chosen), and prints the worst relative eigenvalue error, CPU
+``identify(t, u, y, order=4)`` (every default), the same with ``feedthrough=True`` (and
+with ``method="hermite"``), and ``identify(t, u, y)`` (order chosen, with and without the
+direct term), and prints the worst relative eigenvalue error, CPU
 seconds per fit and the order picked.
 """
 
@@ -134,6 +135,10 @@ def main() -> None:
     runs: list[tuple[str, dict[str, Any]]] = [
         ("order=4", {"order": 4}),
         ("order=4, feedthrough=True", {"order": 4, "feedthrough": True}),
+        (
+            "order=4, hermite, feedthrough=True",
+            {"order": 4, "method": "hermite", "feedthrough": True},
+        ),
     ]
     if not a.no_auto_order:
         runs.append(("order not given", {}))
