@@ -68,6 +68,7 @@ __all__ = [
     "FEEDBACK_LAGS",
     "FEEDBACK_LEVEL",
     "closed_loop_start",
+    "refine_plan",
     "feedback_statistics",
     "refine_decision",
 ]
@@ -228,6 +229,55 @@ CLOSED_LOOP_START_METHOD = "dt"
 CLOSED_LOOP_START_NAME = "dt model (closed loop: consistent under feedback)"
 
 
+def refine_plan(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool, errors: Any = None
+) -> tuple[bool, str, dict[str, Any] | None, StateSpaceModel]:
+    """:func:`refine_decision`, and the model the refinement starts from:
+    ``(refine, rule text, statistics or None, start)``.
+
+    ``start`` is ``model`` offering the ``dt`` model as a further starting point when the
+    record is closed loop (:func:`closed_loop_start`).  A first-pass model whose one-step
+    predictor diverges is no prediction-error start (:func:`refine_decision`); in closed
+    loop that is what a basis-domain estimate biased far from the system looks like, so
+    the ``dt`` model is then fitted and tested: when its residuals show feedback, the
+    record is refined from it (the decision and statistics are the ``dt`` model's, the
+    rule says so); in open loop, or when ``dt`` cannot fit the record, nothing changes.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model.
+    t, u, y : array_like
+        The single record it was identified from (the front end's detrended signals).
+    uniform : bool
+        Whether ``t`` is uniformly sampled.
+    errors : array_like, optional
+        ``model``'s one-step prediction errors, as in :func:`feedback_statistics`.
+
+    Returns
+    -------
+    tuple
+        ``(refine, rule, statistics, start)``.
+    """
+    do, rule, stats = refine_decision(model, t, u, y, uniform, errors=errors)
+    if do:
+        return do, rule, stats, closed_loop_start(model, t, u, y, stats)
+    if stats is not None or not uniform or u is None or model.m == 0:
+        return do, rule, stats, model
+    start = _closed_loop_model(model, t, u, y)
+    if start is None:
+        return do, rule, stats, model
+    do_dt, _, stats_dt = refine_decision(start, t, u, y, uniform)
+    if not (do_dt and stats_dt and stats_dt["feedback"]):
+        return do, rule, stats, model
+    rule = (
+        f"{rule}; the dt model of order {model.n} shows feedback (chi2 of its residuals "
+        f"against the prewhitened input: S = {stats_dt['statistic']:.4g} vs "
+        f"{stats_dt['threshold']:.4g}), closed loop: refined, from it as well"
+    )
+    return True, rule, stats_dt, _offer(model, start)
+
+
 def closed_loop_start(
     model: StateSpaceModel, t: Any, u: Any, y: Any, statistics: dict[str, Any] | None
 ) -> StateSpaceModel:
@@ -247,8 +297,7 @@ def closed_loop_start(
     costs one evaluation.  Nothing changes in open loop (the basis estimate is consistent
     there), for a ``dt`` model, or when a warm start is already offered
     (``method="auto"`` passes its own).  The ``dt`` model carries no input hold into the
-    offer: no prediction-error fit chose one.  Returns a copy of ``model``, or ``model``
-    itself when nothing is offered (also when ``dt`` cannot fit the record).
+    offer: no prediction-error fit chose one.
 
     Parameters
     ----------
@@ -262,15 +311,24 @@ def closed_loop_start(
     Returns
     -------
     StateSpaceModel
-        ``model``, or a copy with ``options["refine_warm_start"]`` set.
+        ``model`` itself when nothing is offered (also when ``dt`` cannot fit the
+        record), else a copy with ``options["refine_warm_start"]`` set.
     """
-    from hdpbsid.methods.registry import get_method
     from hdpbsid.refine.pem import WARM_START
 
     if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
         return model
     if model.options.get("method") == CLOSED_LOOP_START_METHOD or WARM_START in model.options:
         return model
+    start = _closed_loop_model(model, t, u, y)
+    return model if start is None else _offer(model, start)
+
+
+def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateSpaceModel | None:
+    """The ``dt`` model of ``model``'s order and direct term on the record, or None when
+    it cannot be fitted (no continuous-time model of that order) or differs in shape."""
+    from hdpbsid.methods.registry import get_method
+
     feedthrough = bool(model.options.get("feedthrough", False))
     try:
         with np.errstate(all="ignore"):
@@ -278,9 +336,14 @@ def closed_loop_start(
                 t, u, y, order=model.n, feedthrough=feedthrough
             )
     except (ValueError, np.linalg.LinAlgError):
-        return model  # no continuous-time model of that order: nothing to offer
-    if (start.n, start.m, start.l) != (model.n, model.m, model.l):
-        return model
+        return None
+    return start if (start.n, start.m, start.l) == (model.n, model.m, model.l) else None
+
+
+def _offer(model: StateSpaceModel, start: StateSpaceModel) -> StateSpaceModel:
+    """A copy of ``model`` offering ``start`` as the refinement's warm start."""
+    from hdpbsid.refine.pem import WARM_START
+
     offered = copy.copy(model)
     offered.options = dict(model.options)
     offered.options[WARM_START] = {
