@@ -20,7 +20,7 @@ The excitation ``r`` is a seeded random binary signal held 0.02 s (flat power up
 about 20 Hz, above the fastest mode at 4.5 Hz), 30 s; white sensor noise on both outputs at
 ``snr`` dB of each sensor's noise-free power.  Per seed and loop it runs
 ``identify(t, u, y, order=4)`` (every default), the same with ``feedthrough=True`` (and
-with ``method="hermite"``), and ``identify(t, u, y)`` (order chosen, with and without the
+with ``method="hermite"`` and ``"legendre"``), and ``identify(t, u, y)`` (order chosen, with and without the
 direct term), and prints the worst relative eigenvalue error, CPU
 seconds per fit and the order picked.
 """
@@ -28,6 +28,7 @@ seconds per fit and the order picked.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 import warnings
@@ -149,9 +150,11 @@ def main() -> None:
         f"# Fast modes in closed loop ({a.seeds} seeds, {a.snr:g} dB)",
         "",
         "`python bench/closed_loop_fast.py` (module docstring: plant, loops, excitation).",
+        f"CPU seconds per call (process time), load average {os.getloadavg()[0]:.1f} at the "
+        "start on a shared 2-core machine.",
         "",
-        "| loop | call | worst eig. err % per seed | <= 10 % | CPU s median | orders |",
-        "|---|---|---|---:|---:|---|",
+        "| loop | call | worst eig. err % per seed | <= 10 % | CPU s median | orders | method |",
+        "|---|---|---|---:|---:|---|---|",
     ]
     for loop in a.loops:
         print(f"{loop}: spectral radius of the loop {check_stable(loop):.4f}")
@@ -164,8 +167,8 @@ def main() -> None:
             orders = ",".join(str(r[2]) for r in res)
             methods = ",".join(sorted({r[3] for r in res}))
             cells = " ".join(f"{e:.3g}" for e in errs)
-            row = f"| {loop} | {label} | {cells} | {ok}/{len(errs)} | {cpu:.2f} | {orders} |"
-            print(row, f"  methods: {methods}", flush=True)
+            row = f"| {loop} | {label} | {cells} | {ok}/{len(errs)} | {cpu:.2f} | {orders} | {methods} |"
+            print(row, flush=True)
             lines.append(row)
     a.out.parent.mkdir(parents=True, exist_ok=True)
     a.out.write_text("\n".join(lines) + "\n")
