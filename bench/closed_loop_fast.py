@@ -20,8 +20,8 @@ The excitation ``r`` is a seeded random binary signal held 0.02 s (flat power up
 about 20 Hz, above the fastest mode at 4.5 Hz), 30 s; white sensor noise on both outputs at
 ``snr`` dB of each sensor's noise-free power.  Per seed and loop it runs
 ``identify(t, u, y, order=4)`` (every default), the same with ``feedthrough=True`` (and
-with ``method="hermite"`` and ``"legendre"``), and ``identify(t, u, y)`` (order chosen, with and without the
-direct term), and prints the worst relative eigenvalue error, CPU
+with ``method="hermite"`` and ``"legendre"``), and ``identify(t, u, y)`` (order chosen,
+with and without the direct term), and prints the worst relative eigenvalue error, CPU
 seconds per fit and the order picked.
 """
 
@@ -167,7 +167,10 @@ def main() -> None:
             orders = ",".join(str(r[2]) for r in res)
             methods = ",".join(sorted({r[3] for r in res}))
             cells = " ".join(f"{e:.3g}" for e in errs)
-            row = f"| {loop} | {label} | {cells} | {ok}/{len(errs)} | {cpu:.2f} | {orders} | {methods} |"
+            row = (
+                f"| {loop} | {label} | {cells} | {ok}/{len(errs)} | {cpu:.2f} | {orders} "
+                f"| {methods} |"
+            )
             print(row, flush=True)
             lines.append(row)
     a.out.parent.mkdir(parents=True, exist_ok=True)
