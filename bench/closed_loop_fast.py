@@ -140,6 +140,10 @@ def main() -> None:
             "order=4, hermite, feedthrough=True",
             {"order": 4, "method": "hermite", "feedthrough": True},
         ),
+        (
+            "order=4, legendre, feedthrough=True",
+            {"order": 4, "method": "legendre", "feedthrough": True},
+        ),
     ]
     if not a.no_auto_order:
         runs.append(("order not given", {}))
