@@ -39,7 +39,7 @@ from hdpbsid.refine.pem import (
 )
 from hdpbsid.runtime import library_call
 from hdpbsid.selection import long_records as scaling
-from hdpbsid.selection.feedback import refine_decision
+from hdpbsid.selection.feedback import refine_plan
 
 __all__ = ["identify"]
 
@@ -138,7 +138,7 @@ def identify(
     on 7500 samples; one record only); ``None`` returns the subspace model as the method
     produced it; ``"auto"`` (default) refines every single uniformly sampled record
     whose first-pass one-step predictor does not diverge
-    (:func:`hdpbsid.selection.feedback.refine_decision`): the subspace model is the start, the
+    (:func:`hdpbsid.selection.feedback.refine_plan`): the subspace model is the start, the
     prediction-error model the answer (efficient in open loop, consistent in closed loop
     where the basis-domain least squares is biased).  A chi-square feedback test of the
     first-pass residuals against the prewhitened input is reported with the rule in
@@ -269,12 +269,13 @@ def identify(
         model = refine_pem(model, tm, um, ym)
     elif refine == "auto":
         if several:
-            do, rule, stats = False, "auto: several records, no refinement", None
+            do, rule, stats, start = False, "auto: several records, no refinement", None, model
         else:
             uniform = is_uniform(check_time(tm, "t", min_samples=2))
             errors = _one_step_errors(model, tm, um, ym) if uniform else None
-            do, rule, stats = refine_decision(model, tm, um, ym, uniform, errors=errors)
+            do, rule, stats, start = refine_plan(model, tm, um, ym, uniform, errors=errors)
         if do:
+            model = start  # in closed loop, offering the refinement a consistent start
             refined = refine_pem(model, tm, um, ym)
             unsound = _refinement_problem(model, refined, tm, um, ym)
             if unsound:

@@ -786,7 +786,9 @@ def refine_pem(
     estimation part, :func:`hdpbsid.selection.auto.rejudge_refined`): a prediction-error fit
     on part of the record is a consistent estimate close to the fit on all of it, where
     one Gauss-Newton step is already efficient, and the screen of :func:`_fit_starts`
-    fits the most promising start first.  The option is not carried to the result.
+    fits the most promising start first.  The option is not carried to the result; its
+    optional ``"name"`` names the start in ``options["refine_start"]`` (default: that of
+    a prediction-error fit on part of the record).
 
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``input_hold`` (the refined hold;
@@ -843,7 +845,8 @@ def refine_pem(
         starts["Kalman gain, measurement noise only"] = lay.pack(A0, B0, C0, D0, K_oe)
     warm = _warm_start(model, ys, us)
     if warm is not None and predicts(warm):
-        starts[WARM_START_NAME] = lay.pack(*warm)
+        name = warm_option.get("name") if isinstance(warm_option, dict) else None
+        starts[str(name or WARM_START_NAME)] = lay.pack(*warm)
     if not starts:
         warnings.warn(
             "refine='pem': the initial model's sampled predictor is unstable and no "

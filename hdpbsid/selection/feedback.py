@@ -51,6 +51,7 @@ eigenvalue error); the report then says "closed loop" where "misfit" would be ac
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -63,8 +64,11 @@ from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "AR_ORDER",
+    "CLOSED_LOOP_START_METHOD",
     "FEEDBACK_LAGS",
     "FEEDBACK_LEVEL",
+    "closed_loop_start",
+    "refine_plan",
     "feedback_statistics",
     "refine_decision",
 ]
@@ -216,3 +220,135 @@ def refine_decision(
         f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop: refined"
     )
     return True, text, st
+
+
+#: the method whose model is offered as a further starting point in closed loop
+#: (:func:`closed_loop_start`): PBSID on the samples, consistent in closed loop
+CLOSED_LOOP_START_METHOD = "dt"
+#: that start's name in the refined model's ``options["refine_start"]``
+CLOSED_LOOP_START_NAME = "dt model (closed loop: consistent under feedback)"
+
+
+def refine_plan(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool, errors: Any = None
+) -> tuple[bool, str, dict[str, Any] | None, StateSpaceModel]:
+    """:func:`refine_decision`, and the model the refinement starts from:
+    ``(refine, rule text, statistics or None, start)``.
+
+    ``start`` is ``model`` offering the ``dt`` model as a further starting point when the
+    record is closed loop (:func:`closed_loop_start`).  A first-pass model whose one-step
+    predictor diverges is no prediction-error start (:func:`refine_decision`); in closed
+    loop that is what a basis-domain estimate biased far from the system looks like, so
+    the ``dt`` model is then fitted and tested: when its residuals show feedback, the
+    record is refined from it (the decision and statistics are the ``dt`` model's, the
+    rule says so); in open loop, or when ``dt`` cannot fit the record, nothing changes.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model.
+    t, u, y : array_like
+        The single record it was identified from (the front end's detrended signals).
+    uniform : bool
+        Whether ``t`` is uniformly sampled.
+    errors : array_like, optional
+        ``model``'s one-step prediction errors, as in :func:`feedback_statistics`.
+
+    Returns
+    -------
+    tuple
+        ``(refine, rule, statistics, start)``.
+    """
+    do, rule, stats = refine_decision(model, t, u, y, uniform, errors=errors)
+    if do:
+        return do, rule, stats, closed_loop_start(model, t, u, y, stats)
+    if stats is not None or not uniform or u is None or model.m == 0:
+        return do, rule, stats, model
+    start = _closed_loop_model(model, t, u, y)
+    if start is None:
+        return do, rule, stats, model
+    do_dt, _, stats_dt = refine_decision(start, t, u, y, uniform)
+    if not (do_dt and stats_dt and stats_dt["feedback"]):
+        return do, rule, stats, model
+    rule = (
+        f"{rule}; the dt model of order {model.n} shows feedback (chi2 of its residuals "
+        f"against the prewhitened input: S = {stats_dt['statistic']:.4g} vs "
+        f"{stats_dt['threshold']:.4g}), closed loop: refined, from it as well"
+    )
+    return True, rule, stats_dt, _offer(model, start)
+
+
+def closed_loop_start(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, statistics: dict[str, Any] | None
+) -> StateSpaceModel:
+    """``model``, offering the refinement a closed-loop-consistent starting point when
+    the feedback test (``statistics`` of :func:`feedback_statistics`) found feedback.
+
+    Why.  In closed loop the basis-domain least squares is biased (module docstring),
+    and the bias is not small when the loop is fast against the modes: the start can then
+    lie far from the prediction-error minimum, where Levenberg-Marquardt either runs out
+    of its evaluation budget (and the front end keeps the biased start) or stops at
+    another local minimum.  PBSID on the samples (``method="dt"``) is consistent in closed
+    loop (Chiuso, Automatica 43 (2007); the predictor form removes the feedback's
+    correlation), so its model is near the minimum on a long enough record.  It is
+    offered as the refinement's warm start (:data:`hdpbsid.refine.pem.WARM_START`) at
+    the model's order and direct term; the refinement's screen fits the most promising
+    start first (:func:`hdpbsid.refine.pem.refine_pem`), so a start that is not better
+    costs one evaluation.  Nothing changes in open loop (the basis estimate is consistent
+    there), for a ``dt`` model, or when a warm start is already offered
+    (``method="auto"`` passes its own).  The ``dt`` model carries no input hold into the
+    offer: no prediction-error fit chose one.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model the refinement starts from.
+    t, u, y : array_like
+        The record it was identified from (the front end's detrended signals).
+    statistics : dict or None
+        :func:`feedback_statistics` of ``model`` on the record (None: not computed).
+
+    Returns
+    -------
+    StateSpaceModel
+        ``model`` itself when nothing is offered (also when ``dt`` cannot fit the
+        record), else a copy with ``options["refine_warm_start"]`` set.
+    """
+    from hdpbsid.refine.pem import WARM_START
+
+    if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
+        return model
+    if model.options.get("method") == CLOSED_LOOP_START_METHOD or WARM_START in model.options:
+        return model
+    start = _closed_loop_model(model, t, u, y)
+    return model if start is None else _offer(model, start)
+
+
+def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateSpaceModel | None:
+    """The ``dt`` model of ``model``'s order and direct term on the record, or None when
+    it cannot be fitted (no continuous-time model of that order) or differs in shape."""
+    from hdpbsid.methods.registry import get_method
+
+    feedthrough = bool(model.options.get("feedthrough", False))
+    try:
+        with np.errstate(all="ignore"):
+            start = get_method(CLOSED_LOOP_START_METHOD)(
+                t, u, y, order=model.n, feedthrough=feedthrough
+            )
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    return start if (start.n, start.m, start.l) == (model.n, model.m, model.l) else None
+
+
+def _offer(model: StateSpaceModel, start: StateSpaceModel) -> StateSpaceModel:
+    """A copy of ``model`` offering ``start`` as the refinement's warm start."""
+    from hdpbsid.refine.pem import WARM_START
+
+    offered = copy.copy(model)
+    offered.options = dict(model.options)
+    offered.options[WARM_START] = {
+        **{k: getattr(start, k) for k in "ABCDK"},
+        "input_hold": None,
+        "name": CLOSED_LOOP_START_NAME,
+    }
+    return offered
