@@ -259,7 +259,7 @@ def identify(
         options.pop("order_rule", None)
         model = func(records, None, None, order=order, **options)
         if feedthrough == "auto":
-            model.options["feedthrough_rule"] = "auto: several records, not judged; D = 0"
+            model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
         if order is None:
             model.options["order_selection"] = "singular values of the method (several records)"
         u0, y0 = _weighted_levels(levels)

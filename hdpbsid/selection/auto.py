@@ -288,6 +288,8 @@ def settle_candidate(
         row["model"].options["refit_settings"] = {k: v for k, v in first.items() if k not in given}
         return row
     row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
+    if "p_rule" in row:
+        model.options["p_rule"] = row["p_rule"]
     row.update(
         model=model,
         criterion=err,
@@ -387,6 +389,7 @@ def _fit_one(
             model, extra = _fit_at_order(func, est, order, settings, order_given)
             if extra:
                 row["settings"] = extra
+                row["p_rule"] = model.options["p_rule"]
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -900,8 +903,13 @@ def _first_that_holds(
                     **chosen["model"].options.get("refit_settings", {}),
                 }
                 model = func(*whole, order=chosen["order"], **settings)
-                if "p" in chosen.get("settings", {}):
-                    model.options["p_rule"] = chosen["model"].options.get("p_rule")
+                if with_d(chosen) and not honours_feedthrough(model) and model.m:
+                    # judged as a structure with D: D is a parameter of the refinement
+                    # (hdpbsid.refine.pem), whatever the method says of its own D
+                    model.options["feedthrough_method"] = model.options.get("feedthrough")
+                    model.options["feedthrough"] = True
+                if "p_rule" in chosen:
+                    model.options["p_rule"] = chosen["p_rule"]
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
                 if holds and floor:
                     # the floor the candidate passed, for the model returned: a refit
@@ -1100,11 +1108,10 @@ def _select(
         extra, ft_rule = _feedthrough_candidates(
             get_method, ok, ok[k], orders, est, val, windows, opts, n_jobs, relax
         )
-        if extra:
-            rows = rows + extra
-            ok += [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
-            ok.sort(key=structure_key)
-            k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
+        rows = rows + extra
+        ok += [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
+        ok.sort(key=structure_key)
+        k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
     queue = _ranked(ok, k, stats, val)
@@ -1162,10 +1169,17 @@ def _feedthrough_candidates(
     honours_feedthrough`) is fitted with ``feedthrough=True`` at the orders up to
     ``chosen``'s.  Not above it: without ``D`` a direct term costs states (a fast mode
     imitates it), so the order of the structure with ``D`` is at most the one chosen
-    without it."""
+    without it.  The candidates of ``ok`` whose method estimates ``D`` whatever it is
+    asked (Laguerre's ``D_d``) are marked as of the structure with ``D`` (their
+    ``settings``), so they rank after the candidates without ``D`` of their order."""
     offered, why = feedthrough_offered(chosen["model"], est)
     if not offered:
         return [], why
+    for r in ok:
+        if not honours_feedthrough(r["model"]) and r["model"].m and np.any(r["model"].D):
+            # a method that estimates D whatever it is asked (Laguerre's D_d): its
+            # candidates are of the structure with D, and rank as such
+            r["settings"] = {**r.get("settings", {}), "feedthrough": True}
     methods = list(dict.fromkeys(r["method"] for r in ok if honours_feedthrough(r["model"])))
     d_orders = [n for n in orders if n <= chosen["order"]]
     if not methods or not d_orders:
@@ -1626,17 +1640,27 @@ def decide_feedthrough(
         return False, "auto: not judged (too short to hold out the scoring windows); D = 0"
     opts = {method: dict(options)}
     without = _fit_one(get_method, method, order, est, val, windows, opts)
-    if without["criterion"] is None or not without["criterion"].finite:
-        return False, f"auto: not judged (the candidate without D: {without['status']}); D = 0"
-    if not honours_feedthrough(without["model"]):
+    fitted = without["criterion"] is not None and without["criterion"].finite
+    if fitted and not honours_feedthrough(without["model"]):
         return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
-    offered, why = feedthrough_offered(without["model"], est)
+    with_row = _fit_one(
+        get_method, method, order, est, val, windows, {method: {**options, "feedthrough": True}}
+    )
+    fitted_d = with_row["criterion"] is not None and with_row["criterion"].finite
+    if fitted_d and not honours_feedthrough(with_row["model"]):
+        return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
+    if not (fitted or fitted_d):
+        return False, f"auto: not judged (no candidate: {without['status']}); D = 0"
+    offered, why = feedthrough_offered((without if fitted else with_row)["model"], est)
     if not offered:
         return False, f"auto: {why}; D = 0"
-    opts[method]["feedthrough"] = True
-    with_row = _fit_one(get_method, method, order, est, val, windows, opts)
-    if with_row["criterion"] is None or not with_row["criterion"].finite:
+    if not fitted_d:
         return False, f"auto: {why}; the candidate with D: {with_row['status']}; D = 0"
+    if not fitted:
+        return True, (
+            f"auto: {why}; the candidate without D: {without['status']}; the one with D "
+            f"scores: D estimated"
+        )
     k, z = choose_smallest_adequate([without["criterion"], with_row["criterion"]])
     return k == 1, (
         f"auto: {why}; at order {order} on the held-out part (windowed one-step error, "

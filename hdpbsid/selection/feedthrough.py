@@ -21,13 +21,14 @@ and the prediction-error minimum is not the system (Ljung, *System Identificatio
 that delay cannot be read from the data: the correlation of ``u_k`` with ``e_k`` at lag
 0 is the same for a controller that reacts within the sample and for a direct term.  So
 the candidates with ``D`` are offered only when the feedback test
-(:func:`hdpbsid.selection.feedback.feedback_statistics`, the one-step errors of the
-chosen candidate without ``D`` against the prewhitened input at lags ``1..M``) finds no
-loop (:func:`feedthrough_offered`); in open loop ``u`` does not depend on the noise and
+(:func:`hdpbsid.selection.feedback.feedback_statistics`, the residuals of a strictly
+causal ARX predictor against the prewhitened input at lags ``1..M``) finds no loop
+(:func:`feedthrough_offered`); in open loop ``u`` does not depend on the noise and
 ``D`` is identifiable.  In a loop with at least one sample of delay (a digital controller
 that computes ``u_k`` from ``y_{k-1}``) the user says so with ``feedthrough=True``.  The
-test is valid for a candidate that lacks a true direct term: its errors then contain
-``D u_k``, which depends on ``u_j, j <= k`` only, and the test looks at positive lags.
+test is valid whether or not the record has a direct term: the predictor's errors then
+contain ``D u_k``, which depends on ``u_j, j <= k`` only, and the test looks at positive
+lags.
 Where the test cannot be computed (non-uniform samples, no input, a diverging
 predictor) no ``D`` is offered.
 """
@@ -49,6 +50,7 @@ __all__ = [
     "feedthrough_offered",
     "structure_key",
     "with_d",
+    "arx_residuals",
 ]
 
 #: the values of ``feedthrough=``: estimate ``D``, keep ``D = 0``, or decide from the data
@@ -91,15 +93,36 @@ def structure_key(row: dict[str, Any]) -> tuple[int, bool, float]:
     return (row["order"], with_d(row), row["criterion"].total)
 
 
+def arx_residuals(u: Any, y: Any, lags: int) -> Any:
+    """Residuals ``(Ns, l)`` of the least-squares ARX predictor of ``y_k`` from ``y`` and
+    ``u`` at lags ``1..lags`` (no ``u_k``: strictly causal, no direct term); the first
+    ``lags`` rows are zero.  A causal predictor's errors depend on ``u_j, j <= k`` and
+    the noise only, which is all the feedback test needs in open loop, and they do not
+    depend on any candidate model being sound (a candidate without ``D`` fitted to a
+    loop that reacts within the sample can diverge, and its errors then test nothing)."""
+    ns = u.shape[0]
+    z = np.hstack([y, u])
+    X = np.hstack([z[lags - i : ns - i] for i in range(1, lags + 1)])
+    X = np.hstack([X, np.ones((X.shape[0], 1))])
+    target = y[lags:]
+    coef = np.linalg.lstsq(X, target, rcond=None)[0]
+    out = np.zeros_like(y)
+    out[lags:] = target - X @ coef
+    return out
+
+
 def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str]:
     """Whether candidates with ``D`` are offered for the record ``rec = (t, u, y)``
-    (module docstring), judged with ``model``, the chosen candidate without ``D``, and
-    the reason.  Offered only for a uniformly sampled record with an input whose
-    feedback test finds no loop."""
-    from hdpbsid.refine.pem import one_step_errors
-    from hdpbsid.selection.feedback import feedback_statistics
+    (module docstring), and the reason.  Offered only for a uniformly sampled record
+    with an input whose feedback test finds no loop; the test correlates the residuals
+    of a strictly causal least-squares ARX predictor (:func:`arx_residuals`, lags up to
+    :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per regressor)
+    with the prewhitened input.  ``model``: a candidate of the record (its input hold)."""
+    from hdpbsid.selection.feedback import AR_ORDER, feedback_statistics
 
     t, u, y = rec
+    if isinstance(t, list | tuple):
+        return False, "not judged: several estimation records; D = 0"
     if model.m == 0:
         return False, "no input, no direct term"
     if not is_uniform(np.asarray(t, dtype=float)):
@@ -107,15 +130,16 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str]:
             "not judged: the feedback test that tells whether D is identifiable needs "
             "uniformly sampled times; D = 0"
         )
+    u = np.asarray(u, dtype=float).reshape(len(t), -1)
+    y = np.asarray(y, dtype=float).reshape(len(t), -1)
     try:
         with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):
             warnings.simplefilter("ignore")
-            errors = one_step_errors(model, t, u, y)
-            if errors is None:
-                raise np.linalg.LinAlgError("unstable predictor")
+            lags = min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1])))
+            errors = arx_residuals(u, y, max(lags, 1))
             st = feedback_statistics(model, t, u, y, errors=errors)
     except (ValueError, np.linalg.LinAlgError):
-        return False, "not judged: the feedback test cannot be computed (its predictor diverges)"
+        return False, "not judged: the feedback test cannot be computed"
     test = f"feedback test S = {st['statistic']:.4g} vs {st['threshold']:.4g}"
     if st["feedback"]:
         return False, (
