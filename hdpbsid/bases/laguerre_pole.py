@@ -215,7 +215,10 @@ def dynamics_band(records: Any) -> tuple[float, float]:
     """``(w_lo, w_hi)`` of :func:`pole_from_dynamics` for the records (objects with
     ``t`` and ``y``): the lowest frequency below which
     :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of any record's output
-    energy lies, and the Nyquist frequency of the coarsest median sampling step."""
-    w_lo = min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records)
+    energy lies (at least ``2 pi / T`` of the longest record: one period of the slowest
+    component it can resolve; the estimate is 0 when that energy is all in the first
+    frequency bin), and the Nyquist frequency of the coarsest median sampling step."""
+    longest = max(float(r.t[-1] - r.t[0]) for r in records)
+    w_lo = max(min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records), 2 * np.pi / longest)
     step = max(float(np.median(np.diff(r.t))) for r in records)
     return w_lo, float(np.pi / step)
