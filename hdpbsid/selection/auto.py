@@ -122,6 +122,7 @@ from hdpbsid.selection.feedthrough import (
     feedthrough_offered,
     honours_feedthrough,
     structure_key,
+    takes_feedthrough,
     with_d,
 )
 
@@ -1180,7 +1181,13 @@ def _feedthrough_candidates(
             # a method that estimates D whatever it is asked (Laguerre's D_d): its
             # candidates are of the structure with D, and rank as such
             r["settings"] = {**r.get("settings", {}), "feedthrough": True}
-    methods = list(dict.fromkeys(r["method"] for r in ok if honours_feedthrough(r["model"])))
+    methods = list(
+        dict.fromkeys(
+            r["method"]
+            for r in ok
+            if honours_feedthrough(r["model"]) and takes_feedthrough(r["method"])
+        )
+    )
     d_orders = [n for n in orders if n <= chosen["order"]]
     if not methods or not d_orders:
         return [], why + "; no method here takes feedthrough=, so no candidate with D"
@@ -1600,7 +1607,8 @@ def decide_feedthrough(
     (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`).  ``False`` when the
     record is too short to hold out the windows the rule needs, when the method does not
     take ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.honours_feedthrough`),
-    or when a candidate cannot be fitted or scored.
+    when the method is not a built-in one (:func:`~hdpbsid.selection.feedthrough.
+    takes_feedthrough`), or when a candidate cannot be fitted or scored.
 
     Parameters
     ----------
@@ -1633,6 +1641,8 @@ def decide_feedthrough(
     t, u, y = check_data(t, u, y)
     if u.shape[1] == 0:
         return False, "auto: no input, no direct term; D = 0"
+    if not takes_feedthrough(method):
+        return False, f"auto: not judged ({method!r} is not a built-in method); D = 0"
     split = int(round(t.size * (1.0 - float(holdout))))
     est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
     windows = default_windows(t.size - split, order)

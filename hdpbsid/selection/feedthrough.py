@@ -51,6 +51,7 @@ __all__ = [
     "structure_key",
     "with_d",
     "arx_residuals",
+    "takes_feedthrough",
 ]
 
 #: the values of ``feedthrough=``: estimate ``D``, keep ``D = 0``, or decide from the data
@@ -79,6 +80,20 @@ def honours_feedthrough(model: StateSpaceModel) -> bool:
     Laguerre-domain ``D_d``, reported as a text) has no candidate with ``D`` to add."""
     fd = model.options.get("feedthrough")
     return isinstance(fd, bool | np.bool_) and model.m > 0
+
+
+def takes_feedthrough(method: str) -> bool:
+    """Whether the registered method ``method`` is a built-in one of the library
+    (:data:`~hdpbsid.methods.registry.LAZY_METHODS`, not replaced by the user), whose
+    ``feedthrough=`` setting is known.  A user's own method is never called with a
+    setting it did not ask for: ``feedthrough="auto"`` keeps ``D = 0`` for it."""
+    from hdpbsid.methods.registry import LAZY_METHODS, get_method
+
+    func = get_method(method)
+    return any(
+        getattr(func, "__module__", None) == mod and getattr(func, "__name__", None) == name
+        for mod, name in LAZY_METHODS.get(method, ())
+    )
 
 
 def with_d(row: dict[str, Any]) -> bool:
