@@ -40,6 +40,7 @@ from hdpbsid.refine.pem import (
 from hdpbsid.runtime import library_call
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_plan
+from hdpbsid.selection.feedthrough import check_feedthrough
 
 __all__ = ["identify"]
 
@@ -150,12 +151,27 @@ def identify(
     subspace estimate.  Convergence is judged at the statistical resolution (a run that
     moves the estimate by less than a tenth of its standard deviation ends the fit), and
     ``D`` is a parameter only with ``feedthrough=True`` (a free ``D`` lets closed-loop
-    data predict the noise through the controller): from the HD-PBSID, Legendre and
-    CT-PBSID models of the closed-loop quadrotor the fit reaches the same optimum in
-    30-60 evaluations.  The refinement matters most at low SNR, where the subspace
-    estimate is biased by the noise and the prediction-error minimum is not (Ljung,
+    data predict the noise through the controller): started from the HD-PBSID, Legendre
+    and CT-PBSID models of a closed loop, the fit reaches the same optimum.  The
+    refinement matters most at low SNR, where the subspace estimate is biased by the
+    noise and the prediction-error minimum is not (Ljung,
     *System Identification*, 2nd ed., ch. 8-9); the measured effect is in the
     benchmark pages (``hdpbsid study table1``).
+
+    ``feedthrough`` (a keyword among ``options``): not given (the default), ``D = 0``
+    for every method that has the setting; ``"auto"`` decides the
+    direct term ``D`` from the data (:mod:`hdpbsid.selection.feedthrough`), judged like
+    the order: candidates with and without ``D`` fitted on the first two thirds and
+    scored on the last third, ranked by order and then without ``D`` before with it, and
+    the one-standard-error rule takes the first within one standard error of the best;
+    with the method and the order given, the two candidates of that order
+    (:func:`hdpbsid.selection.auto.decide_feedthrough`).  Candidates with ``D`` are
+    offered only when the feedback test finds no loop: with a controller that reacts
+    within the sample, ``D`` is not identifiable from ``u`` and ``y``, so in closed loop
+    ``D = 0`` unless ``feedthrough=True`` says the loop has at least one sample of delay.
+    Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
+    keep ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
+    ``True``/``False`` estimate ``D`` or keep it at zero, as given.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
     :class:`~hdpbsid.data.chunked.ChunkedRecord` in ``t``) take a bounded path
@@ -205,6 +221,10 @@ def identify(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
+    given_ft = options.pop("feedthrough", None)
+    feedthrough = None if given_ft is None else check_feedthrough(given_ft)
+    if feedthrough is not None and feedthrough != "auto":
+        options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     in_memory = isinstance(t, np.ndarray | list | tuple)
     labels = _Labels(input_names, output_names, time_unit, t, u, y) if in_memory else None
@@ -240,6 +260,8 @@ def identify(
             levels.append(lv)
         options.pop("order_rule", None)
         model = func(records, None, None, order=order, **options)
+        if feedthrough == "auto":
+            model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
         if order is None:
             model.options["order_selection"] = "singular values of the method (several records)"
         u0, y0 = _weighted_levels(levels)
@@ -256,7 +278,10 @@ def identify(
             tm, um, ym = t, u, y  # unchanged: exactly what the method got before
         else:
             tm, um, ym = tt, None if u is None else ud, yd
-        model = _run(method, func, tm, um, ym, order, options, refined=refine is not None)
+        model = _run(
+            method, func, tm, um, ym, order, options, refined=refine is not None,
+            judge_feedthrough=feedthrough == "auto",
+        )  # fmt: skip
         u0, y0 = lv.u0, lv.y0
         trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
         op_info = lv.as_dict()
@@ -587,18 +612,37 @@ def _run(
     order: Any,
     options: dict,
     refined: bool = False,
+    judge_feedthrough: bool = False,
 ) -> StateSpaceModel:
     """Run ``method`` on one record; ``order=None`` goes through the held-out order choice
     (:func:`hdpbsid.selection.auto.select_order`) unless ``order_rule="svd"``.  ``refined``:
     the result will be refined, so the held-out choice is told (it then decides close
-    orders between refined candidates, :func:`hdpbsid.selection.auto.rejudge_refined`)."""
+    orders between refined candidates, :func:`hdpbsid.selection.auto.rejudge_refined`).
+    ``judge_feedthrough`` (``feedthrough="auto"``): the held-out choice judges the direct
+    term with the order (:mod:`hdpbsid.selection.feedthrough`); with the method and the
+    order given, :func:`hdpbsid.selection.auto.decide_feedthrough` judges it alone."""
     rule = options.pop("order_rule", "held-out")
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
+    given = options.pop("feedthrough", None)
+    ft: dict[str, Any] = {"feedthrough": given} if given is not None else {}
+    # the held-out selections judge the direct term themselves when asked to
+    judged = {"feedthrough": "auto"} if judge_feedthrough else ft
     if order is None and method != "auto" and rule == "held-out":
         from hdpbsid.selection.auto import select_order
 
-        return select_order(method, t, u, y, refined=refined, **options)
+        return select_order(method, t, u, y, refined=refined, **judged, **options)
     if method == "auto":
-        return func(t, u, y, order=order, refined=refined, **options)
-    return func(t, u, y, order=order, **options)
+        return func(t, u, y, order=order, refined=refined, **judged, **options)
+    why = ""
+    if judge_feedthrough and order is None:
+        why = "auto: not judged (order_rule='svd' chooses the order on the whole record); D = 0"
+    elif judge_feedthrough:
+        from hdpbsid.selection.auto import decide_feedthrough
+
+        has_d, why = decide_feedthrough(method, t, u, y, order, options)
+        ft = {"feedthrough": True} if has_d else {}
+    model = func(t, u, y, order=order, **ft, **options)
+    if why and isinstance(model, StateSpaceModel):
+        model.options["feedthrough_rule"] = why
+    return model

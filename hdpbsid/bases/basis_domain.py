@@ -41,6 +41,7 @@ from hdpbsid.data.checks import check_positive_int
 from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
+    "BasisTooSmall",
     "SolveLag",
     "BlockShift",
     "bandwidth",
@@ -639,6 +640,18 @@ def _rms_rows(W: Array, name: str) -> Array:
     return r
 
 
+class BasisTooSmall(ValueError):
+    """The default past-window rule cannot give the requested order a window: the order
+    needs ``p >= p_needed`` (``f l >= n`` rows of ``Gamma L``), the precision rule
+    ``p (m + q + l) <= N / 6`` allows less; the VARX is still determined up to ``p_max``.
+    A caller that must answer at that order (the user asked for it) may pass
+    ``p=p_needed`` when ``p_needed <= p_max``: a less precise model, not none."""
+
+    def __init__(self, message: str, p_needed: int, p_max: int) -> None:
+        super().__init__(message)
+        self.p_needed, self.p_max = p_needed, p_max
+
+
 @dataclass
 class CoreOut:
     """Core result in the basis domain, scaled back to the user's units.
@@ -777,13 +790,15 @@ def run_core(
         if hi < lo:
             if lo > p_cap:
                 p_max = _largest_determined_p(nb, d, ncols, m + l)
-                raise ValueError(
+                raise BasisTooSmall(
                     f"the basis is too small for the requested order by the default rule: "
                     f"it needs a past window p >= {lo}, but N = {nb} coefficients and "
                     f"m+q+l = {d} rows give p <= {p_cap} by p*(m+q+l) <= "
                     f"N/{COLS_PER_REGRESSOR}; the VARX is determined up to p = {p_max} "
                     f"(p*(m+q+l) < N - p): pass p explicitly (less precise), increase N, or "
-                    f"ask for a smaller order"
+                    f"ask for a smaller order",
+                    lo,
+                    p_max,
                 )
             # the order needs more rows of Gamma L (f*l >= n) than the preferred range
             # gives: the smallest window that shows it

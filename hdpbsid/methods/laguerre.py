@@ -49,6 +49,7 @@ from hdpbsid.bases.basis_domain import (
     shared_basis,
 )
 from hdpbsid.bases.family import BasisFamily, size_policy
+from hdpbsid.bases.laguerre_pole import dynamics_band, pole_from_dynamics
 from hdpbsid.bases.pipeline import make_blocks, project, solve
 from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
@@ -244,8 +245,11 @@ def identify_laguerre(
     Laguerre-domain ``Dd`` is always estimated, see below).  Defaults (in
     ``model.options``):
 
-    * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
-      energy), so the Laguerre pole sits inside the excited band;
+    * ``a``: from the identified dynamics (:mod:`hdpbsid.bases.laguerre_pole`): a first
+      pass at half the data bandwidth (99 % of the input energy / 95 % of the output
+      energy), then the pole that minimises the largest map-back amplification of the
+      modes, kept when it simulates the record better (``options["a_rule"]``,
+      ``options["a_source"]``);
     * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
       ``N = 2 a T / 3.6`` clipped to ``[N_MIN, N_MAX] = [100, 4000]`` and to ``Ns / 2``
       (a ``RuntimeWarning`` when an upper limit binds); (filter): 30;
@@ -275,8 +279,16 @@ def identify_laguerre(
     if a is None:
         if wb <= 0:
             raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
-        a = 0.5 * wb
-        a_rule = "half the data bandwidth"
+        one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
+        pole, model = pole_from_dynamics(
+            lambda a_: identify_laguerre(t, u, y, order, a=a_, N=N, variant=variant,
+                                         n_times=n_times, burn_in=burn_in, settings=settings,
+                                         **shared),
+            0.5 * wb, dynamics_band(records),
+            None if one is None else (one.t, one.u, one.y),
+        )  # fmt: skip
+        model.options.update(a_rule=pole.reason, a_source=pole.source.value)
+        return model
     else:
         a = _real(a, "a")
         a_rule = "given"

@@ -103,6 +103,7 @@ from typing import Any
 
 import numpy as np
 
+from hdpbsid.bases.basis_domain import BasisTooSmall
 from hdpbsid.data.checks import check_data, check_positive_int, is_uniform
 from hdpbsid.models.criteria import (
     MIN_WINDOWS,
@@ -116,6 +117,14 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
+from hdpbsid.selection.feedthrough import (
+    check_feedthrough,
+    feedthrough_offered,
+    honours_feedthrough,
+    structure_key,
+    takes_feedthrough,
+    with_d,
+)
 
 __all__ = [
     "identify_auto",
@@ -139,6 +148,8 @@ __all__ = [
     "settle_candidate",
     "refit_keeps",
     "REJUDGE_Z",
+    "decide_feedthrough",
+    "NoCandidate",
     "AUTO_METHODS",
     "HOLDOUT",
 ]
@@ -259,7 +270,7 @@ def settle_candidate(
     settings the user gave, or whose second fit fails or cannot be scored is returned as
     it is, its refit then given the first-pass settings it was fitted with.  Idempotent."""
     func = get_method(row["method"])
-    given = options.get(row["method"], {})
+    given = _given(row, options)
     first = sweep_settings(func, given)
     if row.get("settled") or first == given:
         return row
@@ -278,6 +289,8 @@ def settle_candidate(
         row["model"].options["refit_settings"] = {k: v for k, v in first.items() if k not in given}
         return row
     row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
+    if "p_rule" in row:
+        model.options["p_rule"] = row["p_rule"]
     row.update(
         model=model,
         criterion=err,
@@ -313,8 +326,59 @@ def stationarity_problem(model: StateSpaceModel) -> str:
     )
 
 
+def _among(row: dict[str, Any], rows: Sequence[dict[str, Any]]) -> bool:
+    """Whether the candidate ``row`` is one of ``rows`` (by identity: two candidates of
+    one method and order, with and without ``D``, are different rows)."""
+    return any(r is row for r in rows)
+
+
+def _index(rows: Sequence[dict[str, Any]], row: dict[str, Any]) -> int:
+    """The position of the candidate ``row`` in ``rows``, by identity (:func:`_among`)."""
+    return next(i for i, r in enumerate(rows) if r is row)
+
+
+def _given(row: dict[str, Any], options: dict) -> dict[str, Any]:
+    """The settings candidate ``row`` of a sweep is fitted with: its method's in
+    ``options`` (the user's), and the row's own (``row["settings"]``: ``feedthrough``
+    for a candidate with ``D`` of :mod:`hdpbsid.selection.feedthrough`)."""
+    return {**options.get(row["method"], {}), **row.get("settings", {})}
+
+
+def _fit_at_order(
+    func: Any, rec: tuple, order: int, settings: dict[str, Any], order_given: bool
+) -> tuple[StateSpaceModel, dict[str, Any]]:
+    """``func`` fitted on ``rec`` at ``order`` with ``settings``, and the settings it took
+    beyond them.  When the user gave the order (``order_given``) and the method's default
+    past window cannot reach it on this basis (:class:`~hdpbsid.bases.basis_domain.
+    BasisTooSmall`: the precision rule ``p (m + q + l) <= N / 6`` caps the window below
+    the ``f l >= n`` rows the order needs), the smallest window that reaches it is
+    passed, if the VARX is determined there: a less precise model of the order asked
+    for instead of none.  In a sweep over orders the rule stands, so that an imprecise
+    large order does not compete with the orders the basis supports."""
+    try:
+        return func(*rec, order=order, **settings), {}
+    except BasisTooSmall as exc:
+        if not order_given or "p" in settings or exc.p_needed > exc.p_max:
+            raise
+        extra = {"p": exc.p_needed}
+        model = func(*rec, order=order, **settings, **extra)
+        model.options["p_rule"] = (
+            f"p = {exc.p_needed}, the smallest window that reaches the order asked for, "
+            f"above the precision rule (the VARX is determined up to p = {exc.p_max}; "
+            f"less precise than a basis that holds the default window)"
+        )
+        return model, extra
+
+
 def _fit_one(
-    get_method: Any, method: str, order: int, est: tuple, val: tuple, windows: int, options: dict
+    get_method: Any,
+    method: str,
+    order: int,
+    est: tuple,
+    val: tuple,
+    windows: int,
+    options: dict,
+    order_given: bool = False,
 ) -> dict[str, Any]:
     t0 = time.perf_counter()
     row: dict[str, Any] = {"method": method, "order": order}
@@ -322,7 +386,11 @@ def _fit_one(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             func = get_method(method)
-            model = func(*est, order=order, **sweep_settings(func, options.get(method, {})))
+            settings = sweep_settings(func, options.get(method, {}))
+            model, extra = _fit_at_order(func, est, order, settings, order_given)
+            if extra:
+                row["settings"] = extra
+                row["p_rule"] = model.options["p_rule"]
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -353,10 +421,13 @@ def _sweep_method(
     val: tuple,
     windows: int,
     options: dict,
+    order_given: bool = False,
 ) -> list[dict[str, Any]]:
     """Every order of one method, upwards (the orders share the method's memoised
     order-independent steps, :mod:`hdpbsid.bases.memo`)."""
-    return [_fit_one(get_method, method, n, est, val, windows, options) for n in orders]
+    return [
+        _fit_one(get_method, method, n, est, val, windows, options, order_given) for n in orders
+    ]
 
 
 def _sweep(
@@ -368,9 +439,11 @@ def _sweep(
     windows: int,
     options: dict,
     n_jobs: int | None,
+    order_given: bool = False,
 ) -> list[dict[str, Any]]:
     """Every ``(method, order)`` candidate, listed orders upwards and, within an order, in
-    the order of ``methods``.  With ``n_jobs`` the methods are swept in parallel
+    the order of ``methods`` (``order_given``: the user asked for the one order, see
+    :func:`_fit_at_order`).  With ``n_jobs`` the methods are swept in parallel
     (joblib), each method's orders in one worker, where they share its memoised
     projection and operators; the candidates, and so the result, are those of the
     serial run (bit for bit when that runs with one BLAS thread, as the workers do).
@@ -380,7 +453,7 @@ def _sweep(
     one-standard-error rule (the closed-loop quadrotor's order 3 against 2 depends on
     its order 7), so stopping the sweep early would change the choice.
     """
-    args = (orders, est, val, windows, options)
+    args = (orders, est, val, windows, options, order_given)
     if n_jobs is not None and n_jobs != 1 and len(methods) > 1:
         from joblib import Parallel, delayed
 
@@ -569,7 +642,7 @@ def rejudge_refined(
                 f"{chosen['order']} beats order {chosen['order'] - 1} by {z[0]:.1f} SE"
             )
             n_up += 1
-    return ok.index(chosen), rule
+    return _index(ok, chosen), rule
 
 
 def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
@@ -823,7 +896,7 @@ def _first_that_holds(
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 func = get_method(chosen["method"])
-                given = opts.get(chosen["method"], {})
+                given = _given(chosen, opts)
                 kept = refit_keeps(func, chosen["model"], given)
                 settings = {
                     **given,
@@ -831,6 +904,13 @@ def _first_that_holds(
                     **chosen["model"].options.get("refit_settings", {}),
                 }
                 model = func(*whole, order=chosen["order"], **settings)
+                if with_d(chosen) and not honours_feedthrough(model) and model.m:
+                    # judged as a structure with D: D is a parameter of the refinement
+                    # (hdpbsid.refine.pem), whatever the method says of its own D
+                    model.options["feedthrough_method"] = model.options.get("feedthrough")
+                    model.options["feedthrough"] = True
+                if "p_rule" in chosen:
+                    model.options["p_rule"] = chosen["p_rule"]
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
                 if holds and floor:
                     # the floor the candidate passed, for the model returned: a refit
@@ -883,6 +963,7 @@ def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             {
                 "method": r["method"],
                 "order": r["order"],
+                "feedthrough": with_d(r),
                 "error": c.total if c is not None else None,
                 "fit": c.fit if c is not None else None,
                 "z": r.get("z"),
@@ -916,12 +997,24 @@ def select_model(
     n_jobs: int | None = None,
     method_options: dict[str, dict[str, Any]] | None = None,
     refined: bool = False,
+    judge_feedthrough: bool = False,
+    order_given: bool = False,
 ) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
     """Score every ``(method, order)`` on held-out data and identify the chosen one on
     the whole record (module docstring).  Returns ``(model, table, rule)``.
     ``refined``: the model will be refined by the prediction-error method, so the order
     is decided again between refined candidates where the subspace bias could flip it
-    (:func:`rejudge_refined`).
+    (:func:`rejudge_refined`).  ``judge_feedthrough``: candidates with a direct term
+    ``D`` join the ranking where the record allows it
+    (:mod:`hdpbsid.selection.feedthrough`, :func:`_feedthrough_candidates`); the
+    decision is in ``model.options["feedthrough_rule"]``.  ``order_given``: the user
+    asked for the one order of ``orders``: when no candidate answers with the methods'
+    default settings (:class:`NoCandidate`), the selection runs again with every basis
+    method whose default past window cannot reach the order given the smallest window
+    that does (:func:`_fit_at_order`), so that a method that cannot answer (``dt`` with
+    no continuous-time logarithm) does not leave the order without a model; the failing
+    candidates stay in the table with their reason (``status``).  Not before: the
+    default window's precision rule stands wherever some method answers with it.
 
     Raises ``ValueError`` when the record is too short to hold out enough scoring windows
     (the message says what would work) or when no candidate can be identified.
@@ -963,8 +1056,42 @@ def select_model(
             "resample the record uniformly or give the order"
         )
     opts = method_options or {}
-    orders = sorted(orders)
-    rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs)
+    args = (get_method, methods, sorted(orders), est, (t, u, y), val, windows, where, opts)
+    try:
+        return _select(*args, n_jobs, refined, judge_feedthrough, relax=False)
+    except NoCandidate:
+        if not order_given:
+            raise
+    # no method answers at the order the user asked for with its default settings: the
+    # basis methods that can, at a less precise past window, answer (_fit_at_order)
+    return _select(*args, n_jobs, refined, judge_feedthrough, relax=True)
+
+
+class NoCandidate(ValueError):
+    """No candidate of the held-out selection can be identified and scored, or no
+    scored candidate's refit on the whole record holds (:func:`select_model`)."""
+
+
+def _select(
+    get_method: Any,
+    methods: Sequence[str],
+    orders: list[int],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    where: str,
+    opts: dict,
+    n_jobs: int | None,
+    refined: bool,
+    judge_feedthrough: bool,
+    relax: bool,
+) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
+    """:func:`select_model` on the split record: sweep, rank, choose (module docstring);
+    ``relax``: a basis method may take the smallest past window that reaches the order
+    (:func:`_fit_at_order`)."""
+    time_series = val[1].shape[1] == 0
+    rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs, relax)
     ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
     if not ok:
         detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
@@ -974,20 +1101,35 @@ def select_model(
             if time_series
             else ""
         )
-        raise ValueError(f"no candidate model could be identified and scored ({detail}){hint}")
-    ok.sort(key=lambda r: (r["order"], r["criterion"].total))
-    errors: list[WindowedError] = [r["criterion"] for r in ok]
-    k, stats = choose_smallest_adequate(errors)
+        raise NoCandidate(f"no candidate model could be identified and scored ({detail}){hint}")
+    ok.sort(key=structure_key)
+    k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
+    ft_rule = ""
+    if judge_feedthrough:
+        extra, ft_rule = _feedthrough_candidates(
+            get_method, ok, ok[k], orders, est, val, windows, opts, n_jobs, relax
+        )
+        rows = rows + extra
+        ok += [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
+        ok.sort(key=structure_key)
+        k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
     queue = _ranked(ok, k, stats, val)
     rejudged = ""
     if refined:
-        k2, rejudged = rejudge_refined(ok, stats, k, est, val, windows, n_jobs)
+        # the order decided again among candidates of the chosen structure (with or
+        # without D): the preference for no D is not traded for a refined error
+        same = [i for i, r in enumerate(ok) if with_d(r) == with_d(ok[k])]
+        k2, rejudged = rejudge_refined(
+            [ok[i] for i in same], [stats[i] for i in same], same.index(k), est, val,
+            windows, n_jobs,
+        )  # fmt: skip
+        k2 = same[k2]
         if k2 != k:
             queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
     model, failures, note = _choose(
-        get_method, ok, queue, est, (t, u, y), val, windows, opts, where, refined
+        get_method, ok, queue, est, whole, val, windows, opts, where, refined
     )
     rule = (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
@@ -1003,7 +1145,77 @@ def select_model(
     rule += rejudged
     if failures:
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
+    if judge_feedthrough:
+        model.options["feedthrough_rule"] = _feedthrough_report(model, ok, ft_rule)
     return model, _rows_table(rows), rule + note
+
+
+def _feedthrough_candidates(
+    get_method: Any,
+    ok: list[dict[str, Any]],
+    chosen: dict[str, Any],
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    n_jobs: int | None,
+    order_given: bool = False,
+) -> tuple[list[dict[str, Any]], str]:
+    """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
+    the reason they are or are not offered (:mod:`hdpbsid.selection.feedthrough`): when
+    the record is open loop by the feedback test of ``chosen`` (the candidate without
+    ``D`` the one-standard-error rule takes) on the estimation part, every method whose
+    candidates honour ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.
+    honours_feedthrough`) is fitted with ``feedthrough=True`` at the orders up to
+    ``chosen``'s.  Not above it: without ``D`` a direct term costs states (a fast mode
+    imitates it), so the order of the structure with ``D`` is at most the one chosen
+    without it.  The candidates of ``ok`` whose method estimates ``D`` whatever it is
+    asked (Laguerre's ``D_d``) are marked as of the structure with ``D`` (their
+    ``settings``), so they rank after the candidates without ``D`` of their order."""
+    offered, why = feedthrough_offered(chosen["model"], est)
+    if not offered:
+        return [], why
+    for r in ok:
+        if not honours_feedthrough(r["model"]) and r["model"].m and np.any(r["model"].D):
+            # a method that estimates D whatever it is asked (Laguerre's D_d): its
+            # candidates are of the structure with D, and rank as such
+            r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+    methods = list(
+        dict.fromkeys(
+            r["method"]
+            for r in ok
+            if honours_feedthrough(r["model"]) and takes_feedthrough(r["method"])
+        )
+    )
+    d_orders = [n for n in orders if n <= chosen["order"]]
+    if not methods or not d_orders:
+        return [], why + "; no method here takes feedthrough=, so no candidate with D"
+    d_opts = {m: {**opts.get(m, {}), "feedthrough": True} for m in methods}
+    extra = _sweep(get_method, methods, d_orders, est, val, windows, d_opts, n_jobs, order_given)
+    for r in extra:
+        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+    return extra, why + (
+        f"; candidates with D of {', '.join(methods)} at orders "
+        f"{d_orders[0]}..{d_orders[-1]} ranked after those without D of their order"
+    )
+
+
+def _feedthrough_report(model: StateSpaceModel, ok: list[dict[str, Any]], why: str) -> str:
+    """The text of ``options["feedthrough_rule"]``: whether the returned ``model`` has a
+    direct term, why candidates with ``D`` were (not) offered, and at its order the
+    distance of the best candidates with and without ``D`` from the best candidate, in
+    the standard errors of the one-standard-error rule (``z``; it admits up to 1)."""
+    has_d = honours_feedthrough(model) and bool(model.options.get("feedthrough"))
+    text = f"auto: {why}; returned: {'D estimated' if has_d else 'D = 0'}"
+    at_n = [r for r in ok if r["order"] == model.n and r.get("z") is not None]
+    z = {d: min((r["z"] for r in at_n if with_d(r) == d), default=None) for d in (False, True)}
+    if z[False] is not None and z[True] is not None:
+        text += (
+            f" (order {model.n}, held-out error above the best candidate's: without D "
+            f"{z[False]:.2f}, with D {z[True]:.2f} standard errors)"
+        )
+    return text
 
 
 def _ranked(
@@ -1015,9 +1227,11 @@ def _ranked(
     orders.  Candidates more than one standard error worse than the best are not
     listed: the held-out data reject them against the best (:func:`_choose`)."""
     adequate = [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
-    queue = adequate[adequate.index(pool[k]) :]
-    tied = break_tie([r for r in queue if r["order"] == pool[k]["order"]], val)
-    return tied + [r for r in queue if r not in tied]
+    queue = adequate[_index(adequate, pool[k]) :]
+    # ties of one structure: one order, with or without D as pool[k] (the
+    # whole-simulation tie-break does not trade the preference for no D)
+    tied = break_tie([r for r in queue if structure_key(r)[:2] == structure_key(pool[k])[:2]], val)
+    return tied + [r for r in queue if not _among(r, tied)]
 
 
 def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -1059,7 +1273,7 @@ def _stand_ins(
     near = [
         r
         for r in pool
-        if r not in queue and r is not row and not much_worse(r["criterion"], crit)[0]
+        if not _among(r, queue) and r is not row and not much_worse(r["criterion"], crit)[0]
     ]
     near = [r for r in near if not much_worse(whole_held_out_error(r["model"], val), whole)[0]]
     return sorted(near, key=lambda r: r["criterion"].total)
@@ -1137,7 +1351,7 @@ def _choose(
                     f"estimation part (no refit on the whole record held)"
                 ),
             )
-        pool = [r for r in pool if r not in queue]
+        pool = [r for r in pool if not _among(r, queue)]
         if not pool:
             break
         k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
@@ -1149,7 +1363,7 @@ def _choose(
     )
     failures += more
     if model is None:
-        raise ValueError(
+        raise NoCandidate(
             "no scored candidate could be identified on the whole record: "
             + "; ".join(why[1] for why in failures)
             + "; a longer record, a smaller max_order, or giving order= and method= "
@@ -1255,6 +1469,7 @@ def identify_auto(
     n_jobs: int | None = None,
     method_options: dict[str, dict[str, Any]] | None = None,
     refined: bool = False,
+    feedthrough: bool | str | None = None,
     **shared: Any,
 ) -> StateSpaceModel:
     """``method="auto"``: every method of ``methods`` with orders ``1..max_order`` (or the
@@ -1267,8 +1482,13 @@ def identify_auto(
     options per method, e.g. ``{"hermite": {"N": 400}}``; any other keyword (``shared``)
     is a setting every method is given, e.g. ``feedthrough=True`` for an output with a
     direct term (``method_options`` override it per method; a method that does not take
-    it raises ``TypeError``).  ``model.options["selection"]`` lists every candidate,
-    ``options["order_selection"]`` the chosen method's.
+    it raises ``TypeError``).  ``feedthrough="auto"`` decides the direct
+    term from the data (:mod:`hdpbsid.selection.feedthrough`: candidates with ``D``
+    join the ranking in open loop; ``options["feedthrough_rule"]`` says what was decided
+    and why); ``True``/``False`` is given to every method.
+    ``model.options["selection"]`` lists every candidate (its ``feedthrough`` column:
+    fitted with ``D`` by the judgement), ``options["order_selection"]`` the chosen
+    method's.
     """
     from hdpbsid.data.records import as_records
     from hdpbsid.methods.registry import get_method, is_available
@@ -1285,7 +1505,11 @@ def identify_auto(
         methods = list(methods)
         for m in methods:
             get_method(m)  # raises for unknown names
+    feedthrough = None if feedthrough is None else check_feedthrough(feedthrough)
+    if feedthrough is not None and feedthrough != "auto":
+        shared["feedthrough"] = feedthrough
     per_method = {m: {**shared, **(method_options or {}).get(m, {})} for m in methods}
+    judge = feedthrough == "auto" and not any("feedthrough" in o for o in per_method.values())
     model, table, rule = select_model(
         t,
         u,
@@ -1296,6 +1520,8 @@ def identify_auto(
         n_jobs=n_jobs,
         method_options=per_method,
         refined=refined,
+        judge_feedthrough=judge,
+        order_given=order is not None,
     )
     chosen = model.options.get("method")
     model.options["selection"] = table
@@ -1322,9 +1548,18 @@ def select_order(
     the record and scored on the rest; the chosen order is identified on the whole
     record.  When the record is too short to score, the method chooses the order itself
     (from its singular values) and ``options["order_selection"]`` says so.
+    ``feedthrough="auto"`` (not the default: without it ``D = 0``) judges the direct term
+    with the order (:mod:`hdpbsid.selection.feedthrough`); a record too short to score
+    keeps ``D = 0``.
     """
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     from hdpbsid.methods.registry import get_method
+
+    given_ft = options.pop("feedthrough", None)
+    ft = None if given_ft is None else check_feedthrough(given_ft)
+    judge = ft == "auto"
+    if ft is not None and not judge:
+        options["feedthrough"] = ft
 
     try:
         model, table, rule = select_model(
@@ -1336,13 +1571,110 @@ def select_order(
             holdout=holdout,
             method_options={method: options},
             refined=refined,
+            judge_feedthrough=judge,
         )
     except ValueError as exc:
         if "longer record" not in str(exc):
             raise
         model = get_method(method)(t, u, y, order=None, max_order=mo, **options)
         model.options["order_selection"] = f"singular values of the method ({exc})"
+        if judge:
+            model.options["feedthrough_rule"] = "auto: not judged (too short to score); D = 0"
         return model
     model.options["order_selection"] = table
     model.options["order_selection_rule"] = rule
     return model
+
+
+def decide_feedthrough(
+    method: str,
+    t: Any,
+    u: Any,
+    y: Any,
+    order: int,
+    options: dict[str, Any],
+    *,
+    holdout: float = HOLDOUT,
+) -> tuple[bool, str]:
+    """Whether ``method`` with the given ``order`` estimates a direct term on the record
+    ``(t, u, y)`` (``feedthrough="auto"`` with the method and the order given), and why.
+
+    The rule of :mod:`hdpbsid.selection.feedthrough` for two candidates: the method at
+    ``order`` with ``D = 0`` and with ``D`` estimated, fitted on the first ``1 -
+    holdout`` of the record and scored on the rest (:func:`score_model`); ``D`` is
+    estimated when its candidate is better by more than one standard error
+    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`, the candidate without
+    ``D`` listed first), and offered only when the feedback test finds no loop
+    (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`).  ``False`` when the
+    record is too short to hold out the windows the rule needs, when the method does not
+    take ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.honours_feedthrough`),
+    when the method is not a built-in one (:func:`~hdpbsid.selection.feedthrough.
+    takes_feedthrough`), or when a candidate cannot be fitted or scored.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+    t, u, y : array_like
+        One record, as :func:`hdpbsid.identify` takes it (detrended).
+    order : int
+        The model order.
+    options : dict
+        The method's settings (without ``feedthrough``).
+    holdout : float
+        The held-out share at the end of the record.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        The decision and its reason (for ``options["feedthrough_rule"]``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid.selection.auto import decide_feedthrough
+    >>> t = np.arange(300) * 0.1
+    >>> decide_feedthrough("dt", t, None, np.sin(t), 2, {})
+    (False, 'auto: no input, no direct term; D = 0')
+    """
+    from hdpbsid.methods.registry import get_method
+
+    t, u, y = check_data(t, u, y)
+    if u.shape[1] == 0:
+        return False, "auto: no input, no direct term; D = 0"
+    if not takes_feedthrough(method):
+        return False, f"auto: not judged ({method!r} is not a built-in method); D = 0"
+    split = int(round(t.size * (1.0 - float(holdout))))
+    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    windows = default_windows(t.size - split, order)
+    if windows < MIN_WINDOWS:
+        return False, "auto: not judged (too short to hold out the scoring windows); D = 0"
+    opts = {method: dict(options)}
+    without = _fit_one(get_method, method, order, est, val, windows, opts)
+    fitted = without["criterion"] is not None and without["criterion"].finite
+    if fitted and not honours_feedthrough(without["model"]):
+        return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
+    with_row = _fit_one(
+        get_method, method, order, est, val, windows, {method: {**options, "feedthrough": True}}
+    )
+    fitted_d = with_row["criterion"] is not None and with_row["criterion"].finite
+    if fitted_d and not honours_feedthrough(with_row["model"]):
+        return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
+    if not (fitted or fitted_d):
+        return False, f"auto: not judged (no candidate: {without['status']}); D = 0"
+    offered, why = feedthrough_offered((without if fitted else with_row)["model"], est)
+    if not offered:
+        return False, f"auto: {why}; D = 0"
+    if not fitted_d:
+        return False, f"auto: {why}; the candidate with D: {with_row['status']}; D = 0"
+    if not fitted:
+        return True, (
+            f"auto: {why}; the candidate without D: {without['status']}; the one with D "
+            f"scores: D estimated"
+        )
+    k, z = choose_smallest_adequate([without["criterion"], with_row["criterion"]])
+    return k == 1, (
+        f"auto: {why}; at order {order} on the held-out part (windowed one-step error, "
+        f"{windows} windows) with D the error is {z[0] - z[1]:.2f} standard errors below "
+        f"that without; {'D estimated' if k == 1 else 'D = 0'} (D needs more than 1)"
+    )

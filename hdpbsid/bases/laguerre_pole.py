@@ -1,0 +1,224 @@
+"""The Laguerre pole ``a``, chosen from the identified dynamics (method ``"laguerre"``).
+
+The Laguerre method identifies the index-domain model ``Ad = (A + aI)(A - aI)^{-1}`` and
+maps it back by ``A = a (Ad + I)(Ad - I)^{-1}`` (:mod:`hdpbsid.methods.laguerre`).  A mode
+``lambda`` appears as ``mu = (lambda + a)/(lambda - a)`` and is recovered as
+``lambda = a (mu + 1)/(mu - 1)``, whose derivative is ``d lambda / d mu = -2a/(mu - 1)^2
+= -(lambda - a)^2 / (2a)``.  An index-domain estimate with absolute error ``delta``
+therefore gives ``lambda`` a *relative* error of ``g(a, lambda) delta`` with the
+amplification
+
+    g(a, lambda) = |lambda - a|^2 / (2 a |lambda|)
+                 = (a/|lambda| + |lambda|/a) / 2 + zeta,   zeta = -Re lambda / |lambda|,
+
+smallest (``1 + zeta``) at ``a = |lambda|`` and growing like ``a / (2|lambda|)`` for slow
+modes and ``|lambda| / (2a)`` for fast ones.  A pole set by the data bandwidth alone can
+sit far above the slow modes: a stiff record (a fast real pole at ``-80`` and a lightly
+damped pair at ``|lambda| = 1.5``) excited by fast steps gets ``a`` near 95, where ``g``
+of the pair is about 31 and its ``mu`` lies within ``0.006`` of ``-1``, so the map back of
+a small index-domain error gives a spurious mode or one 10^4 % off.
+
+:func:`minimax_pole` takes the ``a`` that minimises the largest amplification over the
+modes, ``max_i g(a, lambda_i)``.  Each ``g(., lambda_i)`` is a convex function of
+``log a`` symmetric about ``log |lambda_i|`` (plus the constant ``zeta_i``), so the
+minimiser lies between the slowest and the fastest mode, at their geometric mean when
+the damping ratios are equal: the rule is scale-free and needs no constant.
+
+:func:`pole_from_dynamics` is the policy: a first pass at the data-bandwidth pole
+``a0``; the modes the data resolve (between the frequency below which
+:data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of the output energy lies and
+the Nyquist frequency: a mode beyond Nyquist is no mode of the samples) set the minimax
+pole (a model with a mode outside that band, spurious or beyond what the samples
+resolve, is no guide: the band's edges, the slowest mode and the data bandwidth, stand in
+for its modes); the fit is repeated there until ``a`` settles (at most
+:data:`~hdpbsid.bases.operator_scale.MAX_PASSES` times, as HD-PBSID's operator scale,
+:func:`hdpbsid.bases.operator_scale.alpha_from_dynamics`); the new pole replaces ``a0``
+only when its model simulates the record better by more than one standard error of the
+windows (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`: the two models have the
+same structure, so the noise in their in-sample errors cancels in the difference).  The
+result is a :class:`LaguerrePole` with its typed :class:`PoleSource`.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdpbsid.bases.basis_domain import bandwidth
+from hdpbsid.bases.operator_scale import (
+    GRID_PER_DECADE,
+    MAX_PASSES,
+    MODE_ENERGY_FRACTION,
+    SETTLED,
+    in_sample_screen,
+)
+from hdpbsid.data.checks import is_uniform
+
+__all__ = [
+    "PoleSource",
+    "LaguerrePole",
+    "map_back_amplification",
+    "minimax_pole",
+    "pole_from_dynamics",
+    "dynamics_band",
+]
+
+
+class PoleSource(enum.Enum):
+    """Where the Laguerre pole of a model came from."""
+
+    #: given by the user (``a=``)
+    GIVEN = "given"
+    #: half the data bandwidth (the first pass, kept)
+    BANDWIDTH = "bandwidth"
+    #: the minimax map-back amplification of the identified modes (:func:`minimax_pole`)
+    DYNAMICS = "dynamics"
+
+
+@dataclass(frozen=True)
+class LaguerrePole:
+    """The Laguerre pole ``a`` (rad per time unit), where it came from, and why.
+
+    ``passes``: the pole of every fit made (the first pass's first); ``reason``: the text
+    for ``model.options["a_rule"]``."""
+
+    a: float
+    source: PoleSource
+    reason: str
+    passes: tuple[float, ...] = ()
+
+
+def map_back_amplification(a: float, eigenvalues: Any) -> NDArray[np.float64]:
+    """``g(a, lambda) = |lambda - a|^2 / (2 a |lambda|)`` per eigenvalue (module
+    docstring): the factor from an index-domain eigenvalue's absolute error to the
+    relative error of ``lambda``.
+
+    Examples
+    --------
+    >>> from hdpbsid.bases.laguerre_pole import map_back_amplification
+    >>> float(map_back_amplification(2.0, [-2.0])[0])  # a = |lambda|: 1 + zeta
+    2.0
+    """
+    lam = np.asarray(eigenvalues, dtype=complex)
+    return np.abs(lam - a) ** 2 / (2.0 * a * np.abs(lam))
+
+
+def minimax_pole(eigenvalues: Any) -> float | None:
+    """The pole ``a`` minimising ``max_i g(a, lambda_i)`` (:func:`map_back_amplification`)
+    over the eigenvalues, or None when none is non-zero and finite.
+
+    Searched on a geometric grid of
+    :data:`~hdpbsid.bases.operator_scale.GRID_PER_DECADE` points per decade between the
+    smallest and the largest ``|lambda_i|``, where the minimiser lies (module
+    docstring); one mode gives ``a = |lambda|``.
+
+    Examples
+    --------
+    >>> from hdpbsid.bases.laguerre_pole import minimax_pole
+    >>> round(minimax_pole([-1.0, -100.0]), 1)  # equal damping: the geometric mean
+    10.0
+    """
+    lam = np.asarray(eigenvalues, dtype=complex).ravel()
+    lam = lam[np.isfinite(lam) & (np.abs(lam) > 0)]
+    if lam.size == 0:
+        return None
+    w = np.abs(lam)
+    lo, hi = float(w.min()), float(w.max())
+    k = max(2, int(np.ceil(GRID_PER_DECADE * np.log10(hi / lo))) + 1)
+    grid = np.geomspace(lo, hi, k)
+    worst = np.max(np.abs(lam[None, :] - grid[:, None]) ** 2 / (2 * grid[:, None] * w), axis=1)
+    return float(grid[int(np.argmin(worst))])
+
+
+def pole_from_dynamics(
+    fit: Callable[[float], Any],
+    a0: float,
+    band: tuple[float, float],
+    record: tuple | None,
+) -> tuple[LaguerrePole, Any]:
+    """The Laguerre pole chosen from the identified dynamics (module docstring), and the
+    model fitted with it.
+
+    Parameters
+    ----------
+    fit : callable
+        ``fit(a)`` identifies the model with pole ``a`` (a
+        :class:`~hdpbsid.models.model.StateSpaceModel`).
+    a0 : float
+        The first pass's pole (half the data bandwidth).
+    band : tuple of float
+        ``(w_lo, w_hi)``: modes with ``|lambda|`` outside it do not set the pole.
+    record : tuple or None
+        ``(t, u, y)`` of the single record with an input the models are screened on
+        (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`); None (several records,
+        a time series) or a non-uniformly sampled record keeps ``a0``: a change could
+        not be screened (simulating a time series is no test, and the screen does not
+        score non-uniform samples).
+
+    Returns
+    -------
+    tuple of (LaguerrePole, model)
+        The pole with its source and reason, and the model fitted with it.
+    """
+    model0 = fit(a0)
+    first = f"half the data bandwidth ({a0:.4g})"
+    if record is None or not is_uniform(np.asarray(record[0], dtype=float)):
+        why = "; kept: several records, no input or non-uniform samples, where a change "
+        return LaguerrePole(
+            a0, PoleSource.BANDWIDTH, first + why + "could not be screened", (a0,)
+        ), model0
+    w_lo, w_hi = band
+    a, model, passes = a0, model0, [a0]
+    for _ in range(MAX_PASSES):
+        lam = np.linalg.eigvals(model.A)
+        inside = (np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)
+        # a model with a mode outside the band the samples resolve is no guide to the
+        # modes; the pole that balances the band's edges (the slowest and the fastest
+        # mode the data could show, the data bandwidth 2 a0 at most) stands in for them
+        edges = [-w_lo, -min(2.0 * a0, w_hi)]
+        new = minimax_pole(lam[inside] if np.all(inside) else edges)
+        if new is None or abs(new - a) <= SETTLED * a:
+            break
+        a = new
+        passes.append(a)
+        try:
+            model = fit(a)
+        except (ValueError, np.linalg.LinAlgError):
+            a = passes[-2]  # the pole of the model in hand
+            break
+    rule = (
+        f"minimax map-back amplification max_i |lambda_i - a|^2 / (2 a |lambda_i|) over "
+        f"the modes with {w_lo:.3g} <= |lambda| <= {w_hi:.3g} (over the band's edges for "
+        f"a model with a mode outside it), from a first pass at {first}"
+    )
+    if a == a0:
+        return LaguerrePole(
+            a0, PoleSource.BANDWIDTH, first + "; its modes ask for it", tuple(passes)
+        ), model0
+    keep, how = in_sample_screen(model0, model, record, (a0, a))
+    if not keep:
+        return LaguerrePole(
+            a0,
+            PoleSource.BANDWIDTH,
+            f"{first}; {rule} gave {a:.4g}, not better in-sample by more than one SE ({how})",
+            tuple(passes),
+        ), model0
+    return LaguerrePole(a, PoleSource.DYNAMICS, f"{rule} ({how})", tuple(passes)), model
+
+
+def dynamics_band(records: Any) -> tuple[float, float]:
+    """``(w_lo, w_hi)`` of :func:`pole_from_dynamics` for the records (objects with
+    ``t`` and ``y``): the lowest frequency below which
+    :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of any record's output
+    energy lies (at least ``2 pi / T`` of the longest record: one period of the slowest
+    component it can resolve; the estimate is 0 when that energy is all in the first
+    frequency bin), and the Nyquist frequency of the coarsest median sampling step."""
+    longest = max(float(r.t[-1] - r.t[0]) for r in records)
+    w_lo = max(min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records), 2 * np.pi / longest)
+    step = max(float(np.median(np.diff(r.t))) for r in records)
+    return w_lo, float(np.pi / step)

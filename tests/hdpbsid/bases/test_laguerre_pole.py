@@ -1,0 +1,108 @@
+"""The Laguerre pole from the identified dynamics (hdpbsid.bases.laguerre_pole)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import hdpbsid
+from hdpbsid.bases.laguerre_pole import (
+    LaguerrePole,
+    PoleSource,
+    map_back_amplification,
+    minimax_pole,
+)
+from hdpbsid.methods.laguerre import cayley, inverse_cayley
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.systems import add_noise, random_steps, simulate_zoh
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.floats(0.05, 50.0),
+    st.floats(0.01, 100.0),
+    st.floats(0.0, 100.0),
+)
+def test_amplification_is_the_derivative_of_the_map_back(a, sigma, omega):
+    """g(a, lambda) against a central difference of the method's inverse Cayley map:
+    the relative change of lambda per unit change of mu = (lambda + a)/(lambda - a)."""
+    lam = complex(-sigma, omega)
+    mu = (lam + a) / (lam - a)
+    h = 1e-6 * abs(mu - 1.0)
+
+    def back(m):  # the 1x1 (complex) inverse map: lambda = a (mu + 1)/(mu - 1)
+        A = inverse_cayley(np.array([[m]]), np.ones((1, 1)), np.ones((1, 1)), np.zeros((1, 1)), a)
+        return A[0][0, 0]
+
+    numeric = abs(back(mu + h) - back(mu - h)) / (2 * h) / abs(lam)
+    # central difference of a smooth map with h ~ 1e-6 |mu - 1|: truncation O(h^2)
+    # relative, rounding ~1e-16/h ~ 1e-10 relative: 1e-6 is far above both
+    assert numeric == pytest.approx(float(map_back_amplification(a, [lam])[0]), rel=1e-6)
+
+
+def test_cayley_pair_round_trip_is_exact():
+    """The maps the amplification is about invert each other (a sanity check of the
+    oracle above on a real 2x2 pair)."""
+    A = np.array([[-0.3, 1.5], [-1.5, -0.3]])
+    B, C, D = np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]]), np.zeros((1, 1))
+    back = inverse_cayley(*cayley(A, B, C, D, 7.0), 7.0)
+    np.testing.assert_allclose(back[0], A, atol=1e-12)  # two 2x2 inverses: rounding only
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.01, 10.0), st.floats(1.5, 1000.0))
+def test_minimax_pole_of_two_real_modes_is_their_geometric_mean(slow, ratio):
+    """Equal damping (real poles, zeta = 1): g(., lambda_i) are symmetric about
+    log |lambda_i| in log a, so the largest is smallest half-way in log a."""
+    a = minimax_pole([-slow, -slow * ratio])
+    # the grid has GRID_PER_DECADE = 240 points per decade: a step of 1 %
+    assert a == pytest.approx(slow * np.sqrt(ratio), rel=0.011)
+
+
+def test_minimax_pole_of_one_mode_is_its_magnitude_and_none_without_modes():
+    assert minimax_pole([-0.3 + 1.5j, -0.3 - 1.5j]) == pytest.approx(abs(-0.3 + 1.5j))
+    assert minimax_pole([]) is None
+    pole = LaguerrePole(2.0, PoleSource.GIVEN, "given")
+    with pytest.raises(AttributeError):
+        pole.a = 3.0  # frozen
+
+
+#: the stiff plant of the measured-like benchmark: a real pole at -80 and a lightly
+#: damped pair at -0.3 +- 1.5i, both visible in the output (parallel modal form)
+A_STIFF = np.array([[-80.0, 0.0, 0.0], [0.0, -0.3, 1.5], [0.0, -1.5, -0.3]])
+B_STIFF = np.array([[80.0], [0.0], [1.0]])
+C_STIFF = np.array([[1.0, 1.0, 0.0]])
+
+
+def _stiff_record(seed: int, snr: float = 40.0, dt: float = 0.01, ns: int = 6000):
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(ns)
+    u = random_steps(rng, t, 0.05)
+    y = simulate_zoh(A_STIFF, B_STIFF, C_STIFF, np.zeros((1, 1)), t, u)
+    return t, u, add_noise(y, snr, rng)[0]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_laguerre_on_a_stiff_record_takes_its_pole_from_the_dynamics(seed):
+    """Steps held 0.05 s put the data bandwidth near 190 rad/s, and the first pass's pole
+    (95) is 60 times the pair's |lambda|: its model is far off (a spurious mode, or the
+    pair lost).  The pole from the dynamics lies between the modes, and both are
+    recovered within 5 % (the issue's target at 40 dB), before any refinement."""
+    t, u, y = _stiff_record(seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None)
+    assert model.options["a_source"] == "dynamics"
+    lam = np.linalg.eigvals(A_STIFF)
+    assert 1.5 < model.options["a"] < 80.0
+    assert np.max(eigenvalue_errors(np.linalg.eigvals(model.A), lam)) < 0.05
+
+
+def test_laguerre_given_pole_is_kept():
+    t, u, y = _stiff_record(0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None, a=20.0)
+    assert model.options["a"] == 20.0 and model.options["a_rule"] == "given"
