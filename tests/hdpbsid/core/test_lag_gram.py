@@ -64,7 +64,7 @@ def _varx_record(rng, N, m, l, smooth):
 def _oracle(U, Y, p_max, feedthrough=False, rel_floor=1e-12):
     """The AIC of every window by its own least-squares fit (outputs scaled to unit RMS
     on the columns valid for p_max, as select_past_window does)."""
-    m, l = U.shape[0], Y.shape[0]
+    l = Y.shape[0]
     cols = np.arange(p_max, U.shape[1])
     Ys = Y / np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))[:, None]
     Z = np.vstack([U, Ys])
