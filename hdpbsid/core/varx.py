@@ -687,14 +687,7 @@ def _window_search_by_gram(
     d = m + l
     Z = np.vstack([U, Y])
     n = Z.shape[1] - p_max  # the columns valid for p_max
-    M = shift_gram(Z, p_max, p_max)
-    diag = np.diag(M).copy()
-    if not np.all(np.isfinite(M)) or np.any(diag <= 0):
-        return None
-    s = np.sqrt(diag)
-    M = M / s[:, None] / s[None, :]
-    # sqrt(whole energy / window energy) of every column: lag_gram's formation bound
-    rho = np.sqrt(np.tile(np.sum(Z * Z, axis=1), p_max + 1) / diag)
+    energy = np.sum(Z * Z, axis=1)
     lead = list(range(m)) if d0 else []  # u_k, with feedthrough
     outputs = [m + c for c in range(l)]  # y_k
     pen = {"aic": 2.0, "bic": np.log(n)}[criterion]
@@ -704,16 +697,23 @@ def _window_search_by_gram(
     done, target = 0, min(p_max, max(step, lo))
     floor = rel_floor * np.eye(l)
     while True:
+        # the lags searched so far only: a record the Gram cannot serve (its Cholesky
+        # fails) costs a fraction of the QR's first step
         idx = lead + list(range(d, (target + 1) * d)) + outputs
+        M = shift_gram(Z, p_max, target)[np.ix_(idx, idx)]
+        diag = np.diag(M).copy()
+        if not np.all(np.isfinite(M)) or np.any(diag <= 0):
+            return None
+        s = np.sqrt(diag)
         try:
-            R = np.linalg.cholesky(M[np.ix_(idx, idx)]).T
+            R = np.linalg.cholesky(M / s[:, None] / s[None, :]).T
         except np.linalg.LinAlgError:
             return None
         sigma = nested_residual_covariances(R, l) + floor
         sign, logdet = np.linalg.slogdet(sigma)
-        bound = criterion_error_bounds(
-            R, l, n + 2 * p_max, rho[idx], np.linalg.eigvalsh(sigma)[:, 0]
-        )
+        # sqrt(whole energy / window energy) of every column: lag_gram's formation bound
+        rho = np.sqrt(energy[np.asarray(idx) % d] / diag)
+        bound = criterion_error_bounds(R, l, n + 2 * p_max, rho, np.linalg.eigvalsh(sigma)[:, 0])
         if bound is None or np.any(sign <= 0):
             return None
         ps = np.arange(lo, target + 1)
