@@ -34,17 +34,19 @@ Rows (``--list``):
   scipy.linalg`` (which the first ``identify`` needs) for comparison.
 
 * ``sippy``: SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` (the order
-  is what N4SID is told; every other argument at its default) alternating on ``--reps``
-  seeds of the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions),
-  one worker process per seed and column; the worst eigenvalue error (median over the
-  seeds) in the label and the ratio hdpbsid / N4SID of the default column on a line of
-  its own.
+  is what N4SID is told; every other argument at its default) on ``--reps`` seeds of
+  the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions), one worker
+  process per method, seed and column (a threaded BLAS still spinning after one
+  method's call must not be charged to the other); the worst eigenvalue error (median
+  over the seeds) in the label and the ratio hdpbsid / N4SID of the default column on a
+  line of its own.
   Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
 * ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
   samples of the lightly damped record of ``bench/long_records.py`` (its functions:
-  one call per column in a fresh process; peak RSS, method, order, worst eigenvalue
-  error of the default column in the label), and for 10^6 ``hdpbsid identify`` on the
-  same record as a 10^6-line CSV; ``long-7`` (only when named in ``--rows``: minutes)
+  one call per column and repetition in a fresh process, the columns alternating; peak
+  RSS, method, order, worst eigenvalue error of the default column in the label), and
+  for 10^6 ``hdpbsid identify`` on the same record as a 10^6-line CSV, alternating
+  likewise; ``long-7`` (only when named in ``--rows``: minutes)
   10^7 samples from a chunked HDF5 file (extra ``io``).  ``--timeout`` bounds each call.
 """
 
@@ -147,33 +149,42 @@ SIPPY_SAMPLES = 10**4
 HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
 
 
-def _sippy_binary(reps: int, first: int = 0) -> dict:
-    """SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` alternating on the
-    seeds ``first ... first + reps - 1`` of :func:`scaling.binary_record` in this process
-    (after one untimed call each on a short record: imports, kernels): wall, CPU time and
-    worst relative eigenvalue error of each call."""
-    try:
-        import sippy_unipi  # noqa: F401
-    except ImportError as exc:
-        return {"status": f"SIPPY not installed ({exc}): pip install sippy-unipi (extra bench)"}
+#: the two sides of the SIPPY row: the key of the result and the spec of ``scaling._fit``
+SIPPY_SPECS = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
+
+
+def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
+    """SIPPY N4SID (``f = p = 60``, ``key="n4sid"``) or ``identify(t, u, y, order=2)``
+    (``key="hdpbsid"``) on the seeds ``first ... first + reps - 1`` of
+    :func:`scaling.binary_record` in this process, after one untimed call on a short
+    record (imports, kernels): wall, CPU time and worst relative eigenvalue error of
+    each call.
+
+    One side per process: a threaded BLAS keeps its threads spinning for a while after a
+    call returns (OpenBLAS: a fixed number of cycles before they sleep), so a call
+    timed right after the other side's in the same process was charged that CPU time,
+    and its wall time the core the spinning took."""
+    if key == "n4sid":
+        try:
+            import sippy_unipi  # noqa: F401
+        except ImportError as exc:
+            return {"status": f"SIPPY not installed ({exc}): pip install sippy-unipi (extra bench)"}
     sys.path.insert(0, str(HERE))
     from scaling import _errors, _fit, binary_record
 
     from hdpbsid.bases.memo import clear_caches
 
-    specs = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
-    out = {k: {"wall": [], "cpu": [], "err": []} for k in specs}
-    for spec in specs.values():
-        _fit(spec, binary_record(SIPPY_SAMPLES // 5, 99)[0])  # imports, kernels
+    spec = SIPPY_SPECS[key]
+    out: dict = {key: {"wall": [], "cpu": [], "err": []}}
+    _fit(spec, binary_record(SIPPY_SAMPLES // 5, 99)[0])  # imports, kernels
     for seed in range(first, first + reps):
         data, true = binary_record(SIPPY_SAMPLES, seed)
-        for key, spec in specs.items():
-            clear_caches()  # each method projects the record itself
-            w0, c0 = time.perf_counter(), time.process_time()
-            eig, _ = _fit(spec, data)
-            out[key]["wall"].append(time.perf_counter() - w0)
-            out[key]["cpu"].append(time.process_time() - c0)
-            out[key]["err"].append(_errors(eig, true))
+        clear_caches()  # the method projects the record itself
+        w0, c0 = time.perf_counter(), time.process_time()
+        eig, _ = _fit(spec, data)
+        out[key]["wall"].append(time.perf_counter() - w0)
+        out[key]["cpu"].append(time.process_time() - c0)
+        out[key]["err"].append(_errors(eig, true))
     return out
 
 
@@ -208,7 +219,8 @@ WORKERS: dict[str, Callable[[int, int], dict]] = {
     "auto-quadrotor": lambda r, f: _time_calls("quadrotor", {}, r, f),
     "auto-second-order": lambda r, f: _time_calls("second-order", {}, r, f),
     "first-call": _first_call,
-    "sippy-binary": _sippy_binary,
+    "sippy-n4sid": lambda r, f: _sippy_binary("n4sid", r, f),
+    "sippy-hdpbsid": lambda r, f: _sippy_binary("hdpbsid", r, f),
 }
 
 
@@ -273,12 +285,16 @@ def _pct(x: float | None) -> str:
 def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
     """SIPPY N4SID (``f = p = 60``) against ``identify(t, u, y, order=2)`` (every other
     argument at its default) on the 10^4-sample binary-input case of ``bench/scaling.py``,
-    both in one worker process per column, alternating on ``reps`` seeds.  Lines: each
-    method's times (labels: median worst eigenvalue error in the default column), then
-    the ratio hdpbsid / N4SID of the default column's medians."""
-    got = _alternate(
-        reps, lambda one, i: _spawn("sippy-binary", 1, _environment(one, None), first=i)
-    )
+    each in its own worker process per seed and column (:func:`_sippy_binary`), the
+    columns alternating on ``reps`` seeds.  Lines: each method's times (labels: median
+    worst eigenvalue error in the default column), then the ratio hdpbsid / N4SID of the
+    default column's medians."""
+
+    def both(one: bool, i: int) -> dict:
+        env = _environment(one, None)
+        return _merge([_spawn(f"sippy-{key}", 1, env, first=i) for key in SIPPY_SPECS])
+
+    got = _alternate(reps, both)
     if "status" in got[False]:
         return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
     lines: list[Line] = []
@@ -322,16 +338,28 @@ def _long_details(r: dict) -> str:
 
 
 def _as_times(r: dict) -> dict:
-    return r if "status" in r else {"wall": [r["wall"]], "cpu": [r["cpu"]]}
+    return r if "status" in r else {"wall": r["wall"], "cpu": r["cpu"]}
+
+
+def _one_run(r: dict) -> dict:
+    """One long-record run as a part for :func:`_merge`: its times as lists (the
+    repetitions concatenate), the rest as the last run's."""
+    if "status" in r:
+        return r
+    out = dict(r, wall=[r["wall"]], cpu=[r["cpu"]])
+    if "skipped" in out:
+        out["skipped"] = str(out["skipped"])
+    return out
 
 
 def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> list[Line]:
     """``identify(t, u, y)`` with nothing else on ``n_samples`` of the lightly damped
     second-order record of ``bench/long_records.py`` (in memory up to 2 10^6 samples, from
-    a chunked HDF5 file above), one call per column in a fresh process (``reps`` is not
-    used: the calls take minutes), and for 10^6 also ``hdpbsid identify`` on the same
-    record as a CSV file.  Labels: peak RSS, method, order, worst eigenvalue error of the
-    default column."""
+    a chunked HDF5 file above), one call per column and repetition in a fresh process,
+    the columns alternating (``reps`` repetitions in memory; one above, where a call
+    takes minutes), and for 10^6 also ``hdpbsid identify`` on the same record as a CSV
+    file, alternating likewise.  Labels: peak RSS, method, order, worst eigenvalue error
+    of the default column."""
     sys.path.insert(0, str(HERE))
     from long_records import run_api, write_csv, write_h5
 
@@ -341,10 +369,13 @@ def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> l
         path = str(tmp / f"resonance-{n_samples}.h5")
         if not Path(path).exists():
             write_h5(Path(path), n_samples)
-    got = {
-        one: run_api(n_samples, path, options.timeout, env=_environment(one, None))
-        for one in (False, True)
-    }
+    runs = 1 if path else reps
+    got = _alternate(
+        runs,
+        lambda one, i: _one_run(
+            run_api(n_samples, path, options.timeout, env=_environment(one, None))
+        ),
+    )
     src = "chunked HDF5" if path else "in memory"
     lines: list[Line] = [
         (
@@ -358,15 +389,19 @@ def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> l
         csv = tmp / "resonance-1e6.csv"
         if not csv.exists():
             write_csv(csv, n_samples)
-        cli = {}
-        for one in (False, True):
+
+        def cli_once(one: bool, i: int) -> dict:
             with tempfile.TemporaryDirectory() as out:
-                cli[one] = _spawn(
-                    "cli-csv",
-                    reps,
-                    _environment(one, None),
-                    ["--csv", str(csv), "--out", out, "--timeout", str(options.timeout)],
+                return _one_run(
+                    _spawn(
+                        "cli-csv",
+                        1,
+                        _environment(one, None),
+                        ["--csv", str(csv), "--out", out, "--timeout", str(options.timeout)],
+                    )
                 )
+
+        cli = _alternate(reps, cli_once)
         lines.append(
             (
                 f"CLI hdpbsid identify, 10^6-line CSV; {_long_details(cli[False])}",

@@ -33,6 +33,10 @@ true eigenvalues and the fit, and writes the same files plus ``eigenvalues.png``
 a progress bar, serially, on local processes (``--jobs``) or on a Dask cluster
 (``--scheduler``), prints its table and writes ``results.jsonl`` (per task, resumable),
 ``summary.csv``, ``summary.json``, ``records.csv`` and PNG figures to ``--out``.
+
+The command's process keeps an idle OpenBLAS thread spinning for at most
+``2^BLAS_SPIN_LOG2_CYCLES`` cycles (:func:`_short_blas_spin`), unless the user set
+``OPENBLAS_THREAD_TIMEOUT``.
 """
 
 from __future__ import annotations
@@ -45,9 +49,30 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-import numpy as np
+#: log2 of the cycles an idle OpenBLAS thread of the command's process spins before it
+#: sleeps (``OPENBLAS_THREAD_TIMEOUT``; OpenBLAS's own default is 28, about 0.1 s).
+#: 2^20 cycles (about 0.4 ms at 2.5 GHz) outlasts by far the wake-up of a sleeping thread
+#: (tens of microseconds), so the dispatches inside one threaded factorisation still find
+#: their threads awake, while the spin after OpenBLAS starts its threads (at ``import
+#: numpy``) and after each threaded call costs a fraction of a millisecond per thread
+#: instead of a tenth of a second: the library's calls run their small-matrix work on one
+#: thread (:mod:`hdpbsid.runtime`), so nothing else waits for a spinning thread.
+BLAS_SPIN_LOG2_CYCLES = 20
 
-from hdpbsid import frequency_cli
+
+def _short_blas_spin() -> None:
+    """Set ``OPENBLAS_THREAD_TIMEOUT`` (:data:`BLAS_SPIN_LOG2_CYCLES`) for this process
+    when the user has not set it and numpy is not imported yet (OpenBLAS reads it once,
+    when it loads): the command's own process, whose BLAS the user did not start."""
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", str(BLAS_SPIN_LOG2_CYCLES))
+
+
+_short_blas_spin()
+
+import numpy as np  # noqa: E402 (after _short_blas_spin: OpenBLAS reads it when it loads)
+
+from hdpbsid import frequency_cli  # noqa: E402
 
 if TYPE_CHECKING:  # the library's modules load when a command runs, not for --help
     from hdpbsid.data.io import Record

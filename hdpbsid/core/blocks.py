@@ -64,7 +64,14 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
 
-from hdpbsid.core.pbsid import CoreResult, core_options, estimate_cd, resolve_order, stable_gain
+from hdpbsid.core.pbsid import (
+    CoreResult,
+    core_options,
+    estimate_cd,
+    resolve_order,
+    stable_gain,
+    thin_svd,
+)
 from hdpbsid.core.varx import (
     CachedPowers,
     LagOperator,
@@ -816,7 +823,7 @@ def varx_stage_blocks(
         K = len(blocks)
         LKb = np.stack([_gamma_l_rows(G[k][:, : p * q], p, f, q, l) for k in range(K)])
         S[:, sub.cols] += np.einsum("kfr,rn->fkn", LKb, Pp)
-    Uu, s, Vt = np.linalg.svd(S[:, cols], full_matrices=False)
+    Uu, s, Vt = thin_svd(S[:, cols])
     LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
     use = valid & lag.valid_columns(valid, 1) & vu
     e1 = _eliminator(pseudo, [1], use)

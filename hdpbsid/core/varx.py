@@ -570,6 +570,7 @@ def select_past_window(
     criterion: str = "aic",
     rel_floor: float = 1e-12,
     growth: float | None = WINDOW_SEARCH_GROWTH,
+    gram: bool = True,
 ) -> tuple[int, Array]:
     """Choose the past window ``p`` by an information criterion on the VARX fit.
 
@@ -592,6 +593,14 @@ def select_past_window(
     longer search only adds values.  Returns ``(p, crit)`` with
     ``crit[p - 1]`` the criterion value (``inf`` for ``p < p_min`` and for the windows not
     searched; :func:`search_is_complete`).
+
+    With the sample shift (``lag`` a :class:`SampleShift`) and ``gram=True`` the same
+    search runs on the Gram matrix of the lagged samples and its Cholesky factor
+    (:mod:`hdpbsid.core.lag_gram`: ``O(N d^2 p_max)`` operations to form it instead of
+    the ``O(N d^2 p_max^2)`` of the QR), and its choice is kept when it is certified to
+    be the exact criterion's at every step of the growth; otherwise (a near tie, an
+    ill-conditioned or noise-free record) the QR factorisation decides, as with
+    ``gram=False``.
     """
     lag = SampleShift() if lag is None else lag
     if criterion not in ("aic", "bic"):
@@ -611,6 +620,10 @@ def select_past_window(
     dtot = d0 + p_max * (m + l)
     if N <= dtot + l:
         raise ValueError(f"p_max={p_max} needs {dtot} VARX regressors but only {N} usable columns")
+    if gram and type(lag) is SampleShift:
+        got = _window_search_by_gram(U, Y, p_max, p_min, d0, criterion, rel_floor, growth)
+        if got is not None:
+            return got
     scale = np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))
     scale[scale == 0] = 1.0
     qr = _GrowingQR((Y[:, cols] / scale[:, None]).T)
@@ -644,6 +657,74 @@ def select_past_window(
             crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + pen[criterion] * l * q
         done = target
         best = int(np.argmin(crit)) + 1
+        if done >= p_max or growth is None or done >= growth * best:
+            return best, crit
+        target = min(p_max, max(int(np.ceil(growth * best)), done + 1))
+
+
+def _window_search_by_gram(
+    U: Array,
+    Y: Array,
+    p_max: int,
+    p_min: int,
+    d0: int,
+    criterion: str,
+    rel_floor: float,
+    growth: float | None,
+) -> tuple[int, Array] | None:
+    """:func:`select_past_window` with the sample shift from the lagged Gram matrix
+    (:mod:`hdpbsid.core.lag_gram`): the same windows searched, the same growth, and
+    ``None`` unless every step's best window is certified to be the exact criterion's
+    (its margin over every other window searched exceeds both error bounds), or when
+    the Gram matrix is not finite or has a zero column."""
+    from hdpbsid.core.lag_gram import (
+        criterion_error_bounds,
+        nested_residual_covariances,
+        shift_gram,
+    )
+
+    m, l = U.shape[0], Y.shape[0]
+    d = m + l
+    Z = np.vstack([U, Y])
+    n = Z.shape[1] - p_max  # the columns valid for p_max
+    energy = np.sum(Z * Z, axis=1)
+    lead = list(range(m)) if d0 else []  # u_k, with feedthrough
+    outputs = [m + c for c in range(l)]  # y_k
+    pen = {"aic": 2.0, "bic": np.log(n)}[criterion]
+    crit = np.full(p_max, np.inf)
+    lo = max(p_min, 1)
+    step = p_max if growth is None else max(1, int(np.ceil(p_max / growth)))
+    done, target = 0, min(p_max, max(step, lo))
+    floor = rel_floor * np.eye(l)
+    while True:
+        # the lags searched so far only: a record the Gram cannot serve (its Cholesky
+        # fails) costs a fraction of the QR's first step
+        idx = lead + list(range(d, (target + 1) * d)) + outputs
+        M = shift_gram(Z, p_max, target)[np.ix_(idx, idx)]
+        diag = np.diag(M).copy()
+        if not np.all(np.isfinite(M)) or np.any(diag <= 0):
+            return None
+        s = np.sqrt(diag)
+        try:
+            R = np.linalg.cholesky(M / s[:, None] / s[None, :]).T
+        except np.linalg.LinAlgError:
+            return None
+        sigma = nested_residual_covariances(R, l) + floor
+        sign, logdet = np.linalg.slogdet(sigma)
+        # sqrt(whole energy / window energy) of every column: lag_gram's formation bound
+        rho = np.sqrt(energy[np.asarray(idx) % d] / diag)
+        bound = criterion_error_bounds(R, l, n + 2 * p_max, rho, np.linalg.eigvalsh(sigma)[:, 0])
+        if bound is None or np.any(sign <= 0):
+            return None
+        ps = np.arange(lo, target + 1)
+        q = d0 + ps * d
+        crit[ps - 1] = n * logdet[q] + pen * l * q
+        best = int(np.argmin(crit)) + 1
+        margin = crit[ps - 1] - crit[best - 1]
+        slack = n * (bound[q] + bound[d0 + best * d])
+        if np.any((margin <= slack) & (ps != best)):
+            return None
+        done = target
         if done >= p_max or growth is None or done >= growth * best:
             return best, crit
         target = min(p_max, max(int(np.ceil(growth * best)), done + 1))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -214,3 +215,29 @@ def test_study_command(tmp_path: Path, capsys) -> None:
     assert "unknown setting" in capsys.readouterr().err
     assert main(["study", "snr", "--scheduler", "localhost:1", "--out", str(out)]) == 2
     assert "scheduler must be an address" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "setting, numpy_first, expected",
+    [(None, False, "module"), ("28", False, "28"), (None, True, "None")],
+)
+def test_the_command_shortens_openblas_spin_unless_the_user_set_it(setting, numpy_first, expected):
+    """OPENBLAS_THREAD_TIMEOUT in the command's process: the module's value when unset
+    before numpy loads, the user's own value kept, untouched once numpy is loaded (the
+    variable is read when OpenBLAS loads, so setting it then would only reach children)."""
+    import subprocess
+    import sys
+
+    from hdpbsid.cli import BLAS_SPIN_LOG2_CYCLES
+
+    expected = str(BLAS_SPIN_LOG2_CYCLES) if expected == "module" else expected
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    if setting is not None:
+        env["OPENBLAS_THREAD_TIMEOUT"] = setting
+    code = ("import numpy; " if numpy_first else "") + (
+        "import os, hdpbsid.cli; print(os.environ.get('OPENBLAS_THREAD_TIMEOUT'))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == expected

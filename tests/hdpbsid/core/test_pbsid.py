@@ -123,3 +123,23 @@ def test_core_with_matrix_lag_operator():
     # innovations are at rounding level (~1e-16 vs O(1) states), below lstsq's rcond, so
     # the min-norm solution gives K ~ 0 rather than an arbitrary gain
     np.testing.assert_allclose(res.K, 0.0, atol=1e-8)
+
+
+@pytest.mark.parametrize("shape", [(3, 5), (4, 9), (6, 400), (1, 50)])
+def test_thin_svd_is_numpys_svd(shape):
+    from hdpbsid.core.pbsid import thin_svd
+
+    rng = np.random.default_rng(sum(shape))
+    M = rng.standard_normal(shape) @ np.diag(np.logspace(0, -6, shape[1]))
+    U, s, Vt = thin_svd(M)
+    U0, s0, Vt0 = np.linalg.svd(M, full_matrices=False)
+    # two backward-stable SVDs of the same matrix: singular values to rounding of s_1
+    np.testing.assert_allclose(s, s0, rtol=0, atol=1e-13 * s0[0])
+    np.testing.assert_allclose(U.T @ U, np.eye(len(s)), atol=1e-13)  # orthonormal factors
+    np.testing.assert_allclose(Vt @ Vt.T, np.eye(len(s)), atol=1e-13)
+    np.testing.assert_allclose(U * s @ Vt, M, atol=1e-13 * s0[0])  # reconstruction
+    # distinct singular values: each pair is numpy's up to one common sign (vectors move
+    # by eps s_1 / gap, gaps here >= 1e-7 s_1)
+    sign = np.sign(np.sum(U * U0, axis=0))
+    np.testing.assert_allclose(U * sign, U0, atol=1e-8)
+    np.testing.assert_allclose(Vt * sign[:, None], Vt0, atol=1e-8)

@@ -1,0 +1,174 @@
+"""The past-window criterion of sampled data from the lagged Gram matrix, certified.
+
+:func:`hdpbsid.core.varx.select_past_window` compares the VARX fits of every past window
+``p = 1..p_max``.  With the sample shift the regressors ``z_{k-1}, ..., z_{k-p}`` on the
+columns ``k = p_max..N-1`` are a block-Toeplitz matrix, so their Gram matrix follows from
+``p_max + 1`` lagged products and a recursion along its diagonals
+(:func:`shift_gram`: ``O(N d^2 p_max)`` operations instead of the ``O(N d^2 p_max^2)``
+of a QR factorisation of the regressors), and the residual covariance of every nested
+fit is read off one Cholesky factor of it: with the regressors ordered by lag and the
+outputs last, ``R^T R = G`` gives
+
+    Sigma_p = sum_{r >= q} R[r, y]^T R[r, y],        q = p (m + l) (+ m with feedthrough),
+
+the Schur complement of the first ``q`` regressors (Golub & Van Loan, *Matrix
+Computations*, 4th ed., sec. 5.3.3 for the QR form; the Cholesky factor of ``G`` is the
+``R`` of that QR up to signs).
+
+The Gram matrix squares the condition number of the regressors, so its criterion is
+accepted only when it is **certified** to choose the window the exact criterion chooses
+(:func:`criterion_error_bounds`): the rounding of the Gram matrix and of its Cholesky
+factor is a backward error ``E`` (``R^T R = G + E``) bounded a priori (Higham,
+*Accuracy and Stability of Numerical Algorithms*, 2nd ed., sec. 3.1 and Thm 10.3); the
+Schur complement then moves by exactly ``[-theta_B^T, I] E [-theta_A; I]`` (``theta``
+the regression coefficients of the perturbed and the exact problem), so by at most
+``2 ||E|| (1 + ||theta_B||)^2`` once ``||E|| ||G_xx^{-1}|| <= 1/2``, and ``log det`` by
+at most ``-l log(1 - eta)`` with ``eta`` that bound over the smallest eigenvalue of the
+computed ``Sigma_p``.  When the best window's margin over every other window exceeds the
+two bounds, the exact criterion has the same minimiser; otherwise the caller factors the
+regressors by QR (:class:`hdpbsid.core.varx._GrowingQR`), as without this module.  A
+noise-free record (``Sigma_p`` at its floor) is never certified, so it keeps the QR's
+choice of the smallest exact window.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+__all__ = ["shift_gram", "nested_residual_covariances", "criterion_error_bounds"]
+
+Array = NDArray[np.float64]
+
+_U = np.finfo(float).eps / 2  # unit roundoff
+
+
+def _gamma(n: float) -> float:
+    """Higham's ``gamma_n = n u / (1 - n u)``: the relative error bound of ``n`` roundings."""
+    return n * _U / (1.0 - n * _U)
+
+
+def shift_gram(Z: Array, first: int, lags: int) -> Array:
+    """The Gram matrix of the lagged samples ``z_{k-i}``, ``i = 0..lags``, over the
+    columns ``k = first..N-1``.
+
+    ``M[i d + a, j d + b] = sum_{k=first}^{N-1} Z[a, k - i] Z[b, k - j]``.  The block
+    ``(i, i + delta)`` is the block ``(0, delta)`` with the window moved back ``i``
+    samples: ``i`` products enter at its start and ``i`` leave at its end, so every block
+    costs ``O(d^2)`` after the ``lags + 1`` products of the first block row.
+
+    Parameters
+    ----------
+    Z : ndarray, shape (d, N)
+        The signals, one per row.
+    first : int
+        The first column of the window; ``lags <= first < N``.
+    lags : int
+        The largest lag.
+
+    Returns
+    -------
+    ndarray, shape ((lags + 1) d, (lags + 1) d)
+
+    Examples
+    --------
+    >>> Z = np.arange(12.0).reshape(2, 6)
+    >>> M = shift_gram(Z, 2, 2)
+    >>> float(M[1, 4]), float(Z[1, 2:] @ Z[0, 0:4])
+    (208.0, 208.0)
+    """
+    d, N = Z.shape
+    if not 0 <= lags <= first < N:
+        raise ValueError(f"need 0 <= lags <= first < N, got lags={lags}, first={first}, N={N}")
+    L = lags
+    head = Z[:, first:]
+    # c[delta] = sum_k z_k z_{k-delta}^T: the first block row
+    c = np.stack([head @ Z[:, first - delta : N - delta].T for delta in range(L + 1)])
+    # D[i, delta] = sum_{r=1..i} (z_{first-r} z_{first-r-delta}^T - z_{N-r} z_{N-r-delta}^T),
+    # needed for i + delta <= L, where first - r - delta >= first - L >= 0
+    r = np.arange(1, L + 1)[:, None]
+    delta = np.arange(L + 1)[None, :]
+    ok = r + delta <= L
+    start = np.where(ok, first - r - delta, 0)
+    end = np.where(ok, N - r - delta, 0)
+    P = np.einsum("ar,brs->rsab", Z[:, first - r[:, 0]], Z[:, start]) - np.einsum(
+        "ar,brs->rsab", Z[:, N - r[:, 0]], Z[:, end]
+    )
+    P[~ok] = 0.0
+    D = np.concatenate([np.zeros((1, L + 1, d, d)), np.cumsum(P, axis=0)])
+    i = np.arange(L + 1)[:, None]
+    j = np.arange(L + 1)[None, :]
+    lo, gap = np.minimum(i, j), np.abs(j - i)
+    blocks = c[gap] + D[lo, gap]  # the block (min, max) of every pair
+    below = np.broadcast_to(i > j, blocks.shape[:2])
+    blocks[below] = np.swapaxes(blocks[below], -1, -2)
+    return blocks.transpose(0, 2, 1, 3).reshape((L + 1) * d, (L + 1) * d)
+
+
+def nested_residual_covariances(R: Array, l: int) -> Array:
+    """``Sigma[q] = sum_{r >= q} R[r, -l:]^T R[r, -l:]`` for ``q = 0..K - l``: the residual
+    Gram matrix of the last ``l`` columns on the first ``q`` (``R`` the ``K x K``
+    Cholesky factor of the Gram matrix, outputs last); a sum of positive terms."""
+    T = R[:, -l:]
+    outer = T[:, :, None] * T[:, None, :]
+    return np.cumsum(outer[::-1], axis=0)[::-1][: R.shape[0] - l + 1]
+
+
+def _leading_coefficient_norms(Rinv: Array, Rxy: Array) -> Array:
+    """``||R[:q, :q]^{-1} R[:q, y]||_F`` for ``q = 1..k`` from the triangular inverse
+    ``Rinv`` (``k x k``): ``theta_q[i] = sum_{i <= j < q} Rinv[i, j] R[j, y]``, a
+    cumulative sum along each row of ``Rinv`` weighted by ``R[j, y]``."""
+    C = np.cumsum(Rinv[:, :, None] * Rxy[None, :, :], axis=1)  # C[i, q - 1] = theta_q[i]
+    sq = np.triu(np.sum(C * C, axis=2))  # row i counts for q - 1 >= i
+    return np.sqrt(np.sum(sq, axis=0))
+
+
+def criterion_error_bounds(
+    R: Array, l: int, n_terms: int, energy_ratio: Array, sigma_min: Array
+) -> Array | None:
+    """Bounds on the error of ``n log det(Sigma_q + floor I) / n`` -- per unit of the
+    number of columns ``n`` -- for every leading regressor count ``q = 0..K - l``, or
+    ``None`` when the rounding can move a Schur complement by more than the first-order
+    analysis covers (``||E|| ||G_xx^{-1}|| > 1/2``).
+
+    ``R`` is the computed Cholesky factor of the unit-diagonal Gram matrix (outputs
+    last), which was formed from sums of at most ``n_terms`` products whose absolute
+    values sum to at most ``energy_ratio[i] energy_ratio[j]`` times the geometric mean of
+    the two diagonal entries (so ``sqrt``-ratios of the signals' whole energies to their
+    windows' are passed; :func:`shift_gram` sums each product once in the window and
+    once more at most as a boundary term); ``sigma_min[q]`` is the smallest eigenvalue of
+    the computed ``Sigma_q`` plus the floor.
+
+    The backward error ``E`` of ``R^T R = G + E``: forming and scaling ``G``,
+    ``|E_ij| <= 2 gamma_{n_terms + 3} rho_i rho_j``; the Cholesky factorisation,
+    ``|E| <= gamma_{K+1} |R|^T |R|`` (Higham, Thm 10.3), whose Frobenius norm is at most
+    ``gamma_{K+1} trace(R^T R)``.  Then, with ``theta`` the coefficients of the ``q``
+    regressors read off ``R``, ``||Sigma_q - Sigma_q^exact|| <= 2 ||E|| (1 + ||theta||)^2``
+    (module docstring), plus the summation of :func:`nested_residual_covariances`
+    (``gamma_K`` times the trace of ``Sigma_q``, at most ``l (1 + ||E||)``).  The norms
+    ``||theta_q|| = ||R_xx^{-1} R_xy||`` and the bound ``||G_xx^{-1}|| <= ||R_xx^{-1}||_F^2``
+    of every leading block are read off one triangular inverse.
+    """
+    K = R.shape[0]
+    k = K - l
+    rho = np.asarray(energy_ratio, dtype=float)
+    # ||E||_F: forming and scaling G (||rho rho^T||_F = rho . rho), then Cholesky
+    eps = 2.0 * _gamma(n_terms + 3) * float(rho @ rho) + _gamma(K + 1) * float(np.sum(R * R))
+    if k:
+        Rinv = scipy.linalg.solve_triangular(R[:k, :k], np.eye(k), check_finite=False)
+        # ||R_xx^{-1}||_F^2 of every leading block: R^{-1} is upper triangular, so its
+        # leading q x q block is the inverse of R's and holds its first q columns whole
+        inv_sq = np.concatenate([[0.0], np.cumsum(np.sum(Rinv * Rinv, axis=0))])
+        theta = np.concatenate([[0.0], _leading_coefficient_norms(Rinv, R[:k, k:])])
+    else:
+        inv_sq = theta = np.zeros(1)
+    if not np.all(np.isfinite(inv_sq)) or np.any(eps * inv_sq > 0.5):
+        return None
+    # the Schur complement's move, the cumulative sums (each ||R[:, y_a]||^2 = 1 + E_aa),
+    # and the LU of slogdet on a matrix of trace at most l (Higham, Thm 9.3)
+    d_sigma = 2.0 * eps * (1.0 + theta) ** 2 + (_gamma(K + 1) + _gamma(3 * l)) * l * l * (1 + eps)
+    eta = d_sigma / np.asarray(sigma_min, dtype=float)
+    if not np.all(eta < 1.0):
+        return None
+    return -l * np.log1p(-eta)
