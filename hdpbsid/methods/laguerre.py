@@ -223,7 +223,7 @@ def identify_laguerre(
     y: Any = None,
     order: int | None = None,
     *,
-    a: float | None = None,
+    a: float | str | None = None,
     N: int | None = None,
     variant: str = "projection",
     n_times: int | None = None,
@@ -245,11 +245,15 @@ def identify_laguerre(
     Laguerre-domain ``Dd`` is always estimated, see below).  Defaults (in
     ``model.options``):
 
-    * ``a``: from the identified dynamics (:mod:`hdpbsid.bases.laguerre_pole`): a first
-      pass at half the data bandwidth (99 % of the input energy / 95 % of the output
-      energy), then the pole that minimises the largest map-back amplification of the
-      modes, kept when it simulates the record better (``options["a_rule"]``,
-      ``options["a_source"]``);
+    * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
+      energy), so the Laguerre pole sits inside the excited band; ``a="dynamics"``: from
+      the identified dynamics (:mod:`hdpbsid.bases.laguerre_pole`): after that first
+      pass, the pole that minimises the largest map-back amplification of the modes,
+      kept when it simulates the record better (``options["a_rule"]``,
+      ``options["a_source"]``) -- the choice for stiff open-loop records, where the
+      bandwidth pole maps the slow modes next to ``-1``; not yet the default, because on
+      closed loops with an unstable plant its record screen moved the selection to
+      higher orders;
     * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
       ``N = 2 a T / 3.6`` clipped to ``[N_MIN, N_MAX] = [100, 4000]`` and to ``Ns / 2``
       (a ``RuntimeWarning`` when an upper limit binds); (filter): 30;
@@ -276,9 +280,12 @@ def identify_laguerre(
     order = check_order(order)
     N = None if N is None else check_positive_int(N, "N", 2)
     wb = records_bandwidth(records)
-    if a is None:
+    if a is None or isinstance(a, str):
         if wb <= 0:
             raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
+    if isinstance(a, str):
+        if a != "dynamics":
+            raise ValueError(f"a must be a positive number, None or 'dynamics', got {a!r}")
         one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
         pole, model = pole_from_dynamics(
             lambda a_: identify_laguerre(t, u, y, order, a=a_, N=N, variant=variant,
@@ -289,6 +296,8 @@ def identify_laguerre(
         )  # fmt: skip
         model.options.update(a_rule=pole.reason, a_source=pole.source.value)
         return model
+    if a is None:
+        a, a_rule = 0.5 * wb, "half the data bandwidth"
     else:
         a = _real(a, "a")
         a_rule = "given"

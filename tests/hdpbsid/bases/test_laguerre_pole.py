@@ -93,11 +93,17 @@ def test_laguerre_on_a_stiff_record_takes_its_pole_from_the_dynamics(seed):
     t, u, y = _stiff_record(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None)
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None, a="dynamics")
     assert model.options["a_source"] == "dynamics"
     lam = np.linalg.eigvals(A_STIFF)
     assert 1.5 < model.options["a"] < 80.0
     assert np.max(eigenvalue_errors(np.linalg.eigvals(model.A), lam)) < 0.05
+
+
+def test_laguerre_pole_names_the_argument():
+    t, u, y = _stiff_record(0)
+    with pytest.raises(ValueError, match="'dynamics'"):
+        hdpbsid.identify(t, u, y, order=3, method="laguerre", a="modes")
 
 
 def test_laguerre_given_pole_is_kept():
