@@ -383,7 +383,19 @@ def _target_row(spec: dict, r: dict) -> str:
 def _finish(lines: list[str], emit, out: str | None) -> None:
     emit(f"# load average at the end {os.getloadavg()[0]:.2f}")
     if out:
-        Path(out).write_text("\n".join(lines) + "\n")
+        Path(out).write_text(_markdown(lines))
+
+
+def _markdown(lines: list[str]) -> str:
+    """The printed lines as a Markdown page: the ``# ...`` remarks become paragraphs
+    (as headings they would title the page that includes the table)."""
+    out: list[str] = []
+    for line in lines:
+        if line.startswith("# "):
+            out += ["", line[2:] + ".", ""]
+        else:
+            out.append(line)
+    return "\n".join(out).strip() + "\n"
 
 
 def _chunked_rows(args, quick: bool, kw: dict, emit) -> None:
