@@ -311,9 +311,10 @@ def clip_basis_size(
 
     The default rules size the basis from the record length and bandwidth; when the
     record is so long or broadband that the rule exceeds a limit, the basis covers less
-    than the rule's band and accuracy suffers (second-order system, 10^5 samples: 9.4 %
-    error with N capped at 400, 0.02 % with N = 3200).  That is said with a
-    ``RuntimeWarning``, never silently.  Returns ``(N, rule text)``.
+    than the rule's band and accuracy suffers: the projection then misses the part of
+    the signals above the band the capped basis resolves, and the modes there are
+    biased.  That is said with a ``RuntimeWarning``, never silently.  Returns
+    ``(N, rule text)``.
     """
     N = max(n_min, int(np.ceil(wanted)))
     limit, why = (n_max, "the default cap") if n_max <= ns // 2 else (ns // 2, "Ns/2")
