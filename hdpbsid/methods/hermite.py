@@ -23,7 +23,8 @@ a tridiagonal (banded) solve.  Map back: ``A = alpha (gamma A' - beta I)``,
 Truncation: the ``N x N`` cut of ``Dd`` misses, in its last column only, the coupling
 ``X_N Dd[N, N-1]`` to the discarded coefficient ``X_N`` (an unknown ``n``-vector).  It is
 absorbed exactly as a pseudo-input with row ``e_{N-1}^T``, like the two boundary rows
-``phi(t0)^T``, ``phi(tN)^T`` (measured: eigenvalue error 17-21 % -> 0.6-3 % on records not at rest).
+``phi(t0)^T``, ``phi(tN)^T``; without these rows the initial and final states of a record
+not at rest would bias the VARX regression.
 """
 
 from __future__ import annotations
@@ -80,9 +81,8 @@ ALPHA_RULES = ("basis", "dynamics")
 #: (:func:`hdpbsid.selection.auto.sweep_settings`): the operator scale of the basis rule, the
 #: first pass of the default.  The scale from the identified modes costs one to two more
 #: fits per order, each at an operator scale of its own, so no two orders share their
-#: VARX stage (measured: HD-PBSID's part of ``method="auto"``'s sweep on the Rao-Garnier
-#: record 157 -> 67 ms without them); it is judged on the held-out data for the chosen
-#: candidate only.
+#: VARX stage and the sweep's cost grows with the orders tried; it is judged on the
+#: held-out data for the chosen candidate only.
 SWEEP_SETTINGS: dict[str, Any] = {"alpha": "basis"}
 
 

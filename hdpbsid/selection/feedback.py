@@ -11,9 +11,8 @@ asymptotically efficient for Gaussian innovations (sec. 9.3), and Gauss-Newton s
 a consistent estimate converges to it in a few iterations (from a ``sqrt(Ns)``-consistent
 start one Newton step is already efficient: Lehmann and Casella, *Theory of Point
 Estimation*, 2nd ed., sec. 6.4).  So the subspace model is the start, the prediction-error
-model the answer: measured on the stiff benchmark (eigenvalues -50, -0.5 +- 2i, open loop,
-``dt`` order 3, seeds 0-4) the worst eigenvalue error goes 1.5-8.3 % -> 0.34-0.65 % at
-20 dB and 0.08-0.62 % -> 0.05-0.12 % at 40 dB, for 0.1-0.4 s CPU more a fit.
+model the answer, at the price of a few more evaluations of the predictor per fit (the
+effect is measured in the regression table, ``bench/regression.py``).
 
 Rule (:func:`refine_decision`): refine when the data are one record (the front end
 skips lists) sampled uniformly (the sampled predictor has one step) and the first-pass
