@@ -89,6 +89,25 @@ def _diagonal(Dmat: Any, k: int) -> Array:
     return np.asarray(Dmat.diagonal(k), dtype=float)
 
 
+class _TridiagonalSolve:
+    """``W -> W D'^{-1}`` from the LU factors of the tridiagonal ``D'^T`` (LAPACK
+    ``gttrs``).  A module-level class, not a closure, so that a lag operator pickles:
+    ``dask.distributed`` ships the chunked path's tasks, lag operators included, to its
+    workers by pickle, and a closure over a LAPACK routine does not pickle."""
+
+    def __init__(self, dl: Array, d: Array, du: Array, du2: Array, ipiv: Array) -> None:
+        self.factors = (dl, d, du, du2, ipiv)
+
+    def __call__(self, W: Array) -> Array:
+        # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
+        if W.shape[0] == 0:
+            return np.zeros_like(W)
+        X, err = dgttrs(*self.factors, np.asfortranarray(W.T, dtype=float))
+        if err != 0:
+            raise ValueError(f"LAPACK gttrs failed (info = {err})")
+        return X.T
+
+
 def hermite_lag(
     Dmat: Any, alpha: float, beta: float, gamma: float
 ) -> tuple[SolveLag, NDArray[np.float64]]:
@@ -114,15 +133,7 @@ def hermite_lag(
     if info != 0:
         raise ValueError(f"D' is singular (LAPACK gttrf info = {info}); change alpha or beta")
 
-    def solve(W: Array) -> Array:
-        # W M = W D'^{-1}  <=>  D'^T (W M)^T = W^T
-        if W.shape[0] == 0:
-            return np.zeros_like(W)
-        X, err = dgttrs(dl, d, du, du2, ipiv, np.asfortranarray(W.T, dtype=float))
-        if err != 0:
-            raise ValueError(f"LAPACK gttrs failed (info = {err})")
-        return X.T
-
+    solve = _TridiagonalSolve(dl, d, du, du2, ipiv)
     name = f"D'^-1, D' = (D/{alpha:.4g} + {beta:g} I)/{gamma:g}"
     return SolveLag(solve, name, key=ab), ab
 

@@ -39,6 +39,7 @@ samples per signal and input hold, plus the core's work arrays).
 from __future__ import annotations
 
 import copy
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -183,15 +184,49 @@ class _Kind:
     basis: Any
 
 
-@dataclass(frozen=True)
 class _Shared:
     """The record and the per-length data every batch task needs (one copy in a Dask
-    graph)."""
+    graph).
 
-    record: ChunkedRecord
-    maps: dict[int, list[Array]]
-    kinds: dict[int, _Kind]
-    holds: tuple[str, ...]
+    The projection maps (``N x n`` per input hold and window length, hundreds of MiB for
+    long windows) are not shipped: every process builds them from the bases (small) on
+    first use, so a ``dask.distributed`` graph carries the record's address, the bases and
+    the lag operators only.  The lock keeps the threads of one worker from building them
+    twice; neither the lock nor the maps are pickled.
+    """
+
+    def __init__(
+        self,
+        record: ChunkedRecord,
+        mapped: dict[int, Any],
+        kinds: dict[int, _Kind],
+        holds: tuple[str, ...],
+    ) -> None:
+        self.record, self.kinds, self.holds = record, kinds, holds
+        self._mapped = mapped
+        self._maps: dict[int, list[Array]] | None = None
+        self._lock = threading.Lock()
+
+    @property
+    def maps(self) -> dict[int, list[Array]]:
+        """``{n: [G_hold ..., G_y]}`` for the window lengths projected by maps."""
+        with self._lock:
+            if self._maps is None:
+                dt = self.record.dt
+                self._maps = {
+                    n: _window_maps(b, n, dt, self.holds) for n, b in self._mapped.items()
+                }
+            return self._maps
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_maps"] = None
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
 
 def _coefficients(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
@@ -516,8 +551,8 @@ def identify_chunked(
         for n, b in bases.items()
     }
     jobs, single = _plan_batches(edges, sizes, bases, len(holds), chunk_samples)
-    maps = {n: _window_maps(b, n, record.dt, holds) for n, b in bases.items() if n not in single}
-    ctx = _Batches(jobs, _Shared(record, maps, kinds, holds), use_dask)
+    mapped = {n: b for n, b in bases.items() if n not in single}
+    ctx = _Batches(jobs, _Shared(record, mapped, kinds, holds), use_dask)
     if st.feedthrough:
         # not covered by the streamed core: every window's coefficients held at once
         out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))

@@ -50,3 +50,16 @@ def test_windows_of_one_length_share_one_basis() -> None:
 def test_one_or_all() -> None:
     assert one_or_all(["a", "a"]) == "a"
     assert one_or_all([1.0, 2.0]) == [1.0, 2.0]
+
+
+def test_hermite_lag_survives_pickle() -> None:
+    """A lag operator travels to other processes (Dask) by pickle: the copy applies the
+    same ``W D'^{-1}`` bit for bit (same LU factors, same LAPACK call)."""
+    import pickle
+
+    from hdpbsid.bases.hermite_family import _derivative_matrix, hermite_lag
+
+    lag, _ = hermite_lag(_derivative_matrix(40, 2.0, None), 3.0, 1.0, 1.0)
+    copy = pickle.loads(pickle.dumps(lag))
+    W = np.random.default_rng(0).standard_normal((3, 40))
+    np.testing.assert_array_equal(copy.apply(W, 2), lag.apply(W, 2))

@@ -250,3 +250,16 @@ def test_other_core_settings_match_in_memory(data, setting, core) -> None:
     assert max(_diff(m, ref).values()) < SAME, _diff(m, ref)
     if setting == "feedthrough":
         assert _rel(m.D, ref.D) < SAME
+
+
+def test_tasks_pickle_for_a_process_scheduler(data, in_memory) -> None:
+    """``dask.distributed`` and Dask's process scheduler ship every task -- record address,
+    bases, lag operators -- to other processes by (cloud)pickle; the result must equal the
+    in-process one (same arithmetic, other process)."""
+    import dask
+
+    t, u, y = data
+    rec = ChunkedRecord.from_arrays(u, y, 1.0 / FS)
+    with dask.config.set(scheduler="processes", num_workers=2):
+        m = identify_chunked(rec, order=2, chunk_samples=9000, use_dask=True)
+    assert _diff(m, in_memory)["A"] < SAME
