@@ -17,6 +17,7 @@ from slbasis.runtime import (
     library_call,
     num_threads,
     requested_threads,
+    user_stacklevel,
 )
 
 __all__ = [
@@ -28,4 +29,5 @@ __all__ = [
     "library_call",
     "num_threads",
     "requested_threads",
+    "user_stacklevel",
 ]

@@ -29,6 +29,10 @@ keeps even the large work on one thread), except when the override asks for more
 The limits are set with :mod:`threadpoolctl` (any BLAS it knows: OpenBLAS, MKL, BLIS,
 ...) once, around the outermost library call, and restored when it returns; calls made
 inside it change nothing.
+
+Warnings name the user's line: :func:`user_stacklevel` is the ``stacklevel`` that
+attributes a warning to the first caller outside ``slbasis`` and ``hdpbsid``, however
+deep inside the library it was raised.
 """
 
 from __future__ import annotations
@@ -51,6 +55,7 @@ __all__ = [
     "library_call",
     "num_threads",
     "requested_threads",
+    "user_stacklevel",
 ]
 
 #: The environment variable of the override: a positive integer, the thread count of every
@@ -64,6 +69,13 @@ ENV_VAR = "HDPBSID_NUM_THREADS"
 #: of it on two cores; below about ``2^26`` operations the synchronisation is comparable
 #: to the work, and the refinement's and sweeps' calls are far below that.
 LARGE_FLOPS = float(2**30)
+
+#: Directories of the library's packages (installed side by side in one distribution):
+#: frames in them are skipped by :func:`user_stacklevel`.
+_LIBRARY_DIRS = tuple(
+    os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), name) + os.sep
+    for name in ("slbasis", "hdpbsid")
+)
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -292,3 +304,34 @@ def compiled_threads() -> int:
     import numba
 
     return max(1, int(numba.get_num_threads()))
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for :func:`warnings.warn` that names the user's code.
+
+    Counted from the function calling :func:`warnings.warn` (level 1) outwards to the
+    first frame whose file lies outside the ``slbasis`` and ``hdpbsid`` packages, so a
+    warning raised deep in the library points at the line of the user's call, whatever
+    the depth of the internal call chain (a fixed ``stacklevel`` is right for one chain
+    only).  When every frame is the library's (a worker thread or process), the
+    outermost library frame.
+
+    Returns
+    -------
+    int
+        The stacklevel to pass, at least 1.
+
+    Examples
+    --------
+    Called from code outside the library, the caller itself is the user's frame:
+
+    >>> from slbasis.runtime import user_stacklevel
+    >>> user_stacklevel()
+    1
+    """
+    frame = sys._getframe(1)
+    level = 1
+    while frame.f_back is not None and frame.f_code.co_filename.startswith(_LIBRARY_DIRS):
+        frame = frame.f_back
+        level += 1
+    return level

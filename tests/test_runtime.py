@@ -200,3 +200,20 @@ def test_projection_threads_follow_the_override(monkeypatch):
         assert engine._threads() == 3
     monkeypatch.setenv(runtime.ENV_VAR, "1")
     assert engine._threads() == 1
+
+
+def test_warnings_name_the_users_line() -> None:
+    """A warning raised deep inside the library (here the basis-size cap, three library
+    frames below the call) is attributed to this file, the caller's; a fixed
+    ``stacklevel`` names the caller at one depth only."""
+    import warnings
+
+    from hdpbsid.bases.family import size_policy
+    from hdpbsid.bases.hermite_family import HermiteFamily
+
+    size = size_policy(HermiteFamily(), None, 1000.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        size(1e6, 10**7)  # the rule asks for far more functions than the cap
+    assert caught, "the size cap binds and must warn"
+    assert {w.filename for w in caught} == {__file__}

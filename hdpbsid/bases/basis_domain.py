@@ -39,6 +39,7 @@ from hdpbsid.core.pbsid import CoreResult
 from hdpbsid.core.varx import CachedPowers
 from hdpbsid.data.checks import check_positive_int
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.runtime import user_stacklevel
 
 __all__ = [
     "BasisTooSmall",
@@ -325,7 +326,7 @@ def clip_basis_size(
             f"= {limit}; using N = {limit}, which covers a narrower band than the rule "
             f"wants. Pass N explicitly (and check the fit) or identify on a shorter window.",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
         N = limit
         text += f" (capped by {why}: the rule asked for {int(np.ceil(wanted))})"

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from scipy.linalg import qr, solve_discrete_are
 
 from hdpbsid.core.varx import LagOperator, SampleShift, VarxResult, varx
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
     "gamma_l",
@@ -242,7 +242,7 @@ def stable_gain(A: Array, C: Array, W: Array, V: Array, K: Array) -> tuple[Array
             f"stable_k: the Riccati equation has no stabilising solution ({exc}); "
             f"keeping the least-squares K",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
         return K, "least squares"
 

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from hdpbsid.runtime import user_stacklevel
+
 __all__ = ["DETREND_CHOICES", "Levels", "detrend_record", "warn_if_levels_dominate"]
 
 Array = NDArray[np.float64]
@@ -145,7 +147,9 @@ def detrend_record(t: Array, u: Array, y: Array, kind: str | None) -> tuple[Arra
     return ud, yd, Levels(u0, y0, ns, float(t.mean()), us, ys)
 
 
-def warn_if_levels_dominate(u: Array, y: Array, where: str = "", stacklevel: int = 3) -> None:
+def warn_if_levels_dominate(
+    u: Array, y: Array, where: str = "", stacklevel: int | None = None
+) -> None:
     """Warn when a channel's mean outweighs its variation, ``|mean| > std``.
 
     Then the constant part carries more of the channel's mean-square power than the
@@ -161,7 +165,8 @@ def warn_if_levels_dominate(u: Array, y: Array, where: str = "", stacklevel: int
     where : str, optional
         Prefix of the message (e.g. the record's name).
     stacklevel : int, optional
-        Passed to :func:`warnings.warn`, so the warning points at the user's call.
+        Passed to :func:`warnings.warn`; by default the user's call
+        (:func:`~hdpbsid.runtime.user_stacklevel`).
 
     Warns
     -----
@@ -179,5 +184,5 @@ def warn_if_levels_dominate(u: Array, y: Array, where: str = "", stacklevel: int
                     f"model fits the level as if it were dynamics (the eigenvalues change "
                     f"with a constant shift); use detrend='mean' (the default)",
                     UserWarning,
-                    stacklevel=stacklevel,
+                    stacklevel=user_stacklevel() if stacklevel is None else stacklevel,
                 )

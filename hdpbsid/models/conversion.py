@@ -50,6 +50,7 @@ from scipy.linalg import expm, logm
 
 from hdpbsid.data.checks import check_state_space
 from hdpbsid.models.recursion import modal_form
+from hdpbsid.runtime import user_stacklevel
 
 __all__ = [
     "c2d",
@@ -428,7 +429,7 @@ def d2c(
                 f"the continuous model is unreliable (eigenvalues of Ad near the negative "
                 f"real axis)",
                 RuntimeWarning,
-                stacklevel=2,
+                stacklevel=user_stacklevel(),
             )
         L = L.real
     L = L / dt

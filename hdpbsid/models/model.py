@@ -47,7 +47,7 @@ from hdpbsid.models.conversion import c2d, d2c, sampled_steps
 from hdpbsid.models.dead_time import check_delay, delayed_input_terms, pade, pade_order
 from hdpbsid.models.recursion import linear_recursion
 from hdpbsid.models.uncertainty import ParameterCovariance
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
     "StateSpaceModel",
@@ -583,7 +583,11 @@ class StateSpaceModel(_ModelBase):
         if time_unit is not None:
             unit = check_label(time_unit, "time_unit")
             if unit != self.time_unit:
-                warnings.warn(_unit_message(unit, self.time_unit), TimeScaleWarning, stacklevel=3)
+                warnings.warn(
+                    _unit_message(unit, self.time_unit),
+                    TimeScaleWarning,
+                    stacklevel=user_stacklevel(),
+                )
                 return  # the step comparison would repeat the same finding
         if self.sampling_interval is None:
             return
@@ -598,7 +602,7 @@ class StateSpaceModel(_ModelBase):
                 f"{self.time_unit}?  A record in another time unit fits meaninglessly; "
                 f"convert its times, or ignore this if it was only resampled",
                 TimeScaleWarning,
-                stacklevel=3,
+                stacklevel=user_stacklevel(),
             )
 
     def __repr__(self) -> str:

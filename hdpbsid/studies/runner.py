@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from hdpbsid.runtime import user_stacklevel
+
 __all__ = [
     "Task",
     "run_tasks",
@@ -436,7 +438,7 @@ def load_records(path: str | Path) -> list[dict[str, Any]]:
         warnings.warn(
             f"{path}: skipped {bad} unreadable line(s) (interrupted write?)",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=user_stacklevel(),
         )
     return out
 
@@ -447,7 +449,9 @@ def _progress(total: int, desc: str, enabled: bool) -> Any:
     try:
         from tqdm.auto import tqdm
     except ImportError:  # pragma: no cover - tqdm is in the studies extra
-        warnings.warn("tqdm is not installed: no progress bar", RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            "tqdm is not installed: no progress bar", RuntimeWarning, stacklevel=user_stacklevel()
+        )
         return None
     return tqdm(total=total, desc=desc, unit="task", dynamic_ncols=True)
 

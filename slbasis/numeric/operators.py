@@ -41,6 +41,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from slbasis.runtime import user_stacklevel
+
 from .evaluate import evaluate
 from .kernel import Kernel
 from .validate import as_int_at_least
@@ -164,7 +166,7 @@ def derivative_matrix(
             f"the result by {diff:.1e} relative to {scale:.1e}); the matrix depends on the "
             f"truncation.",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=user_stacklevel(),
         )
     if shape == "square":
         return G2[:N].copy()

@@ -29,6 +29,8 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
+from slbasis.runtime import user_stacklevel
+
 from . import engine as _engine
 from .evaluate import Recurrence, _split_log, evaluate
 from .kernel import Kernel
@@ -251,7 +253,7 @@ def _solve_gram(G: np.ndarray, r: np.ndarray) -> np.ndarray:
         f"(cond ~ {cond:.1e}); the samples do not resolve all N functions. Using a "
         "minimum-norm least-squares solution.",
         RuntimeWarning,
-        stacklevel=3,
+        stacklevel=user_stacklevel(),
     )
     return sla.lstsq(G, r, cond=1e-12)[0]
 
