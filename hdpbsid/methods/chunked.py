@@ -51,6 +51,7 @@ from hdpbsid.bases.basis_domain import (
     COLS_PER_REGRESSOR,
     P_DEFAULT_RANGE,
     RIDGE_FLOOR,
+    BasisTooSmall,
     CoreOut,
     _largest_determined_p,
     _power_spectra,
@@ -329,12 +330,15 @@ def _p_plan(
     hi = min(P_DEFAULT_RANGE[1], p_cap)
     if hi < lo:
         if lo > p_cap:
-            raise ValueError(
+            p_max = _largest_determined_p(nb, d, ncols, m + l)
+            raise BasisTooSmall(
                 f"the basis is too small for the requested order by the default rule: it "
                 f"needs a past window p >= {lo}, but N = {nb} coefficients and m+q+l = {d} "
                 f"rows give p <= {p_cap} by p*(m+q+l) <= N/{COLS_PER_REGRESSOR}; the VARX is "
-                f"determined up to p = {_largest_determined_p(nb, d, ncols, m + l)}: pass p "
-                f"explicitly (less precise), increase N, or ask for a smaller order"
+                f"determined up to p = {p_max}: pass p explicitly (less precise), increase "
+                f"N, or ask for a smaller order",
+                lo,
+                p_max,
             )
         rule = (
             f"p = {lo}, the smallest window with f*l >= the order (above the preferred "

@@ -16,7 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 from chunked_data import FS, _record, _resonance
 
-from hdpbsid.bases.basis_domain import data_bandwidth
+from hdpbsid.bases.basis_domain import BasisTooSmall, data_bandwidth
 from hdpbsid.bases.segments import window_rule
 from hdpbsid.core import streamed
 from hdpbsid.data.chunked import ChunkedRecord
@@ -263,3 +263,14 @@ def test_tasks_pickle_for_a_process_scheduler(data, in_memory) -> None:
     with dask.config.set(scheduler="processes", num_workers=2):
         m = identify_chunked(rec, order=2, chunk_samples=9000, use_dask=True)
     assert _diff(m, in_memory)["A"] < SAME
+
+
+def test_order_beyond_the_default_window_is_a_typed_error(data) -> None:
+    """Order 40 from one output needs ``f = p >= 40`` (``f l >= n``), beyond what the
+    default precision rule allows this basis: the same typed error as the in-memory path,
+    with the window the order needs, so a caller can retry with ``p`` given."""
+    t, u, y = data
+    with pytest.raises(BasisTooSmall, match="too small") as info:
+        identify_chunked(ChunkedRecord.from_arrays(u, y, 1.0 / FS), order=40)
+    assert info.value.p_needed == 40
+    assert isinstance(info.value, ValueError)
