@@ -37,7 +37,7 @@ from __future__ import annotations
 import csv
 import io
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -588,36 +588,18 @@ def read_record(
     inputs, outputs = list(inputs), list(outputs)
     if not outputs:
         raise ValueError("outputs: name at least one output column")
-    if dt is not None and fs is not None:
-        raise ValueError("give the sampling interval dt or the rate fs, not both")
-    step = None
-    if dt is not None or fs is not None:
-        val, what = (dt, "dt") if dt is not None else (fs, "fs")
-        if isinstance(val, bool) or not isinstance(val, int | float | np.number):
-            raise TypeError(f"{what} must be a positive number, got {val!r}")
-        if not np.isfinite(val) or val <= 0:
-            raise ValueError(f"{what} must be a positive finite number, got {val!r}")
-        step = float(val) if what == "dt" else 1.0 / float(val)
-        if time is not None:
-            raise ValueError(
-                f"give either a time column ({time!r}) or the sampling interval (dt/fs), not both"
-            )
-    elif time is None:
+    step = _sampling_step(dt, fs)
+    if step is not None and time is not None:
+        raise ValueError(
+            f"give either a time column ({time!r}) or the sampling interval (dt/fs), not both"
+        )
+    if step is None and time is None:
         raise ValueError("no time: name the time column or give the sampling interval dt/fs")
     used = ([time] if time is not None else []) + inputs + outputs
     twice = sorted({c for c in used if used.count(c) > 1})
     if twice:
         raise ValueError(f"columns used twice (time/inputs/outputs): {twice}")
-    try:
-        cols = read_columns(path, used, delimiter)
-    except ValueError as exc:
-        head = str(exc).split(";")[0]  # "<path>: unknown column(s) [...]"
-        if time is not None and "unknown column" in head and f"'{time}'" in head:
-            raise ValueError(
-                f"{exc}; if the file has no time column, give the sampling interval "
-                f"(dt=..., command line --dt or --fs)"
-            ) from exc
-        raise
+    cols = _read_with_time_hint(path, used, delimiter, time)
     ns = next(iter(cols.values())).size
     if ns < 2:
         raise ValueError(f"{path}: {ns} sample(s); a record needs at least 2")
@@ -629,6 +611,37 @@ def read_record(
     u = np.column_stack([cols[c] for c in inputs]) if inputs else None
     y = np.column_stack([cols[c] for c in outputs])
     return Record(t, u, y, inputs, outputs, time, str(path), dt=step)
+
+
+def _sampling_step(dt: Any, fs: Any) -> float | None:
+    """The sampling interval from ``dt`` or ``fs`` (at most one given), checked; None when
+    neither is given."""
+    if dt is not None and fs is not None:
+        raise ValueError("give the sampling interval dt or the rate fs, not both")
+    if dt is None and fs is None:
+        return None
+    val, what = (dt, "dt") if dt is not None else (fs, "fs")
+    if isinstance(val, bool) or not isinstance(val, int | float | np.number):
+        raise TypeError(f"{what} must be a positive number, got {val!r}")
+    if not np.isfinite(val) or val <= 0:
+        raise ValueError(f"{what} must be a positive finite number, got {val!r}")
+    return float(val) if what == "dt" else 1.0 / float(val)
+
+
+def _read_with_time_hint(
+    path: Path, used: list[str], delimiter: str | None, time: str | None
+) -> dict[str, Array]:
+    """:func:`read_columns`; a missing time column's error says how to give ``dt``."""
+    try:
+        return read_columns(path, used, delimiter)
+    except ValueError as exc:
+        head = str(exc).split(";")[0]  # "<path>: unknown column(s) [...]"
+        if time is not None and "unknown column" in head and f"'{time}'" in head:
+            raise ValueError(
+                f"{exc}; if the file has no time column, give the sampling interval "
+                f"(dt=..., command line --dt or --fs)"
+            ) from exc
+        raise
 
 
 # -- records read in chunks (larger than memory) -----------------------------------------
@@ -753,51 +766,68 @@ def open_chunked(
 
     path = Path(path)
     _check_file(path, "data file")
-    if (dt is None) == (fs is None):
+    if dt is None and fs is None:
         raise ValueError("give exactly one of the sampling interval dt and the rate fs")
-    step = dt if dt is not None else 1.0 / float(fs)  # type: ignore[arg-type]
+    step = _sampling_step(dt, fs)
     inputs, outputs = list(inputs), list(outputs)
     if not outputs:
         raise ValueError("outputs: name at least one output")
     suffix = path.suffix.lower()
-    reader: Any
-    if suffix == ".npy":
-        x = np.load(path, mmap_mode="r")
-        if x.ndim != 2:
-            raise ValueError(f"{path}: expected a 2-D (Ns, channels) array, got shape {x.shape}")
-        for c in inputs + outputs:
-            if isinstance(c, bool) or not isinstance(c, int | np.integer):
-                raise TypeError(f"{path}: .npy columns are integer indices, got {c!r}")
-            if not 0 <= int(c) < x.shape[1]:
-                raise ValueError(f"{path}: column index {c} outside 0..{x.shape[1] - 1}")
-        ns = x.shape[0]
-        reader = _NpyChunks(str(path), [int(c) for c in inputs], [int(c) for c in outputs])
-    elif SUFFIXES.get(suffix) == "hdf5":
-        h5py = _optional("h5py")
-        with h5py.File(str(path), "r") as f:
-            lengths = {}
-            for c in inputs + outputs:
-                key = str(c).strip("/")
-                if key not in f or not isinstance(f[key], h5py.Dataset):
-                    raise ValueError(f"{path}: no dataset {c!r}")
-                shape = f[key].shape
-                if sum(s > 1 for s in shape) > 1:
-                    raise ValueError(f"{path}: dataset {c!r} is not a vector (shape {shape})")
-                lengths[c] = int(np.prod(shape))
-        ns = _equal_lengths(path, lengths)
-        reader = _Hdf5Chunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
-    elif SUFFIXES.get(suffix) == "parquet":
-        pq = _optional("pyarrow.parquet")
-        pf = pq.ParquetFile(str(path))
-        _missing(path, inputs + outputs, pf.schema_arrow.names)
-        ns = int(pf.metadata.num_rows)
-        reader = _ParquetChunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
-    else:
+    kind = "npy" if suffix == ".npy" else SUFFIXES.get(suffix)
+    if kind not in _CHUNK_OPENERS:
         raise ValueError(
             f"{path}: chunked reading supports .npy, HDF5 (.h5 .hdf5 .hdf) and Parquet "
             f"(.parquet .pq), got {path.suffix!r}"
         )
+    reader, ns = _CHUNK_OPENERS[kind](path, inputs, outputs)
     return ChunkedRecord(reader, ns, len(inputs), len(outputs), step, t0)
+
+
+def _open_npy(path: Path, inputs: list[Any], outputs: list[Any]) -> tuple[_NpyChunks, int]:
+    """The reader of a 2-D ``.npy`` array and its length; columns are integer indices."""
+    x = np.load(path, mmap_mode="r")
+    if x.ndim != 2:
+        raise ValueError(f"{path}: expected a 2-D (Ns, channels) array, got shape {x.shape}")
+    for c in inputs + outputs:
+        if isinstance(c, bool) or not isinstance(c, int | np.integer):
+            raise TypeError(f"{path}: .npy columns are integer indices, got {c!r}")
+        if not 0 <= int(c) < x.shape[1]:
+            raise ValueError(f"{path}: column index {c} outside 0..{x.shape[1] - 1}")
+    reader = _NpyChunks(str(path), [int(c) for c in inputs], [int(c) for c in outputs])
+    return reader, int(x.shape[0])
+
+
+def _open_hdf5(path: Path, inputs: list[Any], outputs: list[Any]) -> tuple[_Hdf5Chunks, int]:
+    """The reader of HDF5 vector datasets and their common length."""
+    h5py = _optional("h5py")
+    with h5py.File(str(path), "r") as f:
+        lengths = {}
+        for c in inputs + outputs:
+            key = str(c).strip("/")
+            if key not in f or not isinstance(f[key], h5py.Dataset):
+                raise ValueError(f"{path}: no dataset {c!r}")
+            shape = f[key].shape
+            if sum(s > 1 for s in shape) > 1:
+                raise ValueError(f"{path}: dataset {c!r} is not a vector (shape {shape})")
+            lengths[c] = int(np.prod(shape))
+    reader = _Hdf5Chunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
+    return reader, _equal_lengths(path, lengths)
+
+
+def _open_parquet(path: Path, inputs: list[Any], outputs: list[Any]) -> tuple[_ParquetChunks, int]:
+    """The reader of Parquet columns and the number of rows."""
+    pf = _optional("pyarrow.parquet").ParquetFile(str(path))
+    _missing(path, inputs + outputs, pf.schema_arrow.names)
+    reader = _ParquetChunks(str(path), [str(c) for c in inputs], [str(c) for c in outputs])
+    return reader, int(pf.metadata.num_rows)
+
+
+#: How :func:`open_chunked` opens each kind of file: ``(reader, Ns)``.
+_CHUNK_OPENERS: dict[str | None, Callable[[Path, list[Any], list[Any]], tuple[Any, int]]] = {
+    "npy": _open_npy,
+    "hdf5": _open_hdf5,
+    "parquet": _open_parquet,
+}
 
 
 def _equal_lengths(path: Path, lengths: dict[Any, int]) -> int:

@@ -177,6 +177,12 @@ def test_open_chunked_errors(tmp_path) -> None:
         open_chunked(npy, [0], [5], dt=0.1)
     with pytest.raises(ValueError, match="exactly one"):
         open_chunked(npy, [0], [1])
+    with pytest.raises(ValueError, match="not both"):
+        open_chunked(npy, [0], [1], dt=0.1, fs=10.0)
+    with pytest.raises(ValueError, match="dt must be a positive"):
+        open_chunked(npy, [0], [1], dt=-0.1)
+    with pytest.raises(TypeError, match="fs must be a positive number"):
+        open_chunked(npy, [0], [1], fs="100")
     h5 = tmp_path / "r.h5"
     with h5py.File(h5, "w") as f:
         f["u"] = np.zeros(10)
