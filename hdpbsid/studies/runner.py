@@ -517,47 +517,68 @@ def run_tasks(
     if not cases:
         raise ValueError("the study has no cases: check its settings")
     tasks = [Task(i, c, r) for i, c in enumerate(cases) for r in range(runs)]
-    done: dict[tuple[str, int], dict[str, Any]] = {}
-    path = None
-    if out is not None:
-        path = Path(out) / RESULTS_FILE
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if resume:
-            for rec in load_records(path):
-                if rec.get("study") == study and rec.get("seed") == seed and "case" in rec:
-                    done[(case_key(rec["case"]), int(rec["run"]))] = rec
-        else:
-            path.write_text("")
-    todo = [t for t in tasks if t.key not in done]
-    # execution order: the cases sharing a record (same data) run back to back for each
-    # run index, so a process simulates each record once (studies.data caches it); the
-    # returned order is the task order whatever the execution order
-    group: dict[int, int] = {}
-    for t in tasks:
-        group.setdefault(data_id(t.case), t.index)
-    todo.sort(key=lambda t: (group[data_id(t.case)], t.run, t.index))
+    path = None if out is None else Path(out) / RESULTS_FILE
+    done = _finished(path, study, seed, resume)
+    todo = _execution_order(tasks, done)
     if scheduler is not None:
         stream: Iterable = _dask(func, study, seed, todo, scheduler)
     elif jobs > 1 and len(todo) > 1:
         stream = _joblib(func, study, seed, todo, min(jobs, len(todo)))
     else:
         stream = _serial(func, study, seed, todo)
-    bar = _progress(len(todo), study, progress)
+    if todo:
+        _collect(stream, done, path, _progress(len(todo), study, progress))
+    return [done[t.key] for t in tasks]
+
+
+def _finished(
+    path: Path | None, study: str, seed: int, resume: bool
+) -> dict[tuple[str, int], dict[str, Any]]:
+    """The records of ``(study, seed)`` already in ``path``, by task key (none without a
+    file or with ``resume=False``, which empties the file)."""
+    done: dict[tuple[str, int], dict[str, Any]] = {}
+    if path is None:
+        return done
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not resume:
+        path.write_text("")
+        return done
+    for rec in load_records(path):
+        if rec.get("study") == study and rec.get("seed") == seed and "case" in rec:
+            done[(case_key(rec["case"]), int(rec["run"]))] = rec
+    return done
+
+
+def _execution_order(tasks: list[Task], done: dict[tuple[str, int], Any]) -> list[Task]:
+    """The tasks not done, the cases sharing a record (same data) back to back for each
+    run index, so a process simulates each record once (:mod:`hdpbsid.studies.data`
+    caches it); the returned records are in task order whatever this order."""
+    group: dict[int, int] = {}
+    for t in tasks:
+        group.setdefault(data_id(t.case), t.index)
+    todo = [t for t in tasks if t.key not in done]
+    todo.sort(key=lambda t: (group[data_id(t.case)], t.run, t.index))
+    return todo
+
+
+def _collect(
+    stream: Iterable, done: dict[tuple[str, int], Any], path: Path | None, bar: Any
+) -> None:
+    """Store each ``(task, record)`` of ``stream`` in ``done`` and append it to ``path``
+    as it finishes (so an interrupted study resumes), updating the progress bar."""
     fh = path.open("a") if path is not None else None
     try:
-        if todo:
-            for task, rec in stream:
-                done[task.key] = rec
-                if fh is not None:
-                    fh.write(json.dumps(rec) + "\n")
-                    fh.flush()
-                if bar is not None:
-                    bar.update(1)
-                    if not rec["ok"]:
-                        bar.set_postfix_str(f"last failure: {rec['error_type']}")
+        for task, rec in stream:
+            done[task.key] = rec
+            if fh is not None:
+                fh.write(json.dumps(rec) + "\n")
+                fh.flush()
+            if bar is not None:
+                bar.update(1)
+                if not rec["ok"]:
+                    bar.set_postfix_str(f"last failure: {rec['error_type']}")
     finally:
         if bar is not None:
             bar.close()
         if fh is not None:
             fh.close()
-    return [done[t.key] for t in tasks]
