@@ -136,39 +136,13 @@ def run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
-    from hdpbsid.data.io import read_record
     from hdpbsid.frequency import (
         fit as frequency,  # here: the parsers (--help) need none of the library
     )
 
-    time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
-    rec = read_record(
-        args.file,
-        args.inputs,
-        args.outputs,
-        time=time,
-        dt=args.dt,
-        fs=args.fs,
-        delimiter=args.delimiter,
-    )
-    dt = float(np.mean(np.diff(rec.t)))
-    if args.period is not None:
-        est = frequency.frf_periodic(rec.u, rec.y, dt, args.period, skip=args.skip)
-    else:
-        r = None
-        if args.reference:
-            r = read_record(
-                args.file,
-                [],
-                args.reference,
-                time=time,
-                dt=args.dt,
-                fs=args.fs,
-                delimiter=args.delimiter,
-            ).y
-        est = frequency.frf_welch(rec.u, rec.y, dt, r=r, nperseg=args.nperseg)
-    if args.fit and args.model:
+    if args.fit and args.model:  # before any reading or estimation
         raise ValueError("give --fit or --model, not both")
+    rec, est = _frf_estimate(args, frequency)
     model = frequency.identify_frequency(est, order=args.order) if args.fit else None
     if args.model:
         from hdpbsid.models.model_io import load_model
@@ -176,17 +150,7 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
         model = load_model(args.model)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
-    cols = {"w_rad_s": est.w}
-    radius = est.confidence_radius() if est.variance is not None else None
-    for i, yn in enumerate(rec.outputs):
-        for j, un in enumerate(rec.inputs):
-            H = est.H[i, j]
-            cols[f"mag_db_{yn}_{un}"] = 20 * np.log10(np.abs(H))
-            cols[f"phase_deg_{yn}_{un}"] = np.degrees(np.angle(H))
-            if radius is not None:
-                cols[f"radius95_{yn}_{un}"] = radius[i, j]
-        if est.coherence is not None:
-            cols[f"coherence_{yn}"] = est.coherence[i]
+    cols = _frf_columns(est, rec.inputs, rec.outputs)
     names = list(cols)
     np.savetxt(
         outdir / "frf.csv",
@@ -204,15 +168,59 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
         eig = ", ".join(f"{e:.4g}" for e in model.eigenvalues)
         print(f"model: order {model.n}, eigenvalues {eig}", file=out)
     if not args.no_plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig = frequency.plot_frf(est, model)
-        fig.savefig(outdir / "frf.png", dpi=120)
-        plt.close(fig)
+        _save_frf_figure(lambda: frequency.plot_frf(est, model), outdir / "frf.png")
     return 0
+
+
+def _frf_estimate(args: argparse.Namespace, frequency: Any) -> tuple[Any, Any]:
+    """The record of ``args.file`` and its FRF: averaged over periods (``--period``) or
+    Welch's estimate, with the reference columns as instruments (``--reference``)."""
+    from hdpbsid.data.io import read_record
+
+    time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
+
+    def read(inputs: list[str], outputs: list[str]) -> Any:
+        return read_record(
+            args.file, inputs, outputs, time=time, dt=args.dt, fs=args.fs,
+            delimiter=args.delimiter,
+        )  # fmt: skip
+
+    rec = read(args.inputs, args.outputs)
+    dt = float(np.mean(np.diff(rec.t)))
+    if args.period is not None:
+        return rec, frequency.frf_periodic(rec.u, rec.y, dt, args.period, skip=args.skip)
+    r = read([], args.reference).y if args.reference else None
+    return rec, frequency.frf_welch(rec.u, rec.y, dt, r=r, nperseg=args.nperseg)
+
+
+def _frf_columns(est: Any, inputs: list[str], outputs: list[str]) -> dict[str, Any]:
+    """The columns of ``frf.csv``: frequency, then per output and input the magnitude
+    (dB), the phase (degrees) and the 95 % confidence radius when the estimate has a
+    variance, and per output the coherence when it has one."""
+    cols: dict[str, Any] = {"w_rad_s": est.w}
+    radius = est.confidence_radius() if est.variance is not None else None
+    for i, yn in enumerate(outputs):
+        for j, un in enumerate(inputs):
+            H = est.H[i, j]
+            cols[f"mag_db_{yn}_{un}"] = 20 * np.log10(np.abs(H))
+            cols[f"phase_deg_{yn}_{un}"] = np.degrees(np.angle(H))
+            if radius is not None:
+                cols[f"radius95_{yn}_{un}"] = radius[i, j]
+        if est.coherence is not None:
+            cols[f"coherence_{yn}"] = est.coherence[i]
+    return cols
+
+
+def _save_frf_figure(draw: Any, path: Path) -> None:
+    """Draw (``draw()`` returns the figure) with the file backend, save, close."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = draw()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def _run_input(args: argparse.Namespace, out: TextIO) -> int:

@@ -329,3 +329,30 @@ def test_cli_input_and_frf_round_trip(tmp_path) -> None:
     np.testing.assert_allclose(tab[:, 1], 20 * np.log10(np.abs(truth)), atol=1e-6)
     assert (tmp_path / "frf" / "frf.png").exists()
     assert main(["input", "chirp", "--dt", "0.01", "--out", str(tmp_path / "c")]) == 2
+
+
+def test_cli_frf_refuses_fit_and_model_before_reading(tmp_path, capsys) -> None:
+    """``--fit`` and ``--model`` together are a usage error found before any reading or
+    estimation: the file named does not even exist."""
+    from hdpbsid.cli import main
+
+    argv = ["frf", str(tmp_path / "absent.csv"), "--inputs", "u", "--outputs", "y"]
+    assert main([*argv, "--fit", "--model", str(tmp_path / "m.json")]) == 2
+    assert "not both" in capsys.readouterr().err
+
+
+def test_cli_frf_with_reference_uses_the_instrument(tmp_path, capsys) -> None:
+    """``--reference r`` reads the reference column and estimates with it as the
+    instrument (the estimate's method says so)."""
+    from hdpbsid.cli import main
+
+    rng = np.random.default_rng(0)
+    t = 0.01 * np.arange(4096)
+    r = rng.standard_normal(t.size)
+    A, B, C, D = second_order()
+    y = simulate_zoh(A, B, C, D, t, r[:, None])
+    np.savetxt(tmp_path / "rec.csv", np.c_[t, r, y, r], delimiter=",", header="t,u,y,r",
+               comments="")  # fmt: skip
+    argv = ["frf", str(tmp_path / "rec.csv"), "--inputs", "u", "--outputs", "y"]
+    assert main([*argv, "--reference", "r", "--no-plot", "--out", str(tmp_path / "o")]) == 0
+    assert capsys.readouterr().out.startswith("welch-reference")
