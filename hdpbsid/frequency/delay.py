@@ -226,12 +226,7 @@ def delay_from_frf(
     w_arr, Hc, W, _ = _frequency_data(w, H, weight)
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be None, 'zoh' or 'foh', got {hold!r}")
-    dt = frf.options.get("dt") if frf is not None else None
-    if step is None:
-        if hold is not None and not dt:
-            raise ValueError(f"hold={hold!r} needs step (the sampling interval of the record)")
-        step = float(dt) if dt else float(np.pi / np.max(w_arr))
-    step = check_step(step, "step")
+    step = _delay_step(step, hold, frf, w_arr)
     frame = None if hold is None else (step, hold)
     dmax = (
         100 if max_delay is None else int(check_delay(max_delay, 1, "max_delay")[0] / step + SNAP)
@@ -243,23 +238,13 @@ def delay_from_frf(
         w_arr, Hc, W = w_arr[below], Hc[..., below], W[..., below]
     keep = _thin(w_arr.size)
     w_arr, Hc, W = w_arr[keep], Hc[..., keep], W[..., keep]
-    l, m = Hc.shape[:2]
-    n_eq = 2 * keep.size * l
-    extra = l if hold == "foh" else 0  # the direct term of a first-order hold
     cands = np.arange(dmax + 1)
+    extra = Hc.shape[0] if hold == "foh" else 0  # the direct term of a first-order hold
     delays, samples, orders, crit = [], [], [], []
-    for j in range(m):
-        Hj, Wj = Hc[:, j : j + 1], W[:, j : j + 1]
-        rows = []
-        for n in tried:
-            p = n + n * (1 + l) + extra
-            if p >= n_eq or keep.size < n + 1:
-                break
-            cost = np.array([_cost(w_arr, Hj, Wj, d * step, n, frame) for d in cands])
-            rows.append(n_eq * np.log(np.maximum(cost, np.finfo(float).tiny)) + p * _penalty(n_eq))
-        if not rows:
-            raise ValueError(f"too few lines ({keep.size}) to fit a model with a delay")
-        crit_j = np.array(rows)
+    for j in range(Hc.shape[1]):
+        crit_j = _input_criterion(
+            w_arr, Hc[:, j : j + 1], W[:, j : j + 1], cands * step, tried, frame, extra
+        )
         n_best, d_best = np.unravel_index(int(np.argmin(crit_j)), crit_j.shape)
         frac = _parabola_min(cands.astype(float), crit_j[n_best], int(d_best))
         delays.append(max(frac, 0.0) * step)
@@ -274,6 +259,39 @@ def delay_from_frf(
         criterion=crit,
         options=dict(max_delay_steps=dmax, lines=int(keep.size), weight=weight, hold=hold),
     )
+
+
+def _delay_step(step: Any, hold: str | None, frf: Any, w: Array) -> float:
+    """The spacing of the candidate delays: ``step``; else the record's sampling interval
+    (a ``FrequencyResponse``'s ``options["dt"]``), which a ``hold`` requires; else
+    ``pi / max(w)``, the interval whose Nyquist frequency is the highest line."""
+    dt = frf.options.get("dt") if frf is not None else None
+    if step is None:
+        if hold is not None and not dt:
+            raise ValueError(f"hold={hold!r} needs step (the sampling interval of the record)")
+        step = float(dt) if dt else float(np.pi / np.max(w))
+    return check_step(step, "step")
+
+
+def _input_criterion(
+    w: Array, H: Any, W: Any, delays: Array, tried: list[int], frame: Any, extra: int
+) -> Array:
+    """The information criterion of one input's column ``H`` (``l x 1 x nf``) for every
+    order in ``tried`` (rows; the orders whose parameters the ``2 nf l`` equations still
+    determine) and every candidate delay (columns):
+    ``n_eq log(cost) + p penalty(n_eq)`` with ``p = n + n (1 + l) + extra`` parameters."""
+    l, nf = H.shape[0], w.size
+    n_eq = 2 * nf * l
+    rows = []
+    for n in tried:
+        p = n + n * (1 + l) + extra
+        if p >= n_eq or nf < n + 1:
+            break
+        cost = np.array([_cost(w, H, W, d, n, frame) for d in delays])
+        rows.append(n_eq * np.log(np.maximum(cost, np.finfo(float).tiny)) + p * _penalty(n_eq))
+    if not rows:
+        raise ValueError(f"too few lines ({nf}) to fit a model with a delay")
+    return np.array(rows)
 
 
 def estimate_delay(
