@@ -291,26 +291,12 @@ def _read_csv_fast(
     its spaces, and what :func:`numpy.loadtxt` refuses (underscores, non-ASCII digits,
     decimal commas, empty fields) goes to the checked reader.
     """
-    head = text[:_HEAD_CHARS].splitlines(keepends=True)
-    whole = len(text) <= _HEAD_CHARS
-    lines = [(k, ln) for k, ln in enumerate(head) if ln.strip() and not ln.lstrip().startswith("#")]
-    if not whole:
-        lines = lines[:2]  # the "sep=" line and the header: complete only when not the last
-        if len(lines) < 2 or lines[-1][0] == len(head) - 1:
-            return None
-    header, delimiter, first = _csv_header(
-        path, [(k, ln.rstrip("\r\n")) for k, ln in lines], delimiter
-    )
+    found = _plain_header(path, text, delimiter)
+    if found is None:
+        return None
+    header, delimiter, body = found
     _missing(path, columns, header)
-    body = text[sum(len(ln) for ln in head[: lines[first][0] + 1]) :]
-    if (
-        len(delimiter) != 1
-        or not delimiter.isascii()
-        or delimiter in "\r\n\"'#"
-        or not body.strip()
-        or any(c in body for c in ('"', "'", "#", *_OTHER_LINE_ENDS))
-        or not _fields_match(body, delimiter, len(header))
-    ):
+    if not _plain_body(body, delimiter, len(header)):
         return None
     use = [header.index(c) for c in columns]
     try:
@@ -322,6 +308,39 @@ def _read_csv_fast(
     if values.shape[0] == 0 or not np.isfinite(values).all():
         return None
     return {c: np.ascontiguousarray(values[:, i]) for i, c in enumerate(columns)}
+
+
+def _plain_header(
+    path: Path, text: str, delimiter: str | None
+) -> tuple[list[str], str, str] | None:
+    """``(header, delimiter, body)`` of a CSV text whose header lies in its first
+    :data:`_HEAD_CHARS` characters (found as the checked reader finds it); None when the
+    header is not complete there."""
+    head = text[:_HEAD_CHARS].splitlines(keepends=True)
+    lines = [(k, ln) for k, ln in enumerate(head) if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(text) > _HEAD_CHARS:
+        lines = lines[:2]  # the "sep=" line and the header: complete only when not the last
+        if len(lines) < 2 or lines[-1][0] == len(head) - 1:
+            return None
+    header, delimiter, first = _csv_header(
+        path, [(k, ln.rstrip("\r\n")) for k, ln in lines], delimiter
+    )
+    body = text[sum(len(ln) for ln in head[: lines[first][0] + 1]) :]
+    return header, delimiter, body
+
+
+def _plain_body(body: str, delimiter: str, fields: int) -> bool:
+    """Whether :func:`numpy.loadtxt` reads ``body`` as the checked reader would: a
+    one-character ASCII delimiter that is no quote, comment or line end; no quotes,
+    comments or other line ends; every non-blank line with ``fields`` fields."""
+    return (
+        len(delimiter) == 1
+        and delimiter.isascii()
+        and delimiter not in "\r\n\"'#"
+        and bool(body.strip())
+        and not any(c in body for c in ('"', "'", "#", *_OTHER_LINE_ENDS))
+        and _fields_match(body, delimiter, fields)
+    )
 
 
 def _fields_match(body: str, delimiter: str, fields: int) -> bool:
