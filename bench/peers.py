@@ -2,10 +2,14 @@
 """Head-to-head benchmark of hdpbsid against the Python tools users would pick instead.
 
 Run: ``.venv/bin/python bench/peers.py [--runs 10] [--cases ...] [--snr 40 20 10]
-[--methods ...] [--n-jobs 2] [--no-timing] [--timing-from SUMMARY.json] [--out DIR]
-[--results]`` (peers from ``pip install -e ".[bench]"``).  The whole grid takes hours on
-two cores: run the accuracy part with ``--n-jobs 2 --no-timing --out DIR`` (load does not
-change an error), then ``--timing-from DIR/summary.json --results`` on an idle machine.
+[--methods ...] [--n-jobs 2] [--no-timing] [--peers-from SUMMARY.json]
+[--timing-from SUMMARY.json] [--out DIR] [--results]`` (peers from
+``pip install -e ".[bench]"``).  The whole grid takes hours on two cores, nearly all of
+it the peers' tuning grids: run the accuracy part with ``--n-jobs 2 --no-timing --out
+DIR`` (load does not change an error); after a change of ours, ``--peers-from
+DIR/summary.json --no-timing --out DIR2`` reruns only our methods and keeps the peers'
+cells, which depend on nothing but their data (checked: a digest of every cell's
+records); then ``--timing-from DIR2/summary.json --results`` on an idle machine.
 
 What is measured, per case (``bench/cases.py``), SNR and method, over seeded runs on
 *identical* data (every method sees the same estimation record):
@@ -53,6 +57,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import hashlib
 import io
 import json
 import os
@@ -465,6 +470,48 @@ def snr_label(snr: float | None, case_name: str = "") -> str:
     return "noise-free" if snr is None else f"{snr:g} dB"
 
 
+def data_digest(cases: Sequence[CaseData]) -> str:
+    """SHA-256 of the estimation and validation records of a cell's seeds: a peer's cell
+    can be reused (``--peers-from``) exactly when its data are these."""
+    h = hashlib.sha256()
+    for case in cases:
+        for rec in (case.estimation, case.validation):
+            for x in (rec.t, rec.u, rec.y):
+                h.update(np.ascontiguousarray(x, dtype=float).tobytes())
+    return h.hexdigest()[:16]
+
+
+def reuse_peer_cells(
+    summary: Path, case_names: Sequence[str], snrs: Sequence[float | None], runs: int
+) -> tuple[list[dict[str, object]], list[dict[str, object]]]:
+    """The peers' cells (and their per-run rows, from ``runs.csv`` beside ``summary``) of
+    an earlier run, for the (case, SNR) cells asked for.  A peer's result depends only on
+    its data, so a cell is reused only when the records it was computed on are the ones
+    :func:`~cases.make_case` gives now (:func:`data_digest`); a run whose cells have no
+    digest is refused."""
+    saved = json.loads(summary.read_text())
+    now = {}
+    for case_name in case_names:
+        for snr in [None] if case_name in SNR_INDEPENDENT else list(snrs):
+            cases = [make_case(case_name, EVAL_SEED0 + r, snr) for r in range(runs)]
+            now[(case_name, snr_label(snr, case_name))] = data_digest(cases)
+    cells = [c for c in saved["cells"] if c["peer"] and (c["case"], c["snr"]) in now]
+    for c in cells:
+        if c.get("data") != now[(c["case"], c["snr"])] or c["runs"] != runs:
+            raise SystemExit(
+                f"--peers-from {summary}: the {c['case']} {c['snr']} cell of "
+                f"{c['method']} was computed on other data or another number of runs; "
+                f"rerun the peers"
+            )
+    keys = {(c["case"], c["snr"], c["method"]) for c in cells}
+    rows: list[dict[str, object]] = []
+    runs_csv = summary.parent / "runs.csv"
+    if runs_csv.is_file():
+        with open(runs_csv, newline="") as fh:
+            rows = [r for r in csv.DictReader(fh) if (r["case"], r["snr"], r["method"]) in keys]
+    return rows, cells
+
+
 def run_bench(
     case_names: Sequence[str],
     snrs: Sequence[float | None],
@@ -525,6 +572,7 @@ def _run_cell(
     for m in active:  # warm up: imports, kernel caches (not timed, not scored)
         run_one(m, probe, grids[m.name][0], score_fit=False)
     cases = [make_case(case_name, EVAL_SEED0 + r, snr) for r in range(runs)]
+    data = data_digest(cases)
     # every (run function, horizon) once per seed: tuned grids include defaults
     per_key: dict[tuple[int, int | None], list[Outcome]] = {}
     for case in cases:
@@ -550,6 +598,7 @@ def _run_cell(
                 "label": m.label,
                 "peer": m.peer,
                 "horizon": best_h,
+                "data": data,
                 "grid_median_errors": {str(h): _median_error(v) for h, v in by_h.items()}
                 if m.tuned
                 else None,
@@ -916,6 +965,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="re-render the tables (and --results) from a summary.json of an earlier run",
     )
     ap.add_argument(
+        "--peers-from",
+        type=Path,
+        help="reuse the peers' cells of an earlier run's summary.json (same data, checked) "
+        "and run only our methods",
+    )
+    ap.add_argument(
         "--timing-from",
         type=Path,
         help="take the accuracy cells from a summary.json of an earlier run (e.g. one with "
@@ -941,14 +996,21 @@ def main(argv: Sequence[str] | None = None) -> None:
         rows, cells = [], saved["cells"]
         command = f"{saved['command'].strip()}; then {command}"
     else:
+        methods, kept_rows, kept = args.methods, [], []
+        if args.peers_from:
+            kept_rows, kept = reuse_peer_cells(args.peers_from, args.cases, args.snr, args.runs)
+            saved = json.loads(args.peers_from.read_text())
+            command = f"{saved['command'].strip()}; then {command}"
+            methods = [m for m in methods if not METHODS[m].peer]
         rows, cells = run_bench(
             args.cases,
             args.snr,
-            args.methods,
+            methods,
             args.runs,
             log=lambda s: print(s, flush=True),
             n_jobs=args.n_jobs,
         )
+        rows, cells = rows + kept_rows, cells + kept
     tuned_h = {
         str(c["case"]): int(c["horizon"])
         for c in cells
