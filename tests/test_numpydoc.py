@@ -39,6 +39,7 @@ COMPLETE = [
     "hdpbsid/plots.py",
     "hdpbsid/frequency_cli.py",
     "hdpbsid/studies",
+    "hdpbsid/core",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
@@ -79,6 +80,8 @@ WITH_EXAMPLES = {
     ],
     "hdpbsid.systems.quadrotor": ["pitch_model", "simulate_pitch_closed_loop"],
     "hdpbsid.systems.linear": ["second_order", "simulate_zoh", "add_noise", "random_steps"],
+    "hdpbsid.core.pbsid": ["pbsid_core"],
+    "hdpbsid.core.varx": ["LagOperator", "SampleShift", "MatrixLag", "varx"],
 }
 
 

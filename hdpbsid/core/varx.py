@@ -60,39 +60,44 @@ class LagOperator(Protocol):
     fully determined when only the input columns flagged in ``valid`` are known (the
     others are zero-filled before ``apply``).  ``apply(W, j)`` must equal ``j``
     applications of ``apply(., 1)`` (a linear operator and its powers).
+
+    Examples
+    --------
+    >>> isinstance(SampleShift(), LagOperator), isinstance(MatrixLag(np.eye(2)), LagOperator)
+    (True, True)
     """
 
     def apply(self, W: Array, j: int) -> Array:
         """The data matrix ``W`` lagged ``j`` times (``j`` applications of one lag).
 
-            Parameters
-            ----------
-            W : ndarray, shape (rows, N)
-                Data matrix (rows = signals, columns = samples or basis index).
-            j : int
-                Number of lags, ``j >= 0`` (``0`` returns ``W``).
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
 
-            Returns
-            -------
-            ndarray, shape (rows, N)
-                ``W`` lagged ``j`` times.
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
         """
         ...
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         """Which output columns of ``apply(., j)`` the known input columns determine.
 
-            Parameters
-            ----------
-            valid : ndarray of bool, shape (N,)
-                The input columns that are known (the others zero-filled before ``apply``).
-            j : int
-                Number of lags.
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
 
-            Returns
-            -------
-            ndarray of bool, shape (N,)
-                The output columns of ``apply(W, j)`` fully determined by the known ones.
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
         """
         ...
 
@@ -147,27 +152,33 @@ class SampleShift:
 
     The first ``j`` output columns would need samples before the record; they are
     zero-filled and reported invalid by :meth:`valid_columns`.
+
+    Examples
+    --------
+    >>> shift = SampleShift()
+    >>> shift.apply(np.array([[1.0, 2.0, 3.0]]), 2)
+    array([[0., 0., 1.]])
     """
 
     def apply(self, W: Array, j: int) -> Array:
         """``W`` shifted ``j`` samples back: ``out[:, k] = W[:, k - j]``, zeros for ``k < j``.
 
-            Parameters
-            ----------
-            W : ndarray, shape (rows, N)
-                Data matrix (rows = signals, columns = samples or basis index).
-            j : int
-                Number of lags, ``j >= 0`` (``0`` returns ``W``).
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
 
-            Returns
-            -------
-            ndarray, shape (rows, N)
-                ``W`` lagged ``j`` times.
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
 
-            Examples
-            --------
-            >>> SampleShift().apply(np.arange(4.0)[None], 1)
-            array([[0., 0., 1., 2.]])
+        Examples
+        --------
+        >>> SampleShift().apply(np.arange(4.0)[None], 1)
+        array([[0., 0., 1., 2.]])
         """
         out = np.zeros_like(W)
         if j == 0:
@@ -179,22 +190,22 @@ class SampleShift:
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         """The columns ``k >= j`` whose sample ``k - j`` is known.
 
-            Parameters
-            ----------
-            valid : ndarray of bool, shape (N,)
-                The input columns that are known (the others zero-filled before ``apply``).
-            j : int
-                Number of lags.
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
 
-            Returns
-            -------
-            ndarray of bool, shape (N,)
-                The output columns of ``apply(W, j)`` fully determined by the known ones.
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
 
-            Examples
-            --------
-            >>> SampleShift().valid_columns(np.ones(4, dtype=bool), 1)
-            array([False,  True,  True,  True])
+        Examples
+        --------
+        >>> SampleShift().valid_columns(np.ones(4, dtype=bool), 1)
+        array([False,  True,  True,  True])
         """
         out = np.zeros_like(valid)
         if j == 0:
@@ -278,34 +289,34 @@ class MatrixLag:
     def apply(self, W: Array, j: int) -> Array:
         """``W @ M^j``.
 
-            Parameters
-            ----------
-            W : ndarray, shape (rows, N)
-                Data matrix (rows = signals, columns = samples or basis index).
-            j : int
-                Number of lags, ``j >= 0`` (``0`` returns ``W``).
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
 
-            Returns
-            -------
-            ndarray, shape (rows, N)
-                ``W`` lagged ``j`` times.
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
         """
         return W @ self.power(j)
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
         """The columns of ``W @ M^j`` that no unknown column of ``W`` reaches through ``M^j``.
 
-            Parameters
-            ----------
-            valid : ndarray of bool, shape (N,)
-                The input columns that are known (the others zero-filled before ``apply``).
-            j : int
-                Number of lags.
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
 
-            Returns
-            -------
-            ndarray of bool, shape (N,)
-                The output columns of ``apply(W, j)`` fully determined by the known ones.
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
         """
         if valid.all():
             return valid.copy()
