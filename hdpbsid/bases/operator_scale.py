@@ -93,7 +93,7 @@ GRID_PER_DECADE = 240
 TRUNCATION_SLACK = 0.02
 #: re-identifications after the first pass: the first update carries ``alpha`` from the
 #: basis rule to the modes, the second corrects for the modes having been fitted at the
-#: first pass's ``alpha``; further passes move it by less than the held-out check resolves
+#: first pass's ``alpha`` and moves it much less; each pass costs one identification
 MAX_PASSES = 2
 #: modes slower than the frequency below which this fraction of the output energy lies
 #: (above the noise floor) do not set ``alpha``: such a mode carries at most about that
