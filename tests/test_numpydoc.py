@@ -40,6 +40,7 @@ COMPLETE = [
     "hdpbsid/frequency_cli.py",
     "hdpbsid/studies",
     "hdpbsid/core",
+    "hdpbsid/bases",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
@@ -82,6 +83,10 @@ WITH_EXAMPLES = {
     "hdpbsid.systems.linear": ["second_order", "simulate_zoh", "add_noise", "random_steps"],
     "hdpbsid.core.pbsid": ["pbsid_core"],
     "hdpbsid.core.varx": ["LagOperator", "SampleShift", "MatrixLag", "varx"],
+    "hdpbsid.bases.settings": ["BasisSettings"],
+    "hdpbsid.bases.hermite_family": ["HermiteFamily", "hermite_lag"],
+    "hdpbsid.bases.sl_family": ["SturmLiouvilleFamily", "integration_matrix"],
+    "hdpbsid.bases.basis_domain": ["project_record", "bandwidth", "shared_basis"],
 }
 
 
