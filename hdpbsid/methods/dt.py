@@ -68,7 +68,7 @@ P_CAP = 200
 #: the data-driven settings a refit of this method on a longer record keeps from the
 #: candidate it reproduces (:func:`hdpbsid.selection.auto.refit_keeps`): the past and future
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
-#: ``P_CAP`` lags -- the costliest step of a fit (bench/scaling.py) -- and the held-out
+#: ``P_CAP`` lags -- the costliest step of a fit -- and the held-out
 #: judgement validated the candidate's predictor with its windows, not the criterion.
 REFIT_KEEPS = ("p", "f")
 
