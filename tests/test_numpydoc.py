@@ -41,6 +41,7 @@ COMPLETE = [
     "hdpbsid/studies",
     "hdpbsid/core",
     "hdpbsid/bases",
+    "hdpbsid/methods",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
@@ -87,6 +88,17 @@ WITH_EXAMPLES = {
     "hdpbsid.bases.hermite_family": ["HermiteFamily", "hermite_lag"],
     "hdpbsid.bases.sl_family": ["SturmLiouvilleFamily", "integration_matrix"],
     "hdpbsid.bases.basis_domain": ["project_record", "bandwidth", "shared_basis"],
+    "hdpbsid.methods.hermite": ["identify_hermite"],
+    "hdpbsid.methods.laguerre": ["identify_laguerre", "cayley", "inverse_cayley"],
+    "hdpbsid.methods.sturm_liouville": ["identify_sl", "identify_legendre"],
+    "hdpbsid.methods.dt": ["identify_discrete", "identify_dt"],
+    "hdpbsid.methods.chunked": ["identify_chunked"],
+    "hdpbsid.methods.registry": [
+        "register_method",
+        "get_method",
+        "is_available",
+        "available_methods",
+    ],
 }
 
 

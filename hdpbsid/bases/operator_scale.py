@@ -89,7 +89,7 @@ GRID_PER_DECADE = 240
 #: its minimum when the modes are spread, so a slack trades a little truncation for a
 #: smaller ``alpha`` (less amplification of the slow modes' errors); 0 keeps the flat
 #: optimum's arbitrary end, and a larger slack lets ``alpha`` fall below the fast modes
-#: (bench/identify.py compares 0, 2 and 5 %)
+#: (chosen among 0, 2 and 5 % on the systems of bench/identify.py)
 TRUNCATION_SLACK = 0.02
 #: re-identifications after the first pass: the first update carries ``alpha`` from the
 #: basis rule to the modes, the second corrects for the modes having been fitted at the
