@@ -42,6 +42,9 @@ COMPLETE = [
     "hdpbsid/core",
     "hdpbsid/bases",
     "hdpbsid/methods",
+    "hdpbsid/cli.py",
+    "hdpbsid/runtime.py",
+    "hdpbsid/__init__.py",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
@@ -99,6 +102,7 @@ WITH_EXAMPLES = {
         "is_available",
         "available_methods",
     ],
+    "hdpbsid.cli": ["main", "build_parser"],
 }
 
 
