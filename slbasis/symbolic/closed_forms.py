@@ -63,7 +63,8 @@ def gamma_simplify(expr: sp.Expr) -> sp.Expr:
     --------
     >>> import sympy as sp
     >>> lam, n = sp.symbols("lambda n", positive=True)
-    >>> gamma_simplify(sp.gamma(lam + n + sp.Rational(3, 2)) / sp.gamma(lam + n + sp.Rational(1, 2)))
+    >>> half = sp.Rational(1, 2)
+    >>> gamma_simplify(sp.gamma(lam + n + 3 * half) / sp.gamma(lam + n + half))
     lambda + n + 1/2
     """
     return sp.gammasimp(sp.expand_func(expr))
