@@ -28,8 +28,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import docstrings  # noqa: E402
 
 #: packages and modules whose public objects all have their numpydoc sections (the others
-#: join as their docstrings are completed: bases, core, methods, selection, refine, identify,
-#: cli, runtime)
+#: join as their docstrings are completed: selection, refine, identify)
 COMPLETE = [
     "hdpbsid/models",
     "hdpbsid/data",
@@ -45,6 +44,7 @@ COMPLETE = [
     "hdpbsid/cli.py",
     "hdpbsid/runtime.py",
     "hdpbsid/__init__.py",
+    "slbasis",
 ]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
@@ -103,6 +103,22 @@ WITH_EXAMPLES = {
         "available_methods",
     ],
     "hdpbsid.cli": ["main", "build_parser"],
+    "slbasis.bases": ["basis", "kernel"],
+    "slbasis.numeric.basis": [
+        "Basis",
+        "Basis.project",
+        "Basis.reconstruct",
+        "Basis.derivative_matrix",
+        "Basis.quadrature",
+    ],
+    "slbasis.symbolic.problem": [
+        "SturmLiouville.eigenvalue",
+        "SturmLiouville.polynomial",
+        "SturmLiouville.norm2",
+        "SturmLiouville.recurrence",
+        "SturmLiouville.derivative_operator",
+        "SturmLiouville.verify",
+    ],
 }
 
 
@@ -111,6 +127,8 @@ def _modules(entry: str) -> list[str]:
     files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
     out = []
     for f in files:
+        if f.name == "__main__.py":  # a command (it runs when imported), no API
+            continue
         parts = list(f.relative_to(ROOT).with_suffix("").parts)
         out.append(".".join(parts[:-1] if parts[-1] == "__init__" else parts))
     return out
