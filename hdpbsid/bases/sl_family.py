@@ -159,8 +159,8 @@ def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Arr
 
     References
     ----------
-    .. [1] F. W. J. Olver et al. (eds.), *NIST Handbook of Mathematical Functions*,
-       Cambridge University Press, 2010, eq. 18.9.7 (Legendre antiderivatives).
+    .. [1] M. Abramowitz and I. A. Stegun, *Handbook of Mathematical Functions*, Dover,
+       1965, eq. 22.8.8.
 
     Examples
     --------

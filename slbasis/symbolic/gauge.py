@@ -114,8 +114,8 @@ def find_gauge(p0: sp.Expr, p1: sp.Expr, q0: sp.Expr, prefer: sp.Expr | None = N
 
     References
     ----------
-    .. [1] A. Zettl, *Sturm-Liouville Theory*, AMS, 2005, sec. 10 (the Friedrichs
-       extension and principal solutions).
+    .. [1] A. Zettl, *Sturm-Liouville Theory*, Mathematical Surveys and Monographs 121,
+       AMS, 2005 (principal solutions and the Friedrichs extension).
 
     Examples
     --------
