@@ -141,8 +141,8 @@ def contraction_factor(alpha: float, eigenvalues: Any) -> NDArray[np.float64]:
 
     Examples
     --------
-    >>> contraction_factor(2.0, [-1.0 + 1j * np.sqrt(3.0)])  # zeta = 1/2 at alpha = |lambda|
-    array([0.70710678])
+    >>> contraction_factor(2.0, [-1.0 + 1j * np.sqrt(3.0)]).round(6)  # zeta = 1/2, alpha = |lambda|
+    array([0.707107])
     """
     lam = np.asarray(eigenvalues, dtype=complex)
     return np.abs(alpha + lam) / np.abs(alpha + 1j * np.abs(lam))
