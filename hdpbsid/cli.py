@@ -132,14 +132,38 @@ class _HelpExit(Exception):
 
 # -- JSON (hdpbsid.models.model_io; the names below are kept for earlier callers) ------------------
 def write_model_json(model: StateSpaceModel, path: str | Path) -> Path:
-    """:func:`hdpbsid.models.model_io.save_model` (kept for callers of the earlier CLI helper)."""
+    """:func:`hdpbsid.models.model_io.save_model`, kept for callers of the earlier CLI helper.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+    path : str or Path
+        The JSON file to write.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
     from hdpbsid.models.model_io import save_model
 
     return save_model(model, path)
 
 
 def read_model_json(path: str | Path) -> StateSpaceModel:
-    """:func:`hdpbsid.load_model` (kept for callers of the earlier CLI helper)."""
+    """:func:`hdpbsid.load_model`, kept for callers of the earlier CLI helper.
+
+    Parameters
+    ----------
+    path : str or Path
+        A model JSON file (:func:`write_model_json`).
+
+    Returns
+    -------
+    StateSpaceModel
+        The model.
+    """
     from hdpbsid.models.model_io import load_model
 
     return load_model(path)
@@ -156,8 +180,34 @@ def _split_columns(values: list[str] | None) -> list[str]:
 def read_csv_columns(
     path: str | Path, columns: list[str], delimiter: str | None = None
 ) -> dict[str, np.ndarray]:
-    """The named columns of a data file (:func:`hdpbsid.data.io.read_columns`; kept here for
-    callers of the earlier CSV-only reader)."""
+    r"""The named columns of a data file, kept for callers of the earlier CSV-only reader.
+
+    :func:`hdpbsid.data.io.read_columns` reads CSV, MATLAB, NumPy, Parquet and HDF5 files;
+    a missing column or a bad value raises an error naming the file and the column.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data file.
+    columns : list of str
+        The column names.
+    delimiter : str, optional
+        CSV delimiter (default: sniffed).
+
+    Returns
+    -------
+    dict of str to ndarray
+        One array per column.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "data.csv")
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write("t,u,y\n0,1,2\n1,1,2\n2,1,2\n")
+    >>> read_csv_columns(path, ["t", "y"])
+    {'t': array([0., 1., 2.]), 'y': array([2., 2., 2.])}
+    """
     from hdpbsid.data.io import read_columns
 
     return read_columns(path, columns, delimiter)
@@ -248,7 +298,14 @@ def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> N
 
 # -- commands -----------------------------------------------------------------------------
 def best_method() -> str:
-    """``"hermite"`` (HD-PBSID) when it is available, else ``"dt"``."""
+    """The method of the ``demo`` command: ``"hermite"`` (HD-PBSID) when it is available,
+    else ``"dt"``.
+
+    Returns
+    -------
+    str
+        The method name.
+    """
     from hdpbsid.methods.registry import is_available
 
     return "hermite" if is_available("hermite") else "dt"
@@ -655,7 +712,22 @@ def _add_time_arguments(p: argparse.ArgumentParser, unit_help: str) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``hdpbsid`` argument parser (errors raise :class:`CLIError`)."""
+    """The ``hdpbsid`` argument parser; its errors raise :class:`CLIError` instead of exiting.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser of the commands ``identify``, ``validate``, ``demo``, ``study`` and the
+        frequency-domain commands.
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(
+    ...     ["identify", "data.csv", "--time", "t", "--input", "u", "--output", "y"]
+    ... )
+    >>> args.command, args.inputs, args.method
+    ('identify', ['u'], 'auto')
+    """
     parser = _Parser(
         prog="hdpbsid",
         description="Continuous-time subspace identification (PBSID in a basis domain).",
@@ -828,12 +900,35 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
-    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); returns the exit code.
+    """Run the command line on ``argv`` and return the exit code.
 
-    0 success, 1 identification failed (message on stderr), 2 usage or input error
-    (missing file, unknown column, unknown method, bad arguments; message on stderr),
-    130 interrupted (Ctrl-C).  A closed standard output (``| head``) ends the printing
-    quietly; the files are still written (:class:`_PipeSafe`).
+    The library never exits the caller's process: errors are reported on stderr and mapped
+    to exit codes.  A closed standard output (``| head``) ends the printing quietly; the
+    files are still written (:class:`_PipeSafe`).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+    stdout : text stream, optional
+        Where the results are printed (default ``sys.stdout``).
+
+    Returns
+    -------
+    int
+        0 success, 1 identification failed (message on stderr), 2 usage or input error
+        (missing file, unknown column, unknown method, bad arguments; message on stderr),
+        130 interrupted (Ctrl-C).
+
+    Examples
+    --------
+    A missing data file is an input error, reported before anything is written:
+
+    >>> import os, tempfile
+    >>> out = tempfile.mkdtemp()
+    >>> main(["identify", os.path.join(out, "missing.csv"), "--time", "t", "--input", "u",
+    ...       "--output", "y", "--out", out])
+    2
     """
     out = _PipeSafe(sys.stdout if stdout is None else stdout)
     argv = sys.argv[1:] if argv is None else list(argv)

@@ -32,7 +32,28 @@ def _is_problem(obj: object) -> bool:
 
 
 def catalogue_kernel_module(family: str) -> types.ModuleType:
-    """The committed generated kernel module of a catalogue family."""
+    """The committed generated kernel module of a catalogue family.
+
+    Parameters
+    ----------
+    family : str
+        A catalogue name (``"hermite"``, ``"laguerre"``, ``"legendre"``, ...).
+
+    Returns
+    -------
+    module
+        ``slbasis.kernels.<module>`` (:mod:`slbasis.codegen`).
+
+    Raises
+    ------
+    ValueError
+        If ``family`` is not in the catalogue (the message lists it).
+
+    Examples
+    --------
+    >>> catalogue_kernel_module("legendre").__name__
+    'slbasis.kernels.legendre'
+    """
     if family not in CATALOGUE:
         raise ValueError(f"family must be one of {sorted(CATALOGUE)}, got {family!r}")
     return importlib.import_module(f"slbasis.kernels.{CATALOGUE[family][0]}")
@@ -41,8 +62,30 @@ def catalogue_kernel_module(family: str) -> types.ModuleType:
 def bind_kernel(module: types.ModuleType, **params: float) -> ClosedFormKernel:
     """Fix the parameters of a generated closed-form module: a kernel.
 
-    Missing parameters take the module's ``DEFAULTS``; unknown ones are a ``TypeError``;
-    values outside the admissible range a ``ValueError`` (from ``check_parameters``).
+    Parameters
+    ----------
+    module : module
+        A generated kernel module (:func:`catalogue_kernel_module`,
+        :func:`slbasis.codegen.kernel_module`).
+    **params : float
+        The family's parameters; missing ones take the module's ``DEFAULTS``.
+
+    Returns
+    -------
+    ClosedFormKernel
+        The kernel.
+
+    Raises
+    ------
+    TypeError
+        If a parameter is unknown, or has no default and is not given.
+    ValueError
+        If a value leaves the admissible range (the module's ``check_parameters``).
+
+    Examples
+    --------
+    >>> bind_kernel(catalogue_kernel_module("laguerre"), alpha=0.5).params
+    {'alpha': 0.5}
     """
     unknown = set(params) - set(module.PARAMETERS)
     if unknown:
@@ -62,7 +105,35 @@ def bind_kernel(module: types.ModuleType, **params: float) -> ClosedFormKernel:
 
 
 def kernel(family: str | SturmLiouville, **params: float) -> ClosedFormKernel:
-    """The numeric kernel of a catalogue family name or of a custom problem."""
+    """The numeric kernel of a catalogue family name or of a custom problem.
+
+    A custom :class:`~slbasis.symbolic.problem.SturmLiouville` problem gets its kernel
+    module generated on demand from its derivations (:func:`slbasis.codegen.kernel_module`).
+
+    Parameters
+    ----------
+    family : str or SturmLiouville
+        A catalogue name or a problem.
+    **params : float
+        The family's parameters.
+
+    Returns
+    -------
+    ClosedFormKernel
+        The kernel.
+
+    Raises
+    ------
+    TypeError
+        If ``family`` is neither, or a parameter is unknown.
+    ValueError
+        If ``family`` is not in the catalogue or a parameter is out of range.
+
+    Examples
+    --------
+    >>> kernel("laguerre", alpha=0.5).params
+    {'alpha': 0.5}
+    """
     if _is_problem(family):
         from .codegen import kernel_module
 
@@ -84,10 +155,57 @@ def basis(
 ) -> Basis:
     """A numeric basis of ``N`` orthonormal functions on the time window ``t_span``.
 
-    ``family``: a catalogue name (``"hermite"``, ``"laguerre"``, ``"legendre"``, ...), a
-    :class:`SturmLiouville` problem (its kernel is generated on demand) or a kernel object.
-    ``params``: family parameters (``alpha`` for Laguerre, ...).  ``scale``/``centre``
-    override the default affine time map (see :class:`~slbasis.numeric.Basis`).
+    The functions are the orthonormal eigenfunctions of a Sturm-Liouville problem, mapped
+    affinely from the family's interval to time (:class:`~slbasis.numeric.basis.Basis`);
+    ``scale``/``centre`` override the default map, which fits the window to the region where
+    the first ``N`` functions oscillate.
+
+    Parameters
+    ----------
+    family : str, SturmLiouville or Kernel
+        A catalogue name (``"hermite"``, ``"laguerre"``, ``"legendre"``, ...), a problem (its
+        kernel is generated on demand) or a kernel object.
+    N : int
+        Number of functions, ``>= 1``.
+    t_span : tuple of float
+        The window ``(t0, t1)``, ``t0 < t1``.
+    scale : float, optional
+        ``dx/dt`` of the map, ``> 0``.
+    centre : float, optional
+        The time mapped to ``x = 0``.
+    **params : float
+        Family parameters (``alpha`` for Laguerre, ...); not with a kernel object.
+
+    Returns
+    -------
+    Basis
+        The basis.
+
+    Raises
+    ------
+    TypeError
+        If parameters are passed with a kernel object, or the family is not accepted.
+    ValueError
+        If an argument is out of range.
+
+    References
+    ----------
+    .. [1] A. Zettl, *Sturm-Liouville Theory*, Mathematical Surveys and Monographs 121,
+       AMS, 2005.
+
+    Examples
+    --------
+    Orthonormal Legendre functions on ``[0, 2]``; the coefficients of ``t^2`` and of its
+    derivative ``2 t``, which the derivative matrix maps one to the other:
+
+    >>> import numpy as np
+    >>> B = basis("legendre", 4, (0.0, 2.0))
+    >>> t = np.linspace(0.0, 2.0, 2001)
+    >>> c = B.project(t, t**2)
+    >>> c.round(4)
+    array([1.8856, 1.633 , 0.4216, 0.    ])
+    >>> (B.derivative_matrix() @ c).round(4) + 0.0
+    array([2.8284, 1.633 , 0.    , 0.    ])
     """
     if isinstance(family, str) or _is_problem(family):
         k = kernel(family, **params)

@@ -61,7 +61,18 @@ def _problem(args: argparse.Namespace) -> SturmLiouville:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the process exit code (0 ok, 1 failed verification, 2 bad input)."""
+    """Entry point of ``slbasis derive``: print the derivation report of a problem.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 ok, 1 failed verification, 2 bad input (message on stderr).
+    """
     args = _parser().parse_args(argv)
     try:
         problem = _problem(args)

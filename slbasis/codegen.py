@@ -64,6 +64,38 @@ def _text(value: object) -> str:
     return out.replace("\n", "\\n").replace("\r", "\\r")
 
 
+#: the generated functions' array argument: (type, description) by its name
+_ARGUMENTS = {
+    "n": ("ndarray of int", "Degrees, ``n >= 0``."),
+    "x": ("ndarray of float", "Points of the interval."),
+}
+
+
+def _docstring(
+    summary: str,
+    parameters: list[tuple[str, str, str]],
+    returns: str,
+    raises: str | None = None,
+) -> list[str]:
+    """A generated function's numpydoc docstring, as indented source lines.
+
+    ``parameters``: ``(name, type, description)``; ``returns`` and ``raises``: the
+    section's text, its entry's lines after the first indented by four spaces.
+    """
+    lines = [f'    """{summary}', ""]
+    if parameters:
+        lines += ["    Parameters", "    ----------"]
+        for name, kind, desc in parameters:
+            lines += [f"    {name} : {kind}", f"        {desc}"]
+        lines.append("")
+    lines += ["    Returns", "    -------"]
+    lines += [f"    {line}" for line in returns.split("\n")]
+    if raises:
+        lines += ["", "    Raises", "    ------"]
+        lines += [f"    {line}" for line in raises.split("\n")]
+    return [*lines, '    """']
+
+
 def _code(expr: sp.Expr, names: dict[sp.Symbol, str]) -> str:
     expr = sp.sympify(expr, strict=True)
     undefined = expr.atoms(AppliedUndef)
@@ -104,7 +136,33 @@ def _rational(expr: sp.Expr) -> sp.Expr:
 
 
 def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
-    """Source code of the kernel module for ``problem`` (functions frame)."""
+    """Source code of the kernel module for ``problem`` (functions frame).
+
+    The closed forms of the recurrence (``B_n``, ``A_{n+1}^2``, ``c_{n+1}/c_n``), the
+    eigenvalues, the exact values for ``n < SMALL_N``, the log-weight and its mass are
+    derived symbolically and printed as numpy; Gamma functions of ``n`` are simplified
+    away at generation time, so the module needs no sympy at run time.
+
+    Parameters
+    ----------
+    problem : SturmLiouville
+        The problem (its canonical form is used).
+    name : str
+        The module's family name (catalogue key or ``"custom"``).
+    regenerate : str
+        The command that regenerates the module, for its docstring.
+
+    Returns
+    -------
+    str
+        The module's source (not yet formatted).
+
+    Raises
+    ------
+    ValueError
+        If ``p0`` has symbolic parameters, or an expression contains functions or symbols
+        that cannot be generated (a Gamma function of ``n`` or ``x`` left over).
+    """
     p = problem.canonical
     cf = p.closed
     params = tuple(p.params)
@@ -139,13 +197,24 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
     defaults = CATALOGUE.get(name, (name, {}))[1]
 
     def function(fname: str, args: str, doc: str, expr: sp.Expr, shape: str) -> list[str]:
+        arg = _ARGUMENTS[args]
+        returns = f"ndarray of float, shape {args}.shape\n    {doc}"
         return [
             f"def {fname}({args}{signature}):",
-            f'    """{doc}"""',
+            *_docstring(doc, [(args, *arg), *param_docs], returns),
             f"    return numpy.broadcast_to({_code(expr, names)}, {shape}).astype(float)",
             "",
             "",
         ]
+
+    param_docs = [(s.name, "float", f"The family's parameter ``{_text(s.name)}``.") for s in params]
+    raises = (
+        "ValueError\n    If the parameters violate "
+        + ", ".join(f"``{_text(e)} > 0``" for e in dict.fromkeys(p.weight_form.assumptions))
+        + "."
+        if p.weight_form.assumptions
+        else None
+    )
 
     def values(vals: list[sp.Expr]) -> str:
         return "(" + ", ".join(_code(v, names) for v in vals) + ")"
@@ -175,7 +244,12 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
         "",
         "",
         f"def check_parameters({signature.lstrip(', ')}):",
-        '    """Raise ValueError when the parameters leave the admissible range."""',
+        *_docstring(
+            "Raise ValueError when the parameters leave the admissible range.",
+            param_docs,
+            "None\n    Nothing: the check raises or passes.",
+            raises,
+        ),
         checks + "    return None",
         "",
         "",
@@ -190,13 +264,20 @@ def generate_source(problem: SturmLiouville, name: str, regenerate: str) -> str:
             "n.shape",
         ),
         f"def small_values({signature.lstrip(', ')}):",
-        '    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""',
+        *_docstring(
+            "Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation.",
+            param_docs,
+            "tuple of three tuples of float\n    B_n, A_{n+1}^2 and c_{n+1}/c_n for "
+            f"n < {SMALL_N}.",
+        ),
         f"    return {values(small_b)}, {values(small_a)}, {values(small_c)}",
         "",
         "",
         *function("log_weight", "x", "log w(x) of the normal-form weight.", log_w, "x.shape"),
         f"def log_mass({signature.lstrip(', ')}):",
-        '    """log of d_0^2 / c_0^2 = ∫ w."""',
+        *_docstring(
+            "log of d_0^2 / c_0^2 = ∫ w.", param_docs, "float\n    The log of the weight's mass."
+        ),
         f"    return {_code(log_mass, names)}",
         "",
     ]
@@ -229,7 +310,19 @@ def _format(source: str) -> str:
 
 
 def catalogue_source(family: str) -> str:
-    """The committed source of the catalogue family's kernel module."""
+    """The committed source of the catalogue family's kernel module (formatted with ruff when
+    it is available).
+
+    Parameters
+    ----------
+    family : str
+        A catalogue family name.
+
+    Returns
+    -------
+    str
+        The source, as committed in ``slbasis/kernels/``.
+    """
     from .families import families
 
     return _format(
@@ -238,7 +331,18 @@ def catalogue_source(family: str) -> str:
 
 
 def write_catalogue(names: list[str] | None = None) -> list[Path]:
-    """(Re)write ``slbasis/kernels/<family>.py`` for the catalogue."""
+    """(Re)write ``slbasis/kernels/<family>.py`` for the catalogue.
+
+    Parameters
+    ----------
+    names : list of str, optional
+        The families (default: the whole catalogue).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     KERNEL_DIR.mkdir(exist_ok=True)
     written = []
     for family in names or list(CATALOGUE):
@@ -256,14 +360,47 @@ def _compile(source: str, module_name: str) -> types.ModuleType:
 
 
 def kernel_module(problem: SturmLiouville) -> types.ModuleType:
-    """Kernel module for any problem, generated on demand and compiled in memory (cached)."""
+    """Kernel module for any problem, generated on demand and compiled in memory (cached).
+
+    The source is generated from the problem's derivations; text taken from the problem
+    (its name) is escaped (``_text``), so no problem can inject code into the module.
+
+    Parameters
+    ----------
+    problem : SturmLiouville
+        The problem.
+
+    Returns
+    -------
+    module
+        The compiled module (the same object for the same source).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slbasis.families import families
+    >>> mod = kernel_module(families["legendre"]())
+    >>> mod.eigenvalue(np.arange(4))
+    array([ 0.,  2.,  6., 12.])
+    """
     source = generate_source(problem, "custom", "slbasis.codegen.kernel_module(problem)")
     digest = hashlib.sha256(source.encode()).hexdigest()[:12]
     return _compile(source, f"slbasis_kernel_{digest}")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m slbasis.kernels [FAMILY ...]``: regenerate the catalogue's kernels."""
+    """``python -m slbasis.kernels [FAMILY ...]``: regenerate the catalogue's kernels.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The families (default: the whole catalogue).
+
+    Returns
+    -------
+    int
+        The exit code, 0.
+    """
     for path in write_catalogue(argv or None):
         print(f"wrote {path}")
     return 0

@@ -47,7 +47,27 @@ def _symbolic() -> None:
 
 @dataclass(frozen=True)
 class Oracle:
-    """Textbook closed forms of one family member (functions of ``n`` and ``x``)."""
+    """Textbook closed forms of one family member (functions of ``n`` and ``x``).
+
+    Used only by :func:`slbasis.symbolic.verify.verify` to check the derivations, which
+    never read them.
+
+    Attributes
+    ----------
+    polynomial : callable
+        ``polynomial(n)``: ``P_n(x)`` for an integer ``n``, from sympy.
+    norm2 : sympy expression or None
+        ``d_n^2`` in closed form (DLMF 18.3.1).
+    norm2_from : int
+        ``norm2`` holds for ``n >=`` this.
+    recurrence : tuple of sympy expressions or None
+        ``(alpha, beta, gamma)`` of the textbook recurrence (DLMF 18.9.1-18.9.2).
+    recurrence_from : int
+        ``recurrence`` holds for ``n >=`` this.
+    derivative : tuple or None
+        Closed forms of the bands of ``2 p0 d/dx``: ``(frame, {"sub", "diag", "sup"}, valid
+        from n)``.
+    """
 
     polynomial: Callable[[int], sp.Expr]  # P_n(x) for integer n, from sympy
     norm2: sp.Expr | None = None  # d_n^2 in closed form (DLMF 18.3.1)
@@ -60,7 +80,26 @@ class Oracle:
 
 @dataclass(frozen=True)
 class Family:
-    """A catalogue entry: ``build(**params)`` gives the problem, ``oracle(**params)``."""
+    """A catalogue entry: ``family(**params)`` gives the problem, ``with_oracle`` also its
+    oracle.
+
+    Attributes
+    ----------
+    name : str
+        The catalogue name.
+    parameters : tuple of str
+        The names of its parameters.
+    description : str
+        One line: the polynomials, weight and interval.
+
+    Examples
+    --------
+    >>> from slbasis.families import families
+    >>> families["jacobi"].parameters
+    ('alpha', 'beta')
+    >>> families["legendre"]().eigenvalue()
+    n**2 + n
+    """
 
     name: str
     parameters: tuple[str, ...]
@@ -72,6 +111,31 @@ class Family:
         return self.with_oracle(**params)[0]
 
     def with_oracle(self, **params: Param) -> tuple[SturmLiouville, Oracle]:
+        """The :class:`~slbasis.symbolic.problem.SturmLiouville` of this family and its textbook
+        oracle.
+
+        Strings go through the safe parser (numbers, constants, whitelisted functions), never
+        through ``sympify``; an omitted parameter stays symbolic.
+
+        Parameters
+        ----------
+        **params : number, str or sympy expression
+            The family's parameters.
+
+        Returns
+        -------
+        problem : SturmLiouville
+            The problem (with ``oracle`` and ``family`` set).
+        oracle : Oracle
+            The textbook closed forms.
+
+        Raises
+        ------
+        TypeError
+            If a parameter is unknown or of the wrong type.
+        ValueError
+            If a parameter value is decidably outside the admissible range.
+        """
         unknown = set(params) - set(self.parameters)
         if unknown:
             raise TypeError(
@@ -271,7 +335,19 @@ def _gegenbauer(lam: sp.Expr) -> tuple[SturmLiouville, Oracle]:
 
 
 class Catalogue(Mapping[str, Family]):
-    """Name -> :class:`Family`; entries are also attributes (``families.hermite()``)."""
+    """Name -> :class:`Family`; entries are also attributes (``families.hermite()``).
+
+    Parameters
+    ----------
+    entries : list of Family
+        The families.
+
+    Examples
+    --------
+    >>> from slbasis.families import families
+    >>> "legendre" in families, len(families) >= 8
+    (True, True)
+    """
 
     def __init__(self, entries: list[Family]):
         self._entries = {f.name: f for f in entries}

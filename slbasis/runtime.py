@@ -116,6 +116,11 @@ def requested_threads() -> int | None:
 
     :func:`num_threads` wins over the environment variable :data:`ENV_VAR`.
 
+    Returns
+    -------
+    int or None
+        The count asked for, or None when neither is set.
+
     Raises
     ------
     ValueError
@@ -134,6 +139,11 @@ def num_threads(n: int | None) -> Iterator[None]:
     n : int or None
         BLAS threads and compiled-kernel threads of the calls made inside the block;
         ``None`` restores the library's own choice (:mod:`slbasis.runtime`) inside it.
+
+    Yields
+    ------
+    None
+        The block runs with the count in force (restored on leaving it).
 
     Raises
     ------
@@ -173,6 +183,11 @@ def _controller() -> Any:
 def blas_threads() -> int | None:
     """The BLAS thread count in force now (the largest over the loaded BLAS libraries),
     ``None`` when threadpoolctl finds no BLAS.
+
+    Returns
+    -------
+    int or None
+        The thread count.
 
     Examples
     --------
@@ -263,6 +278,11 @@ def large_work(flops: float) -> Iterator[None]:
         Floating-point operations of the work in the block (e.g. ``2 n k^2`` for the QR
         of an ``n x k`` matrix).
 
+    Yields
+    ------
+    None
+        The block runs with the caller's BLAS threads when the work is large.
+
     Examples
     --------
     >>> rows, cols = 10**6, 64
@@ -290,6 +310,11 @@ def large_work(flops: float) -> Iterator[None]:
 def compiled_threads() -> int:
     """Threads of the compiled kernels: the override (:func:`requested_threads`) if any,
     else numba's thread count (``NUMBA_NUM_THREADS``, ``numba.set_num_threads``).
+
+    Returns
+    -------
+    int
+        The thread count, ``>= 1``.
 
     Examples
     --------

@@ -101,37 +101,143 @@ class BasisFamily(ABC):
 
     @abstractmethod
     def size_rate(self, wb: float) -> float:
-        """Functions per second of window of the default rule at data bandwidth ``wb``."""
+        """Functions per second of window of the default size rule at data bandwidth ``wb``.
+
+        Parameters
+        ----------
+        wb : float
+            Data bandwidth (rad/s).
+
+        Returns
+        -------
+        float
+            ``wanted_size(T, wb) / T`` (the rule is linear in the window length).
+        """
 
     @abstractmethod
     def wanted_size(self, T: float, wb: float) -> float:
-        """The default rule's ``N`` for a window of ``T`` seconds, before clipping."""
+        """The default rule's basis size for a window, before clipping.
+
+        Parameters
+        ----------
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s) the basis must cover.
+
+        Returns
+        -------
+        float
+            The size the rule wants (clipped by :meth:`default_size`).
+        """
 
     size_rule: str = "N from the band"
 
     def default_size(self, T: float, wb: float, ns: int) -> Choice[int]:
-        """:meth:`wanted_size` clipped to ``[n_min, n_max]`` and ``Ns / 2``, warning when an
-        upper limit binds (:func:`~hdpbsid.bases.basis_domain.clip_basis_size`)."""
+        """:meth:`wanted_size` clipped to ``[n_min, n_max]`` and ``Ns / 2``.
+
+        The lower limit keeps enough coefficients for the core's windows, the upper one bounds
+        the cost, and ``Ns / 2`` makes the samples resolve the fastest basis function; a warning
+        says when an upper limit binds (:func:`~hdpbsid.bases.basis_domain.clip_basis_size`).
+
+        Parameters
+        ----------
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s).
+        ns : int
+            Samples in the window.
+
+        Returns
+        -------
+        Choice of int
+            The size and the rule that chose it.
+        """
         N, why = clip_basis_size(
             self.wanted_size(T, wb), self.n_min, self.n_max, ns, self.label, self.size_rule
         )
         return Choice(N, why)
 
     def too_narrow(self, N: int, T: float, wb: float) -> str | None:
-        """Why ``N`` functions on ``T`` seconds do not resolve the band ``wb``, or None."""
+        """Why ``N`` functions on ``T`` seconds do not resolve the band ``wb``, or None.
+
+        The base class accepts every ``N``; families with a band limit override it.
+
+        Parameters
+        ----------
+        N : int
+            Basis size.
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s).
+
+        Returns
+        -------
+        str or None
+            The reason (a message naming the ``N`` needed), or None when ``N`` suffices.
+        """
         return None
 
     @abstractmethod
     def basis(self, N: int, T: float) -> Any:
-        """The basis of ``N`` functions on the window ``[0, T]``."""
+        """The basis of ``N`` functions on the window ``[0, T]``.
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+        T : float
+            Window length (s).
+
+        Returns
+        -------
+        object
+            The basis (an :class:`slbasis.numeric.basis.Basis` or the family's own type), with
+            ``N`` and ``project``.
+        """
 
     @abstractmethod
     def lag(self, basis: Any, operator: Any) -> LagOperator:
-        """The lag operator ``W -> W M`` of ``basis`` at the operator scale ``operator``."""
+        """The lag operator ``W -> W M`` of ``basis`` at the operator scale ``operator``.
+
+        Parameters
+        ----------
+        basis : object
+            A basis of :meth:`basis`.
+        operator : object
+            The operator scale (e.g. :class:`Integrator`).
+
+        Returns
+        -------
+        LagOperator
+            "One step back" in the coefficient index.
+        """
 
     @abstractmethod
     def pseudo_rows(self, basis: Any, operator: Any, boundary: bool, ones: Array | None) -> Array:
-        """The pseudo-input rows (``q x N``) of one block; ``ones``: coefficients of 1."""
+        """The pseudo-input rows of one block.
+
+        Rows whose vector factors are unknown and differ per block: boundary values of the
+        state and the truncation of the cut operator, eliminated by the block core.
+
+        Parameters
+        ----------
+        basis : object
+            The block's basis.
+        operator : object
+            The operator scale.
+        boundary : bool
+            Include the boundary rows.
+        ones : ndarray or None
+            Coefficients of the constant 1 (families with ``needs_ones``).
+
+        Returns
+        -------
+        ndarray, shape (q, N)
+            The rows.
+        """
 
     @abstractmethod
     def model(
@@ -145,7 +251,30 @@ class BasisFamily(ABC):
         hold_criterion: dict[str, float],
         order: int | None,
     ) -> StateSpaceModel:
-        """The continuous-time model from the core's basis-domain system."""
+        """The continuous-time model from the core's basis-domain system.
+
+        Parameters
+        ----------
+        out : CoreOut
+            The core's system in the basis domain.
+        operator : object
+            The operator scale the core ran at.
+        options : dict
+            The options to record in the model.
+        settings : BasisSettings
+            The method's settings.
+        hold : str
+            The input hold used for the projection.
+        hold_criterion : dict of str to float
+            The criterion of each hold tried.
+        order : int or None
+            The order asked for (None: selected).
+
+        Returns
+        -------
+        StateSpaceModel
+            The continuous-time model.
+        """
 
 
 class IntegratorFamily(BasisFamily):
@@ -164,7 +293,35 @@ class IntegratorFamily(BasisFamily):
         hold_criterion: dict[str, float],
         order: int | None,
     ) -> StateSpaceModel:
-        """:func:`~hdpbsid.bases.basis_domain.integrator_model` at ``operator``."""
+        """The continuous-time model of an integrator-form system.
+
+        The core identifies ``A' = (A / alpha + beta I) / gamma``, ``B' = B / (alpha gamma)``,
+        ``K' = K / (alpha gamma)``; inverting gives ``A = alpha (gamma A' - beta I)``, ``B =
+        alpha gamma B'``, ``K = alpha gamma K'``
+        (:func:`~hdpbsid.bases.basis_domain.integrator_model`).
+
+        Parameters
+        ----------
+        out : CoreOut
+            The core's system in the basis domain.
+        operator : Integrator
+            The operator scale.
+        options : dict
+            The options to record in the model.
+        settings : BasisSettings
+            The method's settings.
+        hold : str
+            The input hold used.
+        hold_criterion : dict of str to float
+            The criterion of each hold tried.
+        order : int or None
+            The order asked for.
+
+        Returns
+        -------
+        StateSpaceModel
+            The continuous-time model.
+        """
         a = operator
         return integrator_model(
             out,

@@ -84,8 +84,17 @@ class PoleSource(enum.Enum):
 class LaguerrePole:
     """The Laguerre pole ``a`` (rad per time unit), where it came from, and why.
 
-    ``passes``: the pole of every fit made (the first pass's first); ``reason``: the text
-    for ``model.options["a_rule"]``."""
+    Attributes
+    ----------
+    a : float
+        The pole, ``> 0``.
+    source : PoleSource
+        Where it came from.
+    reason : str
+        The text for ``model.options["a_rule"]``.
+    passes : tuple of float
+        The pole of every fit made, the first pass's first.
+    """
 
     a: float
     source: PoleSource
@@ -94,13 +103,40 @@ class LaguerrePole:
 
 
 def map_back_amplification(a: float, eigenvalues: Any) -> NDArray[np.float64]:
-    """``g(a, lambda) = |lambda - a|^2 / (2 a |lambda|)`` per eigenvalue (module
-    docstring): the factor from an index-domain eigenvalue's absolute error to the
-    relative error of ``lambda``.
+    r"""The factor from an index-domain eigenvalue's absolute error to the relative error of
+    ``lambda``.
+
+    ``lambda = a (mu + 1) / (mu - 1)`` has ``d lambda / d mu = -(lambda - a)^2 / (2 a)``,
+    so an error ``delta`` of ``mu`` moves ``lambda`` by ``g(a, lambda) |lambda| delta``
+    (module docstring).
+
+    Parameters
+    ----------
+    a : float
+        The Laguerre pole, ``> 0``.
+    eigenvalues : array_like of complex
+        Continuous-time eigenvalues, non-zero.
+
+    Returns
+    -------
+    ndarray of float
+        ``g(a, lambda) = |lambda - a|^2 / (2 a |lambda|)`` per eigenvalue.
+
+    Notes
+    -----
+    .. math::
+
+        g(a, \lambda) = \frac{|\lambda - a|^2}{2 a |\lambda|}
+        = \frac{1}{2}\Bigl(\frac{a}{|\lambda|} + \frac{|\lambda|}{a}\Bigr) + \zeta,
+        \qquad \zeta = -\frac{\operatorname{Re}\lambda}{|\lambda|} .
+
+    References
+    ----------
+    .. [1] B. Wahlberg, "System identification using Laguerre models", *IEEE Trans.
+       Automatic Control* 36(5), 551-562, 1991.
 
     Examples
     --------
-    >>> from hdpbsid.bases.laguerre_pole import map_back_amplification
     >>> float(map_back_amplification(2.0, [-2.0])[0])  # a = |lambda|: 1 + zeta
     2.0
     """
@@ -109,17 +145,33 @@ def map_back_amplification(a: float, eigenvalues: Any) -> NDArray[np.float64]:
 
 
 def minimax_pole(eigenvalues: Any) -> float | None:
-    """The pole ``a`` minimising ``max_i g(a, lambda_i)`` (:func:`map_back_amplification`)
-    over the eigenvalues, or None when none is non-zero and finite.
+    """The pole ``a`` minimising the largest map-back amplification over the eigenvalues.
 
-    Searched on a geometric grid of
-    :data:`~hdpbsid.bases.operator_scale.GRID_PER_DECADE` points per decade between the
-    smallest and the largest ``|lambda_i|``, where the minimiser lies (module
-    docstring); one mode gives ``a = |lambda|``.
+    Each ``g(., lambda_i)`` (:func:`map_back_amplification`) is a convex function of ``log
+    a`` symmetric about ``log |lambda_i|``, so the minimiser of their maximum lies between
+    the smallest and the largest ``|lambda_i|``; it is searched on a geometric grid of
+    :data:`~hdpbsid.bases.operator_scale.GRID_PER_DECADE` points per decade there.  One
+    mode gives ``a = |lambda|``; equal damping ratios give the geometric mean.
+
+    Parameters
+    ----------
+    eigenvalues : array_like of complex
+        Continuous-time eigenvalues (zero and non-finite ones are ignored).
+
+    Returns
+    -------
+    float or None
+        The pole, or None when no eigenvalue is non-zero and finite.
+
+    References
+    ----------
+    .. [1] B. Wahlberg, "System identification using Laguerre models", *IEEE Trans.
+       Automatic Control* 36(5), 551-562, 1991.
+    .. [2] B. Ninness and F. Gustafsson, "A unifying construction of orthonormal bases for
+       system identification", *IEEE Trans. Automatic Control* 42(4), 515-521, 1997.
 
     Examples
     --------
-    >>> from hdpbsid.bases.laguerre_pole import minimax_pole
     >>> round(minimax_pole([-1.0, -100.0]), 1)  # equal damping: the geometric mean
     10.0
     """
@@ -212,12 +264,27 @@ def pole_from_dynamics(
 
 
 def dynamics_band(records: Any) -> tuple[float, float]:
-    """``(w_lo, w_hi)`` of :func:`pole_from_dynamics` for the records (objects with
-    ``t`` and ``y``): the lowest frequency below which
+    """The band of modes that may set the Laguerre pole (:func:`pole_from_dynamics`).
+
+    The lower edge is the lowest frequency below which
     :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of any record's output
-    energy lies (at least ``2 pi / T`` of the longest record: one period of the slowest
-    component it can resolve; the estimate is 0 when that energy is all in the first
-    frequency bin), and the Nyquist frequency of the coarsest median sampling step."""
+    energy lies, at least ``2 pi / T`` of the longest record (one period of the slowest
+    component it can resolve; the energy estimate is 0 when that energy is all in the first
+    frequency bin).  The upper edge is the Nyquist frequency of the coarsest median sampling
+    step: a mode beyond it is no mode of the samples.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        Objects with ``t`` (times, s) and ``y`` (outputs, ``(Ns, l)``).
+
+    Returns
+    -------
+    w_lo : float
+        Lower edge (rad/s).
+    w_hi : float
+        Upper edge (rad/s).
+    """
     longest = max(float(r.t[-1] - r.t[0]) for r in records)
     w_lo = max(min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records), 2 * np.pi / longest)
     step = max(float(np.median(np.diff(r.t))) for r in records)

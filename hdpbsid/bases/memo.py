@@ -99,16 +99,38 @@ def _key_part(x: Any, h: Any) -> None:
 
 
 def _hasher() -> Any:
-    """The hash of the keys: SHA-256 (FIPS 180-4), whose compression function current
-    x86-64 and ARM processors run in hardware (SHA extensions): measured 1.0 GB/s against
-    BLAKE2b's 0.46 GB/s on the benchmark machine, and the keys of one fit hash about 2 MB
-    of arrays.  Accidental collisions of its 256 bits are out of the question."""
+    """The hash of the keys: SHA-256 (FIPS 180-4).
+
+    Current x86-64 and ARM processors run its compression function in hardware (SHA
+    extensions), which makes it faster than BLAKE2b there, and the keys of one fit hash
+    megabytes of arrays.  Accidental collisions of its 256 bits are out of the question.
+    """
     return hashlib.sha256()
 
 
 def digest(x: Any) -> bytes:
-    """The content key of ``x`` (arrays by their bytes, shapes and dtypes; module
-    docstring) as a SHA-256 digest (:func:`_hasher`)."""
+    """The content key of ``x``: a SHA-256 digest of its contents.
+
+    Arrays are keyed by their bytes, shapes and dtypes, never by identity (a caller may
+    reuse a buffer); objects with ``cache_key()`` by what it returns; other values by their
+    ``repr`` (module docstring).
+
+    Parameters
+    ----------
+    x : object
+        An array, a tuple or list of keyable values, an object with ``cache_key()``, a
+        basis, or any value with a faithful ``repr``.
+
+    Returns
+    -------
+    bytes
+        The 32-byte digest.
+
+    Examples
+    --------
+    >>> digest(np.zeros(3)) == digest(np.zeros(3)), digest(np.zeros(3)) == digest(np.zeros(4))
+    (True, False)
+    """
     h = _hasher()
     _key_part(x, h)
     return h.digest()
@@ -131,17 +153,48 @@ _CACHES: list[OrderedDict] = []
 
 
 def clear_caches() -> None:
-    """Empty the caches of every memoised function: the memory they hold is released,
-    and the next call on the same data computes everything again (benchmarks timing
-    several methods on one record clear them between the methods, so that none is
-    timed on another's projection)."""
+    """Empty the caches of every memoised function.
+
+    The memory they hold is released, and the next call on the same data computes
+    everything again (benchmarks timing several methods on one record clear them between
+    the methods, so that none is timed on another's projection).
+    """
     for cache in _CACHES:
         cache.clear()
 
 
 def memoize(func: F | None = None, *, size: int = CACHE_SIZE) -> Any:
-    """Cache ``func`` by the contents of its arguments (module docstring), keeping the
-    ``size`` most recent results; ``@memoize`` or ``@memoize(size=...)``."""
+    """Cache ``func`` by the contents of its arguments, keeping the ``size`` most recent
+    results.
+
+    Use as ``@memoize`` or ``@memoize(size=...)``.  The key is the digest of the arguments
+    (:func:`digest`); a call with an argument that cannot be keyed (``cache_key()`` returned
+    None) is computed without the cache.  Results are made read-only, so that a caller
+    cannot corrupt a shared result.
+
+    Parameters
+    ----------
+    func : callable, optional
+        The function (omitted when called with ``size`` only).
+    size : int, optional
+        Results kept (least recently used dropped first).
+
+    Returns
+    -------
+    callable
+        The memoised function (with ``cache_clear()``), or a decorator when ``func`` is
+        omitted.
+
+    Examples
+    --------
+    >>> calls = []
+    >>> @memoize(size=2)
+    ... def double(x):
+    ...     calls.append(1)
+    ...     return 2 * x
+    >>> double(np.arange(3.0)), double(np.arange(3.0)), len(calls)
+    (array([0., 2., 4.]), array([0., 2., 4.]), 1)
+    """
     if func is None:
         return functools.partial(memoize, size=size)
     cache: OrderedDict[bytes, tuple[Any, Any]] = OrderedDict()
@@ -178,8 +231,35 @@ def _pseudo(lag: LagOperator, rows: Any) -> BlockPseudo | None:
 def past_window_aic(
     U: Any, Y: Any, p_max: int, p_min: int, lag: LagOperator, rows: Any, feedthrough: bool
 ) -> tuple[int, Any]:
-    """:func:`hdpbsid.core.blocks.select_past_window_blocks` with the pseudo-input rows
-    ``rows`` (one array per block, or None), memoised."""
+    """:func:`hdpbsid.core.blocks.select_past_window_blocks` with pseudo-input rows, memoised.
+
+    The criterion of every window depends on the data, the lag and the rows, not on the
+    order, so every order of a sweep and the input-hold decision share it.
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Input rows.
+    Y : ndarray, shape (l, N)
+        Output rows.
+    p_max : int
+        Largest window.
+    p_min : int
+        Smallest window.
+    lag : LagOperator
+        The (block) lag.
+    rows : sequence of ndarray or None
+        The pseudo-input rows, one array per block.
+    feedthrough : bool
+        Include ``D u_k``.
+
+    Returns
+    -------
+    p : int
+        The window of the smallest criterion.
+    crit : ndarray, shape (p_max,)
+        The criterion (read-only).
+    """
     return select_past_window_blocks(
         U, Y, p_max, p_min=p_min, lag=lag, pseudo=_pseudo(lag, rows), feedthrough=feedthrough
     )
@@ -198,8 +278,40 @@ def varx_stage(
     ridge_floor: float,
     instruments: Any,
 ) -> VarxStage:
-    """:func:`hdpbsid.core.blocks.varx_stage_blocks` with the pseudo-input rows ``rows``
-    (one array per block, or None), memoised (module docstring)."""
+    """:func:`hdpbsid.core.blocks.varx_stage_blocks` with pseudo-input rows, memoised.
+
+    The VARX and the SVD of ``Gamma_f L_p Z_p`` do not depend on the order, which only
+    truncates the decomposition: an order sweep runs them once per distinct ``(lag, p)``
+    and every order gets the numbers it would get alone.
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Input rows.
+    Y : ndarray, shape (l, N)
+        Output rows.
+    p : int
+        Past window.
+    lag : LagOperator
+        The (block) lag.
+    rows : sequence of ndarray or None
+        The pseudo-input rows, one array per block.
+    f : int
+        Future window.
+    feedthrough : bool
+        Include ``D u_k``.
+    regularize : bool, str, float or None
+        VARX regularisation.
+    ridge_floor : float
+        Lower bound of the GCV ridge.
+    instruments : ndarray or None
+        Instrument rows.
+
+    Returns
+    -------
+    VarxStage
+        The stage (arrays read-only).
+    """
     return varx_stage_blocks(
         U, Y, p, lag, _pseudo(lag, rows), f, feedthrough, regularize, ridge_floor, instruments
     )

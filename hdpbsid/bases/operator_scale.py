@@ -20,8 +20,9 @@ which, for a mode ``lambda`` carrying its state near its natural frequency
 0 or infinity.  A fixed ``p`` therefore truncates a mode well only when ``alpha`` is
 within a moderate factor of ``|lambda|`` -- fast and slow modes pull ``alpha`` in opposite
 directions, and a rule tied to the basis (``alpha = 4 * scale``, which grows with
-``sqrt(N) / T``) serves neither (stiff system, ``-50`` and ``-0.5 +- 2i``: the slow pair
-12-23 % off at 20 dB with ``alpha = 11``, ``rho = 0.955`` for it).
+``sqrt(N) / T``) serves neither (a stiff system with modes ``-50`` and ``-0.5 +- 2i``
+gets ``alpha = 11`` from it, where ``rho = 0.955`` for the slow pair, which a short past
+window then truncates badly).
 
 :func:`minimax_alpha` minimises the *largest* truncation factor over the modes,
 ``T(alpha) = max_i rho(alpha, lambda_i)^p``.  Since every ``rho(., lambda_i)`` is
@@ -31,13 +32,12 @@ spread, and the map back ``lambda = alpha (lambda' - 1)`` multiplies the error o
 index-domain eigenvalue by ``alpha`` (a slow mode's relative error grows like
 ``alpha / |lambda|``), so the *smallest* ``alpha`` whose ``T`` is within
 :data:`TRUNCATION_SLACK` of the minimum is taken.  It may lie above or below the basis
-rule's ``alpha`` (``4 * scale``): both failures occur (stiff system: 11.3 far above the
-slow pair; robot-arm record at orders 7-8: 0.27, below the modes, models diverge).  The
-cost: on a single lightly damped mode ``alpha = |lambda|`` is taken, where the variance
-is not the smallest (long windowed records at 20 dB: 0.18 % error against 0.09 % at the
-basis rule's ``0.7 |lambda|``; ``T`` models neither the variance nor the noise bias),
-which is why the new ``alpha`` must prove itself on held-out data
-(:func:`held_out_check`) before it replaces the basis rule's.
+rule's ``alpha`` (``4 * scale``): both failures occur (far above the slow modes of a
+stiff system; below every mode of a record with many slow modes, where the models
+diverge).  The cost: on a single lightly damped mode ``alpha = |lambda|`` is taken,
+where the variance is not the smallest (``T`` models neither the variance nor the noise
+bias, both of which grow with ``alpha``), which is why the new ``alpha`` must prove
+itself on held-out data (:func:`held_out_check`) before it replaces the basis rule's.
 
 The modes come from a first-pass model (:func:`alpha_from_dynamics`): identified with the
 basis rule, then re-identified with ``alpha*`` until ``alpha`` settles.  The truncation
@@ -85,22 +85,23 @@ __all__ = [
 #: far below the flatness of ``max_i rho`` near its minimum
 GRID_PER_DECADE = 240
 #: relative excess of the truncation factor ``max_i rho_i^p`` over its minimum within
-#: which the smallest ``alpha`` is taken.  A judgement, not derived: picked among 0, 2
-#: and 5 % on the bench/identify.py systems (Rao-Garnier at 10 dB, median of the worst
-#: eigenvalue error over 5 seeds: 2.3, 0.9 and 2.8 %; 5 % also sent the 2x2 system's
-#: alpha down to 3.5 where 2 % gives 5.2)
+#: which the smallest ``alpha`` is taken.  A judgement, not derived: ``T`` is flat near
+#: its minimum when the modes are spread, so a slack trades a little truncation for a
+#: smaller ``alpha`` (less amplification of the slow modes' errors); 0 keeps the flat
+#: optimum's arbitrary end, and a larger slack lets ``alpha`` fall below the fast modes
+#: (chosen among 0, 2 and 5 % on the systems of bench/identify.py)
 TRUNCATION_SLACK = 0.02
-#: re-identifications after the first pass (measured: the first update moves ``alpha``
-#: by 50-80 % on the stiff and 2x2 systems, the second by 0-23 %)
+#: re-identifications after the first pass: the first update carries ``alpha`` from the
+#: basis rule to the modes, the second corrects for the modes having been fitted at the
+#: first pass's ``alpha`` and moves it much less; each pass costs one identification
 MAX_PASSES = 2
 #: modes slower than the frequency below which this fraction of the output energy lies
 #: (above the noise floor) do not set ``alpha``: such a mode carries at most about that
 #: share of the output, so its eigenvalue is poorly determined, and a spurious slow mode
-#: would drag ``alpha`` down to it (robot-arm record: modes at 0.015-0.04 rad/s at
-#: orders 7-8, 1 % frequency 0.37 rad/s).  The output band shows where the input
-#: excites, not where the modes are: closed-loop records swept above their modes
-#: (6-25 rad/s, modes at 5.9 and 10 rad/s) lose those modes here and get a too large
-#: alpha, which :func:`held_out_check` then rejects
+#: would drag ``alpha`` down to it (spurious modes a decade below the band the output
+#: energy occupies appear at high orders).  The output band shows where the input
+#: excites, not where the modes are: records swept above their modes lose those modes
+#: here and get a too large alpha, which :func:`held_out_check` then rejects
 MODE_ENERGY_FRACTION = 0.01
 #: share of a record held out by :func:`held_out_check` (as ``method="auto"`` does)
 HOLDOUT = 1.0 / 3.0
@@ -109,24 +110,82 @@ SETTLED = 0.05
 
 
 def contraction_factor(alpha: float, eigenvalues: Any) -> NDArray[np.float64]:
-    """``rho(alpha, lambda) = |alpha + lambda| / |alpha + i |lambda||`` per eigenvalue
-    (module docstring)."""
+    r"""The factor by which one lag of ``M`` scales a mode's truncated term.
+
+    ``M = D'^{-1}`` acts on a component at ``omega`` as ``alpha / (alpha + i omega)`` and
+    ``A' = A / alpha + I`` on a mode ``lambda`` as ``(alpha + lambda) / alpha``; at the
+    mode's natural frequency ``omega = |lambda|`` their product has modulus ``rho``
+    (module docstring).
+
+    Parameters
+    ----------
+    alpha : float
+        Operator scale (rad/s), ``> 0``.
+    eigenvalues : array_like of complex
+        Continuous-time eigenvalues.
+
+    Returns
+    -------
+    ndarray of float
+        ``rho(alpha, lambda) = |alpha + lambda| / |alpha + i |lambda||`` per eigenvalue;
+        ``< 1`` for every stable mode.
+
+    Notes
+    -----
+    .. math::
+
+        \rho^2 = 1 - \frac{2 \zeta |\lambda| \alpha}{\alpha^2 + |\lambda|^2},
+        \qquad \zeta = -\frac{\operatorname{Re}\lambda}{|\lambda|},
+
+    smallest, :math:`\sqrt{1 - \zeta}`, at :math:`\alpha = |\lambda|`.
+
+    Examples
+    --------
+    >>> contraction_factor(2.0, [-1.0 + 1j * np.sqrt(3.0)]).round(6)  # zeta = 1/2, alpha = |lambda|
+    array([0.707107])
+    """
     lam = np.asarray(eigenvalues, dtype=complex)
     return np.abs(alpha + lam) / np.abs(alpha + 1j * np.abs(lam))
 
 
 def minimax_alpha(eigenvalues: Any, p: int = 1) -> float | None:
-    """The smallest ``alpha`` whose truncation factor ``T(alpha) = max_i rho(alpha,
-    lambda_i)^p`` is within :data:`TRUNCATION_SLACK` of its minimum over ``alpha``
-    (module docstring), or None when no ``lambda_i`` has a non-zero real part (``rho = 1``
-    for every ``alpha`` then: such a mode says nothing about ``alpha``).
+    """The smallest ``alpha`` whose truncation factor is within :data:`TRUNCATION_SLACK` of
+    its minimum.
 
-    An unstable ``lambda`` enters as its mirror image ``-conj(lambda)``: the truncation
-    concerns the predictor, whose eigenvalue for an unstable mode tends to that mirror
-    image as the process noise vanishes (the reflection property of the Riccati equation;
-    Kwakernaak & Sivan, *Linear Optimal Control Systems*, 1972, sec. 4.4).  The minimiser
+    ``T(alpha) = max_i rho(alpha, lambda_i)^p`` (:func:`contraction_factor`); every
+    ``rho(., lambda_i)`` is unimodal with its minimum at ``|lambda_i|``, so the minimiser
     lies in ``[min |lambda_i|, max |lambda_i|]``, searched on a geometric grid of
-    :data:`GRID_PER_DECADE` points per decade.
+    :data:`GRID_PER_DECADE` points per decade.  The smallest near-minimal ``alpha`` is taken
+    because the map back ``lambda = alpha (lambda' - 1)`` multiplies the error of an
+    index-domain eigenvalue by ``alpha``.  An unstable ``lambda`` enters as its mirror
+    image ``-conj(lambda)``: the truncation concerns the predictor, whose eigenvalue for an
+    unstable mode tends to that mirror image as the process noise vanishes (the reflection
+    property of the Riccati equation).
+
+    Parameters
+    ----------
+    eigenvalues : array_like of complex
+        Continuous-time eigenvalues.
+    p : int, optional
+        The past window (the power of ``rho``).
+
+    Returns
+    -------
+    float or None
+        The operator scale, or None when no eigenvalue has a non-zero real part (``rho =
+        1`` for every ``alpha``: such a mode says nothing about ``alpha``).
+
+    References
+    ----------
+    .. [1] H. Kwakernaak and R. Sivan, *Linear Optimal Control Systems*, Wiley, 1972,
+       sec. 4.4.
+
+    Examples
+    --------
+    >>> minimax_alpha([-2.0])  # one real mode: alpha = |lambda|
+    2.0
+    >>> print(minimax_alpha([1j]))  # undamped: no information
+    None
     """
     lam = np.asarray(eigenvalues, dtype=complex).ravel()
     lam = lam[np.isfinite(lam) & (lam.real != 0)]
@@ -147,22 +206,35 @@ def alpha_from_dynamics(
     alpha0: float,
     band: tuple[float, float],
 ) -> tuple[float, Any, dict[str, Any]]:
-    """Identify with ``alpha0``, then with :func:`minimax_alpha` of the model's modes, at
-    most :data:`MAX_PASSES` times or until ``alpha`` settles.
+    """Identify with ``alpha0``, then with :func:`minimax_alpha` of the model's modes, until
+    ``alpha`` settles.
 
-    Settled means the modes of the current model ask for an ``alpha`` within
-    :data:`SETTLED` of the one it was fitted with; that model is then kept, not refitted
-    at the new value: the refit would differ from it only by a change of ``alpha`` below
-    the tolerance that declares ``alpha`` converged, at the cost of one more
-    identification (measured on the random-binary second-order record of
-    ``bench/scaling.py``, 3 seeds: the refit moved ``alpha`` 2.0017 -> 1.9977 and the
-    eigenvalues by less than 0.001 %).  In particular a first pass whose modes ask for
-    ``alpha0`` itself (within :data:`SETTLED`) is the result, identified once.
+    At most :data:`MAX_PASSES` re-identifications.  Settled means the modes of the
+    current model ask for an ``alpha`` within :data:`SETTLED` of the one it was fitted with;
+    that model is then kept, not refitted at the new value: the refit would differ from it
+    only by a change of ``alpha`` below the tolerance that declares ``alpha`` converged, at
+    the cost of one more identification.  In particular a first pass whose modes ask for
+    ``alpha0`` itself is the result, identified once.  When no mode qualifies, the last
+    ``alpha`` is kept.
 
-    ``fit(alpha)`` returns a model with ``eigenvalues``.  ``band = (w_lo, w_hi)``: modes
-    with ``|lambda|`` outside it (not resolved by the record) are ignored.  When no mode
-    qualifies, the last ``alpha`` is kept.  Returns ``(alpha, model, info)``; ``info``
-    has the rule text and the ``alpha`` of every pass.
+    Parameters
+    ----------
+    fit : callable
+        ``fit(alpha)`` returns a model with ``eigenvalues`` and ``options["p"]``.
+    alpha0 : float
+        The first pass's operator scale (the basis rule's).
+    band : tuple of float
+        ``(w_lo, w_hi)``: modes with ``|lambda|`` outside it (not resolved by the record)
+        are ignored.
+
+    Returns
+    -------
+    alpha : float
+        The operator scale.
+    model : object
+        The model fitted with it.
+    info : dict
+        ``alpha_rule`` (the rule's text) and ``alpha_passes`` (the ``alpha`` of every pass).
     """
     w_lo, w_hi = band
     alpha = float(alpha0)
@@ -203,16 +275,36 @@ def held_out_check(
 ) -> tuple[bool, str]:
     """Whether ``alpha_new`` is better than ``alpha_old`` out of sample.
 
-    Both are used to identify (``identify(t, u, y, alpha)``, order ``order``) on the
-    first ``1 - HOLDOUT`` of the record and compared on the rest by
-    :func:`held_out_comparison`.  The truncation factor models neither the variance nor
-    the bias of the noise in the lagged regressors, which grows with ``alpha`` (a lightly
-    damped mode: ``alpha = |lambda|`` left 0.14-0.21 % error on long windowed records at
-    20 dB against 0.06-0.10 % at the basis rule's ``0.7 |lambda|``, with held-out fits
-    equal to four digits), nor modes the first pass got wrong; the held-out data see all
-    of them, and where they cannot tell the two apart the basis rule stands.  A record
-    too short to hold out :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps
-    ``alpha_old``.  Returns ``(take_new, how)``.
+    Both identify (order ``order``) on the first ``1 - HOLDOUT`` of the record and are
+    compared on the rest by :func:`held_out_comparison`.  The truncation factor models
+    neither the variance nor the bias of the noise in the lagged regressors, which grows
+    with ``alpha``, nor modes the first pass got wrong; the held-out data see all of them,
+    and where they cannot tell the two apart the basis rule stands.  A record too short to
+    hold out :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps ``alpha_old``.
+
+    Parameters
+    ----------
+    identify : callable
+        ``identify(t, u, y, alpha)`` returns a model.
+    t : ndarray, shape (Ns,)
+        Sample times (s).
+    u : ndarray, shape (Ns, m)
+        Inputs.
+    y : ndarray, shape (Ns, l)
+        Outputs.
+    alpha_new : float
+        The candidate operator scale.
+    alpha_old : float
+        The incumbent.
+    order : int
+        The model order.
+
+    Returns
+    -------
+    take_new : bool
+        Whether ``alpha_new`` wins.
+    how : str
+        The comparison, for the model's options.
     """
     ns = t.shape[0]
     split = int(round(ns * (1.0 - HOLDOUT)))
@@ -239,17 +331,40 @@ def held_out_comparison(
     alphas: tuple[float, float],
     label: str = "held-out",
 ) -> tuple[bool, str]:
-    """Whether the model ``new`` (operator scale ``alphas[1]``) simulates the held-out
-    record ``held_out = (t, u, y)`` better than ``old`` (``alphas[0]``), both fitted
-    without it; a model that is None (its fit failed) scores infinity.
+    """Whether the model ``new`` simulates a record better than ``old`` by more than one
+    standard error.
 
     The criterion is the windowed simulation error (:mod:`hdpbsid.models.criteria`, as
-    ``method="auto"`` scores).  The burden of proof is on the change: ``new`` is taken
-    only when its error is smaller than ``old``'s by more than one standard error of the
-    held-out windows (the one-standard-error rule of
-    :func:`~hdpbsid.models.criteria.choose_smallest_adequate` with ``old`` listed first).  A
-    held-out record too short for :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps
-    ``old``.  ``label`` names the data in ``how``.  Returns ``(take_new, how)``.
+    ``method="auto"`` scores).  The burden of proof is on the change: ``new`` is taken only
+    when its error is smaller than ``old``'s by more than one standard error of the windows
+    (the one-standard-error rule of
+    :func:`~hdpbsid.models.criteria.choose_smallest_adequate` with ``old`` listed first;
+    Hastie, Tibshirani & Friedman, *The Elements of Statistical Learning*, 2nd ed., 2009,
+    sec. 7.10).  A model that is None (its fit failed) scores infinity; a record too short
+    for :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows keeps ``old``.
+
+    Parameters
+    ----------
+    old : model or None
+        The incumbent (operator scale ``alphas[0]``).
+    new : model or None
+        The candidate (``alphas[1]``).
+    held_out : tuple
+        ``(t, u, y)`` of the record scored on, not used by either fit (or the whole record,
+        :func:`in_sample_screen`).
+    order : int
+        The model order (sets the number of windows).
+    alphas : tuple of float
+        The two operator scales, for ``how``.
+    label : str, optional
+        Names the data in ``how``.
+
+    Returns
+    -------
+    take_new : bool
+        Whether ``new`` wins.
+    how : str
+        The fits and the excess in standard errors.
     """
     t, u, y = held_out
     windows = default_windows(t.shape[0], order)
@@ -281,25 +396,36 @@ def held_out_comparison(
 def in_sample_screen(
     old: Any, new: Any, record: tuple, alphas: tuple[float, float]
 ) -> tuple[bool, str]:
-    """The necessary condition checked before :func:`held_out_check`: the model ``new``
-    (operator scale ``alphas[1]``), fitted on the whole ``record``, must simulate it
-    better than ``old`` by more than one standard error of the windows
-    (:func:`held_out_comparison` on the record itself).
+    """The necessary condition checked before :func:`held_out_check`.
 
-    Why a change that fails it would not pass the held-out check either: the two models
-    have the same structure and number of parameters, fitted to the same samples, so the
-    optimism of their in-sample errors (the part of the fit that is noise) is the same to
-    first order and cancels in the difference, which therefore estimates the
-    out-of-sample difference, from all the samples instead of a third and without the
-    variance of two refits on two thirds; and the held-out standard error, from a third
-    of the samples, is larger.  A change that does not beat the old ``alpha`` by one
-    standard error here is kept from the refits (measured on the random-binary
-    second-order record of ``bench/scaling.py``: the held-out check, 40 % of a fit, had
-    refused every change that this screen refuses).  On a non-uniform time grid the
-    screen passes without scoring: simulating there takes one matrix exponential per
-    sample interval, and the two simulations of the whole record cost more than the
-    refits they would save (measured 0.13 s each on 4001 random times, against 0.12 s
-    for the whole fit with the held-out check).  Returns ``(pass, how)``.
+    The model ``new``, fitted on the whole record, must simulate it better than ``old`` by
+    more than one standard error of the windows (:func:`held_out_comparison` on the record
+    itself).  Why a change that fails it would not pass the held-out check either: the two
+    models have the same structure and number of parameters, fitted to the same samples, so
+    the optimism of their in-sample errors (the part of the fit that is noise) is the same
+    to first order and cancels in the difference, which therefore estimates the
+    out-of-sample difference from all the samples; the held-out standard error, from a third
+    of the samples, is larger.  On a non-uniform time grid the screen passes without
+    scoring: simulating there takes one matrix exponential per sample interval, and the two
+    simulations cost more than the refits they would save.
+
+    Parameters
+    ----------
+    old : model
+        The incumbent (operator scale ``alphas[0]``).
+    new : model
+        The candidate (``alphas[1]``).
+    record : tuple
+        ``(t, u, y)`` of the record both were fitted on.
+    alphas : tuple of float
+        The two operator scales, for ``how``.
+
+    Returns
+    -------
+    passed : bool
+        Whether ``new`` passes the screen.
+    how : str
+        The comparison.
     """
     if not is_uniform(record[0]):
         return True, "in-sample screen skipped (non-uniform samples)"

@@ -39,7 +39,23 @@ Array = NDArray[np.float64]
 
 
 def one_or_all(values: Sequence[Any]) -> Any:
-    """The value shared by all blocks, or the list of them when they differ."""
+    """The value shared by all blocks, or the list of them when they differ.
+
+    Parameters
+    ----------
+    values : sequence
+        One value per block (compared by ``repr``).
+
+    Returns
+    -------
+    object or list
+        ``values[0]`` when all are equal, else ``list(values)``.
+
+    Examples
+    --------
+    >>> one_or_all([3, 3, 3]), one_or_all([3, 4])
+    (3, [3, 4])
+    """
     return values[0] if len(set(map(repr, values))) == 1 else list(values)
 
 
@@ -47,9 +63,23 @@ def one_or_all(values: Sequence[Any]) -> Any:
 class Blocks:
     """Records cut into blocks, each with its basis.
 
-    ``segs``: the blocks (records or windows); ``keys[i]``: the first block with the same
-    relative time axis as block ``i`` (they share basis, lag and rows); ``bases``: basis per
-    key; ``sizes``: the basis-size choice per key; ``window``: the window rule's report.
+    Attributes
+    ----------
+    family : BasisFamily
+        The basis family.
+    records : list of Record
+        The records.
+    segs : list of Record
+        The blocks (records or windows).
+    keys : list of int
+        ``keys[i]``: the first block with the same relative time axis as block ``i`` (they
+        share basis, lag and rows).
+    bases : dict of int to Basis
+        The basis per key.
+    sizes : dict of int to Choice
+        The basis-size choice per key.
+    window : dict
+        The window rule's report.
     """
 
     family: BasisFamily
@@ -71,7 +101,13 @@ class Blocks:
         return [b.N for b in self.seg_bases]
 
     def options(self) -> dict[str, Any]:
-        """The report of the blocks: sizes and their rule, samples, window rule."""
+        """The report of the blocks: sizes and their rule, samples, window rule.
+
+        Returns
+        -------
+        dict
+            ``N``, ``N_per_block``, ``N_rule``, ``n_samples``, ``t0`` and the window report.
+        """
         Ns = self.Ns
         return {
             "N": int(max(Ns)),
@@ -109,6 +145,7 @@ def make_blocks(
     Returns
     -------
     Blocks
+        The blocks, their bases and the size and window reports.
     """
     segs, w_info = make_segments(records, window, window_rule)
     keys = shared_keys(segs)
@@ -124,9 +161,22 @@ def make_blocks(
 
 @dataclass(frozen=True)
 class Projection:
-    """The coefficient rows of all blocks side by side: ``Us[h]`` (``m x sum N_b``) the inputs
-    under ``holds[h]``, ``Y`` the outputs, ``ones[i]`` the coefficients of the constant 1 on
-    block ``i`` (when the family needs them)."""
+    """The coefficient rows of all blocks side by side.
+
+    Attributes
+    ----------
+    blocks : Blocks
+        The blocks projected.
+    holds : tuple of str
+        The input holds projected.
+    Us : list of ndarray, shape (m, sum N_b)
+        ``Us[h]``: the input rows under ``holds[h]``.
+    Y : ndarray, shape (l, sum N_b)
+        The output rows.
+    ones : list
+        ``ones[i]``: the coefficients of the constant 1 on block ``i`` (when the family
+        needs them, else None entries).
+    """
 
     blocks: Blocks
     holds: tuple[str, ...]
@@ -135,8 +185,21 @@ class Projection:
     ones: list[Any]
 
     def split_inputs(self, m: int) -> tuple[Projection, Array]:
-        """The projection with the first ``m`` input rows, and the remaining rows of the
-        first hold (extra columns projected alike, e.g. a reference signal)."""
+        """The projection with the first ``m`` input rows, and the remaining rows of the first
+        hold (extra columns projected alike, e.g. a reference signal).
+
+        Parameters
+        ----------
+        m : int
+            Number of real inputs.
+
+        Returns
+        -------
+        projection : Projection
+            The projection of the real inputs.
+        extra : ndarray, shape (k, sum N_b)
+            The remaining input rows of the first hold.
+        """
         return replace(self, Us=[U[:m] for U in self.Us]), self.Us[0][m:]
 
 
@@ -146,6 +209,7 @@ def project(blocks: Blocks, holds: tuple[str, ...], n_jobs: int | None = None) -
     Parameters
     ----------
     blocks : Blocks
+        The blocks and their bases (:func:`make_blocks`).
     holds : tuple of str
         The input holds to project (:func:`~hdpbsid.bases.basis_domain.resolve_holds`).
     n_jobs : int or None
@@ -154,6 +218,7 @@ def project(blocks: Blocks, holds: tuple[str, ...], n_jobs: int | None = None) -
     Returns
     -------
     Projection
+        The coefficient rows of all blocks.
     """
     ones = (lambda tau: np.ones(tau.size)) if blocks.family.needs_ones else None
     Us, Y, ex = project_blocks(blocks.seg_bases, blocks.segs, holds, y_extra=ones, n_jobs=n_jobs)
@@ -162,7 +227,17 @@ def project(blocks: Blocks, holds: tuple[str, ...], n_jobs: int | None = None) -
 
 @dataclass(frozen=True)
 class Fit:
-    """A fitted model and the input hold it used, with the criterion per hold compared."""
+    """A fitted model and the input hold it used.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+        The continuous-time model.
+    hold : str
+        The input hold of the projection it was fitted on.
+    criterion : dict of str to float
+        The hold criterion of each hold compared (empty when one was given).
+    """
 
     model: StateSpaceModel
     hold: str
@@ -179,7 +254,21 @@ def _rows(proj: Projection, operator: Any, boundary: bool) -> list[Array]:
 
 
 def lag(blocks: Blocks, operator: Any) -> BlockLag:
-    """The block-diagonal lag of all blocks at the operator scale ``operator``."""
+    """The block-diagonal lag of all blocks at the operator scale ``operator``.
+
+    Parameters
+    ----------
+    blocks : Blocks
+        The blocks; blocks sharing a key share one lag object (grouped by
+        :class:`~hdpbsid.core.blocks.BlockLag`).
+    operator : object
+        The family's operator scale.
+
+    Returns
+    -------
+    BlockLag
+        The lag.
+    """
     lags = {k: blocks.family.lag(b, operator) for k, b in blocks.bases.items()}
     return BlockLag([lags[k] for k in blocks.keys], blocks.Ns)
 
@@ -200,6 +289,7 @@ def solve(
     Parameters
     ----------
     proj : Projection
+        The coefficient rows (:func:`project`).
     operator : object
         The family's operator scale (:class:`~hdpbsid.bases.family.Integrator`, or None
         for a family without one).
@@ -220,6 +310,7 @@ def solve(
     Returns
     -------
     Fit
+        The model and its input hold.
     """
     family = proj.blocks.family
     use = proj.holds if holds is None else holds

@@ -56,8 +56,20 @@ MAP_BYTES = 256 * 2**20
 
 
 def records_bandwidth(records: Sequence[Record]) -> float:
-    """Largest :func:`~hdpbsid.bases.basis_domain.data_bandwidth` over the records (the
-    basis of every block must cover the band of all)."""
+    """Largest :func:`~hdpbsid.bases.basis_domain.data_bandwidth` over the records.
+
+    The basis of every block must cover the band of all records, since the model is shared.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The records.
+
+    Returns
+    -------
+    float
+        The band (rad/s).
+    """
     return max(data_bandwidth(r.t, r.u, r.y) for r in records)
 
 
@@ -66,10 +78,6 @@ def default_window(
 ) -> tuple[float | None, dict[str, Any]]:
     """Default window length (s), or None when no record needs to be split.
 
-    ``n_per_band`` converts a window length to its default basis size (``N = n_per_band
-    * T``: the method's band rule at the data bandwidth); ``q`` is the number of
-    pseudo-input rows per window and ``p_max`` the largest default past window.
-
     Rule: ``T_w = max(T_N, T_dyn)`` with
 
     * ``T_N = N_w / n_per_band`` and ``N_w = (p_max + 1) q / NUISANCE_SHARE``: each window
@@ -77,15 +85,35 @@ def default_window(
       ``0..p_max`` of ``q`` rows), so at most :data:`NUISANCE_SHARE` of the record's
       equations are lost to windowing -- a statement about the regression, true for any
       system and record; and ``N_w`` is fixed by it, so the cost per sample is bounded;
-    * ``T_dyn = WINDOW_PERIODS / f_low``, ``f_low`` the lowest significant frequency of
-      the outputs (below it lies :data:`LOW_FRACTION` of their energy above the noise
-      floor): the pseudo-inputs of a window absorb every free response on it, and a
-      component slower than the window looks like one; over ``WINDOW_PERIODS`` periods
-      of the slowest significant component the window's forced response resolves it.
+    * ``T_dyn = WINDOW_PERIODS / f_low``, ``f_low`` the lowest significant frequency of the
+      outputs (below it lies :data:`LOW_FRACTION` of their energy above the noise floor):
+      the pseudo-inputs of a window absorb every free response on it, and a component
+      slower than the window looks like one; over ``WINDOW_PERIODS`` periods of the slowest
+      significant component the window's forced response resolves it.
 
     A record is split only when it is at least twice ``T_w`` long (windows are between
     ``T_w`` and ``2 T_w``, :func:`hdpbsid.data.records.split_windows`), so short records are
-    identified on one basis as before.  Returns ``(T_w or None, info)``.
+    identified on one basis.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The records.
+    n_per_band : float
+        Basis functions per second of window (the method's band rule at the data
+        bandwidth: ``N = n_per_band T``).
+    q : int
+        Pseudo-input rows per window.
+    p_max : int
+        Largest default past window.
+
+    Returns
+    -------
+    length : float or None
+        The window (s), or None when no record is long enough to split.
+    info : dict
+        The rule's report (``window_rule``, ``window_target_N``,
+        ``lowest_significant_frequency``).
     """
     w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
     longest = max(r.duration for r in records)
@@ -95,9 +123,37 @@ def default_window(
 def window_rule(
     w_low: float, longest: float, n_per_band: float, q: int, p_max: int
 ) -> tuple[float | None, dict[str, Any]]:
-    """:func:`default_window` from its ingredients: the lowest significant output
-    frequency ``w_low`` (rad/s), the longest record (s), ``n_per_band``, ``q`` and
-    ``p_max`` (a record read in chunks has no in-memory records to pass)."""
+    """:func:`default_window` from its ingredients (a record read in chunks has no in-memory
+    records to pass).
+
+    Parameters
+    ----------
+    w_low : float
+        The lowest significant output frequency (rad/s); 0 means none.
+    longest : float
+        Length of the longest record (s).
+    n_per_band : float
+        Basis functions per second of window.
+    q : int
+        Pseudo-input rows per window.
+    p_max : int
+        Largest default past window.
+
+    Returns
+    -------
+    length : float or None
+        The window (s), or None when the longest record is shorter than twice it.
+    info : dict
+        The rule's report.
+
+    Examples
+    --------
+    >>> length, info = window_rule(0.5, 1000.0, 10.0, 2, 4)
+    >>> round(length, 2), info["window_target_N"]  # 10 periods of 0.5 rad/s
+    (125.66, 200)
+    >>> print(window_rule(0.5, 100.0, 10.0, 2, 4)[0])  # too short to split
+    None
+    """
     n_w = int(np.ceil((p_max + 1) * q / NUISANCE_SHARE))
     t_n = n_w / n_per_band
     t_dyn = WINDOW_PERIODS * 2.0 * np.pi / w_low if w_low > 0 else np.inf
@@ -120,8 +176,38 @@ def make_segments(
 ) -> tuple[list[Record], dict[str, Any]]:
     """Split the records into windows per the ``window`` option.
 
-    ``window``: None (no split), ``"auto"`` (``rule()`` gives the length) or a positive
-    number of seconds.  Returns the segments and the options to report.
+    Parameters
+    ----------
+    records : sequence of Record
+        The records.
+    window : float, "auto" or None
+        None (no split), ``"auto"`` (``rule()`` gives the length) or a positive number of
+        seconds (validated by :func:`~hdpbsid.bases.settings.check_window`).
+    rule : callable
+        ``rule() -> (length or None, info)``, the default window.
+
+    Returns
+    -------
+    segments : list of Record
+        The records, those at least twice the window long split into windows.
+    info : dict
+        The options to report (window, its rule, record and segment counts).
+
+    Raises
+    ------
+    ValueError
+        If ``window`` is not None, ``"auto"`` or a positive number (from
+        :func:`~hdpbsid.bases.settings.check_window`).
+    TypeError
+        If ``window`` is of another type.
+
+    Examples
+    --------
+    >>> from hdpbsid.data.records import Record
+    >>> t = np.arange(0.0, 10.0, 0.1)
+    >>> segs, info = make_segments([Record(t, np.zeros((100, 1)), np.zeros((100, 1)))], 2.0, None)
+    >>> [s.ns for s in segs], info["n_segments"]
+    ([26, 26, 25, 26], 4)
     """
     info: dict[str, Any] = {}
     window = check_window(window)
@@ -146,8 +232,29 @@ def make_segments(
 
 
 def shared_keys(segs: Sequence[Record]) -> list[int]:
-    """One key per segment, equal for segments with identical relative time axes (they
-    can share a basis, a lag, pseudo-input rows and a projection map)."""
+    """One key per segment, equal for segments with identical relative time axes.
+
+    Such segments can share a basis, a lag, pseudo-input rows and a projection map.
+
+    Parameters
+    ----------
+    segs : sequence of Record
+        The segments.
+
+    Returns
+    -------
+    list of int
+        ``keys[i]``: the index of the first segment with the same time axis as segment
+        ``i``.
+
+    Examples
+    --------
+    >>> from hdpbsid.data.records import Record
+    >>> t = np.arange(0.0, 10.0, 0.1)
+    >>> segs, _ = make_segments([Record(t, np.zeros((100, 1)), np.zeros((100, 1)))], 2.0, None)
+    >>> shared_keys(segs)  # the 25-sample window has its own axis
+    [0, 0, 2, 0]
+    """
     reps: list[int] = []
     keys = []
     for i, s in enumerate(segs):
@@ -214,15 +321,36 @@ def project_blocks(
     y_extra: Array | None = None,
     n_jobs: int | None = None,
 ) -> tuple[list[Array], Array, list[Array]]:
-    """Project every segment on its basis; returns ``([U per hold], Y, extra rows)`` with
-    the segments' columns side by side, and the projection of ``y_extra`` (a function
-    of the relative time, e.g. ``1``) per segment.
+    """Project every segment on its basis, the segments' columns side by side.
 
-    Segments with the same basis object and time axis (windows of equal sample count on
-    a uniform grid) share the projection map (:func:`_maps`, identical to
-    :func:`~hdpbsid.bases.basis_domain.project_record` up to summation order), applied
-    to all of them by one matrix product; others are projected one by one, in parallel
-    with ``joblib`` when ``n_jobs`` is given.
+    Segments with the same basis object and time axis (windows of equal sample count on a
+    uniform grid) share the projection map (identical to
+    :func:`~hdpbsid.bases.basis_domain.project_record` up to summation order), applied to
+    all of them by one matrix product; others are projected one by one, in parallel with
+    ``joblib`` when ``n_jobs`` is given.
+
+    Parameters
+    ----------
+    bases : sequence of Basis
+        The basis of every segment.
+    segs : sequence of Record
+        The segments.
+    holds : tuple of str
+        The input holds to project.
+    y_extra : callable, optional
+        A function of the relative time (e.g. the constant 1) projected like an output,
+        per segment.
+    n_jobs : int, optional
+        joblib workers for the segments projected one by one.
+
+    Returns
+    -------
+    Us : list of ndarray, shape (m, sum N_b)
+        The input rows per hold.
+    Y : ndarray, shape (l, sum N_b)
+        The output rows.
+    extra : list of ndarray or None
+        The projection of ``y_extra`` per segment (None entries without it).
     """
     m, l = segs[0].u.shape[1], segs[0].y.shape[1]
     groups: dict[int, list[int]] = {}

@@ -39,7 +39,32 @@ INPUT_HOLDS = ("auto", "zoh", "foh", "trapezoid")
 
 
 def check_window(window: Any) -> float | str | None:
-    """``window``: None (records kept whole), ``"auto"`` or a positive length in seconds."""
+    """Validate the ``window`` setting.
+
+    Parameters
+    ----------
+    window : float, "auto" or None
+        None (records kept whole), ``"auto"`` (length from the band) or a positive length
+        in seconds.
+
+    Returns
+    -------
+    float, "auto" or None
+        The setting, a number as ``float``.
+
+    Raises
+    ------
+    ValueError
+        If ``window`` is a string other than ``"auto"`` or a number that is not positive
+        and finite.
+    TypeError
+        If ``window`` is neither None, a string nor a number (a bool is refused).
+
+    Examples
+    --------
+    >>> check_window(5), check_window("auto"), check_window(None)
+    (5.0, 'auto', None)
+    """
     if window is None:
         return None
     if isinstance(window, str):
@@ -93,7 +118,8 @@ class BasisSettings:
     feedthrough : bool
         Estimate ``D`` (CT-PBSID always estimates its Laguerre-domain ``Dd``).
     stable_k : bool
-        Project the predictor eigenvalues into the stable region.
+        Replace the least-squares predictor gain by the Kalman (Riccati) gain, which makes
+        the predictor ``A - K C`` stable.
     normalize : bool
         Scale the input and output rows to unit RMS before the regression.
     input_hold : str
@@ -104,6 +130,20 @@ class BasisSettings:
         Window length (s) for long records, ``"auto"`` from the band, ``None`` whole.
     n_jobs : int or None
         joblib workers for projecting windows (None: serial).
+
+    Raises
+    ------
+    ValueError
+        If a window, order bound or ``n_jobs`` is out of range, ``regularize`` or
+        ``input_hold`` is not one of the values above.
+    TypeError
+        If a flag is not a bool, or a setting is of the wrong type.
+
+    Examples
+    --------
+    >>> s = BasisSettings(p=3, input_hold="zoh")
+    >>> s.core_options(order=2)["p"], s.window
+    (3, 'auto')
     """
 
     p: int | None = None
@@ -140,7 +180,19 @@ class BasisSettings:
         put("n_jobs", _check_n_jobs(self.n_jobs))
 
     def core_options(self, order: int | None) -> dict[str, Any]:
-        """The keywords of :func:`hdpbsid.bases.basis_domain.run_core`."""
+        """The keywords of :func:`hdpbsid.bases.basis_domain.run_core`.
+
+        Parameters
+        ----------
+        order : int or None
+            The model order (None: selected).
+
+        Returns
+        -------
+        dict
+            ``order``, ``p``, ``f``, ``max_order``, ``regularize``, ``feedthrough``,
+            ``stable_k``, ``normalize``.
+        """
         return {
             "order": order,
             "p": self.p,
@@ -160,9 +212,35 @@ SETTING_NAMES = tuple(f.name for f in fields(BasisSettings))
 def resolve_settings(
     settings: BasisSettings | None, overrides: Mapping[str, Any], method: str
 ) -> BasisSettings:
-    """``settings`` (default :class:`BasisSettings()`) with the keyword ``overrides``
-    applied, validated once; an unknown keyword raises ``TypeError`` naming the method's
-    valid ones."""
+    """``settings`` with the keyword ``overrides`` applied, validated once.
+
+    Parameters
+    ----------
+    settings : BasisSettings or None
+        The settings object (None: the defaults).
+    overrides : mapping of str to object
+        Keyword arguments naming fields of :class:`BasisSettings`.
+    method : str
+        The method's name, for the error message.
+
+    Returns
+    -------
+    BasisSettings
+        The settings (a new object when there are overrides).
+
+    Raises
+    ------
+    TypeError
+        If ``settings`` is not a :class:`BasisSettings`, or an override names no setting
+        (the message lists the valid ones).
+    ValueError
+        If an override's value is invalid (from :class:`BasisSettings`).
+
+    Examples
+    --------
+    >>> resolve_settings(BasisSettings(p=3), {"f": 2}, "hermite").f
+    2
+    """
     if settings is None:
         settings = BasisSettings()
     elif not isinstance(settings, BasisSettings):

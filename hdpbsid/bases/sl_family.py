@@ -132,10 +132,46 @@ def _integration(basis: Any, t0: float, K: int | None = None) -> tuple[Any, str]
 
 
 def integration_matrix(basis: Any, t0: float, K: int | None = None) -> tuple[Array, str]:
-    """The ``N x N`` causal integration matrix ``G`` (column ``j`` = ``int_{t0} phi_j``
-    projected on ``phi_0..phi_{N-1}``) and how it was computed: in closed form for
-    Legendre functions, else from the exact derivative matrix when the derivatives stay
-    in the span, else by quadrature with ``K`` points (default ``20 N``)."""
+    """The ``N x N`` causal integration matrix of a basis and how it was computed.
+
+    Column ``j`` holds the coefficients of ``int_{t0}^t phi_j`` on ``phi_0..phi_{N-1}``.
+    For Legendre functions it is in closed form (``int P_n = (P_{n+1} - P_{n-1}) / (2n +
+    1)``, tridiagonal); else it comes from the exact derivative matrix on ``N + 1``
+    functions when the derivatives stay in the span (polynomial families: a triangular
+    system); else by quadrature in ``x = -cos(theta)`` with ``K`` points, which tames the
+    power singularities of the weight at the interval ends.
+
+    Parameters
+    ----------
+    basis : Basis
+        A basis on a finite interval.
+    t0 : float
+        The lower limit of the integrals (s), inside the basis window.
+    K : int, optional
+        Quadrature points of the last resort (default ``20 N``).
+
+    Returns
+    -------
+    G : ndarray, shape (N, N)
+        The matrix.
+    how : str
+        Which of the three ways computed it.
+
+    References
+    ----------
+    .. [1] M. Abramowitz and I. A. Stegun, *Handbook of Mathematical Functions*, Dover,
+       1965, eq. 22.8.8.
+
+    Examples
+    --------
+    ``int_0^t phi_0 = t / sqrt(2)`` on ``[0, 2]``, whose coefficients are ``1`` and
+    ``1 / sqrt(3)``:
+
+    >>> import slbasis
+    >>> G, how = integration_matrix(slbasis.basis("legendre", 6, (0.0, 2.0)), 0.0)
+    >>> np.round(G[:, 0], 6)
+    array([1.     , 0.57735, 0.     , 0.     , 0.     , 0.     ])
+    """
     G, how = _integration(basis, t0, K)
     return (G.toarray() if sp.issparse(G) else np.array(G)), how
 
@@ -220,8 +256,9 @@ class SturmLiouvilleFamily(IntegratorFamily):
 
     * size: ``N = 1.5 omega_b T / 2`` (degree-``N`` functions resolve ``2 N / T`` rad/s on
       a window of ``T`` s); a given ``N`` must resolve the data band;
-    * lag: ``W -> W M`` with ``M = alpha gamma J (I + alpha beta J)^{-1}``, ``J`` the
-      causal integration matrix (:func:`integration_matrix`);
+    * lag: ``W -> W M`` with ``M = alpha gamma J (I + alpha beta J)^{-1}``, ``J`` the causal
+      integration matrix (:func:`integration_matrix`): the causal filter ``alpha gamma / (s +
+      alpha beta)`` in the basis, a contraction;
     * pseudo-inputs: ``w J = e_{N-1}`` (truncation) and, with ``boundary``, ``w J = 1``
       (the initial state; ``needs_ones``).
 
@@ -233,6 +270,21 @@ class SturmLiouvilleFamily(IntegratorFamily):
         A catalogue name with a finite interval or a problem.
     params : dict
         The family's parameters.
+
+    References
+    ----------
+    .. [1] A. Zettl, *Sturm-Liouville Theory*, Mathematical Surveys and Monographs 121,
+       AMS, 2005.
+
+    Examples
+    --------
+    >>> fam = SturmLiouvilleFamily("legendre")
+    >>> basis = fam.basis(50, 10.0)
+    >>> fam.padding(basis), fam.method
+    (0.0, 'legendre')
+    >>> fam.pseudo_rows(basis, Integrator(1.0), True, basis.project(
+    ...     np.linspace(0.0, 10.0, 101), np.ones((101, 1))).ravel()).shape
+    (2, 50)
     """
 
     family: Any = "legendre"
@@ -248,15 +300,54 @@ class SturmLiouvilleFamily(IntegratorFamily):
         return f"{self.family}"
 
     def size_rate(self, wb: float) -> float:
-        """``1.5 wb / 2`` functions per second."""
+        """``1.5 wb / 2`` functions per second.
+
+        Parameters
+        ----------
+        wb : float
+            Data bandwidth (rad/s).
+
+        Returns
+        -------
+        float
+            Functions per second of window.
+        """
         return BAND_MARGIN * wb / 2
 
     def wanted_size(self, T: float, wb: float) -> float:
-        """``1.5 wb T / 2``."""
+        """``1.5 wb T / 2``, before clipping.
+
+        Parameters
+        ----------
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s).
+
+        Returns
+        -------
+        float
+            The size the rule wants.
+        """
         return BAND_MARGIN * wb * T / 2
 
     def too_narrow(self, N: int, T: float, wb: float) -> str | None:
-        """Why ``N`` functions on ``T`` s do not resolve ``wb`` (``2 N / T < wb``)."""
+        """Why ``N`` functions on ``T`` s do not resolve ``wb`` (``2 N / T < wb``), or None.
+
+        Parameters
+        ----------
+        N : int
+            Basis size.
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s).
+
+        Returns
+        -------
+        str or None
+            The message (with the ``N`` needed), or None.
+        """
         if 2 * N / T >= wb:
             return None
         return (
@@ -266,7 +357,27 @@ class SturmLiouvilleFamily(IntegratorFamily):
         )
 
     def basis(self, N: int, T: float) -> Any:
-        """The basis on ``[0, T]``, padded when the functions are singular at the ends."""
+        """The basis on ``[0, T]``, padded when the functions are singular at the ends.
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+        T : float
+            Window length (s).
+
+        Returns
+        -------
+        Basis
+            The basis (shared between calls).
+
+        Raises
+        ------
+        TypeError
+            If the family or its parameters are not accepted by :func:`slbasis.basis`.
+        ValueError
+            If the family lives on an infinite interval (use the Hermite or Laguerre method).
+        """
         span = (0.0, T)
         try:
             basis = shared_basis(self.family, N, span, **self.params)
@@ -286,11 +397,48 @@ class SturmLiouvilleFamily(IntegratorFamily):
         return basis
 
     def lag(self, basis: Any, operator: Integrator) -> SolveLag:
-        """The integrator lag of ``basis`` at ``operator`` (:func:`_integrator_lag`)."""
+        """The integrator lag of ``basis`` at ``operator``.
+
+        Parameters
+        ----------
+        basis : Basis
+            A basis of :meth:`basis`.
+        operator : Integrator
+            The operator scale.
+
+        Returns
+        -------
+        SolveLag
+            ``W -> W M``, ``M = alpha gamma J (I + alpha beta J)^{-1}``: banded solves for the
+            tridiagonal Legendre ``J``, one LU factorisation otherwise (memoised by the basis).
+        """
         return _integrator_lag(basis, 0.0, operator.alpha, operator.beta, operator.gamma)[0]
 
     def pseudo_rows(self, basis: Any, operator: Integrator, boundary: bool, ones: Any) -> Array:
-        """``w J = e_{N-1}`` (truncation) and, with ``boundary``, ``w J = 1`` (``ones``)."""
+        """The rows ``w`` with ``w J = e_{N-1}`` (truncation) and, with ``boundary``, ``w J = 1``.
+
+        Integrating the state equation from the window start, ``x(t) = x(t0) + int (A x + B
+        u)``: the unknown initial state multiplies the coefficients of 1, and the integral of
+        the last function leaves the span of the ``N`` functions (the truncation, on the last
+        coefficient); both are known rows with unknown factors, moved to the lag's side by
+        ``J^{-1}``.
+
+        Parameters
+        ----------
+        basis : Basis
+            The block's basis.
+        operator : Integrator
+            The operator scale (the rows do not depend on it, the solve object does).
+        boundary : bool
+            Include the initial-state row.
+        ones : ndarray, shape (N,)
+            Coefficients of the constant 1 on the block.
+
+        Returns
+        -------
+        ndarray, shape (1 or 2, N)
+            The rows.
+        """
         a = operator
         jinv = _integrator_lag(basis, 0.0, a.alpha, a.beta, a.gamma)[1]
         last = np.zeros(basis.N)
@@ -301,7 +449,18 @@ class SturmLiouvilleFamily(IntegratorFamily):
         return np.array(r)
 
     def integration(self, basis: Any) -> str:
-        """How the integration matrix of ``basis`` is computed (:func:`integration_matrix`)."""
+        """How the integration matrix of ``basis`` is computed (:func:`integration_matrix`).
+
+        Parameters
+        ----------
+        basis : Basis
+            A basis of :meth:`basis`.
+
+        Returns
+        -------
+        str
+            The method's description.
+        """
         return _integration(basis, 0.0)[1]
 
     @property
@@ -316,5 +475,16 @@ class SturmLiouvilleFamily(IntegratorFamily):
 
     @staticmethod
     def padding(basis: Any) -> float:
-        """The padding (s) of the basis window before the record."""
+        """The padding (s) of the basis window before the record.
+
+        Parameters
+        ----------
+        basis : Basis
+            A basis of :meth:`basis`.
+
+        Returns
+        -------
+        float
+            0 for functions regular at the ends, ``PAD * T`` otherwise.
+        """
         return 0.0 - float(basis.t_span[0])

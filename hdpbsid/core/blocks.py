@@ -41,9 +41,9 @@ the singular values of ``S_b``): the compressed problem gains the ``r_b`` column
 ``diag(lam / sqrt(s^2 + lam^2)) Q_b^T T_b`` per block and is again an ordinary ridge
 problem in ``Theta``, and ``Gamma_b = (T_b - Theta R_b) S_b^T (S_b S_b^T + lam^2)^{-1}``.
 ``lam`` is chosen by GCV on the unpenalised-nuisance problem and then used for both.
-The penalty matters: with the nuisance left free, Laguerre projections of a chirp at
-20 dB broke down (eigenvalue error 1.8e4 %; 0.15 % with it, as with the pseudo-inputs
-appended to the inputs).  The nuisance coefficients are needed for the state
+The penalty matters: it makes the elimination the same estimator as the pseudo-inputs
+appended to the inputs, and with the nuisance left free the noisy Laguerre projection
+of a chirp broke down.  The nuisance coefficients are needed for the state
 (``Gamma_f L_p Z_p`` includes the pseudo-inputs' columns of ``Gamma_f L_p``) and for the
 Riccati residuals.  ``H_b`` is never formed: ``r_b`` Householder reflectors of ``Q_b``
 map a block to ``[Q_b, H_b]^T`` coordinates, and the last ``N_b - r_b`` are kept.
@@ -102,12 +102,49 @@ PSEUDO_ROW_FLOOR = 1e-8
 
 
 class BlockLag(CachedPowers):
-    """Block-diagonal lag: ``apply(W, j)`` lags the columns of each block with its own
-    :class:`~hdpbsid.core.varx.LagOperator`; nothing crosses a block edge.
+    """Block-diagonal lag: each block of columns is lagged by its own operator.
 
-    ``lags[b]`` acts on ``sizes[b]`` consecutive columns.  Blocks with the same lag
-    object and size form a group that is lagged in one call (columns reshaped to rows).
-    Powers of the last argument are cached (``past_blocks`` costs ``p`` applications).
+    Several records (or windows of one record) stacked side by side must not be lagged
+    across their edges: the sample before a record's first one is not the last sample of
+    the previous record.  ``apply(W, j)`` therefore lags the columns of block ``b`` with
+    ``lags[b]`` only.  Blocks with the same lag object and size form a group that is
+    lagged in one call (columns reshaped to rows).  Powers of the last argument are cached
+    (:class:`~hdpbsid.core.varx.CachedPowers`).
+
+    Parameters
+    ----------
+    lags : sequence of LagOperator
+        One lag operator per block.
+    sizes : sequence of int
+        The number of consecutive columns of each block.
+
+    Attributes
+    ----------
+    lags : list of LagOperator
+        The block lags.
+    sizes : list of int
+        The block sizes.
+    offsets : ndarray of int
+        The first column of each block, and the total at the end.
+    ncols : int
+        The total number of columns.
+    groups : list of tuple
+        ``(lag, size, blocks, columns)`` of the blocks lagged together.
+
+    Raises
+    ------
+    ValueError
+        If ``lags`` and ``sizes`` are empty or of different lengths.
+
+    Examples
+    --------
+    >>> from hdpbsid.core.varx import SampleShift
+    >>> shift = SampleShift()
+    >>> lag = BlockLag([shift, shift], [3, 3])
+    >>> lag.apply(np.arange(6.0)[None], 1)
+    array([[0., 0., 1., 0., 3., 4.]])
+    >>> lag.valid_columns(np.ones(6, dtype=bool), 1)
+    array([False,  True,  True, False,  True,  True])
     """
 
     def __init__(self, lags: Sequence[LagOperator], sizes: Sequence[int]) -> None:
@@ -128,7 +165,18 @@ class BlockLag(CachedPowers):
         self.pseudo_stores: OrderedDict[tuple[int, ...], _PseudoStore] = OrderedDict()
 
     def columns(self, blocks: Sequence[int]) -> NDArray[np.intp]:
-        """``(len(blocks), N)`` column indices of blocks of equal size ``N``."""
+        """Column indices of blocks of equal size.
+
+        Parameters
+        ----------
+        blocks : sequence of int
+            Block indices, all of one size ``N``.
+
+        Returns
+        -------
+        ndarray of int, shape (len(blocks), N)
+            Row ``i`` holds the columns of block ``blocks[i]``.
+        """
         return np.array(
             [np.arange(self.offsets[b], self.offsets[b + 1]) for b in blocks], dtype=np.intp
         )
@@ -144,8 +192,14 @@ class BlockLag(CachedPowers):
         return out
 
     def cache_key(self) -> tuple | None:
-        """Exact key of the operator for memoisation: the block sizes and every block
-        lag's ``cache_key()``; None when a block lag has none."""
+        """Exact key of the operator for memoisation.
+
+        Returns
+        -------
+        tuple or None
+            The block sizes and every block lag's ``cache_key()``; ``None`` when a block lag
+            has none (the operator then cannot be memoised).
+        """
         keys = []
         for lag in self.lags:
             k = getattr(lag, "cache_key", None)
@@ -156,6 +210,20 @@ class BlockLag(CachedPowers):
         return (tuple(self.sizes), tuple(keys))
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
+        """Which columns of ``apply(., j)`` the known columns determine, block by block.
+
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (ncols,)
+            The known input columns.
+        j : int
+            Number of lags.
+
+        Returns
+        -------
+        ndarray of bool, shape (ncols,)
+            Each block's ``valid_columns`` of its own part of ``valid``.
+        """
         out = np.empty_like(valid)
         for b, lag in enumerate(self.lags):
             sl = slice(self.offsets[b], self.offsets[b + 1])
@@ -168,20 +236,40 @@ class BlockLag(CachedPowers):
 
 
 class BlockPseudo:
-    """Pseudo-input rows per block (``rows[b]``: ``q_b x N_b``, unknown factors per block).
+    """Pseudo-input rows per block, whose coefficients are unknown and differ per block.
 
+    In a basis domain each block carries known rows ``P_b`` (``q_b x N_b``: boundary terms
+    of the projected derivative, whose factors are the state at the block's edges).
     Rows are normalised to unit RMS after dropping those below :data:`PSEUDO_ROW_FLOOR`
-    of the block's largest.  Blocks sharing the rows object (and lag object and size)
-    are grouped like in :class:`BlockLag`.
+    of the block's largest (a row that small carries no term, and normalising it would
+    inject rounding).  Blocks sharing the rows object (and lag object and size) are grouped
+    as in :class:`BlockLag`.
 
     The work that depends only on the lag and the rows -- the normalised rows, their lag
     powers, the Householder factorisations of their row spaces and the finished
-    :class:`Eliminator` objects -- is kept in a store on the :class:`BlockLag`, keyed by
-    the identities of the row arrays and checked against their contents, so every
-    ``BlockPseudo`` built on the same lag and rows shares it: the core runs of one basis
-    and operator scale that differ only in the input projection (the two input holds)
-    eliminate the same nuisance rows, and the past-window search and the VARX of the
-    chosen window eliminate the same rows for the same window.
+    eliminators -- is kept in a store on the :class:`BlockLag`, keyed by the identities of
+    the row arrays and checked against their contents, so every ``BlockPseudo`` built on
+    the same lag and rows shares it (e.g. core runs that differ only in the input hold).
+
+    Parameters
+    ----------
+    lag : BlockLag
+        The block lag the rows belong to.
+    rows : sequence of array_like
+        ``rows[b]`` of shape ``(q_b, sizes[b])``, one entry per block.
+
+    Attributes
+    ----------
+    lag : BlockLag
+        The block lag.
+    groups : list of tuple
+        ``(lag, size, blocks, columns, normalised rows)`` per group.
+
+    Raises
+    ------
+    ValueError
+        If ``rows`` does not have one entry per block or an entry has the wrong number of
+        columns.
     """
 
     def __init__(self, lag: BlockLag, rows: Sequence[Array]) -> None:
@@ -214,8 +302,20 @@ class BlockPseudo:
         self._store = store
 
     def lagged(self, g: int, js: Sequence[int]) -> Array:
-        """``[lag^j P for j in js]`` stacked for group ``g`` (``lag^0`` = identity); the
-        powers are computed once per object."""
+        """The rows of group ``g`` lagged by each ``j`` in ``js``, stacked.
+
+        Parameters
+        ----------
+        g : int
+            Group index (into :attr:`groups`).
+        js : sequence of int
+            The lags (``0`` is the identity), in the order stacked.
+
+        Returns
+        -------
+        ndarray, shape (q len(js), N)
+            ``[lag^j P for j in js]``; the powers are computed once per object.
+        """
         lag, *_, P = self.groups[g]
         if P.shape[0] == 0:
             return np.zeros((0, P.shape[1]))
@@ -225,23 +325,36 @@ class BlockPseudo:
         return np.vstack([powers[j] for j in js])
 
     def row_space(self, g: int, js: Sequence[int], mk: Mask, S: Array) -> tuple:
-        """:func:`_row_space` of ``S`` = group ``g``'s rows lagged by ``js`` on the columns
-        ``mk``, as ``(basis, s, Vt, refl, tau)`` with ``basis()`` computing ``Q``.
+        """An orthonormal basis of the row space of ``S`` (group ``g``'s rows lagged by ``js``
+        on the columns ``mk``), by a nested Householder QR.
 
-        Nested factorisation: when ``js`` is a run of consecutive lags ``lo..hi`` (in any
-        order), the rows are factored by *increasing* lag, one lag at a time, and the
-        factorisation is kept per ``(g, mk, lo)``: lag ``j``'s rows are mapped by the
-        reflectors of the lags before it (``Q^T``, LAPACK ormqr) and the part below the
-        rows already eliminated is factored by Householder QR.  This is the blocked
-        Householder QR of the whole stack (Golub & Van Loan, *Matrix Computations*, 4th
-        ed., sec. 5.2.3), and its leading ``r`` reflectors and ``r x r`` block of ``R``
-        are those of the leading ``r`` columns alone: the past windows ``p = 1..p_max``
-        share one factorisation, extended lag by lag, and a window's factors are computed
-        by the same operations whatever was asked for before (results do not depend on
-        the order of calls).  The span does not depend on the order of the rows; the
-        right singular vectors are returned in the order of ``js``
-        (``S_js^T = Q diag(s) Vt[:, perm]``).  Rank-deficient rows, or other sets of lags,
-        are factored directly (:func:`_row_space`).
+        When ``js`` is a run of consecutive lags ``lo..hi`` (in any order), the rows are factored
+        by increasing lag, one lag at a time, and the factorisation is kept per ``(g, mk,
+        lo)``: lag ``j``'s rows are mapped by the reflectors of the lags before it and the part
+        below the rows already eliminated is factored.  This is the blocked Householder QR of
+        the whole stack (Golub & Van Loan, *Matrix Computations*, 4th ed., sec. 5.2.3), and its
+        leading ``r`` reflectors and ``r x r`` block of ``R`` are those of the leading ``r``
+        columns alone: the past windows ``p = 1..p_max`` share one factorisation, and a
+        window's factors do not depend on what was asked for before.  Rank-deficient rows, or
+        other sets of lags, are factored directly.
+
+        Parameters
+        ----------
+        g : int
+            Group index.
+        js : sequence of int
+            The lags of the rows of ``S``, in their order.
+        mk : ndarray of bool, shape (N,)
+            The columns used.
+        S : ndarray, shape (q len(js), mk.sum())
+            The lagged rows on those columns.
+
+        Returns
+        -------
+        tuple
+            ``(basis, s, Vt, refl, tau)``: ``basis()`` computes ``Q`` (``N_used x r``), ``s``
+            the singular values of ``S``, ``Vt`` its right singular vectors in the order of
+            ``js`` (``S^T = Q diag(s) Vt``), ``refl, tau`` the Householder reflectors.
         """
         P = self.groups[g][4]
         q, r, Nv = P.shape[0], S.shape[0], S.shape[1]
@@ -282,8 +395,21 @@ class BlockPseudo:
         return basis, s, Vt_asc[:, perm], refl, tau
 
     def eliminator(self, js: Sequence[int], mask: Mask) -> Eliminator:
-        """:class:`Eliminator` ``(self, js, mask)``, built once per lag, rows, ``js`` and
-        ``mask`` (an eliminator is not modified after construction)."""
+        """The eliminator of the rows lagged by ``js`` on the columns ``mask``, built once.
+
+        Parameters
+        ----------
+        js : sequence of int
+            The lags of the nuisance rows.
+        mask : ndarray of bool, shape (ncols,)
+            The global columns used.
+
+        Returns
+        -------
+        Eliminator
+            Shared by every call with the same lag, rows, ``js`` and ``mask`` (an eliminator
+            is not modified after construction).
+        """
         key = (tuple(int(j) for j in js), mask.tobytes())
         elim = self._store.eliminators.get(key)
         if elim is None:
@@ -571,11 +697,50 @@ def select_past_window_blocks(
     """AIC of the VARX fit for ``p = p_min..p_max`` with the pseudo-inputs eliminated.
 
     As :func:`hdpbsid.core.varx.select_past_window` (``AIC = N log det Sigma_p + 2 l d_p``
-    on unit-RMS outputs, ``Sigma_p`` floored at ``rel_floor``, all ``p`` on the columns
-    valid for ``p_max``), with ``d_p`` counting the nuisance coefficients too (their
-    number, the rank eliminated, grows with ``p``).  Each ``p`` is one compressed fit,
-    or, for one block whose nuisance rows have full rank, all ``p`` come from one QR
-    (:func:`_nested_window_residuals`).
+    on unit-RMS outputs, ``Sigma_p`` floored at ``rel_floor``, every ``p`` on the columns
+    valid for ``p_max``), with ``d_p`` counting the nuisance coefficients too: their number,
+    the rank eliminated, grows with ``p``, and they are fitted like the others.  Each ``p``
+    is one compressed fit, or, for one block whose nuisance rows have full rank, all ``p``
+    come from one QR.
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs of all blocks side by side.
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p_max : int
+        Largest window.
+    p_min : int
+        Smallest window.
+    lag : LagOperator
+        The (block) lag.
+    pseudo : BlockPseudo or None
+        Pseudo-input rows per block.
+    feedthrough : bool, optional
+        Include ``D u_k``.
+    rel_floor : float, optional
+        Floor of the scaled residual covariance (noise-free records choose the smallest
+        exact window).
+
+    Returns
+    -------
+    p : int
+        The window of the smallest criterion.
+    crit : ndarray, shape (p_max,)
+        The criterion, ``inf`` where not evaluated.
+
+    Raises
+    ------
+    ValueError
+        If no window in ``[p_min, p_max]`` leaves enough columns for the VARX.
+
+    References
+    ----------
+    .. [1] H. Akaike, "A new look at the statistical model identification", *IEEE Trans.
+       Automatic Control* 19(6), 716-723, 1974.
+    .. [2] R. Davidson and J. G. MacKinnon, *Econometric Theory and Methods*, Oxford
+       University Press, 2004, sec. 2.4 (the Frisch-Waugh-Lovell theorem).
     """
     m, l = U.shape[0], Y.shape[0]
     Z = np.vstack([U, Y])
@@ -619,18 +784,53 @@ def select_past_window_blocks(
 
 
 def window_aic(res: Array, N: int, coefficients: int, rel_floor: float) -> float:
-    """``AIC = N log det Sigma + 2 l d`` of a VARX whose residual covariance is
-    ``Sigma = res^T res / N`` (``res``: the ``(., l)`` residual block of an R factor, on
-    unit-RMS outputs, floored at ``rel_floor``) and which has ``d = coefficients``
-    coefficients per output (the nuisance ones included)."""
+    """Akaike's criterion of a VARX from the residual block of an R factor.
+
+    Parameters
+    ----------
+    res : ndarray, shape (k, l)
+        The residual rows of the R factor (unit-RMS outputs).
+    N : int
+        Number of columns of the regression.
+    coefficients : int
+        Coefficients per output, nuisance ones included.
+    rel_floor : float
+        Added to the diagonal of ``Sigma``.
+
+    Returns
+    -------
+    float
+        ``N log det Sigma + 2 l d`` with ``Sigma = res^T res / N + rel_floor I``.
+    """
     l = res.shape[1]
     sigma = res.T @ res / N + rel_floor * np.eye(l)
     return float(N * np.linalg.slogdet(sigma)[1] + 2.0 * l * coefficients)
 
 
 def best_window(crit: Array, p_min: int, p_max: int, N: int) -> int:
-    """The past window ``p`` of the smallest criterion ``crit[p - 1]``; ``ValueError`` when
-    no window in ``[p_min, p_max]`` could be fitted."""
+    """The past window ``p`` of the smallest criterion ``crit[p - 1]``.
+
+    Parameters
+    ----------
+    crit : ndarray, shape (p_max,)
+        Criterion values, ``inf`` where not fitted.
+    p_min : int
+        Smallest window (for the message).
+    p_max : int
+        Largest window (for the message).
+    N : int
+        Number of columns (for the message).
+
+    Returns
+    -------
+    int
+        The window.
+
+    Raises
+    ------
+    ValueError
+        If no window could be fitted (too few columns).
+    """
     if not np.isfinite(crit).any():
         raise ValueError(
             f"p in [{p_min}, {p_max}]: too few columns ({N}) for the VARX with the "
@@ -718,11 +918,38 @@ def _gamma_l_rows(coef: Array, p: int, f: int, d: int, l: int) -> Array:
 
 @dataclass
 class VarxStage:
-    """The order-independent part of :func:`pbsid_core_blocks`: the VARX fit, the
-    singular value decomposition ``Gamma_f L_p Z_p = Uu diag(s) Vt`` and the eliminator
-    and lagged inputs of the ``A, B, K`` step.  Every order of one ``(data, lag, p, f)``
-    truncates the same decomposition (the state is ``diag(s_1..n)^{1/2} Vt_{1..n}``), so
-    a sweep over orders computes it once (:func:`varx_stage_blocks`)."""
+    """The order-independent part of :func:`pbsid_core_blocks`.
+
+    The VARX fit, the SVD ``Gamma_f L_p Z_p = Uu diag(s) Vt`` and the eliminator and
+    lagged inputs of the ``A, B, K`` step.  Every order of one ``(data, lag, p, f)``
+    truncates the same decomposition (the state is ``diag(s_1..n)^{1/2} Vt_{1..n}``), so a
+    sweep over orders computes it once (:func:`varx_stage_blocks`).
+
+    Attributes
+    ----------
+    cols : ndarray of int
+        The columns on which the VARX is defined.
+    valid : ndarray of bool
+        The same as a mask over all columns.
+    varx : VarxResult
+        The VARX fit.
+    elim : Eliminator
+        The VARX's nuisance eliminator.
+    Uu : ndarray
+        Left singular vectors of ``Gamma_f L_p Z_p``.
+    s : ndarray
+        Its singular values, descending.
+    Vt : ndarray
+        Its right singular vectors.
+    LU : ndarray, shape (m, N)
+        The inputs lagged once.
+    use : ndarray of bool
+        The columns of the ``A, B, K`` regression.
+    e1 : Eliminator
+        The eliminator of the pseudo rows lagged once, on ``use``.
+    extra_iv : dict
+        The IV estimator's record (empty for least squares).
+    """
 
     cols: NDArray[np.intp]
     valid: Mask
@@ -749,9 +976,46 @@ def varx_stage_blocks(
     ridge_floor: float = 0.0,
     instruments: Array | None = None,
 ) -> VarxStage:
-    """Steps 1-2 of :func:`pbsid_core_blocks` (VARX, ``Gamma_f L_p Z_p`` with each
-    block's pseudo-input part, its SVD) and the order-independent regressors of step 3b;
-    the arguments as there (checked by the caller)."""
+    """Steps 1-2 of :func:`pbsid_core_blocks` and the order-independent regressors of step 3.
+
+    The VARX with each block's pseudo-inputs eliminated (ridge-penalised like the main
+    coefficients when ``regularize`` chooses a ridge, so that the penalty treats them as
+    the inputs they stand for), ``Gamma_f L_p Z_p`` with each block's pseudo-input part,
+    and its SVD.
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs of all blocks side by side.
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p : int
+        Past window.
+    lag : LagOperator
+        The (block) lag.
+    pseudo : BlockPseudo, optional
+        Pseudo-input rows per block.
+    f : int, optional
+        Future window (default ``p``).
+    feedthrough : bool, optional
+        Include ``D u_k``.
+    regularize : bool, str, float or None, optional
+        VARX regularisation (:func:`hdpbsid.core.varx.varx`).
+    ridge_floor : float, optional
+        Lower bound of the GCV ridge.
+    instruments : ndarray, shape (k, N), optional
+        Instrument rows (IV VARX).
+
+    Returns
+    -------
+    VarxStage
+        The stage shared by the orders.
+
+    Raises
+    ------
+    ValueError
+        If the compressed problem has no more columns than regressors (reduce ``p``).
+    """
     m, l = U.shape[0], Y.shape[0]
     f = p if f is None else f
     ncols = Y.shape[1]
@@ -846,28 +1110,93 @@ def pbsid_core_blocks(
     instruments: Array | None = None,
     stage: VarxStage | None = None,
 ) -> CoreResult:
-    """:func:`hdpbsid.core.pbsid.pbsid_core` with block-specific pseudo-inputs eliminated.
+    r""":func:`hdpbsid.core.pbsid.pbsid_core` over several blocks with block-specific
+    pseudo-inputs eliminated.
 
-    ``U`` (m x N), ``Y`` (l x N) are the real inputs and outputs of all blocks side by
-    side; ``pseudo`` the pseudo-input rows per block (None: none).  Every least-squares
-    step (VARX, ``C, D``, ``A, B, K``) eliminates the nuisance regressors as in the module
-    docstring, and the state ``Gamma_f L_p Z_p`` adds each block's pseudo-input part.
-    ``B`` of the result has the real inputs only.  With ``pseudo=None`` the steps reduce
-    to those of ``pbsid_core``.
+    Every least-squares step (VARX, ``C, D``, ``A, B, K``) eliminates the nuisance
+    regressors by the Frisch-Waugh-Lovell theorem (module docstring): the compressed problem
+    has the size of the main one, so the regression does not grow with the number of
+    blocks, and the shared coefficients equal those of the naive stacked regression.  The
+    state ``Gamma_f L_p Z_p`` adds each block's pseudo-input part.  ``B`` of the result
+    has the real inputs only.  With ``pseudo=None`` the steps reduce to those of
+    ``pbsid_core``.
 
-    ``instruments`` (``k x N`` rows on the columns of ``U, Y``, uncorrelated with the
-    innovations, e.g. lags of a projected external reference) selects instrumental
-    variables, as in :func:`hdpbsid.core.pbsid.pbsid_core`: the VARX by two-stage least
-    squares (:func:`hdpbsid.core.varx.two_stage_ls`), ``C`` from the first block row of
-    ``Gamma = U_n S_n^{1/2}`` instead of the regression ``Y = C X + E`` (whose regressor
-    ``X`` is built from the same noisy past), ``A, B, K`` by least squares as before
-    (the state recursion ``X = At lag(X) + Bt lag(Z)`` has no noise term).  The
-    pseudo-input rows are deterministic, so they are their own instruments; by the
-    Frisch-Waugh-Lovell theorem for IV (Davidson & MacKinnon, sec. 8.5: partialling
-    exogenous regressors out of the regressors, the targets and the instruments alike
-    leaves the IV estimate unchanged) the instruments are compressed with the same
-    per-block eliminator and 2SLS runs on the compressed problem.  ``feedthrough`` is
-    not supported with instruments (``ValueError``).
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        The real inputs of all blocks side by side.
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p : int
+        Past window.
+    lag : LagOperator
+        The lag, normally a :class:`BlockLag`.
+    pseudo : BlockPseudo, optional
+        Pseudo-input rows per block (None: none).
+    f : int, optional
+        Future window, ``f <= p`` (default ``p``).
+    order : int, optional
+        Model order; ``None`` selects it from the singular values.
+    feedthrough : bool, optional
+        Estimate ``D`` (not with ``instruments``).
+    regularize : bool, str, float or None, optional
+        VARX regularisation (:func:`hdpbsid.core.varx.varx`).
+    ridge_floor : float, optional
+        Lower bound of the GCV ridge.
+    stable_k : bool, optional
+        Replace the least-squares gain by the Riccati gain.
+    max_order : int, optional
+        Largest order the selection considers.
+    instruments : ndarray, shape (k, N), optional
+        Rows uncorrelated with the innovations (e.g. lags of a projected reference): IV as
+        in :func:`~hdpbsid.core.pbsid.pbsid_core` (see Notes).
+    stage : VarxStage, optional
+        Steps 1-2 computed before by :func:`varx_stage_blocks` with the same arguments.
+
+    Returns
+    -------
+    CoreResult
+        The model and what the core computed.
+
+    Raises
+    ------
+    ValueError
+        If ``instruments`` has the wrong shape or comes with ``feedthrough``, if ``f > p``,
+        if ``order > f l``, or if a step has too few columns.
+
+    Notes
+    -----
+    With instruments the VARX is solved by two-stage least squares, ``C`` is the first
+    block row of :math:`\Gamma = U_n S_n^{1/2}` and ``A, B, K`` by least squares (the state
+    recursion has no noise term).  The pseudo-input rows are deterministic, so they are
+    their own instruments; partialling exogenous regressors out of the regressors, the
+    targets and the instruments alike leaves the IV estimate unchanged (Davidson &
+    MacKinnon, sec. 8.5), so the instruments are compressed with the same eliminator.
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007.
+    .. [2] R. Davidson and J. G. MacKinnon, *Econometric Theory and Methods*, Oxford
+       University Press, 2004, sec. 2.4 and 8.5.
+
+    Examples
+    --------
+    Two records of ``y_k = 0.8 y_{k-1} + u_{k-1}``, side by side, never lagged across the
+    edge:
+
+    >>> from hdpbsid.core.varx import SampleShift
+    >>> rng = np.random.default_rng(1)
+    >>> def record(n):
+    ...     u, y = rng.standard_normal((1, n)), np.zeros((1, n))
+    ...     for k in range(1, n):
+    ...         y[0, k] = 0.8 * y[0, k - 1] + u[0, k - 1]
+    ...     return u, y
+    >>> (u1, y1), (u2, y2) = record(150), record(200)
+    >>> lag = BlockLag([SampleShift(), SampleShift()], [150, 200])
+    >>> res = pbsid_core_blocks(np.hstack([u1, u2]), np.hstack([y1, y2]), p=3, lag=lag, order=1)
+    >>> res.A.round(6)
+    array([[0.8]])
     """
     m, l = U.shape[0], Y.shape[0]
     if instruments is not None:

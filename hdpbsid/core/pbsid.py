@@ -43,12 +43,62 @@ Array = NDArray[np.float64]
 
 
 def gamma_l(coef: Array, p: int, f: int, m: int, l: int) -> Array:
-    """Build ``Gamma_f L_p`` (``f l x p (m + l)``) from the VARX coefficients.
+    r"""Build ``Gamma_f L_p`` (``f l x p (m + l)``) from the VARX coefficients.
 
-    ``coef = [Xi_p, ..., Xi_1]``.  Row block ``i`` (``0 <= i < f``) is
-    ``C At^i [At^{p-1} Bt, ..., Bt] ~= [0 (i blocks), Xi_p, ..., Xi_{i+1}]``: the terms
-    ``Xi_j`` with ``j > p`` are negligible (``At^p ~= 0``) and set to zero, so no future
-    data are needed (Chiuso 2007, eq. (21); toolbox ``dordvarx`` with ``weight=0``).
+    Row block ``i`` (``0 <= i < f``) of the product of the extended observability matrix
+    of the predictor and its extended controllability matrix is ``C At^i [At^{p-1} Bt, ...,
+    Bt]``.  Its entries are Markov parameters ``Xi_j = C At^{j-1} Bt`` of the VARX, except
+    the terms with ``j > p``, which are negligible when the past window is long enough for
+    ``At^p ~= 0`` and are set to zero: so no future data are needed (the toolbox's
+    ``dordvarx`` with ``weight=0``).
+
+    Parameters
+    ----------
+    coef : ndarray, shape (l, p (m + l))
+        VARX coefficients in the toolbox layout ``[Xi_p, ..., Xi_1]``
+        (``coef`` of :class:`~hdpbsid.core.varx.VarxResult`).
+    p : int
+        Past window (number of VARX lags).
+    f : int
+        Future window, ``1 <= f <= p``.
+    m : int
+        Number of inputs.
+    l : int
+        Number of outputs.
+
+    Returns
+    -------
+    ndarray, shape (f l, p (m + l))
+        ``Gamma_f L_p``, block upper triangular in the sense above.
+
+    Raises
+    ------
+    ValueError
+        If ``f > p`` (the blocks would need coefficients beyond the past window).
+
+    Notes
+    -----
+    Block ``(i, b)`` (row block ``i < f``, column block ``b < p``) is
+
+    .. math::
+
+        (\Gamma_f L_p)_{ib} \approx \begin{cases} \Xi_{p - b + i} & b \ge i \\
+        0 & b < i \end{cases},
+        \qquad \Xi_j = C \tilde A^{j-1} \tilde B .
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007, eq. (21).
+    .. [2] J.-W. van Wingerden and M. Verhaegen, "Subspace identification of bilinear and
+       LPV systems for open- and closed-loop data", *Automatica* 45(2), 372-381, 2009.
+
+    Examples
+    --------
+    >>> coef = np.arange(6.0).reshape(1, 6)  # l = 1, m = 1, p = 3: [Xi_3, Xi_2, Xi_1]
+    >>> gamma_l(coef, p=3, f=2, m=1, l=1)
+    array([[0., 1., 2., 3., 4., 5.],
+           [0., 0., 0., 1., 2., 3.]])
     """
     if f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
@@ -63,23 +113,30 @@ def thin_svd(M: Array) -> tuple[Array, Array, Array]:
     """Thin SVD ``M = U diag(s) Vt`` (as ``numpy.linalg.svd(M, full_matrices=False)``).
 
     A wide ``M`` (more than twice as many columns as rows, e.g. ``Gamma L Zp`` with one
-    column per sample) by R-SVD: ``M^T = Q R`` (Householder QR), ``R^T = U diag(s) W^T``,
-    so ``M = U diag(s) (Q W)^T`` (Golub & Van Loan, *Matrix Computations*, 4th ed., sec.
-    8.6.3): the same backward-stable factorisation, whose long dimension only meets one
-    QR and one product (``numpy.linalg.svd`` of a ``120 x 7880`` matrix was measured 3.5x
-    slower than this, and never faster on wide shapes).  Singular vectors are defined up
-    to a common sign per pair.
+    column per sample) is factored by the R-SVD: ``M^T = Q R`` (Householder QR), ``R^T = U
+    diag(s) W^T``, so ``M = U diag(s) (Q W)^T``.  It is the same backward-stable
+    factorisation, but the long dimension only meets one QR and one product instead of the
+    bidiagonalisation, which is why it is faster on wide shapes.  Singular vectors are
+    defined up to a common sign per pair.
 
     Parameters
     ----------
     M : ndarray, shape (r, c)
+        The matrix to factor.
 
     Returns
     -------
     U : ndarray, shape (r, k)
+        Left singular vectors, ``k = min(r, c)``.
     s : ndarray, shape (k,)
-        Descending, ``k = min(r, c)``.
+        Singular values, descending.
     Vt : ndarray, shape (k, c)
+        Right singular vectors (rows).
+
+    References
+    ----------
+    .. [1] G. H. Golub and C. F. Van Loan, *Matrix Computations*, 4th ed., Johns Hopkins
+       University Press, 2013, sec. 8.6.3 (the R-SVD).
 
     Examples
     --------
@@ -97,11 +154,39 @@ def thin_svd(M: Array) -> tuple[Array, Array, Array]:
 
 
 def state_sequence(LK: Array, Zp: Array, order: int | None) -> tuple[Array, Array, Array]:
-    """SVD ``Gamma L Zp = U S V^T`` (:func:`thin_svd`); state ``X = S_n^{1/2} V_n^T``
-    (toolbox ``dmodx``).
+    r"""State sequence from the SVD of ``Gamma L Zp`` (the toolbox's ``dmodx``).
 
-    Returns ``(X, s, U)`` with all singular values ``s``; ``X`` has ``order`` rows (all
-    ``len(s)`` rows when ``order`` is None, to be cut by the caller).
+    ``Gamma_f L_p Z_p = U S V^T`` (:func:`thin_svd`) and the state is ``X = S_n^{1/2}
+    V_n^T``: ``L_p Z_p`` is the state of the predictor up to the truncation ``At^p``, and
+    any factorisation of ``Gamma L Zp`` into a rank-``n`` product gives it up to a
+    similarity transform, which the balanced split fixes.
+
+    Parameters
+    ----------
+    LK : ndarray, shape (f l, p (m + l))
+        ``Gamma_f L_p`` (:func:`gamma_l`).
+    Zp : ndarray, shape (p (m + l), N)
+        The stacked past (:func:`hdpbsid.core.varx.past_blocks`) on the columns used.
+    order : int or None
+        Rows of ``X`` kept; ``None`` keeps all ``len(s)`` rows, to be cut by the caller.
+
+    Returns
+    -------
+    X : ndarray, shape (n, N)
+        The state sequence, ``n = order`` (or ``len(s)``).
+    s : ndarray, shape (min(f l, N),)
+        All singular values of ``Gamma L Zp``, descending.
+    U : ndarray, shape (f l, min(f l, N))
+        The left singular vectors (``U_n S_n^{1/2}`` estimates ``Gamma_f``).
+
+    Notes
+    -----
+    .. math:: \Gamma_f L_p Z_p = U S V^\top, \qquad X = S_n^{1/2} V_n^\top .
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007, sec. 4.
     """
     U, s, Vt = thin_svd(LK @ Zp)
     n = s.size if order is None else order
@@ -112,11 +197,41 @@ def state_sequence(LK: Array, Zp: Array, order: int | None) -> tuple[Array, Arra
 def select_order(s: Array, max_order: int | None = None) -> tuple[int, dict]:
     """Choose the model order from the singular values of ``Gamma L Zp``.
 
-    Criterion: the largest gap on a log scale, ``n = argmax_i log(s_i / s_{i+1})`` over
-    ``1 <= i <= min(max_order, len(s) - 1)``.  Singular values below
-    ``s_1 * len(s) * eps`` are treated as exact zeros (floored there), so a noise-free
-    record picks its true order.  Returns ``(n, info)``; ``info`` records the criterion
-    and the gaps.
+    The order is the largest gap on a log scale, ``n = argmax_i log(s_i / s_{i+1})`` over
+    ``1 <= i <= min(max_order, len(s) - 1)``: the ``n`` singular values of the state
+    stand above those of the noise and of the truncation, and a ratio (not a difference)
+    is invariant to the scaling of the data.  Singular values below ``s_1 len(s) eps``
+    (rounding level of the SVD, Golub & Van Loan sec. 8.6) are floored there, so the zeros
+    of a noise-free record form one flat tail and its true order is picked.
+
+    Parameters
+    ----------
+    s : array_like, shape (k,)
+        Singular values, descending.
+    max_order : int, optional
+        Largest order considered (default ``len(s) - 1``).
+
+    Returns
+    -------
+    n : int
+        The order chosen, ``1 <= n <= min(max_order, len(s) - 1)``.
+    info : dict
+        ``criterion`` (its name) and ``log_gaps`` (the gaps compared).
+
+    Raises
+    ------
+    ValueError
+        If ``s`` has fewer than 2 values (no gap to compare; increase ``p`` and ``f``).
+
+    References
+    ----------
+    .. [1] G. H. Golub and C. F. Van Loan, *Matrix Computations*, 4th ed., 2013, sec. 5.4.1
+       (numerical rank).
+
+    Examples
+    --------
+    >>> select_order(np.array([10.0, 5.0, 1e-3, 5e-4]))[0]
+    2
     """
     s = np.asarray(s, dtype=float)
     if s.size < 2:
@@ -134,9 +249,32 @@ def select_order(s: Array, max_order: int | None = None) -> tuple[int, dict]:
 def resolve_order(
     s: Array, order: int | None, max_order: int | None, rank: int | None = None
 ) -> tuple[int, dict]:
-    """The order: ``order`` as given, or :func:`select_order` on the singular values
-    ``s``; ``ValueError`` when it exceeds the ``rank`` available (default ``s.size``).
-    Returns ``(n, info)`` (``info`` empty for a given order)."""
+    """The model order: ``order`` as given, or :func:`select_order` on the singular values.
+
+    Parameters
+    ----------
+    s : ndarray, shape (k,)
+        Singular values of ``Gamma L Zp``, descending.
+    order : int or None
+        The order asked for; ``None`` selects it from ``s``.
+    max_order : int or None
+        Largest order the selection considers (:func:`select_order`).
+    rank : int, optional
+        Number of state rows available (default ``s.size``).
+
+    Returns
+    -------
+    n : int
+        The order.
+    info : dict
+        The selection's record (:func:`select_order`); empty for a given order.
+
+    Raises
+    ------
+    ValueError
+        If the order exceeds ``rank`` (more states than singular values), or from
+        :func:`select_order`.
+    """
     rank = s.size if rank is None else rank
     n, info = select_order(s, max_order) if order is None else (order, {})
     if n > rank:
@@ -148,10 +286,30 @@ def resolve_order(
 
 
 def estimate_cd(X: Array, U: Array, Y: Array, feedthrough: bool) -> tuple[Array, Array, Array]:
-    """Least squares ``Y = C X + D U + E`` (toolbox ``dx2abcdk``, first step).
+    """Least squares ``Y = C X + D U + E`` (the toolbox's ``dx2abcdk``, first step).
 
-    ``X, U, Y`` are restricted to the same columns.  Returns ``(C, D, E)``; ``E`` is the
-    innovation estimate (the residual).  ``D = 0`` when ``feedthrough`` is False.
+    With the state known, the output equation is linear in ``(C, D)``; its residual
+    estimates the innovation, which the state equation needs next (:func:`estimate_abk`).
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, N)
+        State sequence on the columns used.
+    U : ndarray, shape (m, N)
+        Inputs on the same columns.
+    Y : ndarray, shape (l, N)
+        Outputs on the same columns.
+    feedthrough : bool
+        Estimate ``D``; when False ``D = 0`` and ``U`` is not a regressor.
+
+    Returns
+    -------
+    C : ndarray, shape (l, n)
+        Output matrix.
+    D : ndarray, shape (l, m)
+        Feedthrough (zeros without ``feedthrough``).
+    E : ndarray, shape (l, N)
+        The residual, the innovation estimate.
     """
     m = U.shape[0]
     reg = np.vstack([X, U]) if (feedthrough and m > 0) else X
@@ -182,10 +340,41 @@ def estimate_abk(
     """Least squares ``X = A lag(X) + B lag(U) + K lag(E)`` (``dx2abcdk``, second step).
 
     For sampled data ``lag`` is one sample back, i.e. ``x_{k+1} = A x_k + B u_k + K e_k``;
-    in a basis domain with ``lag = M`` it is ``X = A X M + B U M + K E M``.  ``X, E`` live
-    on ``columns`` of an ``ncols``-column record, ``U`` on all columns.  Returns
-    ``(A, B, K, W, V)`` where ``W = X - A lag(X) - B lag(U)`` and ``V = lag(E)`` on the
-    columns used (for :func:`riccati_gain`).
+    in a basis domain with ``lag = M`` it is ``X = A X M + B U M + K E M``.  The columns
+    used are those where the state, the innovations and their lags are all known.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, len(columns))
+        State sequence on ``columns``.
+    U : ndarray, shape (m, ncols)
+        Inputs on all columns of the record.
+    E : ndarray, shape (l, len(columns))
+        Innovations on ``columns`` (:func:`estimate_cd`).
+    columns : ndarray of int
+        Indices of the record's columns where ``X`` and ``E`` are known.
+    ncols : int
+        Number of columns of the record.
+    lag : LagOperator
+        The "one step back" operator (:class:`~hdpbsid.core.varx.LagOperator`).
+
+    Returns
+    -------
+    A : ndarray, shape (n, n)
+        State matrix.
+    B : ndarray, shape (n, m)
+        Input matrix.
+    K : ndarray, shape (n, l)
+        Least-squares predictor gain.
+    W : ndarray, shape (n, N_used)
+        Process residual ``X - A lag(X) - B lag(U)`` on the columns used.
+    V : ndarray, shape (l, N_used)
+        ``lag(E)`` on the same columns (with ``W`` for :func:`riccati_gain`).
+
+    Raises
+    ------
+    ValueError
+        If the usable columns are not more than the ``n + m + l`` regressors per state.
     """
     n, m, l = X.shape[0], U.shape[0], E.shape[0]
     known = np.zeros(ncols, dtype=bool)
@@ -213,15 +402,44 @@ def estimate_abk(
 
 
 def riccati_gain(A: Array, C: Array, W: Array, V: Array) -> Array:
-    """Kalman predictor gain from residual covariances (toolbox ``dx2abcdk`` 'stable').
+    r"""Kalman predictor gain from the residual covariances (the toolbox's ``dx2abcdk``
+    'stable' option).
 
-    With the process residual ``w = x_+ - A x - B u`` and the innovation ``v`` (aligned),
-    ``Q = cov(w)``, ``R = cov(v)``, ``S = cov(w, v)``; solve the filter DARE
+    The least-squares ``K`` need not make ``A - K C`` stable; the gain of the steady-state
+    Kalman predictor of the model with noise covariances estimated from the residuals does,
+    when the filter Riccati equation has a stabilising solution (detectable ``(A, C)``,
+    positive definite ``R``).
 
-        P = A P A^T + Q - (A P C^T + S)(C P C^T + R)^{-1}(A P C^T + S)^T
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    C : ndarray, shape (l, n)
+        Output matrix.
+    W : ndarray, shape (n, N)
+        Process residual ``x_+ - A x - B u``.
+    V : ndarray, shape (l, N)
+        Innovation, aligned with ``W``.
 
-    (``scipy.linalg.solve_discrete_are(A^T, C^T, Q, R, s=S)``) and return
-    ``K = (A P C^T + S)(C P C^T + R)^{-1}``, which makes ``A - K C`` stable.
+    Returns
+    -------
+    ndarray, shape (n, l)
+        ``K = (A P C^T + S)(C P C^T + R)^{-1}``.
+
+    Notes
+    -----
+    With ``Q = cov(w)``, ``R = cov(v)``, ``S = cov(w, v)`` the filter DARE
+
+    .. math::
+
+        P = A P A^\top + Q - (A P C^\top + S)(C P C^\top + R)^{-1}(A P C^\top + S)^\top
+
+    is solved by ``scipy.linalg.solve_discrete_are(A.T, C.T, Q, R, s=S)``.
+
+    References
+    ----------
+    .. [1] B. D. O. Anderson and J. B. Moore, *Optimal Filtering*, Prentice-Hall, 1979,
+       ch. 4 and 5.
     """
     N = W.shape[1]
     Q = W @ W.T / N
@@ -232,9 +450,31 @@ def riccati_gain(A: Array, C: Array, W: Array, V: Array) -> Array:
 
 
 def stable_gain(A: Array, C: Array, W: Array, V: Array, K: Array) -> tuple[Array, str]:
-    """``stable_k``: the Riccati gain (:func:`riccati_gain`) in place of the least-squares
-    ``K``, or ``K`` unchanged with a ``RuntimeWarning`` when no stabilising solution
-    exists.  Returns ``(K, how)``."""
+    """The Riccati gain in place of the least-squares ``K`` (``stable_k``).
+
+    Falls back to ``K`` unchanged, with a ``RuntimeWarning``, when the Riccati equation has
+    no stabilising solution, so that a run never fails for the sake of the gain.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    C : ndarray, shape (l, n)
+        Output matrix.
+    W : ndarray, shape (n, N)
+        Process residual (:func:`estimate_abk`).
+    V : ndarray, shape (l, N)
+        Lagged innovation (:func:`estimate_abk`).
+    K : ndarray, shape (n, l)
+        The least-squares gain, kept on failure.
+
+    Returns
+    -------
+    K : ndarray, shape (n, l)
+        The gain.
+    how : str
+        ``"riccati"`` or ``"least squares"``.
+    """
     try:
         return riccati_gain(A, C, W, V), "riccati"
     except (np.linalg.LinAlgError, ValueError) as exc:
@@ -284,7 +524,30 @@ def core_options(
 
 @dataclass
 class CoreResult:
-    """Model in the index domain (sampled or basis) and everything the core computed."""
+    """Model in the index domain (sampled or basis) and everything the core computed.
+
+    Attributes
+    ----------
+    A, B, C, D, K : ndarray
+        The innovation model ``x_+ = A x + B u + K e``, ``y = C x + D u + e`` in the lag
+        operator's domain, shapes ``(n, n)``, ``(n, m)``, ``(l, n)``, ``(l, m)``, ``(n, l)``.
+    order : int
+        The model order ``n``.
+    singular_values : ndarray
+        All singular values of ``Gamma L Zp``, descending.
+    states : ndarray, shape (n, N)
+        The state sequence on ``columns``.
+    innovations : ndarray, shape (l, N)
+        The innovation estimate on ``columns``.
+    columns : ndarray of int
+        The record's columns on which the VARX is defined.
+    varx : VarxResult
+        The VARX fit (step 1).
+    noise_covariance : ndarray, shape (l, l)
+        Sample covariance of ``innovations``.
+    options : dict
+        The settings of the run (windows, order and how chosen, regularisation, gain).
+    """
 
     A: Array
     B: Array
@@ -308,10 +571,23 @@ class CoreResult:
 
 @dataclass
 class SubspaceStage:
-    """Steps 1-2 of :func:`pbsid_core`, which do not depend on the order: the VARX fit
-    ``varx``, the SVD ``Gamma_f L_p Z_p = U S V^T`` (``left = U``, ``singular_values =
-    S``) and every state row ``states = S^{1/2} V^T``.  An order only truncates them, so
-    the orders of an order selection can share one stage (``pbsid_core(..., stage=)``)."""
+    """Steps 1-2 of :func:`pbsid_core`, which do not depend on the order.
+
+    The VARX fit, the SVD ``Gamma_f L_p Z_p = U S V^T`` and every state row ``S^{1/2}
+    V^T``.  An order only truncates them, so the orders of an order selection can share one
+    stage (``pbsid_core(..., stage=)``).
+
+    Attributes
+    ----------
+    varx : VarxResult
+        The VARX fit.
+    states : ndarray, shape (k, N)
+        Every state row ``S^{1/2} V^T``.
+    singular_values : ndarray, shape (k,)
+        ``S``, descending.
+    left : ndarray, shape (f l, k)
+        ``U`` (its first block row times ``S^{1/2}`` is ``C``).
+    """
 
     varx: VarxResult
     states: Array
@@ -331,7 +607,36 @@ def subspace_stage(
     instruments: Array | None = None,
     exogenous: tuple[int, ...] = (),
 ) -> SubspaceStage:
-    """The order-independent steps 1-2 of :func:`pbsid_core` (:class:`SubspaceStage`)."""
+    """The order-independent steps 1-2 of :func:`pbsid_core` (:class:`SubspaceStage`).
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs (rows = signals, columns = index).
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p : int
+        Past window.
+    f : int
+        Future window, ``f <= p``.
+    lag : LagOperator
+        The "one step back" operator.
+    feedthrough : bool
+        Include ``D u_k`` in the VARX.
+    regularize : bool, str, float or None
+        VARX regularisation (:func:`hdpbsid.core.varx.varx`).
+    ridge_floor : float, optional
+        Lower bound of the GCV ridge, relative to the largest singular value.
+    instruments : ndarray, shape (k, N), optional
+        Instrument rows (IV VARX).
+    exogenous : tuple of int, optional
+        Rows of ``[U; Y]`` that are their own instruments.
+
+    Returns
+    -------
+    SubspaceStage
+        The VARX, singular values, left singular vectors and all state rows.
+    """
     vx = varx(
         U,
         Y,
@@ -365,40 +670,105 @@ def pbsid_core(
     exogenous: tuple[int, ...] = (),
     stage: SubspaceStage | None = None,
 ) -> CoreResult:
-    """Identify ``(A, B, C, D, K)`` of the innovation model in the lag-operator domain.
+    r"""Identify ``(A, B, C, D, K)`` of the innovation model in the lag-operator domain.
 
-    ``U`` (m x N) and ``Y`` (l x N) are data matrices (rows = signals).  Steps:
+    Predictor-based subspace identification (PBSID): the innovation form is rewritten as
+    its predictor ``x_+ = At x + Bt z``, whose Markov parameters are the coefficients of a
+    VARX model; the VARX is linear least squares, and the state follows from an SVD of the
+    predicted future.  Because the predictor, not the system, is estimated, the method is
+    consistent in closed loop when the VARX is (Chiuso 2007).  Everything is generic over
+    the lag operator, so the same code identifies a sampled model (``SampleShift``) or a
+    model in a basis index (``MatrixLag``).
 
-    1. VARX ``Y = sum_j Xi_j lag^j(Z) + D U + E`` (:func:`hdpbsid.core.varx.varx`);
-    2. ``Gamma L`` (:func:`gamma_l`), SVD of ``Gamma L Zp``, order from the singular
-       values when ``order`` is None (:func:`select_order`), ``X = S_n^{1/2} V_n^T``;
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs (rows = signals, columns = samples or basis index).
+    Y : ndarray, shape (l, N)
+        Outputs on the same columns.
+    p : int
+        Past window (VARX lags).
+    f : int, optional
+        Future window, ``f <= p`` (default ``p``).
+    order : int, optional
+        Model order; ``None`` chooses it from the singular values (:func:`select_order`).
+    lag : LagOperator, optional
+        The "one step back" operator (default :class:`~hdpbsid.core.varx.SampleShift`).
+    feedthrough : bool, optional
+        Estimate ``D`` (leave False in closed loop when the controller has direct
+        feedthrough: then ``u_k`` is correlated with ``e_k``).
+    regularize : bool, str, float or None, optional
+        VARX regularisation: False/None plain least squares, True/``"gcv"`` ridge by
+        generalised cross-validation, a float the ridge parameter.
+    ridge_floor : float, optional
+        Lower bound of the GCV ridge, relative to the largest singular value of the
+        regressors (data known to a relative precision only).
+    stable_k : bool, optional
+        Replace the least-squares gain by the Kalman gain (:func:`riccati_gain`).
+    max_order : int, optional
+        Largest order the selection considers.
+    instruments : ndarray, shape (k, N), optional
+        Instrument rows: the VARX by instrumental variables (see Notes).
+    exogenous : tuple of int, optional
+        Rows of ``[U; Y]`` that are their own instruments (e.g. pseudo-inputs).
+    stage : SubspaceStage, optional
+        Steps 1-2 computed before by :func:`subspace_stage` with the same arguments (the
+        caller's responsibility), e.g. shared by the orders of a selection.
+
+    Returns
+    -------
+    CoreResult
+        The model, the singular values, states, innovations, the VARX and the options.
+
+    Raises
+    ------
+    ValueError
+        If ``f > p``, if ``order > f l`` (more states than rows of ``Gamma L``), or from
+        the steps (too few columns for the VARX or for ``A, B, K``).
+
+    Notes
+    -----
+    With ``z = [u; y]``, ``At = A - K C`` and ``Bt = [B - K D, K]``:
+
+    1. VARX :math:`y_k = \sum_{j=1}^{p} \Xi_j z_{k-j} + D u_k + e_k`,
+       :math:`\Xi_j = C \tilde A^{j-1} \tilde B` (:func:`hdpbsid.core.varx.varx`);
+    2. ``Gamma L`` (:func:`gamma_l`), the SVD of ``Gamma L Zp``, the order, and
+       :math:`X = S_n^{1/2} V_n^\top` (:func:`state_sequence`);
     3. ``C, D`` and the innovations ``E`` (:func:`estimate_cd`), then ``A, B, K``
-       (:func:`estimate_abk`); with ``stable_k`` the gain is replaced by the Riccati
-       (Kalman) gain from the residual covariances (:func:`riccati_gain`).
+       (:func:`estimate_abk`); with ``stable_k`` the Riccati gain.
 
-    ``f`` defaults to ``p`` (``f <= p`` is required).  The returned ``noise_covariance``
-    is the sample covariance of ``E``.
+    With ``instruments`` the estimator stays consistent when the regressors are correlated
+    with the innovations: the VARX is solved by instrumental variables; ``C`` is read from
+    the extended observability matrix, :math:`\Gamma_f = U_n S_n^{1/2}`, whose first block
+    row is ``C`` (Verhaegen & Verdult 2007, sec. 9.2.4) -- the regression ``Y = C X + E``
+    would be biased again, since ``X`` is built from the same noisy past; ``D`` is the
+    VARX's; ``A, B, K`` solve ``X = A lag(X) + B lag(U) + K lag(E)`` with ``E = Y - C X``,
+    which is the predictor recursion ``X = At lag(X) + Bt lag(Z)`` that ``X = L Zp``
+    satisfies without a noise term, so least squares is consistent there.
 
-    ``instruments`` (rows on the columns of ``U, Y``; ``exogenous``: rows of ``[U; Y]``
-    that are their own instruments) makes the estimator consistent when the regressors
-    are correlated with the innovations (:func:`hdpbsid.core.varx.varx`):
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007.
+    .. [2] J.-W. van Wingerden and M. Verhaegen, "Subspace identification of bilinear and
+       LPV systems for open- and closed-loop data", *Automatica* 45(2), 372-381, 2009.
+    .. [3] M. Verhaegen and V. Verdult, *Filtering and System Identification*, Cambridge
+       University Press, 2007, sec. 9.2.4.
 
-    1. the VARX by instrumental variables;
-    2. unchanged;
-    3. ``C`` is read from the extended observability matrix instead of regressed:
-       ``Gamma L Zp = U S V^T`` with ``X = S_n^{1/2} V_n^T`` means ``Gamma = U_n S_n^{1/2}``,
-       whose first block row is ``C`` (Verhaegen & Verdult, *Filtering and System
-       Identification*, 2007, sec. 9.2.4).  The regression ``Y = C X + E`` would be
-       biased again, since ``X`` is built from the same noisy past as the VARX; ``C``
-       from ``Gamma`` inherits the consistency of the IV VARX.  ``A, B, K`` then solve
-       ``X = A lag(X) + B lag(U) + K lag(E)`` with ``E = Y - C X``: substituting
-       ``lag(Y) = C lag(X) + lag(E)`` this is the predictor recursion
-       ``X = At lag(X) + Bt lag(Z)``, which the state ``X = L Zp`` satisfies up to the
-       truncation ``At^p`` without any noise term, so least squares is consistent there.
-       ``D`` (with ``feedthrough``) is the VARX's.
+    Examples
+    --------
+    A noise-free second-order discrete system, identified from 400 samples:
 
-    ``stage``: steps 1-2 computed before by :func:`subspace_stage` with the same
-    arguments (the caller's responsibility), e.g. shared by the orders of a selection.
+    >>> rng = np.random.default_rng(0)
+    >>> A = np.array([[0.9, 0.2], [0.0, 0.7]])
+    >>> B, C = np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]])
+    >>> u, y, x = rng.standard_normal((1, 400)), np.zeros((1, 400)), np.zeros(2)
+    >>> for k in range(400):
+    ...     y[:, k] = C @ x
+    ...     x = A @ x + B @ u[:, k]
+    >>> res = pbsid_core(u, y, p=6)
+    >>> res.order, np.sort(res.eigenvalues.real).round(6)
+    (2, array([0.7, 0.9]))
     """
     lag = SampleShift() if lag is None else lag
     l = Y.shape[0]

@@ -74,8 +74,40 @@ Array = NDArray[np.float64]
 
 
 def r_of(A: Array, width: int | None = None) -> Array:
-    """``width x width`` triangular factor of the tall matrix ``A`` (``A = Q R``),
-    zero-padded when ``A`` has fewer rows than columns."""
+    """Square triangular factor ``R`` of the tall matrix ``A = Q R``.
+
+    ``A^T A = R^T R``, so ``R`` carries every least-squares statistic of ``A``'s columns
+    without squaring its condition number; stacking the ``R`` of two row batches and
+    factoring again gives the ``R`` of their union (tall-skinny QR).
+
+    Parameters
+    ----------
+    A : ndarray, shape (rows, k)
+        The matrix (one row per column of the data).
+    width : int, optional
+        Size of the result (default ``k``).
+
+    Returns
+    -------
+    ndarray, shape (width, width)
+        ``R``, zero-padded when ``A`` has fewer rows than columns.
+
+    References
+    ----------
+    .. [1] J. Demmel, L. Grigori, M. Hoemmen and J. Langou, "Communication-optimal
+       parallel and sequential QR and LU factorizations", *SIAM J. Sci. Comput.* 34(1),
+       A206-A239, 2012.
+
+    Examples
+    --------
+    >>> A = np.arange(12.0).reshape(6, 2)
+    >>> R = r_of(A)
+    >>> bool(np.allclose(R.T @ R, A.T @ A))
+    True
+    >>> R12 = r_of(np.vstack([r_of(A[:3]), r_of(A[3:])]))
+    >>> bool(np.allclose(np.abs(R12), np.abs(R)))
+    True
+    """
     w = A.shape[1] if width is None else width
     with large_work(2.0 * A.shape[0] * A.shape[1] ** 2):  # Householder QR: 2 n k^2 flops
         R = np.linalg.qr(A, mode="r") if A.shape[0] else np.zeros((0, w))
@@ -102,13 +134,32 @@ def _all_valid(lag: BlockLag, ncols: int, p: int) -> None:
 class VarxFactors:
     """First-pass statistics of one batch (or of several, :func:`merge`).
 
-    Raw (unnormalised) coefficients ``Z = [U; Y]``: ``ncols`` columns, ``sumsq`` of the
-    rows of ``Z`` and ``lag_sumsq[j - 1]`` of ``lag^j Z``; for every candidate ``p``:
-    ``hard[p]`` the factor of ``[lag^1 Z; ..; lag^p Z; Y]`` compressed onto the
-    complement of the pseudo rows lagged ``1..p`` (``compressed[p]`` columns,
-    ``rank[p]`` nuisance directions), ``soft[p][(kind, i)]`` the factor of the rows ``W_b
-    Q_i`` of the blocks of one kind (``Q_i`` their ``i``-th nuisance direction, of
-    singular value ``sv[p][kind][i]``).
+    Raw (unnormalised) coefficients ``Z = [U; Y]``.  For every candidate window ``p`` the
+    factor of ``[lag^1 Z; ..; lag^p Z; Y]`` compressed onto the complement of the pseudo
+    rows lagged ``1..p``, and the factors of the rows ``W_b Q_i`` that the ridge on the
+    nuisance adds once its parameter is known.
+
+    Attributes
+    ----------
+    ncols : int
+        Number of columns.
+    sumsq : ndarray, shape (m + l,)
+        Sums of squares of the rows of ``Z``.
+    lag_sumsq : ndarray, shape (p_max, m + l)
+        ``lag_sumsq[j - 1]``: those of ``lag^j Z``.
+    hard : dict of int to ndarray
+        ``hard[p]``: the compressed factor of window ``p``.
+    compressed : dict of int to int
+        ``compressed[p]``: the columns of the compressed problem.
+    rank : dict of int to int
+        ``rank[p]``: the nuisance directions eliminated.
+    soft : dict of int to dict
+        ``soft[p][(kind, i)]``: the factor of the rows ``W_b Q_i`` of the blocks of one kind
+        (``Q_i`` their ``i``-th nuisance direction).
+    sv : dict of int to dict
+        ``sv[p][kind]``: the singular values of those nuisance directions.
+    batches : int
+        Number of batches merged.
     """
 
     ncols: int
@@ -130,13 +181,35 @@ def varx_factors(
     ps: Sequence[int],
     kinds: Sequence[Hashable] | None = None,
 ) -> VarxFactors:
-    """:class:`VarxFactors` of one batch of blocks (``U`` m x N, ``Y`` l x N raw
-    coefficients side by side, ``lag``/``pseudo`` of these blocks).
+    """:class:`VarxFactors` of one batch of blocks.
 
-    ``kinds``: a label per block, the same for blocks with the same lag operator and
-    pseudo rows in every batch (their nuisance directions and singular values are then
-    the same, so their ridge columns are scaled alike); default: the block's column
-    count (right when blocks of equal size are of one kind)."""
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Raw input coefficients of the batch's blocks side by side.
+    Y : ndarray, shape (l, N)
+        Raw output coefficients.
+    lag : BlockLag
+        The lag of these blocks (every column must stay valid: basis-domain lags).
+    pseudo : BlockPseudo or None
+        Their pseudo-input rows.
+    ps : sequence of int
+        The candidate past windows.
+    kinds : sequence of hashable, optional
+        A label per block, the same for blocks with the same lag operator and pseudo rows
+        in every batch (their nuisance directions are then the same, so their ridge columns
+        are scaled alike); default: the block's column count.
+
+    Returns
+    -------
+    VarxFactors
+        The batch's statistics.
+
+    Raises
+    ------
+    ValueError
+        If the lag invalidates columns, or blocks of one kind have different pseudo rows.
+    """
     Z = np.vstack([U, Y])
     ncols = Z.shape[1]
     p_hi = max(ps)
@@ -178,11 +251,25 @@ def varx_factors(
 
 @dataclass
 class StateFactors:
-    """Second-pass statistics: ``sy`` the factor of ``[S; Y]`` (all ``ncols`` columns,
-    ``S = Gamma_f L_p Z_p`` with the pseudo part), ``abk`` that of ``[lag S; lag U; lag
-    Y; S]`` compressed onto the complement of the pseudo rows lagged once
-    (``compressed`` columns), ``lagged`` that of ``[lag S; lag Y]`` on all columns (the
-    innovations' lag for ``stable_k``); normalised coefficients."""
+    """Second-pass statistics (normalised coefficients).
+
+    Attributes
+    ----------
+    ncols : int
+        Number of columns.
+    sy : ndarray
+        Factor of ``[S; Y]`` on all columns, ``S = Gamma_f L_p Z_p`` with the pseudo part.
+    abk : ndarray
+        Factor of ``[lag S; lag U; lag Y; S]`` compressed onto the complement of the pseudo
+        rows lagged once.
+    compressed : int
+        Columns of that compressed problem.
+    lagged : ndarray
+        Factor of ``[lag S; lag Y]`` on all columns (the innovations' lag, for
+        ``stable_k``).
+    batches : int
+        Number of batches merged.
+    """
 
     ncols: int
     sy: Array
@@ -194,7 +281,33 @@ class StateFactors:
 
 @dataclass
 class VarxSolution:
-    """The VARX of the chosen ``p`` (normalised units) and what the second pass needs."""
+    """The VARX of the chosen window (normalised units) and what the second pass needs.
+
+    Attributes
+    ----------
+    p : int
+        Past window.
+    f : int
+        Future window.
+    theta : ndarray, shape (l, p (m + l))
+        The VARX coefficients ``[Xi_p, ..., Xi_1]``.
+    ridge : float
+        The ridge parameter used.
+    kind : str
+        ``"none"``, ``"gcv"`` or ``"fixed"``.
+    gcv : float or None
+        The GCV function at ``ridge``.
+    rank : int
+        Nuisance directions eliminated.
+    compressed : int
+        Columns of the compressed VARX.
+    su : ndarray, shape (m,)
+        Input scales (row RMS, or ones).
+    sy : ndarray, shape (l,)
+        Output scales.
+    extra : dict
+        Record of the elimination.
+    """
 
     p: int
     f: int
@@ -212,10 +325,30 @@ class VarxSolution:
 def state_factors(
     U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo | None, vs: VarxSolution
 ) -> StateFactors:
-    """:class:`StateFactors` of one batch (raw coefficients; ``vs`` from
-    :func:`solve_varx`).  ``S`` as in :func:`~hdpbsid.core.blocks.varx_stage_blocks`:
-    ``Gamma_f L_p Z_p`` plus, per block, the pseudo rows' part with the block's ridge
-    nuisance coefficients of the VARX residual."""
+    """:class:`StateFactors` of one batch.
+
+    ``S`` is as in :func:`~hdpbsid.core.blocks.varx_stage_blocks`: ``Gamma_f L_p Z_p``
+    plus, per block, the pseudo rows' part with the block's ridge nuisance coefficients of
+    the VARX residual.
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Raw input coefficients of the batch.
+    Y : ndarray, shape (l, N)
+        Raw output coefficients.
+    lag : BlockLag
+        The batch's lag.
+    pseudo : BlockPseudo or None
+        Its pseudo-input rows.
+    vs : VarxSolution
+        The VARX (:func:`solve_varx`).
+
+    Returns
+    -------
+    StateFactors
+        The batch's statistics.
+    """
     m, l = U.shape[0], Y.shape[0]
     p, f = vs.p, vs.f
     Uz = U / vs.su[:, None]
@@ -246,9 +379,27 @@ def state_factors(
 
 
 def merge(a: Any, b: Any) -> Any:
-    """Statistics of the union of two sets of batches (factors stacked and
-    re-triangularised, counts and sums added); ``None`` is the empty set.  Lists
-    (one entry per input hold) are merged entry by entry."""
+    """Statistics of the union of two sets of batches.
+
+    Factors are stacked and re-triangularised (the ``R`` of stacked ``R`` factors is the
+    ``R`` of the stacked data), counts and sums added.
+
+    Parameters
+    ----------
+    a, b : VarxFactors, StateFactors, list of them, or None
+        The statistics; ``None`` is the empty set; lists (one entry per input hold) are
+        merged entry by entry.
+
+    Returns
+    -------
+    VarxFactors, StateFactors, list or None
+        The merged statistics.
+
+    Raises
+    ------
+    ValueError
+        If blocks of one kind have different pseudo rows in ``a`` and ``b``.
+    """
     if a is None:
         return b
     if b is None:
@@ -309,8 +460,36 @@ def select_p(
     normalize: bool,
     rel_floor: float = 1e-12,
 ) -> tuple[int, Array]:
-    """:func:`~hdpbsid.core.blocks.select_past_window_blocks` from the first-pass factors
-    (``AIC = N log det Sigma_p + 2 l (p (m + l) + rank_p)``)."""
+    """The past window from the first-pass factors.
+
+    As :func:`~hdpbsid.core.blocks.select_past_window_blocks`: ``AIC = N log det Sigma_p +
+    2 l (p (m + l) + rank_p)``, the column scalings applied to the factor (a column scaling
+    of ``A`` is one of ``R``).
+
+    Parameters
+    ----------
+    vf : VarxFactors
+        Merged first-pass statistics.
+    m : int
+        Number of inputs.
+    l : int
+        Number of outputs.
+    p_min : int
+        Smallest window.
+    p_max : int
+        Largest window.
+    normalize : bool
+        Scale the signals to unit RMS first (as the in-memory core).
+    rel_floor : float, optional
+        Floor of the scaled residual covariance.
+
+    Returns
+    -------
+    p : int
+        The window chosen.
+    crit : ndarray, shape (p_max,)
+        The criterion, ``inf`` where not evaluated.
+    """
     su, sy = _scales(vf, m, normalize)
     sz = np.concatenate([su, sy])
     N = vf.ncols
@@ -339,8 +518,42 @@ def solve_varx(
     ridge_floor: float,
     normalize: bool,
 ) -> VarxSolution:
-    """Step 1 of :func:`~hdpbsid.core.blocks.varx_stage_blocks` (VARX with the pseudo
-    rows eliminated, GCV ridge, the ridge on the nuisance) from the factors."""
+    """Step 1 of :func:`~hdpbsid.core.blocks.varx_stage_blocks` from the factors.
+
+    The VARX with the pseudo rows eliminated, the GCV ridge, and the same ridge on the
+    nuisance: the factors of the rows ``W_b Q_i`` are scaled by ``lam / sqrt(s_i^2 +
+    lam^2)`` once ``lam`` is known and stacked under the compressed factor.
+
+    Parameters
+    ----------
+    vf : VarxFactors
+        Merged first-pass statistics.
+    m : int
+        Number of inputs.
+    l : int
+        Number of outputs.
+    p : int
+        Past window.
+    f : int
+        Future window.
+    regularize : bool, str, float or None
+        VARX regularisation (:func:`hdpbsid.core.varx.varx`).
+    ridge_floor : float
+        Lower bound of the GCV ridge.
+    normalize : bool
+        Scale the signals to unit RMS.
+
+    Returns
+    -------
+    VarxSolution
+        The VARX in normalised units.
+
+    Raises
+    ------
+    ValueError
+        If the compressed problem has no more columns than regressors, or a signal is
+        identically zero with ``normalize``.
+    """
     su, sy = _scales(vf, m, normalize)
     sz = np.concatenate([su, sy])
     d = m + l
@@ -381,9 +594,26 @@ def solve_varx(
 
 
 def state_map(sf: StateFactors, fl: int) -> tuple[Array, Array]:
-    """``U, s`` of ``S = U diag(s) V^T`` from the factor of ``S^T``; each column of
-    ``U`` signed so that its entry of largest magnitude is positive (a rule on ``S``
-    alone, so the state does not depend on how the columns were batched)."""
+    """``U, s`` of ``S = U diag(s) V^T`` from the factor of ``S^T``.
+
+    ``S^T = Q R`` gives ``S = R^T Q^T``, so ``U`` and ``s`` are those of the small ``R^T``.
+    Each column of ``U`` is signed so that its entry of largest magnitude is positive: a
+    rule on ``S`` alone, so the state does not depend on how the columns were batched.
+
+    Parameters
+    ----------
+    sf : StateFactors
+        Merged second-pass statistics.
+    fl : int
+        Rows of ``S`` (``f l``).
+
+    Returns
+    -------
+    U : ndarray, shape (fl, fl)
+        Left singular vectors, signed as above.
+    s : ndarray, shape (fl,)
+        Singular values, descending.
+    """
     Uu, s, _ = np.linalg.svd(sf.sy[:fl, :fl].T)
     idx = np.argmax(np.abs(Uu), axis=0)
     sign = np.sign(Uu[idx, np.arange(Uu.shape[1])])
@@ -401,11 +631,43 @@ def solve_model(
     ridge_floor: float = 0.0,
     stable_k: bool = False,
 ) -> CoreResult:
-    """Steps 2-3 of :func:`~hdpbsid.core.blocks.pbsid_core_blocks` (order, ``C``, ``A, B,
-    K``, innovation covariance) from the second-pass factors (normalised units).
+    """Steps 2-3 of :func:`~hdpbsid.core.blocks.pbsid_core_blocks` from the second-pass
+    factors (normalised units).
 
-    The per-column arrays of the result (states, innovations, VARX regressors and
-    residuals) are empty: they are never formed."""
+    The order, ``C`` and the innovation covariance from the factor of ``[S; Y]`` mapped by
+    ``X = T S``; ``A, B, K`` from the factor of ``[lag S; lag U; lag Y; S]`` mapped to
+    ``[lag X; lag U; lag E; X]``.  The per-column arrays of the result (states,
+    innovations, VARX regressors and residuals) are empty: they are never formed.
+
+    Parameters
+    ----------
+    vs : VarxSolution
+        The VARX (:func:`solve_varx`).
+    sf : StateFactors
+        Merged second-pass statistics.
+    m : int
+        Number of inputs.
+    l : int
+        Number of outputs.
+    order : int or None
+        Model order; ``None`` selects it.
+    max_order : int or None
+        Largest order the selection considers.
+    ridge_floor : float, optional
+        Reported in the options.
+    stable_k : bool, optional
+        Replace the least-squares gain by the Riccati gain.
+
+    Returns
+    -------
+    CoreResult
+        The model; the per-column arrays empty.
+
+    Raises
+    ------
+    ValueError
+        If the ``A, B, K`` regression has too few columns, or the order exceeds the rank.
+    """
     p, f = vs.p, vs.f
     fl = f * l
     Uu, s = state_map(sf, fl)

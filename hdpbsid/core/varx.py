@@ -60,11 +60,46 @@ class LagOperator(Protocol):
     fully determined when only the input columns flagged in ``valid`` are known (the
     others are zero-filled before ``apply``).  ``apply(W, j)`` must equal ``j``
     applications of ``apply(., 1)`` (a linear operator and its powers).
+
+    Examples
+    --------
+    >>> isinstance(SampleShift(), LagOperator), isinstance(MatrixLag(np.eye(2)), LagOperator)
+    (True, True)
     """
 
-    def apply(self, W: Array, j: int) -> Array: ...
+    def apply(self, W: Array, j: int) -> Array:
+        """The data matrix ``W`` lagged ``j`` times (``j`` applications of one lag).
 
-    def valid_columns(self, valid: Mask, j: int) -> Mask: ...
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
+
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
+        """
+        ...
+
+    def valid_columns(self, valid: Mask, j: int) -> Mask:
+        """Which output columns of ``apply(., j)`` the known input columns determine.
+
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
+        """
+        ...
 
 
 class CachedPowers:
@@ -84,6 +119,24 @@ class CachedPowers:
         raise NotImplementedError
 
     def apply(self, W: Array, j: int) -> Array:
+        """``W`` lagged ``j`` times, from the cached powers of the last argument.
+
+        Repeated calls with the same ``W`` and growing ``j`` (as :func:`past_blocks` makes)
+        reuse the lags computed before; the cache is checked against ``W``'s contents, so a
+        modified array is never served stale results.
+
+            Parameters
+            ----------
+            W : ndarray, shape (rows, N)
+                Data matrix (rows = signals, columns = samples or basis index).
+            j : int
+                Number of lags, ``j >= 0`` (``0`` returns ``W``).
+
+            Returns
+            -------
+            ndarray, shape (rows, N)
+                ``W`` lagged ``j`` times.
+        """
         W = np.asarray(W, dtype=float)
         key = (id(W), W.shape)
         if self._key != key or not self._cache or not np.array_equal(self._cache[0], W):
@@ -99,9 +152,34 @@ class SampleShift:
 
     The first ``j`` output columns would need samples before the record; they are
     zero-filled and reported invalid by :meth:`valid_columns`.
+
+    Examples
+    --------
+    >>> shift = SampleShift()
+    >>> shift.apply(np.array([[1.0, 2.0, 3.0]]), 2)
+    array([[0., 0., 1.]])
     """
 
     def apply(self, W: Array, j: int) -> Array:
+        """``W`` shifted ``j`` samples back: ``out[:, k] = W[:, k - j]``, zeros for ``k < j``.
+
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
+
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
+
+        Examples
+        --------
+        >>> SampleShift().apply(np.arange(4.0)[None], 1)
+        array([[0., 0., 1., 2.]])
+        """
         out = np.zeros_like(W)
         if j == 0:
             out[...] = W
@@ -110,6 +188,25 @@ class SampleShift:
         return out
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
+        """The columns ``k >= j`` whose sample ``k - j`` is known.
+
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
+
+        Examples
+        --------
+        >>> SampleShift().valid_columns(np.ones(4, dtype=bool), 1)
+        array([False,  True,  True,  True])
+        """
         out = np.zeros_like(valid)
         if j == 0:
             out[...] = valid
@@ -118,7 +215,13 @@ class SampleShift:
         return out
 
     def cache_key(self) -> tuple:
-        """The shift has no parameters (exact key for memoisation)."""
+        """The key of the operator for memoisation: the shift has no parameters.
+
+        Returns
+        -------
+        tuple
+            The empty tuple.
+        """
         return ()
 
     def __repr__(self) -> str:
@@ -129,9 +232,32 @@ class MatrixLag:
     """Lag by right-multiplication with an operator matrix: ``apply(W, j) = W @ M^j``.
 
     Use for coefficient sequences (columns = basis index), e.g. ``M = D'^{-1}`` in the
-    integrator form of HD-PBSID.  An output column is valid when every input column that
-    contributes to it through the sparsity pattern of ``M^j`` is valid.  Powers are
-    cached.
+    integrator form of HD-PBSID, where "one step back" is the projection of integration on
+    the basis.  An output column is valid when every input column that contributes to it
+    through the sparsity pattern of ``M^j`` is valid.  Powers are cached.
+
+    Parameters
+    ----------
+    M : array_like, shape (N, N)
+        The operator matrix, finite.
+
+    Attributes
+    ----------
+    M : ndarray, shape (N, N)
+        The operator matrix (float).
+
+    Raises
+    ------
+    ValueError
+        If ``M`` is not square or not finite.
+
+    Examples
+    --------
+    >>> lag = MatrixLag(np.diag([0.5, 0.25]))
+    >>> lag.apply(np.ones((1, 2)), 2)
+    array([[0.25  , 0.0625]])
+    >>> lag.valid_columns(np.array([True, False]), 1)
+    array([ True, False])
     """
 
     def __init__(self, M: Array) -> None:
@@ -144,22 +270,67 @@ class MatrixLag:
         self._powers: dict[int, Array] = {0: np.eye(M.shape[0]), 1: M}
 
     def power(self, j: int) -> Array:
-        """``M^j``, computed by repeated multiplication and cached."""
+        """``M^j``, computed by repeated multiplication and cached.
+
+        Parameters
+        ----------
+        j : int
+            The power, ``j >= 0``.
+
+        Returns
+        -------
+        ndarray, shape (N, N)
+            ``M^j`` (the identity for ``j = 0``).
+        """
         if j not in self._powers:
             self._powers[j] = self.power(j - 1) @ self.M
         return self._powers[j]
 
     def apply(self, W: Array, j: int) -> Array:
+        """``W @ M^j``.
+
+        Parameters
+        ----------
+        W : ndarray, shape (rows, N)
+            Data matrix (rows = signals, columns = samples or basis index).
+        j : int
+            Number of lags, ``j >= 0`` (``0`` returns ``W``).
+
+        Returns
+        -------
+        ndarray, shape (rows, N)
+            ``W`` lagged ``j`` times.
+        """
         return W @ self.power(j)
 
     def valid_columns(self, valid: Mask, j: int) -> Mask:
+        """The columns of ``W @ M^j`` that no unknown column of ``W`` reaches through ``M^j``.
+
+        Parameters
+        ----------
+        valid : ndarray of bool, shape (N,)
+            The input columns that are known (the others zero-filled before ``apply``).
+        j : int
+            Number of lags.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            The output columns of ``apply(W, j)`` fully determined by the known ones.
+        """
         if valid.all():
             return valid.copy()
         touches_invalid = (np.abs(self.power(j))[~valid, :] > 0).any(axis=0)
         return ~touches_invalid
 
     def cache_key(self) -> Array:
-        """``M`` defines the operator (exact key for memoisation)."""
+        """The key of the operator for memoisation: ``M`` defines it.
+
+        Returns
+        -------
+        ndarray
+            ``M``.
+        """
         return self.M
 
     def __repr__(self) -> str:
@@ -169,8 +340,35 @@ class MatrixLag:
 def past_blocks(Z: Array, p: int, lag: LagOperator) -> tuple[Array, Mask]:
     """Stack the past ``Zp = [Z_p; Z_{p-1}; ...; Z_1]`` with ``Z_j = lag^j Z``.
 
-    Oldest block first, as in the toolbox's ``dordvarx``.  Returns ``Zp`` (all columns)
-    and the mask of columns on which every block is valid.
+    Oldest block first, as in the toolbox's ``dordvarx``, so that ``coef @ Zp`` is the
+    VARX prediction with ``coef = [Xi_p, ..., Xi_1]``.
+
+    Parameters
+    ----------
+    Z : ndarray, shape (d, N)
+        The data ``[U; Y]`` (rows = signals).
+    p : int
+        Number of lags.
+    lag : LagOperator
+        The "one step back" operator.
+
+    Returns
+    -------
+    Zp : ndarray, shape (p d, N)
+        The stacked lags, on all columns.
+    valid : ndarray of bool, shape (N,)
+        The columns on which every block is determined by the data.
+
+    Examples
+    --------
+    >>> Zp, valid = past_blocks(np.arange(8.0).reshape(2, 4), 2, SampleShift())
+    >>> Zp
+    array([[0., 0., 0., 1.],
+           [0., 0., 4., 5.],
+           [0., 0., 1., 2.],
+           [0., 4., 5., 6.]])
+    >>> valid
+    array([False, False,  True,  True])
     """
     d, ncols = Z.shape
     all_valid = np.ones(ncols, dtype=bool)
@@ -198,7 +396,7 @@ def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
         b = min(N, a + chunk)
         # [R; Phi^T; Y^T] of this chunk, written once in the column-major order LAPACK's
         # Householder QR works in (numpy.linalg.qr copies a row-major input first: the
-        # same factorisation, measured 20 % slower on 4834 x 501)
+        # same factorisation, slower)
         blk = np.empty((R.shape[0] + b - a, w), order="F")
         blk[: R.shape[0]] = R
         blk[R.shape[0] :, :d] = Phi[:, a:b].T
@@ -214,9 +412,28 @@ def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
 class VarxResult:
     """Output of :func:`varx`.
 
-    ``Xi`` has shape ``(p, l, m + l)`` with ``Xi[j - 1] = Xi_j`` (the coefficient of
-    ``z_{k-j}``); ``coef`` is the toolbox layout ``[Xi_p, ..., Xi_1]`` (l x p(m+l)).
-    ``Zp`` and ``residuals`` are restricted to ``columns`` (the indices actually used).
+    Attributes
+    ----------
+    Xi : ndarray, shape (p, l, m + l)
+        ``Xi[j - 1] = Xi_j``, the coefficient of ``z_{k-j}``.
+    coef : ndarray, shape (l, p (m + l))
+        The toolbox layout ``[Xi_p, ..., Xi_1]``.
+    D : ndarray, shape (l, m)
+        Feedthrough (zeros without it).
+    Zp : ndarray, shape (p (m + l), len(columns))
+        The stacked past (:func:`past_blocks`) on ``columns``.
+    columns : ndarray of int
+        The columns used (every lag determined).
+    residuals : ndarray, shape (l, len(columns))
+        ``Y - Xi Zp - D U`` on ``columns``.
+    ridge : float
+        The ridge parameter used (0 for plain least squares).
+    regularize : str
+        ``"none"``, ``"gcv"`` or ``"fixed"``.
+    gcv : float or None
+        The GCV function at ``ridge`` (``None`` when not computed).
+    extra : dict
+        Estimator details (``{"estimator": "iv", "instruments": r}`` for IV).
     """
 
     Xi: Array
@@ -240,18 +457,70 @@ def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> A
 def ridge_gcv(
     Phi: Array, Y: Array, lam: float | None = None, floor: float = 0.0
 ) -> tuple[Array, float, float | None]:
-    """Tikhonov least squares ``min ||Y - Theta Phi||_F^2 + lam^2 ||Theta||_F^2``.
+    r"""Tikhonov least squares ``min ||Y - Theta Phi||_F^2 + lam^2 ||Theta||_F^2``.
 
-    ``Phi`` is (d x N) regressors, ``Y`` (l x N) targets.  With ``lam=None`` the
-    parameter minimises the GCV function (Hansen, sec. 7.4)
+    With ``lam=None`` the parameter minimises the generalised cross-validation function,
+    which estimates the prediction error of the regularised fit without a hold-out and
+    needs no noise level (Golub, Heath & Wahba 1979): a log-grid search over ``[s_min /
+    1e3, s_max]`` refined by a bounded scalar minimisation on ``log lam``; ``lam = 0``
+    (least squares on the numerical range) is a candidate too, since on exact data GCV
+    decreases to 0 and any ``lam > 0`` would only add bias.
 
-        G(lam) = ||Y - Theta_lam Phi||_F^2 / (N - sum_i f_i)^2,   f_i = s_i^2/(s_i^2+lam^2),
+    Parameters
+    ----------
+    Phi : ndarray, shape (d, N)
+        Regressors.
+    Y : ndarray, shape (l, N)
+        Targets.
+    lam : float, optional
+        The ridge parameter, ``>= 0``; ``None`` chooses it by GCV.
+    floor : float, optional
+        Lower bound of the GCV choice, relative to the largest singular value of ``Phi``:
+        data known only to a relative precision (quadrature of projected data) make the
+        exact-fit solution meaningless along the near-null directions of ``Phi``.
 
-    with the SVD ``Phi^T = U S V^T``: a log-grid search over ``[s_min/1e3, s_max]``
-    refined by a bounded scalar minimisation on ``log lam``.  Returns ``(Theta, lam, G)``.
-    ``floor`` (relative to the largest singular value of ``Phi``) is a lower bound on the
-    GCV choice: data known only to a relative precision (quadrature of projected data)
-    make the exact-fit solution meaningless along the near-null directions of ``Phi``.
+    Returns
+    -------
+    Theta : ndarray, shape (l, d)
+        The solution.
+    lam : float
+        The parameter used.
+    G : float or None
+        The GCV function at ``lam`` (``None`` for a given ``lam``).
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is negative or not finite (from :func:`ridge_gcv_r`).
+
+    Notes
+    -----
+    With the SVD :math:`\Phi^\top = U S V^\top` and filter factors
+    :math:`f_i = s_i^2 / (s_i^2 + \lambda^2)`,
+
+    .. math::
+
+        G(\lambda) = \frac{\lVert Y - \Theta_\lambda \Phi \rVert_F^2}
+                          {\bigl(N - \sum_i f_i\bigr)^2} .
+
+    The SVD is taken of the triangular factor of ``[Phi^T, Y^T]`` (:func:`ridge_gcv_r`),
+    so the long dimension ``N`` meets one QR only.
+
+    References
+    ----------
+    .. [1] G. H. Golub, M. Heath and G. Wahba, "Generalized cross-validation as a method
+       for choosing a good ridge parameter", *Technometrics* 21(2), 215-223, 1979.
+    .. [2] P. C. Hansen, *Rank-Deficient and Discrete Ill-Posed Problems*, SIAM, 1998,
+       sec. 7.4.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> Phi = rng.standard_normal((3, 200))
+    >>> Y = np.array([[1.0, -2.0, 0.5]]) @ Phi + 0.1 * rng.standard_normal((1, 200))
+    >>> Theta, lam, G = ridge_gcv(Phi, Y)
+    >>> Theta.round(1)
+    array([[ 1. , -2. ,  0.5]])
     """
     d, N = Phi.shape
     return ridge_gcv_r(r_factor(Phi, Y), d, N, lam, floor)
@@ -275,10 +544,41 @@ def _gcv_grid(grid: Array, s: Array, beta2: Array, out_of_range: float, N: int) 
 def ridge_gcv_r(
     R: Array, d: int, N: int, lam: float | None = None, floor: float = 0.0
 ) -> tuple[Array, float, float | None]:
-    """:func:`ridge_gcv` from the triangular factor ``R`` of ``[Phi^T, Y^T]``
-    (:func:`r_factor`; ``d`` regressors, ``N`` columns of ``Phi``), e.g. one accumulated
-    over batches of columns (:mod:`hdpbsid.core.streamed`): the GCV function and the
-    Tikhonov solution need ``R`` and ``N`` only."""
+    """:func:`ridge_gcv` from the triangular factor ``R`` of ``[Phi^T, Y^T]``.
+
+    The GCV function and the Tikhonov solution need ``R`` and ``N`` only: ``Phi^T = Q
+    R11`` and ``R11 = Ur S V^T`` give the SVD ``Phi^T = (Q Ur) S V^T`` without forming
+    ``Q``, ``R12 = Q^T Y^T`` and the residual outside the range of ``Phi^T`` is
+    ``||R22||_F^2``.  So ``R`` may be accumulated over batches of columns
+    (:mod:`hdpbsid.core.streamed`).
+
+    Parameters
+    ----------
+    R : ndarray, shape (d + l, d + l)
+        Upper-triangular factor of ``[Phi^T, Y^T]`` (``r_factor``), zero-padded.
+    d : int
+        Number of regressors (rows of ``Phi``).
+    N : int
+        Number of columns of ``Phi`` (the GCV's degrees of freedom).
+    lam : float, optional
+        The ridge parameter, ``>= 0``; ``None`` chooses it by GCV.
+    floor : float, optional
+        Lower bound of the GCV choice, relative to the largest singular value.
+
+    Returns
+    -------
+    Theta : ndarray, shape (l, d)
+        The solution.
+    lam : float
+        The parameter used.
+    G : float or None
+        The GCV function at ``lam`` (``None`` for a given ``lam``).
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is negative or not finite.
+    """
     # Phi^T = Q R11 and R11 = Ur S V^T give the SVD Phi^T = (Q Ur) S V^T without forming Q
     Ur, s, Vt = np.linalg.svd(R[:d, :d])
     QtY = R[:d, d:]  # Q^T Y^T (d x l)
@@ -334,20 +634,69 @@ def two_stage_ls(
     lam: float | None = None,
     floor: float = 0.0,
 ) -> tuple[Array, float, float | None, dict]:
-    """Instrumental-variable estimate of ``Y = Theta Phi + E`` (two-stage least squares).
+    r"""Instrumental-variable estimate of ``Y = Theta Phi + E`` (two-stage least squares).
 
-    ``Phi`` (d x N) regressors, ``Y`` (l x N) targets, ``Psi`` (k x N, ``k >= d``)
-    instruments: rows uncorrelated with ``E`` and correlated with ``Phi``.  With ``Q``
-    (N x r) an orthonormal basis of the row space of ``Psi`` (``r`` its numerical rank),
-    the regressors are replaced by their projection ``Phi Q Q^T`` on the instruments, so
+    Least squares is biased when a regressor is correlated with ``E``; instruments
+    uncorrelated with ``E`` and correlated with ``Phi`` restore consistency.  With ``Q``
+    (``N x r``) an orthonormal basis of the row space of ``Psi`` (``r`` its numerical rank),
+    the regressors are replaced by their projection ``Phi Q Q^T`` on the instruments:
+    ``Y Q = Theta Phi Q + E Q`` and ``E Q -> 0`` relative to ``Phi Q`` when ``Psi`` is
+    uncorrelated with ``E``.  The projected regression (``r`` columns) goes through
+    :func:`ridge_gcv`.
 
-        Theta = (Y Q)(Phi Q)^T [(Phi Q)(Phi Q)^T]^{-1},
+    Parameters
+    ----------
+    Phi : ndarray, shape (d, N)
+        Regressors.
+    Y : ndarray, shape (l, N)
+        Targets.
+    Psi : ndarray, shape (k, N)
+        Instruments, ``k >= d`` independent rows (rows of zeros are dropped, the others
+        scaled to unit RMS).
+    lam : float, optional
+        The ridge parameter (``0`` plain IV); ``None`` chooses it by GCV.
+    floor : float, optional
+        Lower bound of the GCV choice (:func:`ridge_gcv`).
 
-    the generalised IV estimator with weighting ``(Psi Psi^T)^{-1}`` (Soderstrom & Stoica
-    1983, eq. (3.9)): ``Y Q = Theta Phi Q + E Q`` and ``E Q -> 0`` relative to ``Phi Q``
-    when ``Psi`` is uncorrelated with ``E`` (consistency).  The projected regression
-    (``r`` columns) goes through :func:`ridge_gcv` (``lam``/``floor`` as there; ``lam=0``
-    plain IV).  Returns ``(Theta, lam, G, info)``.
+    Returns
+    -------
+    Theta : ndarray, shape (l, d)
+        The estimate.
+    lam : float
+        The ridge parameter used.
+    G : float or None
+        The GCV function at ``lam``.
+    info : dict
+        ``{"estimator": "iv", "instruments": r}``.
+
+    Raises
+    ------
+    ValueError
+        If the instruments' numerical rank ``r`` is below the number of regressors ``d``.
+
+    Notes
+    -----
+    The estimate is the generalised IV estimator with weighting
+    :math:`(\Psi \Psi^\top)^{-1}`:
+
+    .. math::
+
+        \Theta = (Y Q)(\Phi Q)^\top \bigl[(\Phi Q)(\Phi Q)^\top\bigr]^{-1} .
+
+    References
+    ----------
+    .. [1] T. Soderstrom and P. Stoica, *Instrumental Variable Methods for System
+       Identification*, Springer, 1983, ch. 3, eq. (3.9).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> Phi = rng.standard_normal((3, 200))
+    >>> Y = np.array([[1.0, -2.0, 0.5]]) @ Phi + 0.1 * rng.standard_normal((1, 200))
+    >>> Psi = np.vstack([Phi, rng.standard_normal((2, 200))])
+    >>> Theta, lam, G, info = two_stage_ls(Phi, Y, Psi, lam=0.0)
+    >>> Theta.round(1), info["instruments"]
+    (array([[ 1. , -2. ,  0.5]]), 5)
     """
     d = Phi.shape[0]
     scale = np.sqrt(np.mean(Psi**2, axis=1))
@@ -399,25 +748,82 @@ def varx(
     instruments: Array | None = None,
     exogenous: Sequence[int] = (),
 ) -> VarxResult:
-    """Estimate the VARX predictor ``y_k = sum_j Xi_j z_{k-j} + D u_k + e_k``.
+    r"""Estimate the VARX predictor ``y_k = sum_j Xi_j z_{k-j} + D u_k + e_k``.
 
-    ``U`` is (m x N), ``Y`` (l x N) (rows = signals).  ``lag`` defaults to
-    :class:`SampleShift`.  With ``feedthrough=False`` the term ``D u_k`` is left out
-    (the toolbox's ``noD=1``; needed in closed loop when the controller has direct
-    feedthrough, since then ``u_k`` is correlated with ``e_k``).  ``regularize`` selects
-    plain least squares (``False``), ridge with GCV (``True``/``"gcv"``) or ridge with a
-    given parameter (a float); see :func:`ridge_gcv`.
+    Step 1 of PBSID: with ``z = [u; y]`` the innovation model's predictor has the Markov
+    parameters ``Xi_j = C At^{j-1} Bt``, ``At = A - K C``, ``Bt = [B - K D, K]``, which
+    decay with the predictor's poles; truncated at ``p`` lags they are the coefficients of
+    a linear regression of ``y_k`` on the past.
 
-    ``instruments`` (k x N, rows = instrument signals on the same columns as ``U, Y``)
-    switches to instrumental variables (two-stage least squares,
-    :func:`hdpbsid.core.instruments.two_stage_ls`): the instrument set is these rows plus
-    the lagged blocks of the rows of ``Z = [U; Y]`` listed in ``exogenous`` (signals
-    known to be uncorrelated with ``e``, e.g. pseudo-inputs, which are their own
-    instruments).  Least squares is consistent only when every regressor is uncorrelated
-    with ``e_k``; with a lag that is not strictly causal in the index (a basis-domain
-    operator) or with fed-back noise that fails, and IV with instruments independent of
-    the noise restores consistency (Soderstrom & Stoica, *Instrumental variable methods
-    for system identification*, 1983, ch. 3).
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs (rows = signals).
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p : int
+        Past window (number of lags).
+    lag : LagOperator, optional
+        The "one step back" operator (default :class:`SampleShift`).
+    feedthrough : bool, optional
+        Include ``D u_k`` (the toolbox's ``noD=0``).  Leave it out in closed loop when the
+        controller has direct feedthrough: then ``u_k`` is correlated with ``e_k``.
+    regularize : bool, str, float or None, optional
+        Plain least squares (False, None, ``"none"``), ridge with GCV (True,
+        ``"gcv"``) or ridge with the given parameter (a float ``>= 0``);
+        see :func:`ridge_gcv`.
+    ridge_floor : float, optional
+        Lower bound of the GCV ridge, relative to the largest singular value.
+    instruments : ndarray, shape (k, N), optional
+        Instrument rows on the same columns as ``U, Y``: switches to instrumental
+        variables (:func:`two_stage_ls`).
+    exogenous : sequence of int, optional
+        Rows of ``Z = [U; Y]`` whose lagged blocks join the instruments (signals known to
+        be uncorrelated with ``e``, e.g. pseudo-inputs, which are their own instruments).
+
+    Returns
+    -------
+    VarxResult
+        Coefficients, feedthrough, the stacked past and residuals on the columns used.
+
+    Raises
+    ------
+    ValueError
+        If the usable columns are not more than the regressors (reduce ``p``), if
+        ``instruments`` has the wrong shape, if ``exogenous`` indexes no row of ``[U; Y]``,
+        or if ``regularize`` is a negative number or an unknown string.
+    TypeError
+        If ``regularize`` is not a bool, string or number.
+
+    Notes
+    -----
+    .. math::
+
+        y_k = \sum_{j=1}^{p} \Xi_j z_{k-j} + D u_k + e_k, \qquad
+        \Xi_j = C \tilde A^{j-1} \tilde B .
+
+    Least squares is consistent only when every regressor is uncorrelated with ``e_k``;
+    with a lag that is not strictly causal in the index (a basis-domain operator) or with
+    fed-back noise that fails, and IV with instruments independent of the noise restores
+    consistency (Soderstrom & Stoica 1983, ch. 3).
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007, eq. (8).
+    .. [2] T. Soderstrom and P. Stoica, *Instrumental Variable Methods for System
+       Identification*, Springer, 1983.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((1, 300))
+    >>> y = np.zeros((1, 300))
+    >>> for k in range(1, 300):
+    ...     y[0, k] = 0.8 * y[0, k - 1] + u[0, k - 1]
+    >>> vx = varx(u, y, p=1)
+    >>> vx.Xi.round(6)  # [b, a] of y_k = a y_{k-1} + b u_{k-1}
+    array([[[1. , 0.8]]])
     """
     lag = SampleShift() if lag is None else lag
     m, l = U.shape[0], Y.shape[0]
@@ -494,19 +900,31 @@ def varx(
 #: for themselves, the ones beyond carry what is left of a decaying tail.  A dead time
 #: or a long-period disturbance is no decaying tail, which is why the first block is a
 #: third of the cap (a dead time up to ``p_max / 3`` samples is seen).  It is a rule of
-#: thumb, not a bound (the AIC of a noisy record has local minima), so it was measured:
-#: on 169 records (10 benchmark cases, 10 seeds each, and 69 records of random stable
-#: systems of orders 1-4, open and closed loop, 20 dB) the window chosen equals the full
-#: search's on every one; the largest factor any of them needed was 2.5 (with 2, three
-#: records stopped at a local minimum, e.g. p = 55 against 126).  A record whose best
-#: window is short needs a fraction of the factorisation, whose cost grows with the square
-#: of the window searched (the closed-loop quadrotor at 250 Hz: 12-17 of 166 lags, 11 %).
+#: thumb, not a bound (the AIC of a noisy record has local minima): the factor 3 leaves a
+#: margin over the largest factor the records of ``bench/regression.py`` need to find the
+#: full search's window.  A record whose best window is short needs a fraction of the
+#: factorisation, whose cost grows with the square of the window searched.
 WINDOW_SEARCH_GROWTH = 3.0
 
 
 def windows_searched(crit: Array) -> int:
-    """The largest past window whose criterion :func:`select_past_window` evaluated (the
-    last finite entry of ``crit``; 0 when none is)."""
+    """The largest past window whose criterion :func:`select_past_window` evaluated.
+
+    Parameters
+    ----------
+    crit : ndarray, shape (p_max,)
+        Criterion values, ``inf`` where not evaluated.
+
+    Returns
+    -------
+    int
+        One plus the index of the last finite entry; 0 when none is finite.
+
+    Examples
+    --------
+    >>> windows_searched(np.array([3.0, 1.0, 2.0, np.inf]))
+    3
+    """
     finite = np.flatnonzero(np.isfinite(crit))
     return int(finite[-1]) + 1 if finite.size else 0
 
@@ -514,9 +932,32 @@ def windows_searched(crit: Array) -> int:
 def search_is_complete(
     crit: Array, p_max: int, growth: float | None = WINDOW_SEARCH_GROWTH
 ) -> bool:
-    """Whether the criterion values ``crit`` of :func:`select_past_window` (``inf`` where
-    not evaluated) settle the window among the finite ones: the search reached ``p_max``
-    or ``growth`` times the best window (:data:`WINDOW_SEARCH_GROWTH`)."""
+    """Whether the evaluated criterion values settle the past window.
+
+    The search has settled it when it reached ``p_max`` or ``growth`` times the best window
+    (:data:`WINDOW_SEARCH_GROWTH`, the reason there).
+
+    Parameters
+    ----------
+    crit : ndarray, shape (p_max,)
+        Criterion values of :func:`select_past_window`, ``inf`` where not evaluated.
+    p_max : int
+        The largest window allowed.
+    growth : float or None, optional
+        The growth factor of the search; ``None`` means every window was searched.
+
+    Returns
+    -------
+    bool
+        True when the windows searched settle the choice.
+
+    Examples
+    --------
+    >>> search_is_complete(np.array([3.0, 1.0, 2.0, np.inf, np.inf, np.inf, np.inf]), 7)
+    False
+    >>> search_is_complete(np.array([3.0, 1.0, 2.0, 2.5, 2.6, 2.7, np.inf]), 7)
+    True
+    """
     searched = windows_searched(crit)
     if searched == 0:
         return False
@@ -572,35 +1013,88 @@ def select_past_window(
     growth: float | None = WINDOW_SEARCH_GROWTH,
     gram: bool = True,
 ) -> tuple[int, Array]:
-    """Choose the past window ``p`` by an information criterion on the VARX fit.
+    r"""Choose the past window ``p`` by an information criterion on the VARX fit.
 
     For ``p = 1..p_max`` the VARX models are nested, so one QR factorisation of
     ``[Phi_{p_max}^T, Y^T]`` (regressors ordered ``u_k, z_{k-1}, z_{k-2}, ...``) on the
-    columns valid for ``p_max`` gives every residual covariance ``Sigma_p``.  Then
+    columns valid for ``p_max`` gives every residual covariance ``Sigma_p``: the residual
+    of ``Y`` on the first ``c`` columns of a QR has the Gram matrix of the last rows of
+    ``Q^T Y`` (Golub & Van Loan, sec. 5.3.3).  ``Sigma_p`` is computed on outputs scaled
+    to unit RMS and floored at ``rel_floor``: a noise-free record fits to rounding level for
+    every ``p >= n``, and the floor stops round-off from choosing among exact fits, so the
+    smallest exact ``p`` wins.
 
-        AIC(p) = N log det Sigma_p + 2 l d_p,     BIC(p) = N log det Sigma_p + log(N) l d_p,
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs.
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p_max : int
+        Largest window considered.
+    p_min : int, optional
+        Smallest window considered.
+    lag : LagOperator, optional
+        The "one step back" operator (default :class:`SampleShift`).
+    feedthrough : bool, optional
+        Include ``D u_k`` in every VARX.
+    criterion : {"aic", "bic"}, optional
+        Akaike's or Schwarz's criterion.
+    rel_floor : float, optional
+        Floor added to the scaled residual covariance.
+    growth : float or None, optional
+        Grow the factorisation lag by lag from ``p_max / growth`` lags until the lags
+        factored reach ``growth`` times the best window so far or ``p_max``
+        (:data:`WINDOW_SEARCH_GROWTH`); ``None`` searches every ``p``.
+    gram : bool, optional
+        With the sample shift, search on the Gram matrix of the lagged samples first
+        (:mod:`hdpbsid.core.lag_gram`), keeping its choice only when it is certified to be
+        the exact criterion's; otherwise the QR decides.
 
-    with ``d_p = p (m + l) (+ m with feedthrough)`` regressors per output.  ``Sigma_p`` is
-    computed on outputs scaled to unit RMS and floored at ``rel_floor`` (a noise-free
-    record fits to rounding level for every ``p >= n``; the floor stops round-off from
-    choosing among exact fits, so the smallest exact ``p`` wins).
+    Returns
+    -------
+    p : int
+        The window chosen.
+    crit : ndarray, shape (p_max,)
+        ``crit[p - 1]`` the criterion value; ``inf`` for ``p < p_min`` and for the windows
+        not searched (:func:`search_is_complete`).
 
-    The factorisation is grown lag by lag in blocks (:class:`_GrowingQR`, the same
-    reflectors as one QR of all columns) from ``p_max / growth`` lags until the lags
-    factored reach ``growth`` times the best window so far or ``p_max``
-    (:data:`WINDOW_SEARCH_GROWTH`, the reason there); ``growth=None`` searches every
-    ``p``.  Every ``p`` is evaluated on the same columns (those valid for ``p_max``), so a
-    longer search only adds values.  Returns ``(p, crit)`` with
-    ``crit[p - 1]`` the criterion value (``inf`` for ``p < p_min`` and for the windows not
-    searched; :func:`search_is_complete`).
+    Raises
+    ------
+    ValueError
+        If ``criterion`` is not ``"aic"``/``"bic"``, ``growth`` is not ``> 1`` or None, or
+        the usable columns are not more than the regressors of ``p_max``.
 
-    With the sample shift (``lag`` a :class:`SampleShift`) and ``gram=True`` the same
-    search runs on the Gram matrix of the lagged samples and its Cholesky factor
-    (:mod:`hdpbsid.core.lag_gram`: ``O(N d^2 p_max)`` operations to form it instead of
-    the ``O(N d^2 p_max^2)`` of the QR), and its choice is kept when it is certified to
-    be the exact criterion's at every step of the growth; otherwise (a near tie, an
-    ill-conditioned or noise-free record) the QR factorisation decides, as with
-    ``gram=False``.
+    Notes
+    -----
+    With ``d_p = p (m + l)`` (``+ m`` with feedthrough) regressors per output,
+
+    .. math::
+
+        \mathrm{AIC}(p) = N \log\det\Sigma_p + 2\, l\, d_p, \qquad
+        \mathrm{BIC}(p) = N \log\det\Sigma_p + l\, d_p \log N .
+
+    Every ``p`` is evaluated on the same columns (those valid for ``p_max``), so a longer
+    search only adds values.
+
+    References
+    ----------
+    .. [1] H. Akaike, "A new look at the statistical model identification", *IEEE Trans.
+       Automatic Control* 19(6), 716-723, 1974.
+    .. [2] G. Schwarz, "Estimating the dimension of a model", *Ann. Statist.* 6(2),
+       461-464, 1978.
+    .. [3] G. H. Golub and C. F. Van Loan, *Matrix Computations*, 4th ed., 2013, sec. 5.3.3.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((1, 300))
+    >>> y = np.zeros((1, 300))
+    >>> for k in range(1, 300):
+    ...     y[0, k] = 0.8 * y[0, k - 1] + u[0, k - 1]
+    >>> p, crit = select_past_window(u, y, p_max=6)
+    >>> p
+    1
     """
     lag = SampleShift() if lag is None else lag
     if criterion not in ("aic", "bic"):

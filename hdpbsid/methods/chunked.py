@@ -107,9 +107,41 @@ def _compute(tasks: list[Any], use_dask: bool, shared: Any = None) -> list[Any]:
 def averaged_spectra(
     rec: ChunkedRecord, spectrum_samples: int = SPECTRUM_SAMPLES, use_dask: bool = False
 ) -> tuple[Array, Array, Array]:
-    """Angular frequencies and the periodograms of ``u`` and ``y`` averaged over
-    ``floor(Ns / L)`` consecutive chunks of ``L = min(Ns, spectrum_samples)`` samples
-    (module docstring); the tail shorter than ``L`` is not used."""
+    """Angular frequencies and the periodograms of ``u`` and ``y`` averaged over chunks.
+
+    Welch's method: ``floor(Ns / L)`` consecutive chunks of ``L = min(Ns, spectrum_samples)``
+    samples, each detrended and Hann-windowed as in
+    :func:`~hdpbsid.bases.basis_domain.bandwidth`; averaging lowers the variance of the
+    periodogram by the number of chunks.  The tail shorter than ``L`` is not used.
+
+    Parameters
+    ----------
+    rec : ChunkedRecord
+        The record.
+    spectrum_samples : int, optional
+        Samples per chunk, ``>= 16``.
+    use_dask : bool, optional
+        Chunks as ``dask.delayed`` tasks.
+
+    Returns
+    -------
+    w : ndarray, shape (L // 2 + 1,)
+        Angular frequencies (rad per time unit).
+    Pu : ndarray, shape (L // 2 + 1, m)
+        Averaged input periodograms.
+    Py : ndarray, shape (L // 2 + 1, l)
+        Averaged output periodograms.
+
+    Raises
+    ------
+    ValueError
+        If ``spectrum_samples`` is not an integer ``>= 16``.
+
+    References
+    ----------
+    .. [1] P. D. Welch, "The use of fast Fourier transform for the estimation of power
+       spectra", *IEEE Trans. Audio Electroacoust.* 15(2), 70-73, 1967.
+    """
     L = min(rec.ns, check_positive_int(spectrum_samples, "spectrum_samples", 16))
     k = rec.ns // L
     w, Pu, Py = _reduce(
@@ -521,18 +553,69 @@ def identify_chunked(
 ) -> StateSpaceModel:
     """HD-PBSID (method ``"hermite"``) of a record read in chunks (module docstring).
 
-    ``record``: a :class:`ChunkedRecord` (:func:`hdpbsid.data.io.open_chunked` for HDF5,
-    Parquet and ``.npy`` files).  ``order``, ``N`` and the shared settings (keywords or
-    ``settings=`` :class:`~hdpbsid.bases.settings.BasisSettings`; ``n_jobs`` is not
-    used: batches run serially or on Dask) as in
-    :func:`~hdpbsid.methods.hermite.identify_hermite`, with ``alpha = 4 scale``,
-    ``beta = gamma = 1``.  No mean is removed: pass deviations from the operating
-    point.  ``chunk_samples``: samples read per batch of windows (at least one window);
-    ``spectrum_samples``: samples per periodogram of the bandwidth estimate;
-    ``use_dask``: batches as ``dask.delayed`` tasks (on the active ``dask.distributed``
-    client, if one exists).  The options report the batches and which core ran
-    (``options["chunked"]["core"]``: ``"streamed"``, or ``"in memory"`` with
-    ``feedthrough=True``).
+    Three passes over the data, never holding more than one batch of samples: the
+    bandwidth from averaged periodograms, then the first-pass and the second-pass
+    triangular factors of the streamed core (:mod:`hdpbsid.core.streamed`).  On the same
+    windows the model is the in-memory one to rounding, up to the sign of each state
+    coordinate.
+
+    Parameters
+    ----------
+    record : ChunkedRecord
+        The record (:func:`hdpbsid.data.io.open_chunked` for HDF5, Parquet and ``.npy``
+        files; :meth:`~hdpbsid.data.chunked.ChunkedRecord.from_arrays` for sliceable arrays).
+        No mean is removed: pass deviations from the operating point.
+    order : int, optional
+        Model order; None selects it.
+    N : int, optional
+        Basis size of every window (as in :func:`~hdpbsid.methods.hermite.identify_hermite`).
+    chunk_samples : int, optional
+        Samples read per batch of windows (at least one window is read).
+    spectrum_samples : int, optional
+        Samples per periodogram of the bandwidth estimate (:func:`averaged_spectra`).
+    use_dask : bool, optional
+        Batches as ``dask.delayed`` tasks (on the active ``dask.distributed`` client, if
+        one exists), the factors combined pairwise by tasks as well.
+    settings : BasisSettings, optional
+        The shared settings; ``n_jobs`` is not used (batches run serially or on Dask).
+    **shared
+        The shared settings as keywords.  The operator scale is ``alpha = 4 scale``,
+        ``beta = gamma = 1`` (the modes are not known before the last pass).
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model; ``options["chunked"]`` reports the batches and which core
+        ran (``"streamed"``, or ``"in memory"`` with ``feedthrough=True``, which the
+        streamed core does not cover).
+
+    Raises
+    ------
+    TypeError
+        If ``record`` is not a :class:`~hdpbsid.data.chunked.ChunkedRecord`, or a keyword is
+        not a shared setting.
+    ValueError
+        If an argument is out of range, or the record is too short for the order.
+
+    References
+    ----------
+    .. [1] J. Demmel, L. Grigori, M. Hoemmen and J. Langou, "Communication-optimal
+       parallel and sequential QR and LU factorizations", *SIAM J. Sci. Comput.* 34(1),
+       A206-A239, 2012.
+    .. [2] P. D. Welch, "The use of fast Fourier transform for the estimation of power
+       spectra", *IEEE Trans. Audio Electroacoust.* 15(2), 70-73, 1967.
+
+    Examples
+    --------
+    >>> from hdpbsid.data.chunked import ChunkedRecord
+    >>> from hdpbsid.systems.linear import second_order, simulate_zoh
+    >>> A, B, C, D = second_order()  # eigenvalues -0.4 +- 1.9596j
+    >>> t = np.arange(0.0, 40.0, 0.05)
+    >>> u = (np.sin(0.7 * t) + np.sin(1.9 * t) + np.sin(3.1 * t))[:, None]
+    >>> record = ChunkedRecord.from_arrays(u, simulate_zoh(A, B, C, D, t, u), dt=0.05)
+    >>> model = identify_chunked(record, order=2, chunk_samples=200)
+    >>> np.sort_complex(model.eigenvalues).round(2), model.options["chunked"]["core"]
+    (array([-0.4-1.96j, -0.4+1.96j]), 'streamed')
     """
     if not isinstance(record, ChunkedRecord):
         raise TypeError(f"record must be a ChunkedRecord, got {type(record).__name__}")

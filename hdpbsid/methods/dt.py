@@ -14,7 +14,7 @@ Defaults (all reported in ``model.options``):
   (:func:`hdpbsid.core.varx.select_past_window`), where ``p_max`` keeps
   ``p (m + l) <= Ns / 10`` and ``p <= 200``, and ``p_min`` makes ``f l`` exceed the order
   (or ``max_order`` when the order is to be selected); the search stops once it covers
-  three times the best window (:data:`hdpbsid.core.varx.WINDOW_SEARCH_GROWTH`, measured);
+  three times the best window (:data:`hdpbsid.core.varx.WINDOW_SEARCH_GROWTH`);
 * ``f=None``: ``f = p`` (as in the toolbox examples);
 * ``order=None``: the largest log-gap of the singular values
   (:func:`hdpbsid.core.pbsid.select_order`) among orders ``1..max_order`` (default 10);
@@ -22,9 +22,10 @@ Defaults (all reported in ``model.options``):
   closed-loop data with a static controller is biased);
 * ``regularize="gcv"``: ridge (Tikhonov) VARX with the parameter chosen by generalised
   cross validation, as the toolbox's ``'tikh', 'gcv'`` (``lam = 0`` is a candidate, so
-  exact data stay exact).  On the second-order system sampled fast (``dt = 0.01``, chirp,
-  SNR 40 dB) plain least squares (``False``) lost the eigenvalues completely (error
-  > 1000 %) while GCV ridge gave 0.02 %; a float fixes the ridge parameter;
+  exact data stay exact).  Sampled fast, neighbouring samples are nearly collinear and
+  the VARX regressors ill-conditioned, so plain least squares (``False``) amplifies the
+  noise along the near-null directions; the ridge damps exactly those (Hansen 1998,
+  sec. 4.2).  A float fixes the ridge parameter;
 * ``stable_k=False``: ``K`` from least squares (``True``: Kalman gain from the Riccati
   equation with the residual covariances).
 """
@@ -67,9 +68,7 @@ P_CAP = 200
 #: the data-driven settings a refit of this method on a longer record keeps from the
 #: candidate it reproduces (:func:`hdpbsid.selection.auto.refit_keeps`): the past and future
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
-#: ``P_CAP`` lags -- the costliest step of a fit (measured: 0.07-0.08 s of the 0.12-0.18 s
-#: that the whole-record refit of ``method="auto"`` took on the stiff and Rao-Garnier
-#: records) -- and the held-out
+#: ``P_CAP`` lags -- the costliest step of a fit -- and the held-out
 #: judgement validated the candidate's predictor with its windows, not the criterion.
 REFIT_KEEPS = ("p", "f")
 
@@ -86,10 +85,44 @@ def default_windows(
     """Check the windows against the data and return the range ``(p_min, p_max)`` for ``p``.
 
     ``f l`` must be at least the order (``max_order + 1`` when the order is selected, so
-    that a gap after every candidate exists), ``f <= p``, and the VARX needs
-    ``p (m + l) < Ns - p``.  The default rule keeps ``p (m + l) <= Ns / 10`` and
-    ``p <= 200``.  Raises ``ValueError`` with the numbers when the data cannot support the
-    requested order/windows.
+    that a gap after every candidate exists), ``f <= p``, and the VARX needs ``p (m + l) <
+    Ns - p`` (more equations than unknowns).  The default rule keeps ``p (m + l) <= Ns /
+    10`` (:data:`SAMPLES_PER_REGRESSOR`: the VARX variance grows like ``1 / (Ns - p (m +
+    l))``) and ``p <= 200`` (:data:`P_CAP`, the cost).
+
+    Parameters
+    ----------
+    ns : int
+        Number of samples.
+    m : int
+        Number of inputs.
+    l : int
+        Number of outputs.
+    order : int or None
+        The order asked for (None: selected).
+    max_order : int
+        Largest order of the selection.
+    p : int or None
+        A given past window.
+    f : int or None
+        A given future window.
+
+    Returns
+    -------
+    p_min : int
+        Smallest window to search (``p`` when given).
+    p_max : int
+        Largest window to search (``p`` when given).
+
+    Raises
+    ------
+    ValueError
+        With the numbers, when the data cannot support the requested order or windows.
+
+    Examples
+    --------
+    >>> default_windows(1200, 1, 1, 2, 10, None, None)
+    (2, 60)
     """
     need_rows = order if order is not None else max_order + 1
     what = f"order={order}" if order is not None else f"order selection up to {max_order}"
@@ -169,13 +202,82 @@ def identify_discrete(
 ) -> DiscreteModel:
     """PBSID (VARX form) on uniformly sampled data; returns the sampled model.
 
-    ``u`` (Ns, m) or None, ``y`` (Ns, l).  Pipeline (toolbox ``dordvarx -> dmodx ->
-    dx2abcdk``): VARX with past window ``p`` -> ``Gamma L`` with future window ``f`` ->
-    SVD and state -> ``C, D`` -> ``A, B, K`` (:func:`hdpbsid.core.pbsid.pbsid_core`).  See
-    the module docstring for the defaults; every value used is in ``model.options``.
-    ``lag`` (default the sample shift) replaces "one sample back", e.g. a
-    :class:`~hdpbsid.core.blocks.BlockLag` of sample shifts for several records side by
-    side (no lag crosses a record edge).
+    The pipeline of the PBSID toolbox (``dordvarx -> dmodx -> dx2abcdk``): VARX with past
+    window ``p`` -> ``Gamma L`` with future window ``f`` -> SVD and state -> ``C, D`` ->
+    ``A, B, K`` (:func:`hdpbsid.core.pbsid.pbsid_core`).  Each channel is scaled to unit
+    RMS first when ``normalize`` (eigenvalues are unaffected; only the weighting of the
+    least squares and the SVD between channels changes) and the model scaled back.  See the
+    module docstring for the defaults; every value used is in ``model.options``.
+
+    Parameters
+    ----------
+    u : array_like, shape (Ns, m), or None
+        Inputs (None: a time series).
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None selects it (largest log-gap of the singular values up to
+        ``max_order``).
+    p : int, optional
+        Past window; None minimises ``p_criterion`` of the VARX fit
+        (:func:`hdpbsid.core.varx.select_past_window`) within :func:`default_windows`.
+    f : int, optional
+        Future window (default ``p``).
+    regularize : bool, str or float, optional
+        VARX ridge: ``"gcv"``/True (generalised cross-validation, ``lam = 0`` a candidate),
+        False/``"none"``, or a ridge parameter.
+    feedthrough : bool, optional
+        Estimate ``D`` (biased from closed-loop data with a static controller).
+    stable_k : bool, optional
+        Kalman gain from the Riccati equation instead of the least-squares ``K``.
+    normalize : bool, optional
+        Scale the channels to unit RMS.
+    max_order : int, optional
+        Largest order of the selection (default 10).
+    p_criterion : {"aic", "bic"}, optional
+        The past-window criterion.
+    dt : float, optional
+        Sampling interval (time units).
+    lag : LagOperator, optional
+        Replaces "one sample back", e.g. a :class:`~hdpbsid.core.blocks.BlockLag` of
+        sample shifts for several records side by side (no lag crosses a record edge).
+
+    Returns
+    -------
+    DiscreteModel
+        ``x_{k+1} = A x_k + B u_k + K e_k``, ``y_k = C x_k + D u_k + e_k`` with ``dt`` and
+        its ``options``.
+
+    Raises
+    ------
+    ValueError
+        If ``y`` has no channel, a channel is identically zero with ``normalize``,
+        ``p_criterion`` is unknown, ``dt`` is not positive and finite, or the windows do not
+        fit the data (:func:`default_windows`).
+    TypeError
+        If ``dt`` is not a real number, or from the argument checks.
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007.
+    .. [2] J.-W. van Wingerden and M. Verhaegen, "Subspace identification of bilinear and
+       LPV systems for open- and closed-loop data", *Automatica* 45(2), 372-381, 2009.
+
+    Examples
+    --------
+    The lightly damped second-order system (eigenvalues ``-0.4 +- 1.9596j``) under a
+    random-step input held between samples, noise-free:
+
+    >>> from hdpbsid.systems.linear import random_steps, second_order, simulate_zoh
+    >>> A, B, C, D = second_order()
+    >>> t = np.arange(0.0, 60.0, 0.05)
+    >>> u = random_steps(np.random.default_rng(0), t, hold=0.5)
+    >>> y = simulate_zoh(A, B, C, D, t, u)
+
+    >>> dmodel = identify_discrete(u, y, order=2, dt=0.05)
+    >>> np.sort_complex(np.linalg.eigvals(dmodel.A)).round(4)  # exp(lambda dt)
+    array([0.9755-0.0959j, 0.9755+0.0959j])
     """
     y = check_signal(y, "y")
     ns, l = y.shape
@@ -302,17 +404,76 @@ def identify_dt(
 ) -> StateSpaceModel:
     """Identify a continuous-time model from uniformly sampled data (method ``"dt"``).
 
-    Runs :func:`identify_discrete` on the samples (treating the input as ZOH-held) and
-    converts exactly with the matrix logarithm (:func:`hdpbsid.models.conversion.d2c`).  ``t``
-    must be uniform within ``uniform_rtol`` relative plus the resolution of its stamps
-    (:func:`hdpbsid.data.checks.check_uniform`; Unix-time stamps pass).  ``t`` may be a list of
-    ``(t_i, u_i, y_i)`` records with the same sampling interval (``u = y = None``): they
-    are concatenated, with the first ``p`` columns of each record invalid (no lag
-    crosses a record edge).  Returns a :class:`~hdpbsid.models.model.StateSpaceModel` whose
-    ``discrete`` attribute holds the sampled model and whose ``options`` list every setting used.
+    Runs :func:`identify_discrete` on the samples and converts exactly with the matrix
+    logarithm (:func:`hdpbsid.models.conversion.d2c`), which is the inverse of the
+    zero-order-hold sampling: the model is exact for an input held between samples.
 
-    Raises ``ValueError`` when the discrete model has no continuous counterpart (an
-    eigenvalue on the negative real axis): try another order or a basis-domain method.
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of records
+        Sample times, uniform within ``uniform_rtol`` relative plus the resolution of the
+        stamps (:func:`hdpbsid.data.checks.check_uniform`; Unix-time stamps pass); or a list
+        of ``(t_i, u_i, y_i)`` records with the same sampling interval (then ``u = y =
+        None``), concatenated with no lag crossing a record edge.
+    u : array_like, shape (Ns, m), optional
+        Inputs (None: a time series).
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None selects it.
+    p : int, optional
+        Past window (:func:`identify_discrete`).
+    f : int, optional
+        Future window.
+    regularize : bool, str or float, optional
+        VARX ridge.
+    feedthrough : bool, optional
+        Estimate ``D``.
+    stable_k : bool, optional
+        Riccati gain.
+    normalize : bool, optional
+        Scale the channels to unit RMS.
+    max_order : int, optional
+        Largest order of the selection.
+    p_criterion : {"aic", "bic"}, optional
+        The past-window criterion.
+    uniform_rtol : float, optional
+        Relative tolerance of the uniform sampling check.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model; ``discrete`` holds the sampled model and ``options``
+        every setting used.
+
+    Raises
+    ------
+    ValueError
+        If the samples are not uniform, the records have different intervals, or the
+        discrete model has no continuous counterpart (an eigenvalue on the negative real
+        axis: try another order or a basis-domain method).
+
+    References
+    ----------
+    .. [1] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007.
+    .. [2] G. F. Franklin, J. D. Powell and M. L. Workman, *Digital Control of Dynamic
+       Systems*, 3rd ed., Addison-Wesley, 1998, sec. 4.3 (zero-order-hold equivalents).
+
+    Examples
+    --------
+    The lightly damped second-order system (eigenvalues ``-0.4 +- 1.9596j``) under a
+    random-step input held between samples, noise-free:
+
+    >>> from hdpbsid.systems.linear import random_steps, second_order, simulate_zoh
+    >>> A, B, C, D = second_order()
+    >>> t = np.arange(0.0, 60.0, 0.05)
+    >>> u = random_steps(np.random.default_rng(0), t, hold=0.5)
+    >>> y = simulate_zoh(A, B, C, D, t, u)
+
+    >>> model = identify_dt(t, u, y)
+    >>> model.n, np.sort_complex(model.eigenvalues).round(4)
+    (2, array([-0.4-1.9596j, -0.4+1.9596j]))
     """
     records = as_records(t, u, y)
     steps = []

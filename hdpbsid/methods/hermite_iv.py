@@ -43,25 +43,11 @@ power is fed-back noise, which the reference does not explain).  That is why the
 front end's consistent default is not IV but the prediction-error refinement
 (:mod:`hdpbsid.selection.feedback`), which IV can start when the reference is known.
 
-Measured (closed-loop quadrotor, :func:`hdpbsid.studies.data.quadrotor_record` with the
-Hermite sweep, order 3, 30 runs, generators ``default_rng([7, i])``, the excitation as
-``reference``; bias / STD in rad/s of the pair and the real pole, median worst relative
-eigenvalue error; least squares from ``hdpbsid study table1 --runs 30 --seed 7`` with
-``refine=None``):
-
-======  ======================================  ======================================
-SNR     least squares                           IV
-======  ======================================  ======================================
-20 dB   pair 0.05/0.07, real 0.10/0.14, 4.2 %   pair 0.07/0.13, real 0.03/0.19, 5.7 %
-10 dB   pair 0.37/0.20, real 0.74/0.33, 24 %    pair 0.53/0.77, real 0.22/0.77, 19 %
-6 dB    pair 0.74/0.25, real 1.34/0.47, 41 %    pair 0.81/0.95, real 0.56/0.94, 28 %
-======  ======================================  ======================================
-
-IV moves the real pole's bias inside its spread; the pair keeps the truncation bias,
-and the spread triples.  The prediction-error refinement started from either estimate
-reaches nearly the same end points (6 runs at 6 dB: median error 7.0 % from both, biases
-within 0.002 rad/s); from least squares, over the 30 table1 runs, 3.6 % (10 dB) and
-4.7 % (6 dB) median error.
+On a simulated closed-loop record with the excitation as ``reference`` (``hdpbsid study
+table1``, the benchmark pages), IV moves the bias of the well-damped modes inside their
+spread, while a lightly damped pair keeps the truncation bias, and the spread roughly
+triples; the prediction-error refinement started from either estimate reaches
+nearly the same end points.
 
 Number of lags: two-stage least squares needs at least as many instruments as regressors
 that are not their own instruments, ``p (m + l)`` per output; more instruments lower the
@@ -101,7 +87,35 @@ INSTRUMENT_FACTOR = 4.0
 
 
 def check_reference(reference: Any, ns: int, name: str = "reference") -> Array:
-    """``reference`` as an ``(Ns, m_r)`` finite float array with ``Ns`` rows."""
+    """``reference`` as an ``(Ns, m_r)`` finite float array with ``Ns`` rows.
+
+    Parameters
+    ----------
+    reference : array_like, shape (Ns,) or (Ns, m_r)
+        The external signal.
+    ns : int
+        The record's number of samples.
+    name : str, optional
+        The argument's name in messages (``reference[i]`` for several records).
+
+    Returns
+    -------
+    ndarray, shape (Ns, m_r)
+        The reference.
+
+    Raises
+    ------
+    TypeError
+        If ``reference`` is not numeric.
+    ValueError
+        If it has the wrong number of samples, is not finite, or is identically zero (no
+        instrument).
+
+    Examples
+    --------
+    >>> check_reference([1.0, 2.0, 3.0], 3).shape
+    (3, 1)
+    """
     try:
         r = np.asarray(reference, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -128,10 +142,31 @@ def with_reference(
 
     Appending ``r`` to ``u`` makes every record or window projected with the inputs on its
     own basis, so the reference rows are the coefficients of ``r`` on exactly the blocks of
-    the data.  ``reference``: an ``(Ns,)``/``(Ns, m_r)`` array for one record, or a list
-    with one array per record.  Returns ``(records, m_r)``; ``m_r = 0`` (records
-    unchanged) for ``estimator="ls"`` without a reference.  ``reference`` is checked
-    whenever given; ``"iv"`` needs it.
+    the data.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The records.
+    estimator : {"ls", "iv"}
+        The estimator; ``"iv"`` needs ``reference``.
+    reference : array_like, list of array_like, or None
+        An ``(Ns,)`` / ``(Ns, m_r)`` array for one record, or a list with one array per
+        record; checked whenever given.
+
+    Returns
+    -------
+    records : list of Record
+        The records, with the reference appended to the inputs for ``"iv"``.
+    m_r : int
+        Reference columns appended (0 for ``"ls"``).
+
+    Raises
+    ------
+    ValueError
+        If ``estimator`` is unknown, ``"iv"`` comes without a reference, the number of
+        references differs from the number of records, their column counts differ, or a
+        reference is invalid (:func:`check_reference`).
     """
     if not isinstance(estimator, str) or estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {ESTIMATORS}, got {estimator!r}")
@@ -166,10 +201,37 @@ def with_reference(
 def reference_instruments(R: Array, lag: BlockLag, n_regressors: int) -> Array:
     """The instrument rows ``[R; R M; ...; R M^L]`` (module docstring).
 
-    ``R`` (m_r x N) are the reference coefficients of all blocks; ``lag`` the blocks'
-    lag.  ``n_regressors`` is the number of regressors to instrument, ``p_max (m + l)``;
-    ``L`` gives ``ceil(INSTRUMENT_FACTOR * n_regressors)`` rows at least.  Rows are scaled
-    to unit RMS (all-zero rows dropped).
+    Functions of the external signal alone are uncorrelated with the noise for every lag,
+    and correlated with the regressors, whose noise-free parts are filtered ``r``.
+
+    Parameters
+    ----------
+    R : ndarray, shape (m_r, N)
+        The reference coefficients of all blocks.
+    lag : BlockLag
+        The blocks' lag.
+    n_regressors : int
+        The regressors to instrument, ``p_max (m + l)``; ``L`` gives at least
+        ``ceil(INSTRUMENT_FACTOR * n_regressors)`` rows.
+
+    Returns
+    -------
+    ndarray, shape (k, N)
+        The instruments, rows scaled to unit RMS (all-zero rows dropped).
+
+    References
+    ----------
+    .. [1] T. Soderstrom and P. Stoica, *Instrumental Variable Methods for System
+       Identification*, Springer, 1983, ch. 3.
+
+    Examples
+    --------
+    >>> from hdpbsid.core.blocks import BlockLag
+    >>> from hdpbsid.core.varx import SampleShift
+    >>> R = np.array([[1.0, 2.0, 3.0, 4.0]])
+    >>> Psi = reference_instruments(R, BlockLag([SampleShift()], [4]), 1)
+    >>> Psi.shape  # R and its lags 1..3, four instruments per regressor
+    (4, 4)
     """
     m_r = R.shape[0]
     n_lags = int(np.ceil(INSTRUMENT_FACTOR * n_regressors / m_r))

@@ -78,7 +78,57 @@ N_MIN, N_MAX = 100, 4000  # the upper limit bounds the cost (clip_basis_size war
 
 
 def cayley(A: Array, B: Array, C: Array, D: Array, a: float) -> tuple[Array, Array, Array, Array]:
-    """Continuous ``(A, B, C, D)`` -> Laguerre-domain ``(Ad, Bd, Cd, Dd)`` (module docstring)."""
+    r"""Continuous ``(A, B, C, D)`` to the Laguerre-domain ``(Ad, Bd, Cd, Dd)``.
+
+    Laguerre functions of pole ``a`` go from index ``n`` to ``n + 1`` by the all-pass
+    ``w = (s - a) / (s + a)``, so the continuous transfer function is, in ``z = 1 / w``, the
+    discrete one of the bilinear (Cayley) images; a stable ``lambda`` maps inside the unit
+    disc (module docstring).
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix.
+    B : ndarray, shape (n, m)
+        Input matrix.
+    C : ndarray, shape (l, n)
+        Output matrix.
+    D : ndarray, shape (l, m)
+        Feedthrough.
+    a : float
+        The Laguerre pole, ``> 0``.
+
+    Returns
+    -------
+    Ad : ndarray, shape (n, n)
+        ``(A + aI)(A - aI)^{-1}``.
+    Bd : ndarray, shape (n, m)
+        ``sqrt(2a) (aI - A)^{-1} B``.
+    Cd : ndarray, shape (l, n)
+        ``-sqrt(2a) C (aI - A)^{-1}``.
+    Dd : ndarray, shape (l, m)
+        ``D + C (aI - A)^{-1} B`` (non-zero even when ``D = 0``).
+
+    Notes
+    -----
+    .. math::
+
+        A_d = (A + aI)(A - aI)^{-1},\quad B_d = \sqrt{2a}\,(aI - A)^{-1} B,\quad
+        C_d = -\sqrt{2a}\,C (aI - A)^{-1},\quad D_d = D + C (aI - A)^{-1} B .
+
+    References
+    ----------
+    .. [1] B. Wahlberg, "System identification using Laguerre models", *IEEE Trans.
+       Automatic Control* 36(5), 551-562, 1991.
+
+    Examples
+    --------
+    >>> from hdpbsid.systems.linear import second_order
+    >>> A, B, C, D = second_order()  # eigenvalues -0.4 +- 1.96j
+    >>> Ad, Bd, Cd, Dd = cayley(A, B, C, D, a=2.0)
+    >>> np.abs(np.linalg.eigvals(Ad)).round(4)  # inside the unit disc
+    array([0.8165, 0.8165])
+    """
     n = A.shape[0]
     R = np.linalg.inv(a * np.eye(n) - A)
     r = np.sqrt(2 * a)
@@ -89,10 +139,45 @@ def cayley(A: Array, B: Array, C: Array, D: Array, a: float) -> tuple[Array, Arr
 def inverse_cayley(
     Ad: Array, Bd: Array, Cd: Array, Dd: Array, a: float
 ) -> tuple[Array, Array, Array, Array]:
-    """Inverse of :func:`cayley`: ``A = a (Ad + I)(Ad - I)^{-1}``,
-    ``B = -sqrt(2a) (Ad - I)^{-1} Bd``, ``C = sqrt(2a) Cd (Ad - I)^{-1}``,
-    ``D = Dd - Cd (Ad - I)^{-1} Bd``.  Raises ``ValueError`` if ``Ad`` has an eigenvalue
-    at 1 (the image of ``s = inf``).
+    """Inverse of :func:`cayley`: the continuous ``(A, B, C, D)`` of a Laguerre-domain system.
+
+    Parameters
+    ----------
+    Ad : ndarray, shape (n, n)
+        Laguerre-domain state matrix.
+    Bd : ndarray, shape (n, m)
+        Laguerre-domain input matrix.
+    Cd : ndarray, shape (l, n)
+        Laguerre-domain output matrix.
+    Dd : ndarray, shape (l, m)
+        Laguerre-domain feedthrough.
+    a : float
+        The Laguerre pole, ``> 0``.
+
+    Returns
+    -------
+    A : ndarray, shape (n, n)
+        ``a (Ad + I)(Ad - I)^{-1}``.
+    B : ndarray, shape (n, m)
+        ``-sqrt(2a) (Ad - I)^{-1} Bd``.
+    C : ndarray, shape (l, n)
+        ``sqrt(2a) Cd (Ad - I)^{-1}``.
+    D : ndarray, shape (l, m)
+        ``Dd - Cd (Ad - I)^{-1} Bd``.
+
+    Raises
+    ------
+    ValueError
+        If ``Ad`` has an eigenvalue at 1 (the image of ``s = infinity``; condition number
+        of ``Ad - I`` above ``1e12``).
+
+    Examples
+    --------
+    >>> from hdpbsid.systems.linear import second_order
+    >>> A, B, C, D = second_order()
+    >>> A2, B2, C2, D2 = inverse_cayley(*cayley(A, B, C, D, 2.0), 2.0)
+    >>> bool(np.allclose(A2, A) and np.allclose(B2, B) and np.allclose(C2, C))
+    True
     """
     n = Ad.shape[0]
     Q = Ad - np.eye(n)
@@ -110,9 +195,38 @@ def inverse_cayley(
 def laguerre_filter(t: Array, x: Array, a: float, N: int) -> Array:
     """Outputs of the Laguerre network ``L_n(s)``, ``n < N``, for each column of ``x``.
 
-    The network is ``xi' = F xi + sqrt(2a) 1 x`` with ``F`` lower triangular (``-a`` on the
-    diagonal, ``-2a`` below), simulated exactly for ``x`` linear between samples, from rest.
-    Returns ``(Ns, k, N)``.
+    The network ``L_n(s) = sqrt(2a) (s - a)^n / (s + a)^{n+1}`` has the state-space form
+    ``xi' = F xi + sqrt(2a) 1 x`` with ``F`` lower triangular (``-a`` on the diagonal,
+    ``-2a`` below), simulated exactly for ``x`` linear between samples, from rest.
+
+    Parameters
+    ----------
+    t : ndarray, shape (Ns,)
+        Sample times.
+    x : ndarray, shape (Ns, k)
+        The signals.
+    a : float
+        The Laguerre pole, ``> 0``.
+    N : int
+        Number of filters.
+
+    Returns
+    -------
+    ndarray, shape (Ns, k, N)
+        The filter outputs.
+
+    References
+    ----------
+    .. [1] B. Wahlberg, "System identification using Laguerre models", *IEEE Trans.
+       Automatic Control* 36(5), 551-562, 1991.
+
+    Examples
+    --------
+    A unit step settles at the DC gains ``L_n(0) = sqrt(2 / a) (-1)^n``:
+
+    >>> t = np.linspace(0.0, 10.0, 1001)
+    >>> laguerre_filter(t, np.ones((1001, 1)), a=1.0, N=3)[-1, 0].round(4)
+    array([ 1.4141, -1.4129,  1.4013])
     """
     F = -a * np.eye(N) - 2 * a * np.tril(np.ones((N, N)), -1)
     b = np.full((N, 1), np.sqrt(2 * a))
@@ -132,13 +246,21 @@ class LaguerreFamily(BasisFamily):
     * size: the record fills 90 % of the support, ``N = 2 a T / 3.6``;
     * lag: the sample shift in the Laguerre index (the all-pass ``(s - a) / (s + a)``);
     * pseudo-inputs: with ``boundary``, the boundary rows ``l_n(0)``, ``l_n(T)``;
-    * model: the inverse Cayley map (:func:`inverse_cayley`); the Laguerre-domain ``Dd``
-      is always estimated (``feedthrough=True`` in the core).
+    * model: the inverse Cayley map (:func:`inverse_cayley`); the Laguerre-domain ``Dd`` is
+      always estimated (``feedthrough=True`` in the core).
 
     Parameters
     ----------
     a : float
         The Laguerre pole (rad/s), positive.
+
+    Examples
+    --------
+    >>> fam = LaguerreFamily(2.0)
+    >>> fam.wanted_size(9.0, 1.0)  # 2 a T / 3.6, whatever the band
+    10.0
+    >>> fam.pseudo_rows(fam.basis(20, 9.0), None, True, None).shape
+    (2, 20)
     """
 
     a: float
@@ -149,23 +271,93 @@ class LaguerreFamily(BasisFamily):
     size_rule = f"record fills 90 % of the support: N = 2aT/{LAGUERRE_SUPPORT}"
 
     def size_rate(self, wb: float) -> float:
-        """``2 a / 3.6`` functions per second, whatever the band."""
+        """``2 a / 3.6`` functions per second, whatever the band.
+
+        Parameters
+        ----------
+        wb : float
+            Data bandwidth (rad/s), unused: the pole sets the band.
+
+        Returns
+        -------
+        float
+            Functions per second of window.
+        """
         return 2 * self.a / LAGUERRE_SUPPORT
 
     def wanted_size(self, T: float, wb: float) -> float:
-        """``2 a T / 3.6``."""
+        """``2 a T / 3.6``: the record fills 90 % of the support of the functions.
+
+        Parameters
+        ----------
+        T : float
+            Window length (s).
+        wb : float
+            Data bandwidth (rad/s), unused.
+
+        Returns
+        -------
+        float
+            The size the rule wants.
+        """
         return 2 * self.a * T / LAGUERRE_SUPPORT
 
     def basis(self, N: int, T: float) -> Any:
-        """:func:`slbasis.basis` ``("laguerre", N, (0, T), scale=2 a)``, shared."""
+        """:func:`slbasis.basis` ``("laguerre", N, (0, T), scale=2 a)``, shared.
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+        T : float
+            Window length (s).
+
+        Returns
+        -------
+        Basis
+            The Laguerre basis.
+        """
         return shared_basis("laguerre", N, (0.0, T), scale=2 * self.a)
 
     def lag(self, basis: Any, operator: Any) -> SampleShift:
-        """The sample shift in the Laguerre index."""
+        """The sample shift in the Laguerre index.
+
+        Parameters
+        ----------
+        basis : Basis
+            The block's basis (unused).
+        operator : object
+            Unused: the Laguerre lag has no operator scale.
+
+        Returns
+        -------
+        SampleShift
+            The shift.
+        """
         return SampleShift()
 
     def pseudo_rows(self, basis: Any, operator: Any, boundary: bool, ones: Any) -> Array:
-        """``l_n(0)``, ``l_n(T)`` with ``boundary``, else no rows."""
+        """``l_n(0)``, ``l_n(T)`` with ``boundary``, else no rows.
+
+        The windowed state jumps at the window's ends: the impulses ``x(t0) delta(t - t0) -
+        x(tN) delta(t - tN)`` project to these rows with unknown factors.
+
+        Parameters
+        ----------
+        basis : Basis
+            The block's basis.
+        operator : object
+            Unused.
+        boundary : bool
+            Include the boundary rows.
+        ones : object
+            Unused.
+
+        Returns
+        -------
+        ndarray, shape (0 or 2, N)
+            The rows.
+        """
         if not boundary:
             return np.zeros((0, basis.N))
         return basis_values(basis, (0.0, basis.t_span[1])).T
@@ -181,7 +373,30 @@ class LaguerreFamily(BasisFamily):
         hold_criterion: dict[str, float],
         order: int | None,
     ) -> StateSpaceModel:
-        """The continuous-time model by the inverse Cayley map, with the input hold."""
+        """The continuous-time model by the inverse Cayley map, with the input hold.
+
+        Parameters
+        ----------
+        out : CoreOut
+            The core's Laguerre-domain system.
+        operator : object
+            Unused (the pole is the family's).
+        options : dict
+            The method's options.
+        settings : BasisSettings
+            The shared settings.
+        hold : str
+            The input hold used.
+        hold_criterion : dict of str to float
+            The criterion of each hold tried.
+        order : int or None
+            The order asked for.
+
+        Returns
+        -------
+        StateSpaceModel
+            The continuous-time model (:func:`laguerre_model`).
+        """
         given = settings.input_hold != "auto"
         held = {
             "input_hold": hold,
@@ -195,9 +410,35 @@ class LaguerreFamily(BasisFamily):
 def laguerre_model(
     out: CoreOut, a: float, options: dict[str, Any], settings: BasisSettings, order: int | None
 ) -> StateSpaceModel:
-    """``(A, B, C, D)`` by :func:`inverse_cayley` of the core's Laguerre-domain system; ``K``
-    mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a non-identity
-    feedthrough, so ``K`` is approximate).  ``options`` are merged over the core's."""
+    """The continuous-time model of the core's Laguerre-domain system.
+
+    ``(A, B, C, D)`` by :func:`inverse_cayley`; ``K`` mapped back like ``B`` (the
+    Laguerre-domain innovation enters ``y`` with a non-identity feedthrough, so ``K`` is
+    approximate).
+
+    Parameters
+    ----------
+    out : CoreOut
+        The core's Laguerre-domain system.
+    a : float
+        The Laguerre pole.
+    options : dict
+        Options merged over the core's.
+    settings : BasisSettings
+        The shared settings (``max_order`` reported when the order was selected).
+    order : int or None
+        The order asked for.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model, ``options["A_laguerre"]`` the Laguerre-domain ``A``.
+
+    Raises
+    ------
+    ValueError
+        If the Laguerre-domain ``A`` has an eigenvalue at 1 (:func:`inverse_cayley`).
+    """
     A, B, C, D = inverse_cayley(out.A, out.B, out.C, out.D, a)
     n = A.shape[0]
     K = -np.sqrt(2 * a) * np.linalg.solve(out.A - np.eye(n), out.K)
@@ -231,43 +472,103 @@ def identify_laguerre(
     settings: BasisSettings | None = None,
     **shared: Any,
 ) -> StateSpaceModel:
-    """CT-PBSID (Laguerre): continuous-time ``A, B, C, D, K`` from ``t, u, y``.
+    r"""CT-PBSID (Laguerre): a continuous-time model ``A, B, C, D, K`` from ``t, u, y``.
 
-    See the module docstring for the equations and variants.  ``t`` may be a list of
-    ``(t_i, u_i, y_i)`` records (``u = y = None``; projection variant): each record, or
-    window of a long record (``window``, ``n_jobs``: as in
-    :func:`hdpbsid.methods.hermite.identify_hermite`), is projected on its own Laguerre
-    basis (common pole ``a``) with its own boundary pseudo-inputs, all stacked in one
-    PBSID problem.  The shared settings (``p``, ``f``, ``max_order``, ``boundary``,
-    ``regularize``, ``stable_k``, ``normalize``, ``input_hold``, ``window``, ``n_jobs``)
-    come as keywords or ``settings=``
-    :class:`~hdpbsid.bases.settings.BasisSettings`; ``feedthrough`` does not apply (the
-    Laguerre-domain ``Dd`` is always estimated, see below).  Defaults (in
-    ``model.options``):
+    The Laguerre coefficients of a record obey the discrete system of the Cayley map in
+    the Laguerre index (module docstring), so the PBSID core runs with the sample shift in
+    that index and the model maps back by :func:`inverse_cayley`.  Each record, or window
+    of a long record, is projected on its own Laguerre basis (common pole ``a``) with its
+    own boundary pseudo-inputs, all stacked in one PBSID problem (projection variant).
+    Every choice is reported, with its reason, in ``model.options``.
 
-    * ``a``: half the data bandwidth (99 % of the input energy / 95 % of the output
-      energy), so the Laguerre pole sits inside the excited band; ``a="dynamics"``: from
-      the identified dynamics (:mod:`hdpbsid.bases.laguerre_pole`): after that first
-      pass, the pole that minimises the largest map-back amplification of the modes,
-      kept when it simulates the record better (``options["a_rule"]``,
-      ``options["a_source"]``) -- the choice for stiff open-loop records, where the
-      bandwidth pole maps the slow modes next to ``-1``; not yet the default, because on
-      closed loops with an unstable plant its record screen moved the selection to
-      higher orders;
-    * ``N`` (projection): the record fills 90 % of the support of ``N`` functions,
-      ``N = 2 a T / 3.6`` clipped to ``[N_MIN, N_MAX] = [100, 4000]`` and to ``Ns / 2``
-      (a ``RuntimeWarning`` when an upper limit binds); (filter): 30;
-    * ``p``: AIC over 2..4 (projection: ``p (m + q + l) <= N / 6``); ``f = p``;
-    * ``order``: largest log-gap of the singular values;
-    * filter variant: ``burn_in = min(T / 4, 10 / a)`` s skipped, ``n_times = 300``
-      evenly spaced sample times after it;
-    * ``input_hold="auto"`` (projection): the sample interpolants are projected exactly
-      and the hold (``zoh``/``foh``) whose VARX fit has the smaller AIC is kept, as in
-      HD-PBSID (:func:`~hdpbsid.bases.basis_domain.project_record`); before, the product
-      quadrature of the samples shifted the closed-loop quadrotor's 250 Hz ZOH moment by
-      half a sample;
-    * ``K`` is mapped back like ``B`` (the Laguerre-domain innovation enters ``y`` with a
-      non-identity feedthrough, so ``K`` is approximate); ``D`` is returned as identified.
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of records
+        Increasing sample times; or a list of ``(t_i, u_i, y_i)`` records (``u = y =
+        None``; projection variant).
+    u : array_like, shape (Ns, m), optional
+        Inputs.
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None: the largest log-gap of the singular values.
+    a : float, "dynamics" or None, optional
+        The Laguerre pole (rad per time unit).  None: half the data bandwidth (99 % of the
+        input energy, 95 % of the output energy), so the pole sits inside the excited band.
+        ``"dynamics"``: after that first pass, the pole minimising the largest map-back
+        amplification of the identified modes (:mod:`hdpbsid.bases.laguerre_pole`), kept
+        when it simulates the record better (``options["a_rule"]``, ``["a_source"]``) -- the
+        choice for stiff open-loop records, where the bandwidth pole maps the slow modes
+        next to ``-1``; not the default, because on closed loops with an unstable plant its
+        record screen moved the order selection to higher orders.
+    N : int, optional
+        Basis size (projection: the record fills 90 % of the support of ``N`` functions,
+        ``N = 2 a T / 3.6`` clipped to ``[100, 4000]`` and to ``Ns / 2``, with a
+        ``RuntimeWarning`` when an upper limit binds; filter: 30).
+    variant : {"projection", "filter"}, optional
+        ``"projection"``: the Laguerre coefficients of the windowed record, exact with the
+        boundary pseudo-inputs; ``"filter"``: the outputs of the Laguerre filter network
+        sampled at many times, an approximation valid once the initial transients decayed.
+    n_times : int, optional
+        Filter variant: sample times used after the burn-in (default 300).
+    burn_in : float, optional
+        Filter variant: seconds skipped (default ``min(T / 4, 10 / a)``).
+    settings : BasisSettings, optional
+        The shared settings (:class:`~hdpbsid.bases.settings.BasisSettings`).
+    **shared
+        The shared settings as keywords (``p``, ``f``, ``max_order``, ``boundary``,
+        ``regularize``, ``stable_k``, ``normalize``, ``input_hold``, ``window``, ``n_jobs``;
+        as in :func:`hdpbsid.methods.hermite.identify_hermite`).  ``feedthrough`` does not
+        apply: the Laguerre-domain ``Dd`` is always estimated, and ``D`` is returned as
+        identified.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model; ``K`` is mapped back like ``B`` and is approximate.
+
+    Raises
+    ------
+    ValueError
+        If ``variant`` is unknown, the filter variant gets several records, ``a`` is not a
+        positive number, None or ``"dynamics"``, the data have no bandwidth to choose ``a``
+        from, or the burn-in leaves fewer than 2 samples.
+    TypeError
+        If an argument has the wrong type or a keyword is not a shared setting.
+
+    Notes
+    -----
+    Laguerre functions of pole ``a`` have the Laplace transforms
+
+    .. math:: L_n(s) = \sqrt{2a}\,\frac{(s - a)^n}{(s + a)^{n+1}},
+
+    so the index shift is the all-pass :math:`w = (s - a)/(s + a)` and
+    :math:`G(s) = D_d + C_d (zI - A_d)^{-1} B_d` with :math:`z = 1/w` (:func:`cayley`).
+
+    References
+    ----------
+    .. [1] B. Wahlberg, "System identification using Laguerre models", *IEEE Trans.
+       Automatic Control* 36(5), 551-562, 1991.
+    .. [2] B. Ninness and F. Gustafsson, "A unifying construction of orthonormal bases for
+       system identification", *IEEE Trans. Automatic Control* 42(4), 515-521, 1997.
+    .. [3] Y. Ohta and T. Kawai, "Continuous-time subspace system identification using
+       generalized orthonormal basis functions", *Int. J. Control* 77, 2004.
+    .. [4] M. Bergamasco and M. Lovera, "Continuous-time predictor-based subspace
+       identification using Laguerre filters", *IET Control Theory & Applications* 5(7),
+       2011.
+
+    Examples
+    --------
+    >>> from hdpbsid.systems.linear import second_order, simulate_zoh
+    >>> A, B, C, D = second_order()  # eigenvalues -0.4 +- 1.9596j
+    >>> t = np.arange(0.0, 40.0, 0.05)
+    >>> u = (np.sin(0.7 * t) + np.sin(1.9 * t) + np.sin(3.1 * t))[:, None]
+    >>> y = simulate_zoh(A, B, C, D, t, u)
+    >>> model = identify_laguerre(t, u, y, order=2)
+    >>> np.sort_complex(model.eigenvalues).round(4)
+    array([-0.4-1.9596j, -0.4+1.9596j])
+    >>> round(model.options["a"], 3)  # half the data bandwidth
+    1.649
     """
     records = as_records(t, u, y)
     if variant not in ("projection", "filter"):

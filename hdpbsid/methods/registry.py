@@ -57,12 +57,43 @@ LAZY_METHODS: dict[str, tuple[tuple[str, str], ...]] = {
 
 
 def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> IdentifyFunc:
-    """Register ``func`` under ``name`` in :data:`METHODS`; returns ``func``.
+    """Register ``func`` under ``name`` in :data:`METHODS`.
 
-    ``func(t, u, y, order=None, **options)`` must return a
-    :class:`~hdpbsid.models.model.StateSpaceModel`.  Re-registering a name with a different
-    function raises ``ValueError`` unless ``overwrite=True`` (registering the same
-    function twice is harmless, so a module may register itself on import).
+    Re-registering a name with a different function is refused unless ``overwrite=True``
+    (registering the same function twice is harmless, so a module may register itself on
+    import).
+
+    Parameters
+    ----------
+    name : str
+        The method name (non-empty), as ``identify(..., method=name)`` takes it.
+    func : callable
+        ``func(t, u, y, order=None, **options)`` returning a
+        :class:`~hdpbsid.models.model.StateSpaceModel`.
+    overwrite : bool, optional
+        Replace a different function registered under ``name``.
+
+    Returns
+    -------
+    callable
+        ``func`` (so the function can be used as a decorator's result).
+
+    Raises
+    ------
+    TypeError
+        If ``name`` is not a non-empty string or ``func`` is not callable.
+    ValueError
+        If ``name`` is taken by another function and ``overwrite`` is False.
+
+    Examples
+    --------
+    >>> def identify_mine(t, u, y, order=None, **options):
+    ...     return get_method("dt")(t, u, y, order=order, **options)
+    >>> register_method("mine", identify_mine) is identify_mine
+    True
+    >>> is_available("mine")
+    True
+    >>> del METHODS["mine"]
     """
     if not isinstance(name, str) or not name:
         raise TypeError(f"name must be a non-empty string, got {name!r}")
@@ -96,10 +127,30 @@ def _load_lazy(name: str) -> IdentifyFunc | None:
 
 
 def get_method(name: str) -> IdentifyFunc:
-    """The callable registered for ``name`` (importing a lazy method on first use).
+    """The callable registered for ``name``, importing a lazy method on first use.
 
-    Raises ``TypeError`` for a non-string and ``ValueError`` for an unknown or
-    unavailable name (the message lists the available ones).
+    Parameters
+    ----------
+    name : str
+        The method name.
+
+    Returns
+    -------
+    callable
+        ``func(t, u, y, order=None, **options) -> StateSpaceModel``.
+
+    Raises
+    ------
+    TypeError
+        If ``name`` is not a string.
+    ValueError
+        If the name is unknown, or its module cannot be imported (the message lists the
+        available methods).
+
+    Examples
+    --------
+    >>> get_method("hermite").__name__
+    'identify_hermite'
     """
     if not isinstance(name, str):
         raise TypeError(f"method must be a string, got {type(name).__name__}")
@@ -118,14 +169,41 @@ def get_method(name: str) -> IdentifyFunc:
 
 
 def is_available(name: str) -> bool:
-    """``True`` if ``name`` is registered or its lazy module imports."""
+    """Whether ``name`` is registered or its lazy module imports.
+
+    Parameters
+    ----------
+    name : str
+        The method name.
+
+    Returns
+    -------
+    bool
+        True when :func:`get_method` would return a function.
+
+    Examples
+    --------
+    >>> is_available("hermite"), is_available("no such method")
+    (True, False)
+    """
     if name in METHODS:
         return True
     return name in LAZY_METHODS and _load_lazy(name) is not None
 
 
 def available_methods() -> list[str]:
-    """Sorted names of the methods that can be used now (lazy ones are tried)."""
+    """Sorted names of the methods that can be used now (lazy ones are tried).
+
+    Returns
+    -------
+    list of str
+        The names.
+
+    Examples
+    --------
+    >>> "hermite" in available_methods()
+    True
+    """
     for name in LAZY_METHODS:
         if name not in METHODS:
             _load_lazy(name)

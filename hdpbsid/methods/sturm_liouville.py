@@ -99,34 +99,107 @@ def identify_sl(
     settings: BasisSettings | None = None,
     **shared: Any,
 ) -> StateSpaceModel:
-    """PBSID in a finite-interval Sturm-Liouville basis on the record window.
+    r"""PBSID in a finite-interval Sturm-Liouville basis on the record window.
 
-    ``t`` may be a list of ``(t_i, u_i, y_i)`` records (``u = y = None``); each record,
-    or window of a long record (``window``, ``n_jobs``: as in
-    :func:`hdpbsid.methods.hermite.identify_hermite`), gets its own basis on its own
-    window with its own initial-state and truncation pseudo-inputs (common ``alpha``),
-    all stacked in one PBSID problem.
+    On a finite window the projected derivative is nilpotent, so the Hermite construction
+    would amplify noise; the lag is instead the Möbius map ``M = alpha gamma J (I + alpha
+    beta J)^{-1}`` of the causal integration matrix ``J``, the coefficient form of the causal
+    filter ``alpha gamma / (s + alpha beta)``, a contraction (module docstring).  Each
+    record, or window of a long record, gets its own basis on its own window with its own
+    initial-state and truncation pseudo-inputs (common ``alpha``), all stacked in one PBSID
+    problem.  Every choice is reported, with its reason, in ``model.options``.
 
-    ``family``: an ``slbasis`` catalogue name with a finite interval (``"legendre"``,
-    ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``) or an
-    :class:`slbasis.SturmLiouville` problem; ``family_params`` its parameters; or a
-    :class:`SturmLiouvilleFamily` (``family_params`` then unused).  See the
-    module docstring for the integrator ``M`` and why it is stable.  Defaults (in
-    ``model.options``):
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of records
+        Increasing sample times; or a list of ``(t_i, u_i, y_i)`` records (``u = y = None``).
+    u : array_like, shape (Ns, m), optional
+        Inputs.
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None: the largest log-gap of the singular values (orders ``1..min(
+        max_order, f l - 1)``).
+    family : str, slbasis.SturmLiouville or SturmLiouvilleFamily, optional
+        An ``slbasis`` catalogue name with a finite interval (``"legendre"``,
+        ``"chebyshev_t"``, ``"chebyshev_u"``, ``"gegenbauer"``, ``"jacobi"``), a problem, or
+        a :class:`~hdpbsid.bases.sl_family.SturmLiouvilleFamily` (``family_params`` then
+        unused).
+    N : int, optional
+        Basis size; None: ``N = 1.5 * bandwidth * T / 2`` clipped to ``[50, 2000]`` and to
+        ``Ns / 2`` (a ``RuntimeWarning`` when an upper limit binds).  A given ``N`` whose band
+        ``2 N / T`` is below the data bandwidth is refused.
+    alpha : float, optional
+        The integrator's pole (rad per time unit); None: :func:`default_alpha`.
+    beta : float, optional
+        Shift of the integrator form, ``> 0``.
+    gamma : float, optional
+        Gain of the integrator form, ``> 0``.
+    family_params : dict, optional
+        The family's parameters (e.g. ``{"lam": 1.5}`` for Gegenbauer).
+    settings : BasisSettings, optional
+        The shared settings (:class:`~hdpbsid.bases.settings.BasisSettings`).
+    **shared
+        The shared settings as keywords (as in
+        :func:`hdpbsid.methods.hermite.identify_hermite`); the default past window is
+        :func:`default_past_window`, ``f = p``; ``input_hold="auto"`` judges ``zoh`` against
+        ``foh`` by the AIC of the VARX fit over HD-PBSID's preferred range of windows (a test
+        of the input's interpolant, for which a longer VARX approximates the innovations
+        better, not the variance choice of this method's own ``p``).
 
-    * ``N = 1.5 * bandwidth * T / 2`` clipped to ``[N_MIN, N_MAX] = [50, 2000]`` and to
-      ``Ns / 2`` (a ``RuntimeWarning`` when an upper limit binds); an explicit ``N``
-      whose band ``2 N / T`` is below the data bandwidth raises ``ValueError``;
-    * ``alpha`` = half the bandwidth holding 95 % of the output energy (the outputs, not
-      a possibly broadband input, show the system's dynamics); ``beta = gamma = 1``;
-    * ``p = max(2, ceil(n / l))`` (``n`` = order, or 3 for order selection, which then
-      considers orders ``1..min(max_order, f l - 1)``; pass ``p`` for more); ``f = p``;
-    * ``input_hold="auto"``: ``zoh`` or ``foh``, whichever VARX fit has the smaller AIC
-      over the past windows of HD-PBSID's preferred range
-      (:func:`~hdpbsid.bases.basis_domain.hold_criterion`; one decision for every
-      order): a test of the input's interpolant, for which a longer VARX approximates
-      the innovations better, not the variance choice of this method's own ``p``;
-    * ``order``: largest log-gap of the singular values.
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model; ``options`` reports the family, the integration matrix's
+        construction and every choice.
+
+    Raises
+    ------
+    ValueError
+        If an argument is out of range, ``N`` does not resolve the data band, the family
+        lives on an infinite interval, or the outputs have no bandwidth to choose ``alpha``.
+    TypeError
+        If an argument has the wrong type, the family is not accepted, or a keyword is not a
+        shared setting.
+
+    Notes
+    -----
+    From :math:`x(t) = x(t_0) + \int (A x + B u + K e)`, adding :math:`\alpha\beta \int x`
+    and applying :math:`(I + \alpha\beta J)^{-1}`:
+
+    .. math::
+
+        X = A' X M + B' U M + K' E M + x(t_0)\,\mathbf{1}(I + \alpha\beta J)^{-1}
+            + (\text{truncation}),
+        \qquad M = \alpha\gamma J (I + \alpha\beta J)^{-1},
+
+    with ``A'``, ``B'``, ``K'`` and the map back as in HD-PBSID.  ``M`` is the causal
+    convolution with :math:`\alpha\gamma e^{-\alpha\beta t}`, of :math:`L^1` norm
+    :math:`\gamma/\beta`, so the regressors :math:`Z M^j` are repeated low-pass filterings of
+    the data.
+
+    References
+    ----------
+    .. [1] A. Zettl, *Sturm-Liouville Theory*, Mathematical Surveys and Monographs 121,
+       AMS, 2005.
+    .. [2] A. Chiuso, "The role of vector autoregressive modeling in predictor-based
+       subspace identification", *Automatica* 43(6), 1034-1048, 2007.
+    .. [3] G. Szego, *Orthogonal Polynomials*, 4th ed., AMS, 1975, ch. 4 (Legendre and
+       Jacobi polynomials).
+
+    Examples
+    --------
+
+    >>> from hdpbsid.systems.linear import second_order, simulate_zoh
+    >>> A, B, C, D = second_order()  # eigenvalues -0.4 +- 1.9596j
+    >>> t = np.arange(0.0, 40.0, 0.05)
+    >>> u = (np.sin(0.7 * t) + np.sin(1.9 * t) + np.sin(3.1 * t))[:, None]
+    >>> y = simulate_zoh(A, B, C, D, t, u)
+    >>> model = identify_sl(t, u, y, order=2, family="legendre")
+    >>> np.sort_complex(model.eigenvalues).round(2)
+    array([-0.4-1.96j, -0.4+1.96j])
+    >>> model.options["family"], model.options["N"]
+    ('legendre', 99)
     """
     records = as_records(t, u, y)
     m, l = records[0].u.shape[1], records[0].y.shape[1]
@@ -174,12 +247,14 @@ def identify_sl(
 
 
 def default_past_window(order: int | None, l: int) -> int:
-    """The default past window ``p = max(2, ceil(n / l))`` (``n`` = the order, or 3 for
-    order selection): the smallest window that shows the order.
+    """The default past window ``p = max(2, ceil(n / l))``: the smallest window that shows the
+    order.
 
-    Larger windows were erratic at SNR 20 dB in this basis (second-order system, 8 seeds:
-    median error 0.1 % for ``p = 2``, 0.3 % with outliers to 14 % for ``p = 3``, 11 % for
-    AIC over 2..6).
+    ``n`` is the order, or 3 for order selection.  In this basis a lag is one more
+    integration of the data, and the VARX regressors of neighbouring lags are strongly
+    correlated: larger windows, or AIC over a wider range, gave erratic estimates at
+    moderate SNR, where the smallest window that gives ``f l >= n`` rows of ``Gamma L`` did
+    not.
 
     Parameters
     ----------
@@ -191,6 +266,12 @@ def default_past_window(order: int | None, l: int) -> int:
     Returns
     -------
     int
+        The window.
+
+    Examples
+    --------
+    >>> default_past_window(2, 1), default_past_window(5, 2), default_past_window(None, 1)
+    (2, 3, 3)
     """
     need = order if order is not None else 3
     return max(2, -(-need // l))
@@ -201,22 +282,23 @@ def default_alpha(records: Sequence[Record]) -> Choice[float]:
     bandwidth holding ``OUTPUT_FRACTION`` of an output's energy.
 
     ``alpha`` belongs to the system's dynamics, not to the input: a step or ZOH input is
-    broadband (half the data bandwidth gave ``alpha ~ 50`` rad/s and 2-3e-2 error on the
-    second-order system, whose poles are at ``|lambda| = 2``); the outputs are the input
-    low-passed by the system, so their bandwidth is used.
+    broadband, and its band would put ``alpha`` far above the modes; the outputs are the
+    input low-passed by the system, so their bandwidth is used.
 
     Parameters
     ----------
     records : sequence of Record
+        The records (objects with ``t`` and ``y``).
 
     Returns
     -------
     Choice of float
+        The pole and the rule.
 
     Raises
     ------
     ValueError
-        When the outputs have no bandwidth (constant outputs).
+        When the outputs have no bandwidth (constant outputs): pass ``alpha``.
     """
     wy = max(bandwidth(r.t, r.y, OUTPUT_FRACTION) for r in records)
     if wy <= 0:
@@ -231,7 +313,45 @@ def default_alpha(records: Sequence[Record]) -> Choice[float]:
 def identify_legendre(
     t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
-    """PBSID with Legendre functions on the record window (:func:`identify_sl`)."""
+    """PBSID with Legendre functions on the record window (method ``"legendre"``).
+
+    :func:`identify_sl` with ``family="legendre"``: the integration matrix is exact and
+    tridiagonal (``int P_n = (P_{n+1} - P_{n-1}) / (2n + 1)``), so the lag is a banded solve.
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of records
+        Sample times, or records.
+    u : array_like, shape (Ns, m), optional
+        Inputs.
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None selects it.
+    **options
+        Keywords of :func:`identify_sl` other than ``family``.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model.
+
+    Raises
+    ------
+    TypeError
+        If ``family`` is passed (use :func:`identify_sl`).
+
+    Examples
+    --------
+
+    >>> from hdpbsid.systems.linear import second_order, simulate_zoh
+    >>> A, B, C, D = second_order()  # eigenvalues -0.4 +- 1.9596j
+    >>> t = np.arange(0.0, 40.0, 0.05)
+    >>> u = (np.sin(0.7 * t) + np.sin(1.9 * t) + np.sin(3.1 * t))[:, None]
+    >>> y = simulate_zoh(A, B, C, D, t, u)
+    >>> np.sort_complex(identify_legendre(t, u, y, order=2).eigenvalues).round(2)
+    array([-0.4-1.96j, -0.4+1.96j])
+    """
     if "family" in options:
         raise TypeError("identify_legendre: family is fixed to 'legendre'; use identify_sl")
     return identify_sl(t, u, y, order, family="legendre", **options)
@@ -241,7 +361,35 @@ def identify_legendre(
 def identify_chebyshev(
     t: Any, u: Any = None, y: Any = None, order: int | None = None, **options: Any
 ) -> StateSpaceModel:
-    """PBSID with Chebyshev-T functions on the record window (:func:`identify_sl`)."""
+    """PBSID with Chebyshev-T functions on the record window (method ``"chebyshev"``).
+
+    :func:`identify_sl` with ``family="chebyshev_t"``: the functions are singular at the
+    interval ends, so the basis window is padded, and the integration matrix comes from the
+    derivative matrix or by quadrature (:func:`~hdpbsid.bases.sl_family.integration_matrix`).
+
+    Parameters
+    ----------
+    t : array_like, shape (Ns,), or list of records
+        Sample times, or records.
+    u : array_like, shape (Ns, m), optional
+        Inputs.
+    y : array_like, shape (Ns, l)
+        Outputs.
+    order : int, optional
+        Model order; None selects it.
+    **options
+        Keywords of :func:`identify_sl` other than ``family``.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model.
+
+    Raises
+    ------
+    TypeError
+        If ``family`` is passed (use :func:`identify_sl`).
+    """
     if "family" in options:
         raise TypeError("identify_chebyshev: family is fixed to 'chebyshev_t'; use identify_sl")
     return identify_sl(t, u, y, order, family="chebyshev_t", **options)

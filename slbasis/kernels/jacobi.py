@@ -21,7 +21,25 @@ SIGN_C0 = 1  # sign of the Rodrigues constant c_0
 
 
 def check_parameters(alpha, beta):
-    """Raise ValueError when the parameters leave the admissible range."""
+    """Raise ValueError when the parameters leave the admissible range.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    None
+        Nothing: the check raises or passes.
+
+    Raises
+    ------
+    ValueError
+        If the parameters violate ``beta + 1 > 0``, ``alpha + 1 > 0``.
+    """
     if not (beta + 1) > 0:
         raise ValueError("jacobi: parameters must satisfy beta + 1 > 0")
     if not (alpha + 1) > 0:
@@ -30,12 +48,42 @@ def check_parameters(alpha, beta):
 
 
 def eigenvalue(n, alpha, beta):
-    """lambda_n of the polynomial problem."""
+    """lambda_n of the polynomial problem.
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        lambda_n of the polynomial problem.
+    """
     return numpy.broadcast_to(alpha * n + beta * n + n**2 + n, n.shape).astype(float)
 
 
 def jacobi_diag(n, alpha, beta):
-    """B_n (closed form)."""
+    """B_n (closed form).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        B_n (closed form).
+    """
     return numpy.broadcast_to(
         -(alpha - beta) * (alpha + beta) / ((alpha + beta + 2 * n) * (alpha + beta + 2 * n + 2)),
         n.shape,
@@ -43,7 +91,22 @@ def jacobi_diag(n, alpha, beta):
 
 
 def jacobi_offdiag_squared(n, alpha, beta):
-    """A_{n+1}^2 (closed form)."""
+    """A_{n+1}^2 (closed form).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        A_{n+1}^2 (closed form).
+    """
     return numpy.broadcast_to(
         4
         * (n + 1)
@@ -60,12 +123,40 @@ def jacobi_offdiag_squared(n, alpha, beta):
 
 
 def c_ratio(n, alpha, beta):
-    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1})."""
+    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1}).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        c_{n+1}/c_n (its sign fixes the sign of A_{n+1}).
+    """
     return numpy.broadcast_to(-(1 / 2) / (n + 1), n.shape).astype(float)
 
 
 def small_values(alpha, beta):
-    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""
+    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    tuple of three tuples of float
+        B_n, A_{n+1}^2 and c_{n+1}/c_n for n < 4.
+    """
     return (
         (
             -(alpha - beta) / (alpha + beta + 2),
@@ -96,14 +187,42 @@ def small_values(alpha, beta):
 
 
 def log_weight(x, alpha, beta):
-    """log w(x) of the normal-form weight."""
+    """log w(x) of the normal-form weight.
+
+    Parameters
+    ----------
+    x : ndarray of float
+        Points of the interval.
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    ndarray of float, shape x.shape
+        log w(x) of the normal-form weight.
+    """
     return numpy.broadcast_to(
         scipy.special.xlogy(alpha, 1 - x) + scipy.special.xlogy(beta, x + 1), x.shape
     ).astype(float)
 
 
 def log_mass(alpha, beta):
-    """log of d_0^2 / c_0^2 = ∫ w."""
+    """log of d_0^2 / c_0^2 = ∫ w.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+    beta : float
+        The family's parameter ``beta``.
+
+    Returns
+    -------
+    float
+        The log of the weight's mass.
+    """
     return (
         alpha * numpy.log(2)
         + beta * numpy.log(2)

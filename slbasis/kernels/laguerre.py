@@ -21,34 +21,113 @@ SIGN_C0 = 1  # sign of the Rodrigues constant c_0
 
 
 def check_parameters(alpha):
-    """Raise ValueError when the parameters leave the admissible range."""
+    """Raise ValueError when the parameters leave the admissible range.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    None
+        Nothing: the check raises or passes.
+
+    Raises
+    ------
+    ValueError
+        If the parameters violate ``alpha + 1 > 0``.
+    """
     if not (alpha + 1) > 0:
         raise ValueError("laguerre: parameters must satisfy alpha + 1 > 0")
     return None
 
 
 def eigenvalue(n, alpha):
-    """lambda_n of the polynomial problem."""
+    """lambda_n of the polynomial problem.
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        lambda_n of the polynomial problem.
+    """
     return numpy.broadcast_to(n, n.shape).astype(float)
 
 
 def jacobi_diag(n, alpha):
-    """B_n (closed form)."""
+    """B_n (closed form).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        B_n (closed form).
+    """
     return numpy.broadcast_to(alpha + 2 * n + 1, n.shape).astype(float)
 
 
 def jacobi_offdiag_squared(n, alpha):
-    """A_{n+1}^2 (closed form)."""
+    """A_{n+1}^2 (closed form).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        A_{n+1}^2 (closed form).
+    """
     return numpy.broadcast_to((n + 1) * (alpha + n + 1), n.shape).astype(float)
 
 
 def c_ratio(n, alpha):
-    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1})."""
+    """c_{n+1}/c_n (its sign fixes the sign of A_{n+1}).
+
+    Parameters
+    ----------
+    n : ndarray of int
+        Degrees, ``n >= 0``.
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    ndarray of float, shape n.shape
+        c_{n+1}/c_n (its sign fixes the sign of A_{n+1}).
+    """
     return numpy.broadcast_to((n + 1) ** (-1.0), n.shape).astype(float)
 
 
 def small_values(alpha):
-    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation."""
+    """Exact (B_n, A_{n+1}^2, c_{n+1}/c_n) for n < len, from direct computation.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    tuple of three tuples of float
+        B_n, A_{n+1}^2 and c_{n+1}/c_n for n < 4.
+    """
     return (
         (alpha + 1, alpha + 3, alpha + 5, alpha + 7),
         (alpha + 1, 2 * alpha + 4, 3 * alpha + 9, 4 * alpha + 16),
@@ -57,10 +136,34 @@ def small_values(alpha):
 
 
 def log_weight(x, alpha):
-    """log w(x) of the normal-form weight."""
+    """log w(x) of the normal-form weight.
+
+    Parameters
+    ----------
+    x : ndarray of float
+        Points of the interval.
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    ndarray of float, shape x.shape
+        log w(x) of the normal-form weight.
+    """
     return numpy.broadcast_to(-x + scipy.special.xlogy(alpha, x), x.shape).astype(float)
 
 
 def log_mass(alpha):
-    """log of d_0^2 / c_0^2 = ∫ w."""
+    """log of d_0^2 / c_0^2 = ∫ w.
+
+    Parameters
+    ----------
+    alpha : float
+        The family's parameter ``alpha``.
+
+    Returns
+    -------
+    float
+        The log of the weight's mass.
+    """
     return math.lgamma(alpha + 1)

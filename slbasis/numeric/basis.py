@@ -17,9 +17,8 @@ they decay) and ``fill = 0.9``:
 * ``(-inf, inf)`` (Hermite): the window's centre maps to the middle of the nodes and the
   window fills the fraction ``fill`` of ``[x_1, x_N]`` (Hermite functions: ``x_N ~
   sqrt(2N) - 1.86 (2N)^{-1/6}``, so the record covers 90 % of the effective support
-  ``+-sqrt(2N)`` up to that 2 % difference between ``x_N`` and ``sqrt(2N)``; a record
-  filling 90 % of ``+-sqrt(2N)`` gave 0.1-1 % eigenvalue errors in early HD-PBSID
-  measurements on the second-order benchmark at 20 dB SNR).
+  ``+-sqrt(2N)`` up to that 2 % difference between ``x_N`` and ``sqrt(2N)``: the margin
+  keeps the record's ends where the first ``N`` functions still resolve it).
 
 If only ``scale`` is given, ``centre`` follows the same rule; if only ``centre`` is given,
 ``scale`` does.
@@ -55,10 +54,58 @@ def _extreme_nodes(kernel: Kernel, N: int) -> tuple[float, float]:
 class Basis:
     """``N`` L^2(dt)-orthonormal functions of ``kernel`` on the time window ``t_span``.
 
-    Parameters: ``kernel`` (see :mod:`slbasis.numeric.kernel`), ``N >= 1``,
-    ``t_span = (t0, t1)`` with ``t0 < t1``, optional ``scale > 0`` and ``centre`` (the
-    time that maps to ``x = 0``), ``fill`` (fraction of the effective support the record
-    covers for infinite intervals, default 0.9). See the module docstring for the rule.
+    ``phi_n(t) = sqrt(scale) phi_n(x(t))`` with ``x = (t - centre) * scale``: the factor
+    ``sqrt(scale)`` keeps them orthonormal in time (``dx = scale dt``).  See the module
+    docstring for the default map.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family's numeric data (:mod:`slbasis.numeric.kernel`).
+    N : int
+        Number of functions, ``>= 1``.
+    t_span : tuple of float
+        The window ``(t0, t1)``, ``t0 < t1``.
+    scale : float, optional
+        ``dx/dt``, ``> 0``.
+    centre : float, optional
+        The time that maps to ``x = 0``.
+    fill : float, optional
+        Fraction of the effective support the record covers for infinite intervals, ``0 <
+        fill <= 1``.
+
+    Attributes
+    ----------
+    kernel : Kernel
+        The kernel.
+    N : int
+        Number of functions.
+    t_span : tuple of float
+        The window.
+    interval : tuple of float
+        The family's interval ``(a, b)``.
+    tmap : TimeMap
+        The affine map.
+
+    Raises
+    ------
+    ValueError
+        If ``N``, ``t_span``, ``fill``, ``scale`` or ``centre`` is out of range, or the
+        default scale rule fails.
+    TypeError
+        If the kernel lacks a member (:func:`~slbasis.numeric.kernel.check_kernel`).
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> B = Basis(slbasis.kernel("legendre"), 4, (0.0, 2.0))
+    >>> B.scale, B.centre  # [0, 2] onto [-1, 1]
+    (1.0, 1.0)
+    >>> B.eval(np.array([0.0, 2.0])).round(4)
+    array([[ 0.7071,  0.7071],
+           [-1.2247,  1.2247],
+           [ 1.5811,  1.5811],
+           [-1.8708,  1.8708]])
     """
 
     def __init__(
@@ -160,7 +207,27 @@ class Basis:
     def eval(self, t: np.ndarray, *, engine: str = "auto") -> np.ndarray:
         """The ``(N, len(t))`` matrix ``phi_n(t_j) = sqrt(scale) phi_n(x(t_j))``.
 
-        ``engine``: ``"auto"``, ``"numpy"`` or ``"numba"`` (:mod:`slbasis.numeric.engine`).
+        Evaluated by the three-term recurrence of the orthonormal functions, started from
+        ``log phi_0`` so that large ``N`` and far arguments neither overflow nor underflow
+        (:mod:`slbasis.numeric.evaluate`).
+
+        Parameters
+        ----------
+        t : array_like, shape (k,)
+            Times inside the mapped interval (times outside it by rounding only are moved onto
+            its end).
+        engine : {"auto", "numpy", "numba"}, optional
+            The evaluation engine (:mod:`slbasis.numeric.engine`).
+
+        Returns
+        -------
+        ndarray, shape (N, k)
+            The values.
+
+        Raises
+        ------
+        ValueError
+            If a time lies outside the basis interval.
         """
         ta = self._times_in_interval(t, "t")
         P = evaluate(self.kernel, self.N, self.tmap.to_x(ta), engine=engine)
@@ -179,10 +246,40 @@ class Basis:
     ) -> np.ndarray:
         """Coefficients ``c_n = int y phi_n dt`` over the samples' span (streaming).
 
-        ``method``: ``"quadrature"`` (sample weights from the spacing) or ``"lstsq"``
-        (weighted least squares); see :mod:`slbasis.numeric.projection`.
-        ``y``: ``(Ns,)`` or ``(Ns, k)`` -> ``(N,)`` or ``(N, k)``. ``engine``: ``"auto"``,
-        ``"numpy"`` or ``"numba"`` (:mod:`slbasis.numeric.engine`).
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Increasing sample times inside ``t_span``.
+        y : array_like, shape (Ns,) or (Ns, k)
+            The samples.
+        method : {"quadrature", "lstsq"}, optional
+            Sample weights from the spacing, or weighted least squares
+            (:mod:`slbasis.numeric.projection`).
+        chunk : int, optional
+            Samples per block of the streaming evaluation.
+        weights : str or ndarray, optional
+            The quadrature rule (``"trapezoid"``, ...) or the weights themselves.
+        engine : {"auto", "numpy", "numba"}, optional
+            The evaluation engine.
+
+        Returns
+        -------
+        ndarray, shape (N,) or (N, k)
+            The coefficients.
+
+        Raises
+        ------
+        ValueError
+            If the times extend outside ``t_span`` or are not increasing, or an option is
+            unknown.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> B = slbasis.basis("legendre", 4, (0.0, 2.0))
+        >>> t = np.linspace(0.0, 2.0, 2001)
+        >>> B.project(t, t**2).round(4)
+        array([1.8856, 1.633 , 0.4216, 0.    ])
         """
         ta = self._times_in_window(t, "t")
         return projection.project(
@@ -206,39 +303,138 @@ class Basis:
         weights: str | np.ndarray = "trapezoid",
         engine: str = "auto",
     ) -> np.ndarray:
-        """Even rows ``c_n = int y_even phi_n dt``, odd rows ``int y_odd phi_n dt`` (the
-        projection of mirrored sample pairs on a basis with parity;
-        :func:`slbasis.numeric.projection.project_alternating`)."""
+        """Even rows ``c_n = int y_even phi_n dt``, odd rows ``int y_odd phi_n dt``.
+
+        The projection of mirrored sample pairs on a basis with parity
+        (:func:`slbasis.numeric.projection.project_alternating`): each row sums only the
+        combination its parity needs.
+
+        Parameters
+        ----------
+        t : array_like, shape (Ns,)
+            Increasing sample times inside ``t_span``.
+        y_even : array_like, shape (Ns,) or (Ns, k)
+            The samples projected on the even functions.
+        y_odd : array_like, shape (Ns,) or (Ns, k)
+            The samples projected on the odd functions.
+        weights : str or ndarray, optional
+            The quadrature rule or the weights.
+        engine : {"auto", "numpy", "numba"}, optional
+            The evaluation engine.
+
+        Returns
+        -------
+        ndarray, shape (N,) or (N, k)
+            The coefficients.
+        """
         ta = self._times_in_window(t, "t")
         return projection.project_alternating(
             self.kernel, self.N, self.tmap, ta, y_even, y_odd, weights=weights, engine=engine
         )
 
     def reconstruct(self, c: np.ndarray, t: np.ndarray, *, engine: str = "auto") -> np.ndarray:
-        """``sum_n c_n phi_n(t)``: ``(len(t),)`` or ``(len(t), k)``."""
+        """``sum_n c_n phi_n(t)``.
+
+        Parameters
+        ----------
+        c : array_like, shape (N,) or (N, k)
+            Coefficients.
+        t : array_like, shape (m,)
+            Times inside the mapped interval.
+        engine : {"auto", "numpy", "numba"}, optional
+            The evaluation engine.
+
+        Returns
+        -------
+        ndarray, shape (m,) or (m, k)
+            The function values.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> B = slbasis.basis("legendre", 4, (0.0, 2.0))
+        >>> t = np.linspace(0.0, 2.0, 2001)
+        >>> B.reconstruct(B.project(t, t**2), np.array([0.5, 1.5])).round(4)
+        array([0.25, 2.25])
+        """
         ta = self._times_in_interval(t, "t")
         return projection.reconstruct(self.kernel, self.N, self.tmap, c, ta, engine=engine)
 
     # -- operators (time units) --------------------------------------------------------
     def derivative_matrix(self, shape: str = "square") -> sp.csr_matrix | np.ndarray:
-        """``d/dt = scale d/dx`` on the coefficients (see :mod:`slbasis.numeric.operators`).
+        """``d/dt = scale d/dx`` on the coefficients (:mod:`slbasis.numeric.operators`).
 
-        ``"rectangular"`` is the exact image of the first ``N`` functions (Hermite:
-        ``(N+1) x N``); ``"square"`` is its ``N x N`` cut, whose last row misses the
-        contribution of ``c_N`` when the signal is not band-limited to ``N`` terms.
+        The derivative of ``phi_n`` is a finite combination of neighbouring functions (the
+        ladder relations of the Sturm-Liouville problem), so the matrix is banded and exact.
+
+        Parameters
+        ----------
+        shape : {"square", "rectangular"}, optional
+            ``"rectangular"``: the exact image of the first ``N`` functions (Hermite: ``(N+1) x
+            N``); ``"square"``: its ``N x N`` cut, whose last row misses the contribution of
+            ``c_N`` when the signal is not band-limited to ``N`` terms.
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix or ndarray
+            The matrix: ``D @ c`` are the coefficients of the derivative.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> B = slbasis.basis("legendre", 4, (0.0, 2.0))
+        >>> t = np.linspace(0.0, 2.0, 2001)
+        >>> (B.derivative_matrix() @ B.project(t, t**2)).round(4) + 0.0  # of 2 t
+        array([2.8284, 1.633 , 0.    , 0.    ])
         """
         D = operators.derivative_matrix(self.kernel, self.N, shape)
         return D * self.scale
 
     def multiplication_matrix(self, shape: str = "square") -> sp.csr_matrix:
-        """Multiplication by ``t`` (``= centre + x / scale``): ``N x N`` or ``(N+1) x N``."""
+        """Multiplication by ``t`` (``= centre + x / scale``) on the coefficients.
+
+        ``x phi_n`` is the three-term recurrence, so the matrix is the Jacobi matrix of the
+        family, shifted and scaled to time.
+
+        Parameters
+        ----------
+        shape : {"square", "rectangular"}, optional
+            ``N x N`` or ``(N+1) x N``.
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix
+            The matrix.
+        """
         J = operators.multiplication_matrix(self.kernel, self.N, shape)
         eye = sp.eye(J.shape[0], J.shape[1], format="csr")
         return (eye * self.centre + J / self.scale).tocsr()
 
     def quadrature(self) -> tuple[np.ndarray, np.ndarray]:
-        """Gauss nodes (times) and weights: ``int f g dt = sum_i W_i f(t_i) g(t_i)`` exactly
-        for ``f, g`` in the span (nodes may lie outside ``t_span`` for infinite intervals).
+        """Gauss nodes (times) and weights of the basis.
+
+        ``int f g dt = sum_i W_i f(t_i) g(t_i)`` exactly for ``f, g`` in the span (nodes may
+        lie outside ``t_span`` for infinite intervals): the nodes are the eigenvalues of the
+        Jacobi matrix (Golub & Welsch 1969).
+
+        Returns
+        -------
+        t : ndarray, shape (N,)
+            The nodes (times).
+        W : ndarray, shape (N,)
+            The weights.
+
+        References
+        ----------
+        .. [1] G. H. Golub and J. H. Welsch, "Calculation of Gauss quadrature rules", *Math.
+           Comp.* 23(106), 221-230, 1969.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> t, W = slbasis.basis("legendre", 4, (0.0, 2.0)).quadrature()
+        >>> t.round(4), W.round(4)
+        (array([0.1389, 0.66  , 1.34  , 1.8611]), array([0.3479, 0.6521, 0.6521, 0.3479]))
         """
         x, W = quadrature.gauss(self.kernel, self.N)
         return self.tmap.to_t(x), W / self.scale

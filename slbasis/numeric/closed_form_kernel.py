@@ -32,8 +32,33 @@ __all__ = ["ClosedFormKernel"]
 class ClosedFormKernel:
     """Kernel of a generated closed-form module with its parameters fixed.
 
-    ``ClosedFormKernel(module, {"alpha": 0.0})``; the parameters are checked by the module's
-    ``check_parameters`` (``ValueError`` outside the admissible range).
+    The parameters are checked by the module's ``check_parameters`` on construction.
+
+    Parameters
+    ----------
+    module : module
+        A generated kernel module (:mod:`slbasis.codegen`).
+    params : dict of str to float, optional
+        The family's parameters.
+
+    Attributes
+    ----------
+    module : module
+        The module.
+    params : dict of str to float
+        The parameters.
+
+    Raises
+    ------
+    ValueError
+        If a parameter leaves the admissible range.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> k = slbasis.kernel("jacobi", alpha=1.0, beta=0.5)
+    >>> k.name, k.interval
+    ('jacobi(alpha=1, beta=0.5)', (-1.0, 1.0))
     """
 
     module: types.ModuleType
@@ -44,15 +69,18 @@ class ClosedFormKernel:
 
     @property
     def name(self) -> str:
+        """The family's name with its parameters."""
         args = ", ".join(f"{k}={v:g}" for k, v in self.params.items())
         return f"{self.module.name}({args})" if args else self.module.name
 
     @property
     def interval(self) -> tuple[float, float]:
+        """The family's interval ``(a, b)`` as floats."""
         return tuple(float(v) for v in self.module.interval)
 
     @property
     def p0(self) -> tuple[float, float, float]:
+        """``(c0, c1, c2)`` of ``p0(x) = c0 + c1 x + c2 x^2``."""
         return tuple(self.module.p0)
 
     def _closed(self, fname: str, n: np.ndarray) -> np.ndarray:
@@ -60,6 +88,31 @@ class ClosedFormKernel:
             return getattr(self.module, fname)(n, **self.params)
 
     def jacobi(self, N: int) -> tuple[np.ndarray, np.ndarray]:
+        """``B_n`` and ``A_{n+1}`` of the orthonormal recurrence, the small ``n`` exact.
+
+        ``A_{n+1} = -sign(p0) sign(c_{n+1}/c_n) sqrt(A_{n+1}^2)`` (the sign of ``k_n / k_{n+1}``);
+        the first entries are the exact small-``n`` values, so removable singularities of a
+        closed form at special parameters never reach the numbers.
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+
+        Returns
+        -------
+        diag : ndarray, shape (N,)
+            ``B_0, ..., B_{N-1}``.
+        offdiag : ndarray, shape (N,)
+            ``A_1, ..., A_N``.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> diag, off = slbasis.kernel("legendre").jacobi(3)
+        >>> off.round(4)  # (n + 1) / sqrt((2n + 1)(2n + 3))
+        array([0.5774, 0.5164, 0.5071])
+        """
         n = np.arange(N, dtype=float)
         diag = self._closed("jacobi_diag", n)
         a_sq = self._closed("jacobi_offdiag_squared", n)
@@ -70,9 +123,43 @@ class ClosedFormKernel:
         return diag, -self.module.P0_SIGN * np.sign(c_ratio) * np.sqrt(a_sq)
 
     def eigenvalues(self, N: int) -> np.ndarray:
+        """``lambda_n`` of the polynomial problem, ``n = 0..N-1``.
+
+        Parameters
+        ----------
+        N : int
+            Number of eigenvalues.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The eigenvalues.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> slbasis.kernel("legendre").eigenvalues(4)  # n (n + 1)
+        array([ 0.,  2.,  6., 12.])
+        """
         return self._closed("eigenvalue", np.arange(N, dtype=float))
 
     def derivative_bands(self, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The bands of ``2 p0 d/dx`` on ``phi_n`` (eq. 11 in commutator form).
+
+        ``2 p0 d/dx = (J Lambda - Lambda J) - p0'(J)``: ``sup_n = A_{n+1}(lambda_n -
+        lambda_{n+1} - 2 c2)``, ``diag_n = -(2 c2 B_n + c1)``, ``sub_n = A_n(lambda_n -
+        lambda_{n-1} - 2 c2)`` for ``p0 = c0 + c1 x + c2 x^2`` (module docstring).
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+
+        Returns
+        -------
+        sub, diag, sup : ndarray, shape (N,)
+            The bands (``sub[0] = 0``).
+        """
         diag_j, off = self.jacobi(N)
         lam = self.eigenvalues(N + 1)
         _, c1, c2 = self.p0
@@ -82,6 +169,26 @@ class ClosedFormKernel:
         return sub, -(2 * c2 * diag_j + c1), sup
 
     def log_phi0(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``log|phi_0(x)| = log(w) / 2 - log(int w) / 2`` and the sign of ``c_0``.
+
+        Parameters
+        ----------
+        x : array_like
+            Points of the family's variable.
+
+        Returns
+        -------
+        log_abs : ndarray
+            ``log|phi_0(x)|``, ``-inf`` outside the interval (``phi_n = 0`` there).
+        sign : ndarray
+            The sign of ``phi_0``.
+
+        Examples
+        --------
+        >>> import slbasis
+        >>> slbasis.kernel("legendre").log_phi0(np.array([0.0, 2.0]))[0].round(4)  # log(1 / sqrt 2)
+        array([-0.3466,    -inf])
+        """
         x = np.asarray(x, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
             log_w = self.module.log_weight(x, **self.params)

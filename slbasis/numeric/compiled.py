@@ -146,11 +146,31 @@ def eval_range(
     out: np.ndarray,
     col: int,
 ) -> None:
-    """``out[:, col:col + len(x)] = [phi_n(x_i)]`` for ``n < out.shape[0]``.
+    """``out[:, col:col + len(x)] = [phi_n(x_i)]`` for ``n < out.shape[0]`` (compiled).
 
-    ``m0, e0``: ``phi_0 = m0 2^e0`` (``evaluate._split_log``); ``b, a_prev, a_next``: the
-    recurrence (``Recurrence.b, .A_prev, .A_next``); ``renorm[n]``: renormalise the pair
-    ``(n - 1, n)`` before row ``n`` is written (``n >= 1``).
+    The mantissa/exponent recurrence of :mod:`slbasis.numeric.evaluate`, the same
+    operations in the same order, over blocks of ``BLOCK`` samples.
+
+    Parameters
+    ----------
+    x : ndarray, shape (k,)
+        Points of the family's variable.
+    m0 : ndarray, shape (k,)
+        Mantissas of ``phi_0(x)`` (``phi_0 = m0 2^e0``, ``evaluate._split_log``).
+    e0 : ndarray of int, shape (k,)
+        Base-2 exponents of ``phi_0(x)``.
+    b : ndarray, shape (N,)
+        Recurrence diagonal (``Recurrence.b``).
+    a_prev : ndarray, shape (N,)
+        ``A_n`` (``Recurrence.A_prev``).
+    a_next : ndarray, shape (N,)
+        ``A_{n+1}`` (``Recurrence.A_next``).
+    renorm : ndarray of bool, shape (N,)
+        ``renorm[n]``: renormalise the pair ``(n - 1, n)`` before row ``n`` (``n >= 1``).
+    out : ndarray, shape (N, total)
+        Output, written in place.
+    col : int
+        The first column of ``out`` written.
     """
     N = out.shape[0]
     pow2 = _POW2
@@ -336,16 +356,41 @@ def project_range(
     renorm: np.ndarray,
     c: np.ndarray,
 ) -> int:
-    """``c[n, j] += sum_i phi_n(x_i) wy[r(n) k + j, i]`` for ``n < c.shape[0]``, ``j < k``.
+    """``c[n, j] += sum_i phi_n(x_i) wy[r(n) k + j, i]`` for ``n < c.shape[0]``, ``j < k``
+    (compiled, fused with the recurrence).
 
-    Arguments as in :func:`eval_range`; ``wy``: ``(r k, len(x))``, the weighted signals,
-    ``k = c.shape[1]`` columns of ``c`` and ``r = wy.shape[0] // k`` sets of signals
-    that the rows take in turn, ``r(n) = n mod r``: ``r = 1`` projects every row on the
-    same ``k`` signals; ``r = 2`` gives even rows the first ``k`` and odd rows the last
-    ``k`` (:func:`slbasis.numeric.projection.project_alternating`: each row sums only the
-    signals it needs).  Row ``n + 1`` is computed and summed in one pass
-    (:func:`_step_sum`, up to 8 columns; further columns in passes of 4, :func:`_sum`).
-    Returns the number of samples where ``phi_{N-1}`` is not finite.
+    ``k = c.shape[1]`` columns and ``r = wy.shape[0] // k`` sets of signals that the rows
+    take in turn, ``r(n) = n mod r``: ``r = 1`` projects every row on the same ``k``
+    signals; ``r = 2`` gives even rows the first ``k`` and odd rows the last ``k``
+    (:func:`slbasis.numeric.projection.project_alternating`).  Row ``n + 1`` is computed
+    and summed in one pass (up to 8 columns; further columns in passes of 4), so no block
+    of function values is stored.
+
+    Parameters
+    ----------
+    x : ndarray, shape (k,)
+        Points of the family's variable.
+    m0 : ndarray, shape (k,)
+        Mantissas of ``phi_0(x)`` (``phi_0 = m0 2^e0``, ``evaluate._split_log``).
+    e0 : ndarray of int, shape (k,)
+        Base-2 exponents of ``phi_0(x)``.
+    wy : ndarray, shape (r k, len(x))
+        The weighted signals.
+    b : ndarray, shape (N,)
+        Recurrence diagonal (``Recurrence.b``).
+    a_prev : ndarray, shape (N,)
+        ``A_n`` (``Recurrence.A_prev``).
+    a_next : ndarray, shape (N,)
+        ``A_{n+1}`` (``Recurrence.A_next``).
+    renorm : ndarray of bool, shape (N,)
+        ``renorm[n]``: renormalise the pair ``(n - 1, n)`` before row ``n`` (``n >= 1``).
+    c : ndarray, shape (N, k)
+        Sums, accumulated in place.
+
+    Returns
+    -------
+    int
+        The number of samples where ``phi_{N-1}`` is not finite.
     """
     N = c.shape[0]
     k = c.shape[1]

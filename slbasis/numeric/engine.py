@@ -77,13 +77,49 @@ def _disabled() -> bool:
 
 
 def numba_available() -> bool:
-    """Whether the compiled engine can be used (numba installed, ``SLBASIS_NO_NUMBA`` and
-    ``NUMBA_DISABLE_JIT`` unset)."""
+    """Whether the compiled engine can be used.
+
+    Returns
+    -------
+    bool
+        True when numba is installed and neither ``SLBASIS_NO_NUMBA`` nor
+        ``NUMBA_DISABLE_JIT`` is set (under the latter the kernels would run as plain Python
+        loops, slower than numpy).
+    """
     return not _disabled() and _compiled() is not None
 
 
 def resolve(engine: str, work: int) -> str:
-    """The engine (``"numpy"`` or ``"numba"``) that runs a call of ``work`` function values."""
+    """The engine (``"numpy"`` or ``"numba"``) that runs a call of ``work`` function values.
+
+    ``"auto"`` takes the compiled engine when numba is available, the call is large enough
+    to gain from it (``work >= 2^16``) and its kernels are compiled or cached (or the call is
+    so large that compiling on the call costs less than numpy would).
+
+    Parameters
+    ----------
+    engine : {"auto", "numpy", "numba"}
+        The engine asked for.
+    work : int
+        The call's cost in function values (:func:`work`).
+
+    Returns
+    -------
+    str
+        ``"numpy"`` or ``"numba"``.
+
+    Raises
+    ------
+    ValueError
+        If ``engine`` is unknown.
+    RuntimeError
+        If ``"numba"`` is asked for and numba is disabled or not installed.
+
+    Examples
+    --------
+    >>> resolve("auto", 100), resolve("numpy", 10**9)
+    ('numpy', 'numpy')
+    """
     if engine not in ENGINES:
         raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
     if engine == "numpy":
@@ -107,13 +143,28 @@ def resolve(engine: str, work: int) -> str:
 
 
 def work(N: int, n_samples: int) -> int:
-    """The cost of evaluating ``N`` functions at ``n_samples`` points with the numpy
-    engine, in function values: ``N (n_samples + NUMPY_ROW_OVERHEAD)``.
+    """The cost of evaluating ``N`` functions at ``n_samples`` points with the numpy engine.
 
-    The numpy engine loops over the ``N`` rows in Python, so a call with few samples
-    still costs :data:`NUMPY_ROW_OVERHEAD` per row (``N = 4000`` functions at the two
-    ends of a record: 30 ms, against 1.5 ms compiled); counting only ``N n_samples``
-    would keep such calls on the slow engine.
+    The numpy engine loops over the ``N`` rows in Python, so a call with few samples still
+    costs :data:`NUMPY_ROW_OVERHEAD` per row; counting only ``N n_samples`` would keep such
+    calls on the slow engine.
+
+    Parameters
+    ----------
+    N : int
+        Number of functions.
+    n_samples : int
+        Number of points.
+
+    Returns
+    -------
+    int
+        ``N (n_samples + NUMPY_ROW_OVERHEAD)`` function values.
+
+    Examples
+    --------
+    >>> work(10, 100)
+    11240
     """
     return int(N) * (int(n_samples) + NUMPY_ROW_OVERHEAD)
 
@@ -164,7 +215,23 @@ def _coefficients(rec) -> tuple:
 def evaluate_compiled(
     rec, x: np.ndarray, m0: np.ndarray, e0: np.ndarray, renorm: np.ndarray, out: np.ndarray
 ) -> None:
-    """Fill the C-contiguous ``out`` (``(N, len(x))``) with ``phi_n(x_i)`` (compiled)."""
+    """Fill the C-contiguous ``out`` with ``phi_n(x_i)`` (compiled, threaded by sample ranges).
+
+    Parameters
+    ----------
+    rec : Recurrence
+        The recurrence coefficients (:func:`slbasis.numeric.evaluate.recurrence`).
+    x : ndarray, shape (k,)
+        Points.
+    m0 : ndarray, shape (k,)
+        Mantissas of ``phi_0(x)``.
+    e0 : ndarray, shape (k,)
+        Base-2 exponents of ``phi_0(x)``.
+    renorm : ndarray of bool, shape (N,)
+        Rows before which the mantissa pair is renormalised.
+    out : ndarray, shape (N, k)
+        C-contiguous output, filled in place.
+    """
     kernels = _compiled()
     b, a_prev, a_next = _coefficients(rec)
     N = out.shape[0]
@@ -187,11 +254,45 @@ def project_compiled(
     renorm: np.ndarray,
     columns: int | None = None,
 ) -> tuple[np.ndarray, int]:
-    """``(c, bad)``: ``c[n, j] = sum_i phi_n(x_i) wy[j, i]`` (``(N, k)``, compiled, fused)
-    and the number of samples where ``phi_{N-1}`` is not finite. ``wy``: ``(k, len(x))``.
+    """The fused projection ``c[n, j] = sum_i phi_n(x_i) wy[j, i]`` (compiled, threaded).
 
-    ``columns = k / 2`` (``wy`` of ``k`` rows): even rows ``n`` sum the first ``k / 2``
-    signals and odd rows the last (:func:`slbasis.numeric.compiled.project_range`)."""
+    Each thread sums over every ``len(ranges)``-th block of samples rather than one
+    contiguous range: the cost of a sample varies along the record (far samples of a
+    Gaussian weight take the slow paths of the exponent handling), and the sums do not
+    depend on the order.
+
+    Parameters
+    ----------
+    rec : Recurrence
+        The recurrence coefficients.
+    N : int
+        Number of functions.
+    x : ndarray, shape (Ns,)
+        Points.
+    m0 : ndarray, shape (Ns,)
+        Mantissas of ``phi_0(x)``.
+    e0 : ndarray, shape (Ns,)
+        Base-2 exponents of ``phi_0(x)``.
+    wy : ndarray, shape (k, Ns)
+        Weighted signals.
+    renorm : ndarray of bool, shape (N,)
+        Rows before which the mantissa pair is renormalised.
+    columns : int, optional
+        ``k`` (all rows sum all signals) or ``k / 2`` (even rows the first half, odd rows
+        the second, :func:`slbasis.numeric.compiled.project_range`).
+
+    Returns
+    -------
+    c : ndarray, shape (N, columns)
+        The sums.
+    bad : int
+        The samples where ``phi_{N-1}`` is not finite.
+
+    Raises
+    ------
+    ValueError
+        If ``columns`` is neither ``k`` nor half of it.
+    """
     kernels = _compiled()
     b, a_prev, a_next = _coefficients(rec)
     wy = np.ascontiguousarray(wy)

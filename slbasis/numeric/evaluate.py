@@ -111,7 +111,26 @@ class Recurrence:
 
 
 def recurrence(kernel: Kernel, N: int) -> Recurrence:
-    """Precompute the recurrence coefficients of the first ``N + 1`` functions."""
+    """Precompute the recurrence coefficients of the first ``N + 1`` functions.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions.
+
+    Returns
+    -------
+    Recurrence
+        The coefficients in the evaluator's form (reusable by :func:`evaluate`).
+
+    Raises
+    ------
+    ValueError
+        If the kernel's recurrence coefficients have the wrong shape, or an off-diagonal is
+        zero or not finite.
+    """
     return Recurrence(kernel, N)
 
 
@@ -226,13 +245,53 @@ def evaluate(
 ) -> np.ndarray:
     """The ``(N, len(x))`` matrix ``[phi_n(x_j)]`` of the first ``N`` orthonormal functions.
 
-    Mantissa/exponent three-term recurrence (module docstring); vectorised over samples in
-    blocks of ``chunk`` samples. ``out`` (C-contiguous, shape ``(N, len(x))``) is filled
-    in place if given. ``engine``: ``"auto"``, ``"numpy"`` or ``"numba"``
-    (:mod:`slbasis.numeric.engine`); both give the same values bit for bit (the same
-    operations in the same order; renormalisation is exact and the final scaling by
+    Mantissa/exponent three-term recurrence (module docstring): no overflow or underflow in
+    the middle of the recurrence, forward-stable for these dominant solutions; vectorised
+    over samples in blocks of ``chunk``.  Both engines give the same values bit for bit (the
+    same operations in the same order; renormalisation is exact and the final scaling by
     ``2^e`` correctly rounded, so neither the block size nor the renormalisation points
     change a value).
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+    x : array_like, shape (k,)
+        Points of the family's variable (no NaN).
+    out : ndarray, shape (N, k), optional
+        Filled in place if given.
+    chunk : int, optional
+        Samples per block.
+    rec : Recurrence, optional
+        Precomputed coefficients for at least ``N`` functions (:func:`recurrence`).
+    engine : {"auto", "numpy", "numba"}, optional
+        The engine (:mod:`slbasis.numeric.engine`).
+
+    Returns
+    -------
+    ndarray, shape (N, k)
+        The values (``out`` when given).
+
+    Raises
+    ------
+    ValueError
+        If ``N`` is not a positive integer, ``x`` is not 1-D or has NaN, ``rec`` is too
+        short, ``out`` has the wrong shape, or ``engine`` is unknown.
+
+    References
+    ----------
+    .. [1] W. Gautschi, *Orthogonal Polynomials: Computation and Approximation*, Oxford
+       University Press, 2004, sec. 1.3.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> evaluate(slbasis.kernel("legendre"), 3, np.array([0.0, 1.0])).round(4)
+    array([[ 0.7071,  0.7071],
+           [ 0.    ,  1.2247],
+           [-0.7906,  1.5811]])
     """
     if int(N) != N or N < 1:
         raise ValueError(f"N: expected an integer >= 1, got {N!r}")
@@ -272,11 +331,37 @@ def evaluate(
 def evaluate_derivative(
     kernel: Kernel, N: int, x: np.ndarray, *, chunk: int = _DEFAULT_CHUNK
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(phi, dphi)``: the functions and their ``x``-derivatives, both ``(N, len(x))``.
+    """The functions and their ``x``-derivatives.
 
-    Uses the banded operator ``2 p0 phi_n' = sub[n] phi_{n-1} + diag[n] phi_n +
-    sup[n] phi_{n+1}`` (one extra row ``phi_N``), so it is undefined (inf/nan) where
-    ``p0(x) = 0``.
+    Uses the banded operator ``2 p0 phi_n' = sub[n] phi_{n-1} + diag[n] phi_n + sup[n]
+    phi_{n+1}`` (one extra row ``phi_N``), so it is undefined (inf/nan) where ``p0(x) = 0``.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions.
+    x : array_like, shape (k,)
+        Points of the family's variable.
+    chunk : int, optional
+        Samples per block of :func:`evaluate`.
+
+    Returns
+    -------
+    phi : ndarray, shape (N, k)
+        The functions.
+    dphi : ndarray, shape (N, k)
+        Their derivatives with respect to ``x``.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> phi, dphi = evaluate_derivative(slbasis.kernel("legendre"), 3, np.array([0.5]))
+    >>> dphi.round(4)  # sqrt(3/2) and sqrt(5/2) 3 x
+    array([[0.    ],
+           [1.2247],
+           [2.3717]])
     """
     xa = _check_x(x)
     full = evaluate(kernel, N + 1, xa, chunk=chunk)
@@ -293,10 +378,30 @@ def evaluate_derivative(
 def polynomial_newton_ratio(kernel: Kernel, N: int, x: np.ndarray) -> np.ndarray:
     """``p_N(x) / p_N'(x)`` for the orthonormal polynomial ``p_N`` (the Newton step).
 
-    Runs the recurrence for ``p_n`` and its derivative
-    ``A_{n+1} p'_{n+1} = (x - b_n) p'_n + p_n - A_n p'_{n-1}`` on scaled values (the
-    ratio is scale invariant; pairs are renormalised by powers of two every 16 steps).
-    The zeros of ``phi_N = sqrt(w) p_N`` inside ``(a, b)`` are those of ``p_N``.
+    Runs the recurrence for ``p_n`` and its derivative ``A_{n+1} p'_{n+1} = (x - b_n) p'_n +
+    p_n - A_n p'_{n-1}`` on scaled values (the ratio is scale invariant; pairs are
+    renormalised by powers of two every 16 steps).  The zeros of ``phi_N = sqrt(w) p_N``
+    inside ``(a, b)`` are those of ``p_N``.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        The degree.
+    x : array_like, shape (k,)
+        Points.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The ratio.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> polynomial_newton_ratio(slbasis.kernel("legendre"), 2, np.array([0.5])).round(6)
+    array([-0.083333])
     """
     xa = _check_x(x)
     diag, off = (np.asarray(v, dtype=float) for v in kernel.jacobi(N))

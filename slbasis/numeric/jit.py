@@ -66,6 +66,11 @@ def register(*names: str) -> None:
     """Add kernel modules (by import name) to those the background process compiles.
 
     Each module defines ``WARM_SIGNATURES``: ``{dispatcher name: [argument types, ...]}``.
+
+    Parameters
+    ----------
+    *names : str
+        Import names of kernel modules; a name registered before is not added twice.
     """
     with _lock:
         for name in names:
@@ -74,7 +79,18 @@ def register(*names: str) -> None:
 
 
 def registered() -> list[str]:
-    """The registered kernel modules, in registration order."""
+    """The registered kernel modules, in registration order.
+
+    Returns
+    -------
+    list of str
+        Their import names.
+
+    Examples
+    --------
+    >>> "slbasis.numeric.compiled" in registered()
+    True
+    """
     return list(_REGISTERED)
 
 
@@ -88,7 +104,18 @@ def _has_cache_entry(dispatcher: Any) -> bool:
 
 
 def cached(module: ModuleType) -> bool:
-    """Whether every kernel of ``module`` is compiled in this process or cached on disk."""
+    """Whether every kernel of ``module`` is compiled in this process or cached on disk.
+
+    Parameters
+    ----------
+    module : module
+        A kernel module with ``WARM_SIGNATURES``.
+
+    Returns
+    -------
+    bool
+        True when no kernel would compile on its first call.
+    """
     for name in module.WARM_SIGNATURES:
         dispatcher = getattr(module, name)
         if not dispatcher.signatures and not _has_cache_entry(dispatcher):
@@ -120,9 +147,18 @@ def ready(module: ModuleType) -> bool:
     """Whether the engine ``"auto"`` should run ``module``'s compiled kernels now.
 
     True when they are compiled or cached (:func:`cached`); else starts the background
-    compilation (once per process) and returns False, so the call runs with numpy.
-    True as well when no background process can be started, or it failed (the call
-    compiles).
+    compilation (once per process) and returns False, so the call runs with numpy.  True as
+    well when no background process can be started, or it failed (the call compiles).
+
+    Parameters
+    ----------
+    module : module
+        A kernel module with ``WARM_SIGNATURES``.
+
+    Returns
+    -------
+    bool
+        Whether to run the compiled kernels.
     """
     name = module.__name__
     if name in _ready:
@@ -140,6 +176,11 @@ def ready(module: ModuleType) -> bool:
 def warm(module: ModuleType) -> int:
     """Compile (into numba's cache) every signature of ``module.WARM_SIGNATURES``.
 
+    Parameters
+    ----------
+    module : module
+        A kernel module with ``WARM_SIGNATURES``.
+
     Returns
     -------
     int
@@ -155,8 +196,20 @@ def warm(module: ModuleType) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m slbasis.numeric.jit [--background] MODULE ...``: fill numba's cache
-    with the kernels of the modules (default: the registered ones)."""
+    """``python -m slbasis.numeric.jit [--background] MODULE ...``: fill numba's cache with the
+    kernels of the modules (default: the registered ones).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``); ``--background`` lowers the priority and
+        prints nothing.
+
+    Returns
+    -------
+    int
+        The exit code, 0.
+    """
     import importlib
 
     args = list(sys.argv[1:] if argv is None else argv)

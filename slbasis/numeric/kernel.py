@@ -54,16 +54,77 @@ class Kernel(Protocol):
     interval: tuple[float, float]
     p0: tuple[float, float, float]
 
-    def jacobi(self, N: int) -> tuple[np.ndarray, np.ndarray]: ...
+    def jacobi(self, N: int) -> tuple[np.ndarray, np.ndarray]:
+        """The orthonormal three-term recurrence's coefficients.
 
-    def log_phi0(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+        Parameters
+        ----------
+        N : int
+            Number of functions.
 
-    def derivative_bands(self, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+        Returns
+        -------
+        diag : ndarray, shape (N,)
+            ``b_0, ..., b_{N-1}``.
+        offdiag : ndarray, shape (N,)
+            ``A_1, ..., A_N`` (``A_N`` included: ``phi_N`` and the rectangular operators need
+            it), all non-zero.
+        """
+        ...
+
+    def log_phi0(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``phi_0`` in log form, so that ``exp(-x^2 / 2)`` never underflows.
+
+        Parameters
+        ----------
+        x : ndarray
+            Points of the family's variable.
+
+        Returns
+        -------
+        log_abs : ndarray
+            ``log|phi_0(x)|`` (``-inf`` where ``phi_0 = 0``).
+        sign : ndarray
+            ``sign(phi_0(x))``.
+        """
+        ...
+
+    def derivative_bands(self, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The exact tridiagonal operator ``2 p0(x) d/dx``.
+
+        Parameters
+        ----------
+        N : int
+            Number of functions.
+
+        Returns
+        -------
+        sub, diag, sup : ndarray, shape (N,)
+            The bands of ``2 p0(x) d/dx phi_n = sub[n] phi_{n-1} + diag[n] phi_n + sup[n]
+            phi_{n+1}`` (``sub[0]`` ignored).
+        """
+        ...
 
 
 @dataclass(frozen=True)
 class KernelSpec:
-    """A kernel assembled from callables (satisfies :class:`Kernel`)."""
+    """A kernel assembled from callables (satisfies :class:`Kernel`).
+
+    Attributes
+    ----------
+    name : str
+        The family's name.
+    interval : tuple of float
+        ``(a, b)``; either end may be infinite.
+    p0 : tuple of float
+        ``(c0, c1, c2)`` of ``p0(x) = c0 + c1 x + c2 x^2``.
+    jacobi : callable
+        ``jacobi(N) -> (diag, offdiag)`` (module docstring).
+    log_phi0 : callable
+        ``log_phi0(x) -> (log|phi_0|, sign)``.
+    derivative_bands : callable
+        ``derivative_bands(N) -> (sub, diag, sup)``.
+    """
 
     name: str
     interval: tuple[float, float]
@@ -76,7 +137,28 @@ class KernelSpec:
 def check_kernel(kernel: Kernel, N: int = 8) -> None:
     """Check that ``kernel`` follows the interface (shapes, finiteness, ``A_n != 0``).
 
-    Raises ``TypeError`` for a missing member and ``ValueError`` for a wrong value.
+    Parameters
+    ----------
+    kernel : Kernel
+        The object to check.
+    N : int, optional
+        The number of functions the checks evaluate.
+
+    Raises
+    ------
+    TypeError
+        If a member is missing.
+    ValueError
+        If a value is wrong (interval, ``p0``, shapes, non-finite or zero coefficients).
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> check_kernel(slbasis.kernel("legendre"))
+    >>> check_kernel(object())
+    Traceback (most recent call last):
+    ...
+    TypeError: kernel: missing member 'name' (see slbasis.numeric.kernel)
     """
     for attr in ("name", "interval", "p0", "jacobi", "log_phi0", "derivative_bands"):
         if not hasattr(kernel, attr):

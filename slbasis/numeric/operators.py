@@ -81,7 +81,38 @@ def _tridiag(n_cols: int, n_rows: int, sub, dia, sup) -> sp.csr_matrix:
 
 
 def multiplication_matrix(kernel: Kernel, N: int, shape: str = "square") -> sp.csr_matrix:
-    """The Jacobi matrix of multiplication by ``x``: ``N x N`` or exact ``(N+1) x N``."""
+    """The Jacobi matrix of multiplication by ``x``: ``N x N`` or exact ``(N+1) x N``.
+
+    ``x phi_n = A_n phi_{n-1} + b_n phi_n + A_{n+1} phi_{n+1}`` (the three-term recurrence),
+    so the matrix is exact and tridiagonal.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+    shape : {"square", "rectangular"}, optional
+        The ``N x N`` cut or the exact ``(N+1) x N`` matrix.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        The matrix (column ``n`` is the image of ``phi_n``).
+
+    Raises
+    ------
+    ValueError
+        If ``N`` or ``shape`` is invalid.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> multiplication_matrix(slbasis.kernel("legendre"), 3).toarray().round(4)
+    array([[0.    , 0.5774, 0.    ],
+           [0.5774, 0.    , 0.5164],
+           [0.    , 0.5164, 0.    ]])
+    """
     N = as_int_at_least(N, "N")
     _check_shape(shape)
     diag, off = (np.asarray(v, dtype=float) for v in kernel.jacobi(N))
@@ -90,7 +121,30 @@ def multiplication_matrix(kernel: Kernel, N: int, shape: str = "square") -> sp.c
 
 
 def derivative_operator(kernel: Kernel, N: int, shape: str = "rectangular") -> sp.csr_matrix:
-    """``2 p0(x) d/dx``: the exact ``(N+1) x N`` matrix (or its ``N x N`` cut)."""
+    """``2 p0(x) d/dx``: the exact ``(N+1) x N`` matrix (or its ``N x N`` cut).
+
+    From ``kernel.derivative_bands`` (eq. 11): exact and tridiagonal for every
+    Sturm-Liouville family of the catalogue.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+    shape : {"square", "rectangular"}, optional
+        The ``N x N`` cut or the exact ``(N+1) x N`` matrix.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        The matrix.
+
+    Raises
+    ------
+    ValueError
+        If ``N`` or ``shape`` is invalid.
+    """
     N = as_int_at_least(N, "N")
     _check_shape(shape)
     sub, dia, sup = (np.asarray(v, dtype=float) for v in kernel.derivative_bands(N))
@@ -122,10 +176,24 @@ def _solve_derivative(kernel: Kernel, N: int, M: int) -> np.ndarray:
 
 
 def extra_rows(kernel: Kernel) -> int | None:
-    """``q``: rows beyond ``N`` in the exact image of the first ``N`` functions under d/dx.
+    """``q``: rows beyond ``N`` in the exact image of the first ``N`` functions under ``d/dx``.
 
-    1 for constant ``p0`` (tridiagonal ``d/dx``); ``None`` (decided numerically by
-    :func:`derivative_matrix`) otherwise.
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+
+    Returns
+    -------
+    int or None
+        1 for constant ``p0`` (tridiagonal ``d/dx``); None (decided numerically by
+        :func:`derivative_matrix`) otherwise.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> extra_rows(slbasis.kernel("hermite_functions")), extra_rows(slbasis.kernel("legendre"))
+    (1, None)
     """
     c0, c1, c2 = (float(c) for c in kernel.p0)
     return 1 if (c1 == 0 and c2 == 0) else None
@@ -136,16 +204,46 @@ def derivative_matrix(
 ) -> sp.csr_matrix | np.ndarray:
     """``d/dx`` on the first ``N`` functions (see the module docstring for what is exact).
 
-    ``shape="rectangular"``: all rows ``m`` with a nonzero coefficient of the image of
-    ``phi_0..phi_{N-1}`` (``(N+1) x N`` for constant ``p0``; ``N x N`` when the images stay
-    in the span, as for Laguerre and Legendre; for other families the rows up to ``N + 2 pad``
-    whose entries stand above the rounding noise).
+    For constant ``p0`` it is ``2 p0 d/dx`` over ``2 c0``: exact, sparse, one extra row.
+    Otherwise it solves ``p0(J) G = (2 p0 d/dx) / 2`` with the exact section of ``p0(J)``,
+    which is exact up to rounding, amplified by ``cond p0(J_M)``, whenever the derivatives
+    lie in the span; solved at two truncations, a ``RuntimeWarning`` reports a difference
+    above rounding level (derivatives not in ``L^2``).
 
-    Accuracy of the solved (non-constant ``p0``) case: entrywise ~ ``eps cond(p0(J_M))``
-    times the largest entry (Legendre, N = 2000: ~2e-8 absolute on entries up to 4e3, i.e.
-    rounding level relative to ``||d/dx|| ~ N^2``; Laguerre, N = 2000: ~1e-11).
-    ``shape="square"``: the ``N x N`` cut.
-    Constant ``p0``: ``scipy.sparse`` CSR; otherwise a dense ``ndarray``.
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+    shape : {"rectangular", "square"}, optional
+        ``"rectangular"``: all rows with a non-zero coefficient of the image (``(N+1) x N``
+        for constant ``p0``; ``N x N`` when the images stay in the span, as for Laguerre and
+        Legendre; otherwise the rows up to ``N + 2 pad`` above the rounding noise);
+        ``"square"``: the ``N x N`` cut.
+    pad : int, optional
+        Extra rows of the section of ``p0(J)``, ``>= 2``.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix or ndarray
+        CSR for constant ``p0``, else a dense array.
+
+    Raises
+    ------
+    ValueError
+        If ``p0`` is identically zero, or an argument is invalid.
+
+    Examples
+    --------
+    Hermite functions: ``h_n' = sqrt(n/2) h_{n-1} - sqrt((n+1)/2) h_{n+1}``:
+
+    >>> import slbasis
+    >>> derivative_matrix(slbasis.kernel("hermite_functions"), 3).toarray().round(4) + 0.0
+    array([[ 0.    ,  0.7071,  0.    ],
+           [-0.7071,  0.    ,  1.    ],
+           [ 0.    , -1.    ,  0.    ],
+           [ 0.    ,  0.    , -1.2247]])
     """
     N = as_int_at_least(N, "N")
     pad = as_int_at_least(pad, "pad", 2)
@@ -180,12 +278,29 @@ def derivative_matrix(
 def is_legendre(kernel: Kernel, N: int) -> bool:
     """Whether the first ``N + 1`` functions of ``kernel`` are Legendre functions.
 
-    True when the interval ``(a, b)`` is finite and the recurrence coefficients are those
-    of the constant weight on it: ``b_n = (a + b) / 2``, ``|A_n| = h n / sqrt(4 n^2 - 1)``
-    with ``h = (b - a) / 2`` (to :data:`LEGENDRE_RTOL` relative).  The Jacobi matrix of a
-    measure on a bounded interval fixes the measure (the moment problem is determinate),
-    so the functions are then ``+-sqrt(1/h) hat P_n((x - (a + b)/2) / h)`` (orthonormal
-    Legendre polynomials; the signs of ``A_n`` fix the signs of the functions).
+    True when the interval ``(a, b)`` is finite and the recurrence coefficients are those of
+    the constant weight on it: ``b_n = (a + b) / 2``, ``|A_n| = h n / sqrt(4 n^2 - 1)`` with
+    ``h = (b - a) / 2`` (to :data:`LEGENDRE_RTOL` relative).  The Jacobi matrix of a measure
+    on a bounded interval fixes the measure (the moment problem is determinate), so the
+    functions are then ``+-sqrt(1/h) hat P_n((x - (a + b)/2) / h)``.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+
+    Returns
+    -------
+    bool
+        Whether they are.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> is_legendre(slbasis.kernel("legendre"), 5), is_legendre(slbasis.kernel("chebyshev_t"), 5)
+    (True, False)
     """
     N = as_int_at_least(N, "N")
     a, b = (float(v) for v in kernel.interval)
@@ -204,24 +319,53 @@ def is_legendre(kernel: Kernel, N: int) -> bool:
 def integration_matrix(
     kernel: Kernel, N: int, x0: float | None = None, shape: str = "rectangular"
 ) -> sp.csr_matrix:
-    """``int_{x0}^x`` on the first ``N`` Legendre functions: column ``n`` = coefficients of
-    ``int_{x0}^x phi_n``, exact, ``(N+1) x N`` (``"square"``: the ``N x N`` cut).
+    """``int_{x0}^x`` on the first ``N`` Legendre functions, exact.
 
-    For the orthonormal recurrence ``x phi_n = A_{n+1} phi_{n+1} + b_n phi_n + A_n
-    phi_{n-1}`` of Legendre functions (:func:`is_legendre`; otherwise ``ValueError``),
+    Column ``n`` holds the coefficients of ``int_{x0}^x phi_n``.  For the orthonormal
+    recurrence of Legendre functions (:func:`is_legendre`),
 
         F_n = A_{n+1} / (n + 1) phi_{n+1} - A_n / n phi_{n-1}    (F_0 = A_1 phi_1)
 
-    is an antiderivative of ``phi_n``: on ``(-1, 1)``, ``hat P_n = sqrt((2n+1)/2) P_n`` and
-    ``A_n = n / sqrt(4n^2 - 1)`` turn it into ``(P_{n+1} - P_{n-1}) / sqrt(2 (2n + 1))``,
-    whose derivative is ``hat P_n`` by ``P'_{n+1} - P'_{n-1} = (2n + 1) P_n`` (Abramowitz &
-    Stegun 22.8.8); ``F_0 = (x - b_0) phi_0``.  Both sides scale alike under an affine map
-    of the interval and under sign changes of the functions.  The lower limit enters as
-    ``- F_n(x0) / phi_0`` in row 0 (``phi_0`` is constant); at the ends ``x0 = a`` or
-    ``b``, ``F_n(x0) = 0`` for ``n >= 1`` (``P_{n+1}(+-1) = P_{n-1}(+-1)``) and
-    ``F_0(x0) = (x0 - b_0) phi_0``, so the matrix is exactly tridiagonal.
+    is an antiderivative of ``phi_n``: on ``(-1, 1)`` it is ``(P_{n+1} - P_{n-1}) / sqrt(2
+    (2n + 1))``, whose derivative is ``hat P_n`` by ``P'_{n+1} - P'_{n-1} = (2n + 1) P_n``
+    (Abramowitz & Stegun 22.8.8).  The lower limit enters as ``- F_n(x0) / phi_0`` in row
+    0; at the ends ``x0 = a`` or ``b`` the matrix is exactly tridiagonal.
 
-    ``x0``: a point of ``[a, b]``; None means ``a``.
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions, ``>= 1``.
+    x0 : float, optional
+        The lower limit, a point of ``[a, b]`` (default ``a``).
+    shape : {"square", "rectangular"}, optional
+        The ``N x N`` cut or the exact ``(N+1) x N`` matrix.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        The matrix, ``(N+1) x N`` or ``N x N``.
+
+    Raises
+    ------
+    ValueError
+        If the functions are not Legendre's, ``x0`` lies outside the interval, or an
+        argument is invalid.
+
+    References
+    ----------
+    .. [1] M. Abramowitz and I. A. Stegun, *Handbook of Mathematical Functions*, Dover,
+       1965, eq. 22.8.8.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> integration_matrix(slbasis.kernel("legendre"), 3).toarray().round(4)
+    array([[ 1.    , -0.5774,  0.    ],
+           [ 0.5774,  0.    , -0.2582],
+           [ 0.    ,  0.2582,  0.    ],
+           [ 0.    ,  0.    ,  0.169 ]])
     """
     N = as_int_at_least(N, "N")
     _check_shape(shape)

@@ -48,7 +48,25 @@ _SINGULAR = (
 
 
 def default_chunk(N: int, memory: int = _MEMORY) -> int:
-    """Samples per chunk so that an ``N x chunk`` float64 block fits in ``memory`` bytes."""
+    """Samples per chunk so that an ``N x chunk`` float64 block fits in ``memory`` bytes.
+
+    Parameters
+    ----------
+    N : int
+        Number of functions.
+    memory : int, optional
+        Bytes of the block (default 64 MB).
+
+    Returns
+    -------
+    int
+        The chunk, between 64 and 16384 samples.
+
+    Examples
+    --------
+    >>> default_chunk(2000)
+    4194
+    """
     return int(min(16384, max(64, memory // (8 * max(N, 1)))))
 
 
@@ -78,8 +96,37 @@ def _is_uniform(t: np.ndarray) -> bool:
 def sample_weights(t: np.ndarray, rule: str = "trapezoid") -> np.ndarray:
     """Quadrature weights ``v_j`` with ``int_{t_0}^{t_end} f dt ~= sum_j v_j f(t_j)``.
 
-    ``rule``: ``"trapezoid"`` (any increasing ``t``) or ``"gregory"`` (uniform ``t`` with
-    at least 8 samples; order ``h^4``, Numerical Recipes eq. 4.1.14).
+    Parameters
+    ----------
+    t : array_like, shape (Ns,)
+        Increasing sample times, at least 2.
+    rule : {"trapezoid", "gregory"}, optional
+        ``"trapezoid"``: any increasing ``t``, error ``O(h^2)`` (spectrally small for
+        integrands that decay at the window ends, by Euler-Maclaurin); ``"gregory"``:
+        uniform ``t`` with at least 8 samples, the end-corrected rule of order ``h^4``.
+
+    Returns
+    -------
+    ndarray, shape (Ns,)
+        The weights.
+
+    Raises
+    ------
+    ValueError
+        If ``rule`` is unknown, or ``"gregory"`` gets fewer than 8 or non-uniform samples.
+
+    References
+    ----------
+    .. [1] W. H. Press, S. A. Teukolsky, W. T. Vetterling and B. P. Flannery, *Numerical
+       Recipes*, 3rd ed., Cambridge University Press, 2007, eq. 4.1.14.
+
+    Examples
+    --------
+    >>> sample_weights(np.array([0.0, 1.0, 3.0]))
+    array([0.5, 1.5, 1. ])
+    >>> sample_weights(np.arange(10.0), "gregory").round(4)
+    array([0.375 , 1.1667, 0.9583, 1.    , 1.    , 1.    , 1.    , 0.9583, 1.1667,
+           0.375 ])
     """
     ta = as_times(t, "t", min_len=2)
     dt = np.diff(ta)
@@ -126,15 +173,57 @@ def project(
     chunk: int | None = None,
     engine: str = "auto",
 ) -> np.ndarray:
-    """Coefficients ``c_n = int y phi_n dt`` (eq. 1), shape ``(N,)`` or ``(N, k)``.
+    """Coefficients ``c_n = int y phi_n dt`` (eq. 1), streaming over chunks of samples.
 
-    ``y`` has shape ``(Ns,)`` or ``(Ns, k)`` (scipy.signal.lsim convention). ``weights``:
-    a rule for :func:`sample_weights` or an explicit array of per-sample weights.
-    ``engine`` (:mod:`slbasis.numeric.engine`): with ``"numba"``, ``method="quadrature"``
-    and ``k <= 8`` signals the sums run fused with the recurrence
-    (:func:`slbasis.numeric.compiled.project_range`, no block of function values is
-    stored; ``chunk`` is then unused); otherwise blocks of ``chunk`` samples are evaluated
-    (by the chosen engine) and multiplied by the signals (BLAS).
+    With ``method="quadrature"`` the integral is the weighted sum over the samples; with
+    ``"lstsq"`` the coefficients minimise ``sum_j v_j (y_j - sum_n c_n phi_n(t_j))^2`` (the
+    normal equations with the discrete Gram matrix, accumulated over chunks), exact for
+    signals in the span even when the sampling is coarse.  With the ``"numba"`` engine,
+    ``"quadrature"`` and at most 8 signals the sums run fused with the recurrence (no block
+    of function values is stored).
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions.
+    tmap : TimeMap
+        The map from time to the family's variable.
+    t : array_like, shape (Ns,)
+        Increasing sample times.
+    y : array_like, shape (Ns,) or (Ns, k)
+        The samples (``scipy.signal.lsim``'s convention).
+    method : {"quadrature", "lstsq"}, optional
+        The projection.
+    weights : str or ndarray, optional
+        A rule of :func:`sample_weights` or per-sample weights (finite, non-negative).
+    chunk : int, optional
+        Samples per block (default :func:`default_chunk`).
+    engine : {"auto", "numpy", "numba"}, optional
+        The engine (:mod:`slbasis.numeric.engine`).
+
+    Returns
+    -------
+    ndarray, shape (N,) or (N, k)
+        The coefficients.
+
+    Raises
+    ------
+    ValueError
+        If ``method`` is unknown, the weights are invalid, or the functions are infinite at
+        a sample time (a singular interval end).
+
+    Examples
+    --------
+    ``y = t`` on ``[0, 2]`` in orthonormal Legendre functions:
+
+    >>> import slbasis
+    >>> from slbasis.numeric.timemap import TimeMap
+    >>> t = np.linspace(0.0, 2.0, 201)
+    >>> c = project(slbasis.kernel("legendre"), 3, TimeMap(1.0, 1.0), t, t, method="lstsq")
+    >>> c.round(6) + 0.0
+    array([1.414214, 0.816497, 0.      ])
     """
     N = as_int_at_least(N, "N")
     ta = as_times(t, "t", min_len=2)
@@ -181,23 +270,45 @@ def project_alternating(
     weights: str | np.ndarray = "trapezoid",
     engine: str = "auto",
 ) -> np.ndarray:
-    """Coefficients of the even functions on ``y_even`` and of the odd ones on ``y_odd``:
-
-        c_n = sum_j v_j phi_n(t_j) y_even(t_j)   (n even),
-        c_n = sum_j v_j phi_n(t_j) y_odd(t_j)    (n odd),                             (2)
-
-    shape ``(N, k)`` for ``y_even``, ``y_odd`` of shape ``(Ns, k)`` (``(N,)`` for
-    ``(Ns,)``); weights and ``engine`` as in :func:`project`.
+    """Coefficients of the even functions on ``y_even`` and of the odd ones on ``y_odd``.
 
     This is the projection of a record sampled symmetrically about the centre of a basis
     with parity, ``phi_n(-x) = (-1)^n phi_n(x)`` (Hermite functions, Legendre
-    polynomials): each mirrored pair of samples ``x, -x`` contributes
-    ``phi_n(x) (y(x) + (-1)^n y(-x))``, so (1) over all samples is (2) over the samples
-    with ``x >= 0``, ``y_even = y(x) + y(-x)``, ``y_odd = y(x) - y(-x)``: half the
-    samples.  :func:`project` of ``[y_even, y_odd]`` gives the same numbers and discards
-    half of them; the compiled engine (``k <= 8``) sums each row against the signals it
-    needs only (:func:`slbasis.numeric.compiled.project_range`), the numpy engine
+    polynomials): each mirrored pair of samples ``x, -x`` contributes ``phi_n(x) (y(x) +
+    (-1)^n y(-x))``, so the projection (1) over all samples is the sum of Returns over the
+    samples with ``x >= 0``, ``y_even = y(x) + y(-x)``, ``y_odd = y(x) - y(-x)``: half the
+    samples.  The compiled
+    engine (``k <= 8``) sums each row against the signals it needs only; the numpy engine
     projects both and selects.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions.
+    tmap : TimeMap
+        The map from time to the family's variable.
+    t : array_like, shape (Ns,)
+        Increasing sample times.
+    y_even : array_like, shape (Ns,) or (Ns, k)
+        The signals of the even rows.
+    y_odd : array_like, shape (Ns,) or (Ns, k)
+        The signals of the odd rows, shaped like ``y_even``.
+    weights : str or ndarray, optional
+        As in :func:`project`.
+    engine : {"auto", "numpy", "numba"}, optional
+        The engine.
+
+    Returns
+    -------
+    ndarray, shape (N,) or (N, k)
+        ``c_n = sum_j v_j phi_n(t_j) y_even(t_j)`` for even ``n``, ``y_odd`` for odd ``n``.
+
+    Raises
+    ------
+    ValueError
+        If ``y_odd`` is not shaped like ``y_even``, or from :func:`project`.
     """
     ta = as_times(t, "t", min_len=2)
     ye = as_signal(y_even, ta.size, "y_even")
@@ -268,10 +379,44 @@ def reconstruct(
     chunk: int | None = None,
     engine: str = "auto",
 ) -> np.ndarray:
-    """``y(t) = sum_n c_n phi_n(t)``; ``c``: ``(N,)`` or ``(N, k)`` -> ``(Ns,)`` / ``(Ns, k)``.
+    """``y(t) = sum_n c_n phi_n(t)``.
 
-    Blocks of ``chunk`` samples are evaluated by ``engine`` (:mod:`slbasis.numeric.engine`)
-    and multiplied by ``c`` (BLAS).
+    Blocks of ``chunk`` samples are evaluated by ``engine`` and multiplied by ``c`` (BLAS).
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The family.
+    N : int
+        Number of functions.
+    tmap : TimeMap
+        The map from time to the family's variable.
+    c : array_like, shape (N,) or (N, k)
+        Coefficients, finite.
+    t : array_like, shape (Ns,)
+        Times (any order).
+    chunk : int, optional
+        Samples per block.
+    engine : {"auto", "numpy", "numba"}, optional
+        The engine.
+
+    Returns
+    -------
+    ndarray, shape (Ns,) or (Ns, k)
+        The values.
+
+    Raises
+    ------
+    ValueError
+        If ``c`` has the wrong shape or is not finite.
+
+    Examples
+    --------
+    >>> import slbasis
+    >>> from slbasis.numeric.timemap import TimeMap
+    >>> c = np.array([np.sqrt(2.0), 0.0, 0.0])  # the constant 1 on [0, 2]
+    >>> reconstruct(slbasis.kernel("legendre"), 3, TimeMap(1.0, 1.0), c, np.array([0.0, 1.0]))
+    array([1., 1.])
     """
     N = as_int_at_least(N, "N")
     ta = as_times(t, "t", increasing=False)

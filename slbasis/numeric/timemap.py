@@ -16,7 +16,26 @@ __all__ = ["TimeMap"]
 
 @dataclass(frozen=True)
 class TimeMap:
-    """``x = (t - centre) * scale``; ``centre`` is the time that maps to ``x = 0``."""
+    """``x = (t - centre) * scale``; ``centre`` is the time that maps to ``x = 0``.
+
+    Parameters
+    ----------
+    centre : float
+        Finite.
+    scale : float
+        ``dx/dt``, finite and ``> 0``.
+
+    Raises
+    ------
+    ValueError
+        If ``centre`` is not finite or ``scale`` not a finite positive number.
+
+    Examples
+    --------
+    >>> tm = TimeMap(centre=1.0, scale=1.0)
+    >>> tm.to_x(np.array([0.0, 2.0])), tm.to_t(np.array([-1.0]))
+    (array([-1.,  1.]), array([0.]))
+    """
 
     centre: float
     scale: float
@@ -28,9 +47,31 @@ class TimeMap:
             raise ValueError(f"scale: expected a finite number > 0, got {self.scale!r}")
 
     def to_x(self, t: np.ndarray) -> np.ndarray:
-        """Natural variable ``x`` of the times ``t``."""
+        """Natural variable ``x`` of the times ``t``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times.
+
+        Returns
+        -------
+        ndarray
+            ``(t - centre) * scale``.
+        """
         return (np.asarray(t, dtype=float) - self.centre) * self.scale
 
     def to_t(self, x: np.ndarray) -> np.ndarray:
-        """Times ``t`` of the natural variable ``x``."""
+        """Times ``t`` of the natural variable ``x``.
+
+        Parameters
+        ----------
+        x : array_like
+            Points of the family's variable.
+
+        Returns
+        -------
+        ndarray
+            ``centre + x / scale``.
+        """
         return self.centre + np.asarray(x, dtype=float) / self.scale

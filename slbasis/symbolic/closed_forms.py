@@ -46,8 +46,26 @@ _J = sp.Symbol("j", integer=True, nonnegative=True)
 def gamma_simplify(expr: sp.Expr) -> sp.Expr:
     """Simplify ratios of Gamma functions whose arguments differ by integers.
 
-    ``gammasimp`` alone misses ``Γ(λ+n+3/2)/Γ(λ+n+1/2)``; ``expand_func`` first peels the
-    integer offsets off.
+    ``gammasimp`` alone misses ``Gamma(lambda + n + 3/2) / Gamma(lambda + n + 1/2)``;
+    ``expand_func`` first peels the integer offsets off.
+
+    Parameters
+    ----------
+    expr : sympy expression
+        The expression.
+
+    Returns
+    -------
+    sympy expression
+        The simplified expression.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> lam, n = sp.symbols("lambda n", positive=True)
+    >>> half = sp.Rational(1, 2)
+    >>> gamma_simplify(sp.gamma(lam + n + 3 * half) / sp.gamma(lam + n + half))
+    lambda + n + 1/2
     """
     return sp.gammasimp(sp.expand_func(expr))
 
@@ -59,7 +77,15 @@ def _simplify(expr: sp.Expr) -> sp.Expr:
 
 @dataclass(frozen=True)
 class PolynomialData:
-    """``p0 = a x^2 + b x + c``, ``p1 = d x + e``."""
+    """The coefficients of ``p0 = a x^2 + b x + c`` and ``p1 = d x + e``.
+
+    Attributes
+    ----------
+    a, b, c : sympy expression
+        Coefficients of ``p0``.
+    d, e : sympy expression
+        Coefficients of ``p1``.
+    """
 
     a: sp.Expr
     b: sp.Expr
@@ -69,6 +95,20 @@ class PolynomialData:
 
     @classmethod
     def from_exprs(cls, p0: sp.Expr, p1: sp.Expr) -> PolynomialData:
+        """The coefficients of two polynomials in :data:`~slbasis.symbolic.parse.X`.
+
+        Parameters
+        ----------
+        p0 : sympy expression
+            ``p0``, of degree at most 2.
+        p1 : sympy expression
+            ``p1``, of degree at most 1.
+
+        Returns
+        -------
+        PolynomialData
+            Their coefficients.
+        """
         P0, P1 = sp.Poly(p0, X), sp.Poly(p1, X)
         return cls(
             P0.coeff_monomial(X**2),
@@ -80,7 +120,36 @@ class PolynomialData:
 
 
 class ClosedForms:
-    """Closed forms in ``n`` of a polynomial problem with standardisation ``c_n``."""
+    """Closed forms in ``n`` of a polynomial problem with standardisation ``c_n``
+    (module docstring for the derivations).
+
+    Parameters
+    ----------
+    coeffs : PolynomialData
+        The coefficients of ``p0`` and ``p1``.
+    standardization : sympy expression
+        The Rodrigues constant ``c_n`` as an expression in ``n``.
+    d0_squared : sympy expression
+        ``d_0^2 = int w`` (Euler integral).
+    p0_sign : int
+        The sign of ``p0`` on the interval.
+
+    Attributes
+    ----------
+    k : PolynomialData
+        The coefficients.
+    c_n : sympy expression
+        The standardisation.
+    d0_squared : sympy expression
+        ``d_0^2``.
+    p0_sign : int
+        The sign of ``p0``.
+
+    References
+    ----------
+    .. [1] A. F. Nikiforov and V. B. Uvarov, *Special Functions of Mathematical Physics*,
+       Birkhauser, 1988, sec. 3.
+    """
 
     def __init__(
         self,
@@ -96,7 +165,18 @@ class ClosedForms:
 
     # ----- building blocks -------------------------------------------------------------
     def c(self, n: sp.Expr) -> sp.Expr:
-        """Rodrigues standardisation constant ``c_n`` of eq. (10)."""
+        """Rodrigues standardisation constant ``c_n`` of eq. (10).
+
+        Parameters
+        ----------
+        n : sympy expression
+            The index.
+
+        Returns
+        -------
+        sympy expression
+            ``c_n``.
+        """
         return self.c_n.subs(N, n)
 
     @cached_property
@@ -105,7 +185,20 @@ class ClosedForms:
         return sp.simplify(gamma_simplify(self.c(N + 1) / self.c(N)))
 
     def eigenvalue(self, n: sp.Expr = N) -> sp.Expr:
-        """``lambda_n = -n (p1' + (n-1) p0''/2)``."""
+        """``lambda_n = -n (p1' + (n-1) p0''/2)``.
+
+        The ``x^n`` coefficient of ``p0 P'' + p1 P'`` is ``k_n (a n(n-1) + d n)``.
+
+        Parameters
+        ----------
+        n : sympy expression, optional
+            The index (default the symbol ``n``).
+
+        Returns
+        -------
+        sympy expression
+            ``lambda_n``, expanded.
+        """
         k = self.k
         return sp.expand(-n * (k.d + (n - 1) * k.a))
 
@@ -170,8 +263,20 @@ class ClosedForms:
     def norm_squared(self, start: int = 0, start_value: sp.Expr | None = None) -> sp.Expr:
         """``d_n^2 = (c_n/c_s)^2 d_s^2 prod_{s<=j<n} gamma_{j+1} kappa_j`` (eq. 7).
 
-        ``s = start`` anchors the product above degenerate small indices (Chebyshev T:
-        ``s = 1``); ``start_value`` is ``d_s^2`` (default ``d_0^2``).
+        ``<x P_n, P_{n+1}> = alpha_n d_{n+1}^2 = gamma_{n+1} d_n^2`` gives the ratio of
+        successive norms.
+
+        Parameters
+        ----------
+        start : int, optional
+            ``s``: anchors the product above degenerate small indices (Chebyshev T: ``s = 1``).
+        start_value : sympy expression, optional
+            ``d_s^2`` (default ``d_0^2``).
+
+        Returns
+        -------
+        sympy expression
+            ``d_n^2`` in ``n`` (a product, simplified by the caller).
         """
         value = self.d0_squared if start_value is None else start_value
         prod = sp.product(self.norm_ratio_free.subs(N, _J), (_J, start, N - 1))

@@ -43,7 +43,33 @@ def _ring(domain):
 
 
 class DirectComputation:
-    """Exact ``P_n``, norms and expansions of a polynomial problem, for integer ``n``."""
+    """Exact ``P_n``, norms and expansions of a polynomial problem, for integer ``n``.
+
+    All arithmetic is on the free polynomials ``Q_n`` (``c_n = 1``) over the field of
+    rational functions of the parameters (module docstring).
+
+    Parameters
+    ----------
+    p0 : sympy expression
+        ``p0`` in :data:`~slbasis.symbolic.parse.X`.
+    p1 : sympy expression
+        ``p1`` of the polynomial problem.
+    standardization : sympy expression
+        The Rodrigues constant ``c_n`` in ``n``.
+    form : WeightForm
+        The weight's normal form (:func:`~slbasis.symbolic.weight.classify`).
+
+    Attributes
+    ----------
+    domain : sympy domain
+        The coefficient field.
+    p0, p1 : sympy.Poly
+        The coefficients as polynomials.
+    c_n : sympy expression
+        The standardisation.
+    form : WeightForm
+        The weight's normal form.
+    """
 
     def __init__(self, p0: sp.Expr, p1: sp.Expr, standardization: sp.Expr, form: WeightForm):
         self.domain = _domain(p0, p1)
@@ -59,7 +85,18 @@ class DirectComputation:
         self.norm2_ratio = lru_cache(maxsize=None)(self._norm2_ratio)
 
     def poly(self, expr: sp.Expr) -> sp.Poly:
-        """``expr`` as a Poly in ``x`` over the working domain."""
+        """``expr`` as a Poly in ``x`` over the working domain.
+
+        Parameters
+        ----------
+        expr : sympy expression
+            A polynomial in ``x``.
+
+        Returns
+        -------
+        sympy.Poly
+            The polynomial.
+        """
         return sp.Poly(sp.expand(expr), X, domain=self.domain)
 
     def _free(self, n: int) -> sp.Poly:
@@ -72,11 +109,33 @@ class DirectComputation:
 
     @cache  # noqa: B019 - one instance per problem
     def c(self, n: int) -> sp.Expr:
-        """``c_n`` at integer ``n``."""
+        """``c_n`` at integer ``n``.
+
+        Parameters
+        ----------
+        n : int
+            The degree.
+
+        Returns
+        -------
+        sympy expression
+            The constant, Gamma ratios simplified.
+        """
         return gamma_simplify(self.c_n.subs(N, n))
 
     def polynomial(self, n: int) -> sp.Poly:
-        """``P_n = c_n / w (d/dx)^n (w p0^n)`` as a Poly (expression coefficients)."""
+        """``P_n = c_n / w (d/dx)^n (w p0^n)`` as a Poly (expression coefficients).
+
+        Parameters
+        ----------
+        n : int
+            The degree.
+
+        Returns
+        -------
+        sympy.Poly
+            ``P_n``.
+        """
         return sp.Poly(self.free(n).as_expr() * self.c(n), X)
 
     def _norm2_ratio(self, n: int) -> sp.Expr:
@@ -85,19 +144,39 @@ class DirectComputation:
 
     @cache  # noqa: B019 - one instance per problem
     def norm2(self, n: int) -> sp.Expr:
-        """``d_n^2 = ∫ P_n^2 w`` (eq. 7), exactly."""
+        """``d_n^2 = int P_n^2 w`` (eq. 7), exactly.
+
+        Parameters
+        ----------
+        n : int
+            The degree.
+
+        Returns
+        -------
+        sympy expression
+            The squared norm.
+        """
         return gamma_simplify(self.c(n) ** 2 * self.form.total_mass * self.norm2_ratio(n))
 
     def integrate(self, poly: sp.Poly) -> sp.Expr:
-        """``∫ poly w / ∫ w`` exactly, for a Poly over the working domain.
+        """``int poly w / int w`` exactly, for a Poly over the working domain.
 
         In the normal-form variable ``t`` (``x = shift + scale t``) the moment ratios are
         products ``M_i = prod_{j<=i} a_j / b_j`` (ratios of Euler integrals, Pochhammer
-        symbols): ``a_j/b_j = (A1+j-1)/(A1+A2+j-1)`` (Jacobi),
-        ``(A+j-1)/s`` (Laguerre); Hermite has ``M_odd = 0`` and
-        ``M_{2j} = M_{2j-2} (2j-1)/(2s)``.  Summing over the common denominator
-        ``prod b_j`` keeps every step polynomial in the parameters, with a single division
-        at the end (a fraction-field sum would compute a gcd per term).
+        symbols): ``a_j/b_j = (A1+j-1)/(A1+A2+j-1)`` (Jacobi), ``(A+j-1)/s`` (Laguerre); Hermite
+        has ``M_odd = 0`` and ``M_{2j} = M_{2j-2} (2j-1)/(2s)``.  Summing over the common
+        denominator ``prod b_j`` keeps every step polynomial in the parameters, with a single
+        division at the end (a fraction-field sum would compute a gcd per term).
+
+        Parameters
+        ----------
+        poly : sympy.Poly
+            The polynomial.
+
+        Returns
+        -------
+        sympy expression
+            The normalised integral, rational in the parameters.
         """
         dom, d, kind = self.ring, self._ring_data, self.form.kind
         if kind == "jacobi":
@@ -127,7 +206,27 @@ class DirectComputation:
         return sp.factor(sp.cancel(dom.to_sympy(total) / dom.to_sympy(tail[0])))
 
     def expand_free(self, q: sp.Poly, degree: int) -> list[sp.Expr]:
-        """Coefficients ``e_m`` with ``q = sum_{m<=degree} e_m Q_m`` (triangular solve)."""
+        """Coefficients ``e_m`` with ``q = sum_{m<=degree} e_m Q_m`` (triangular solve).
+
+        Parameters
+        ----------
+        q : sympy.Poly
+            The polynomial.
+        degree : int
+            The largest ``m``, at least ``deg q``.
+
+        Returns
+        -------
+        list of sympy expressions
+            ``e_0, ..., e_degree``.
+
+        Raises
+        ------
+        ValueError
+            If ``deg q > degree``.
+        ArithmeticError
+            If the expansion leaves a non-zero remainder.
+        """
         if q.degree() > degree:
             raise ValueError(f"cannot expand a degree-{q.degree()} polynomial up to {degree}")
         coeffs: list[sp.Expr] = [sp.Integer(0)] * (degree + 1)
@@ -143,12 +242,25 @@ class DirectComputation:
         return coeffs
 
     def orthonormal_coefficients(self, q: sp.Poly, n: int, degree: int) -> list[sp.Expr]:
-        """Coefficients on ``p_m`` of ``(q / Q_n-normalisation)``: if ``q`` is the image of
-        ``Q_n`` under a linear map ``T``, returns the coefficients ``<p_m, T p_n>``.
+        """Coefficients on ``p_m`` of the image ``q`` of ``Q_n`` under a linear map ``T``:
+        ``<p_m, T p_n>``.
 
-        ``T p_n = (c_n/d_n) T Q_n = sum_m e_m (c_n/d_n) Q_m = sum_m e_m (c_n/c_m)(d_m/d_n) p_m``
-        and ``d_m = |c_m| dfree_m``, so the coefficient is
-        ``e_m sign(c_n c_m) sqrt(dfree_m^2 / dfree_n^2)``.
+        ``T p_n = (c_n/d_n) T Q_n = sum_m e_m (c_n/c_m)(d_m/d_n) p_m`` and ``d_m = |c_m|
+        dfree_m``, so the coefficient is ``e_m sign(c_n c_m) sqrt(dfree_m^2 / dfree_n^2)``.
+
+        Parameters
+        ----------
+        q : sympy.Poly
+            The image of ``Q_n``.
+        n : int
+            The degree of the function mapped.
+        degree : int
+            The largest ``m``.
+
+        Returns
+        -------
+        list of sympy expressions
+            The coefficients on ``p_0, ..., p_degree``.
         """
         coeffs = self.expand_free(q, degree)
         out = []
@@ -162,7 +274,18 @@ class DirectComputation:
         return out
 
     def sign_c(self, n: int) -> int:
-        """Sign of ``c_n`` (read at a sample point for symbolic parameters)."""
+        """Sign of ``c_n`` (read at a sample point for symbolic parameters).
+
+        Parameters
+        ----------
+        n : int
+            The degree.
+
+        Returns
+        -------
+        int
+            ``1`` or ``-1``.
+        """
         value = self.c(n)
         if value.is_positive:
             return 1

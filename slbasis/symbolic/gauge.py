@@ -31,7 +31,23 @@ from .weight import NotClassicalError, WeightForm, classify
 
 @dataclass(frozen=True)
 class Gauge:
-    """``f = g y`` maps the given problem onto the polynomial problem ``(p0, p1_poly)``."""
+    """``f = g y`` maps the given problem onto the polynomial problem ``(p0, p1_poly)``.
+
+    Attributes
+    ----------
+    p1_poly : sympy expression
+        ``p1~`` of the polynomial problem.
+    log_derivative : sympy expression
+        ``h = g'/g``.
+    shift : sympy expression
+        ``K``, with ``lambda = lambda~ - K``.
+    factor : sympy expression
+        ``g = exp(int h)``.
+    weight_form : WeightForm
+        The weight of the polynomial problem.
+    alternatives : tuple of sympy expressions
+        Other admissible ``p1~`` (different boundary conditions; rare).
+    """
 
     p1_poly: sp.Expr  # p1~ of the polynomial problem
     log_derivative: sp.Expr  # h = g'/g
@@ -66,18 +82,51 @@ def _exp_integral(h: sp.Expr, interval: tuple[sp.Expr, sp.Expr]) -> sp.Expr:
 def find_gauge(p0: sp.Expr, p1: sp.Expr, q0: sp.Expr, prefer: sp.Expr | None = None) -> Gauge:
     """Solve for the gauge that turns ``(p0, p1, q0)`` into a classical polynomial problem.
 
-    With singular endpoints in the limit-circle case (rational ``q0``) several gauges may be
-    admissible — they are different boundary conditions, e.g. ``(1-x^2)^(1/4) U_n`` and
-    ``(1-x^2)^(-1/4) T_n`` for ``q0 = 1/(4(1-x^2))`` — and a problem may be admissible on
-    two intervals (``x f'' + f' - x f/4``: ``(0, oo)`` and ``(-oo, 0)``).  The default has
-    ``p0 > 0`` on its interval (eigenvalues bounded below) and is the most regular (largest
-    weight exponents ``A_i``: the principal solutions at the endpoints, i.e. the Friedrichs
-    extension); ``prefer`` (a ``p1~``) selects another.  The rest are listed in
-    :attr:`Gauge.alternatives`.
+    The unknown ``p1~ = D x + E`` and ``K`` solve a small polynomial system (module
+    docstring).  With singular endpoints in the limit-circle case (rational ``q0``) several
+    gauges may be admissible -- they are different boundary conditions, e.g. ``(1-x^2)^(1/4)
+    U_n`` and ``(1-x^2)^(-1/4) T_n`` for ``q0 = 1/(4(1-x^2))`` -- and a problem may be
+    admissible on two intervals.  The default has ``p0 > 0`` on its interval (eigenvalues
+    bounded below) and is the most regular (largest weight exponents: the principal
+    solutions at the endpoints, i.e. the Friedrichs extension); ``prefer`` selects another.
 
-    Raises ``ValueError`` when no gauge with a linear ``p1~`` and constant ``K`` exists, when
-    none of the candidate polynomial problems has an orthogonality interval, or when
-    ``prefer`` is not among the admissible ones.
+    Parameters
+    ----------
+    p0 : sympy expression
+        ``p0`` in ``x``.
+    p1 : sympy expression
+        ``p1`` in ``x``.
+    q0 : sympy expression
+        ``q0`` in ``x``, non-zero.
+    prefer : sympy expression, optional
+        The ``p1~`` to select among the admissible ones.
+
+    Returns
+    -------
+    Gauge
+        The gauge, the others in :attr:`Gauge.alternatives`.
+
+    Raises
+    ------
+    ValueError
+        If no gauge with a linear ``p1~`` and constant ``K`` exists, none of the candidate
+        polynomial problems has an orthogonality interval, or ``prefer`` is not admissible.
+
+    References
+    ----------
+    .. [1] A. Zettl, *Sturm-Liouville Theory*, Mathematical Surveys and Monographs 121,
+       AMS, 2005 (principal solutions and the Friedrichs extension).
+
+    Examples
+    --------
+    The harmonic oscillator ``f'' - x^2 f = -lambda f`` is the Hermite problem in the gauge
+    ``g = exp(-x^2 / 2)``:
+
+    >>> import sympy as sp
+    >>> from slbasis.symbolic.parse import X
+    >>> gauge = find_gauge(sp.Integer(1), sp.Integer(0), X**2)
+    >>> gauge.p1_poly, gauge.factor, gauge.shift
+    (-2*x, exp(-x**2/2), -1)
     """
     D, E, K = sp.symbols("D_ E_ K_")
     h = (D * X + E - p1) / (2 * p0)

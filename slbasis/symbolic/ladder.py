@@ -52,8 +52,20 @@ from .parse import N, X
 class BandedOperator:
     """A tridiagonal operator ``T psi_n = sub_n psi_{n-1} + diag_n psi_n + sup_n psi_{n+1}``.
 
-    Stored as ``sup_n = A_{n+1} * sup_factor``, ``sub_n = A_n * sub_factor`` with the
-    rational factors separate from the Jacobi entries ``A`` (``offdiag`` is ``A_{n+1}``).
+    Stored as ``sup_n = A_{n+1} sup_factor``, ``sub_n = A_n sub_factor`` with the rational
+    factors separate from the Jacobi entries ``A``, so that two forms are compared by a
+    rational identity (:func:`compare_forms`).
+
+    Attributes
+    ----------
+    sup_factor : sympy expression
+        Rational in ``n``.
+    diag : sympy expression
+        ``diag_n``.
+    sub_factor : sympy expression
+        Rational in ``n``.
+    offdiag : sympy expression
+        ``A_{n+1}``.
     """
 
     sup_factor: sp.Expr
@@ -72,13 +84,31 @@ class BandedOperator:
         return self.offdiag.subs(N, N - 1) * self.sub_factor
 
     def bands(self) -> dict[str, sp.Expr]:
-        """``{"sub": ..., "diag": ..., "sup": ...}`` as closed forms in ``n``."""
+        """The bands as closed forms in ``n``.
+
+        Returns
+        -------
+        dict of str to sympy expression
+            ``{"sub": ..., "diag": ..., "sup": ...}``.
+        """
         return {"sub": sp.simplify(self.sub), "diag": self.diag, "sup": sp.simplify(self.sup)}
 
 
 @dataclass(frozen=True)
 class LadderRelations:
-    """Raising and lowering relations of the orthonormal polynomials (see module doc)."""
+    """Raising and lowering relations of the orthonormal polynomials (module docstring).
+
+    Attributes
+    ----------
+    raise_mult : sympy expression
+        ``u_n x + v_n``.
+    raise_coef : sympy expression
+        ``tau_n`` (the ``p_{n+1}`` coefficient is ``tau_n A_{n+1}``).
+    lower_mult : sympy expression
+        ``u'_n x + v'_n``.
+    lower_coef : sympy expression
+        ``sigma_n`` (the ``p_{n-1}`` coefficient is ``sigma_n / A_n``).
+    """
 
     raise_mult: sp.Expr  # u_n x + v_n
     raise_coef: sp.Expr  # tau_n  (p_{n+1} coefficient is tau_n A_{n+1})
@@ -87,7 +117,27 @@ class LadderRelations:
 
 
 def ladder_relations(cf: ClosedForms) -> LadderRelations:
-    """Solve the top-coefficient equations for the raising and lowering relations."""
+    """Solve the top-coefficient equations for the raising and lowering relations.
+
+    Comparing the three top coefficients of ``p0 p_n'`` with ``(u_n x + v_n) p_n + tau_n
+    A_{n+1} p_{n+1}`` (and the lowering analogue) gives linear equations in the unknowns,
+    rational in ``n``.
+
+    Parameters
+    ----------
+    cf : ClosedForms
+        The problem's closed forms.
+
+    Returns
+    -------
+    LadderRelations
+        The relations.
+
+    References
+    ----------
+    .. [1] A. F. Nikiforov and V. B. Uvarov, *Special Functions of Mathematical Physics*,
+       Birkhauser, 1988, sec. 5.
+    """
     k = cf.k
     r1, r2 = cf.rho1, cf.rho2
     u, v, tau = sp.symbols("u v tau")
@@ -124,7 +174,28 @@ def _linear(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
 
 
 def commutator_form(cf: ClosedForms, p1_frame: sp.Expr) -> BandedOperator:
-    """``2 p0 d/dx = (J Lambda - Lambda J) - p1f(J)`` on the frame of ``p1_frame``."""
+    """``2 p0 d/dx = (J Lambda - Lambda J) - p1f(J)`` on the frame of ``p1_frame``.
+
+    ``L = p0 d^2 + p1~ d`` has ``[L, x] = 2 p0 d/dx + p1~`` and ``L p_n = -lambda_n p_n``.
+
+    Parameters
+    ----------
+    cf : ClosedForms
+        The problem's closed forms.
+    p1_frame : sympy expression
+        The frame's ``p1f`` (degree at most 1).
+
+    Returns
+    -------
+    BandedOperator
+        ``sup_n = A_{n+1}(lambda_n - lambda_{n+1} - p1f')``, ``diag_n = -(p1f' B_n +
+        p1f(0))``, ``sub_n = A_n(lambda_n - lambda_{n-1} - p1f')``.
+
+    Raises
+    ------
+    ValueError
+        If ``p1_frame`` has degree above 1.
+    """
     lam = cf.eigenvalue
     slope, intercept = _linear(p1_frame)
     return BandedOperator(
@@ -138,7 +209,30 @@ def commutator_form(cf: ClosedForms, p1_frame: sp.Expr) -> BandedOperator:
 def ladder_form(
     cf: ClosedForms, rel: LadderRelations, p1_poly: sp.Expr, p1_frame: sp.Expr
 ) -> BandedOperator:
-    """Eq. (11) from the ladder relations (raising + lowering + multiplication part)."""
+    """Eq. (11) from the ladder relations (raising + lowering + multiplication part).
+
+    Parameters
+    ----------
+    cf : ClosedForms
+        The problem's closed forms.
+    rel : LadderRelations
+        The ladder relations (:func:`ladder_relations`).
+    p1_poly : sympy expression
+        ``p1~`` of the polynomial problem.
+    p1_frame : sympy expression
+        The frame's ``p1f``.
+
+    Returns
+    -------
+    BandedOperator
+        ``sup_n = A_{n+1}(tau_n + mu_n)``, ``diag_n = mu_n B_n + nu_n``, ``sub_n =
+        A_n(sigma_n / A_n^2 + mu_n)``.
+
+    Raises
+    ------
+    ValueError
+        If the multiplier is not linear in ``x``.
+    """
     mu, nu = _linear(rel.raise_mult + rel.lower_mult + p1_poly - p1_frame)
     a_sq = cf.jacobi_offdiag_squared.subs(N, N - 1)
     return BandedOperator(
@@ -152,10 +246,24 @@ def ladder_form(
 def printed_eq11(cf: ClosedForms, p1_poly: sp.Expr, p0: sp.Expr) -> BandedOperator:
     """Eq. (11) exactly as printed in the summary, read on the orthonormal functions.
 
-    Reading: ``a^† phi_n = phi_{n+1}``, ``a phi_n = phi_{n-1}``, ``c_n`` the Rodrigues
+    Reading: ``a^dagger phi_n = phi_{n+1}``, ``a phi_n = phi_{n-1}``, ``c_n`` the Rodrigues
     constants, ``d_n`` the norms (``d_n^2`` of eq. 7), ``pi_n = p1 + n p0'``; the printed
     ``lambda_{n-1}/((n-1) pi'_{n-1})`` is 0/0 at ``n = 1`` and is taken as its limit.  Kept
     only to document where the printed formula differs from the derivation.
+
+    Parameters
+    ----------
+    cf : ClosedForms
+        The problem's closed forms.
+    p1_poly : sympy expression
+        ``p1~`` of the polynomial problem.
+    p0 : sympy expression
+        ``p0``.
+
+    Returns
+    -------
+    BandedOperator
+        The printed formula's bands.
     """
     k = cf.k
     dp0 = sp.diff(p0, X)
@@ -176,7 +284,20 @@ def printed_eq11(cf: ClosedForms, p1_poly: sp.Expr, p0: sp.Expr) -> BandedOperat
 
 
 def compare_forms(first: BandedOperator, second: BandedOperator) -> dict[str, sp.Expr]:
-    """Exact differences of the rational band factors (all zero when the forms agree)."""
+    """Exact differences of the rational band factors (all zero when the forms agree).
+
+    Parameters
+    ----------
+    first : BandedOperator
+        One form.
+    second : BandedOperator
+        The other, with the same ``offdiag``.
+
+    Returns
+    -------
+    dict of str to sympy expression
+        ``sup``, ``diag`` and ``sub`` differences, simplified.
+    """
     return {
         "sup": _simplify(first.sup_factor - second.sup_factor),
         "diag": _simplify(first.diag - second.diag),

@@ -25,7 +25,19 @@ Coefficient = str | int | float | sp.Expr
 
 @dataclass(frozen=True)
 class Coefficients:
-    """Validated coefficients, polynomials in :data:`X` with the parameters as symbols."""
+    """Validated coefficients, polynomials in :data:`X` with the parameters as symbols.
+
+    Attributes
+    ----------
+    p0 : sympy expression
+        Polynomial of degree at most 2.
+    p1 : sympy expression
+        Polynomial.
+    q0 : sympy expression
+        Rational function.
+    params : tuple of sympy.Symbol
+        The parameter symbols.
+    """
 
     p0: sp.Expr
     p1: sp.Expr
@@ -33,7 +45,18 @@ class Coefficients:
     params: tuple[sp.Symbol, ...]
 
     def poly(self, which: str) -> sp.Poly:
-        """``p0`` or ``p1`` as a :class:`sympy.Poly` in ``x`` (parameters in the domain)."""
+        """``p0`` or ``p1`` as a :class:`sympy.Poly` in ``x`` (parameters in the domain).
+
+        Parameters
+        ----------
+        which : {"p0", "p1"}
+            The coefficient.
+
+        Returns
+        -------
+        sympy.Poly
+            The polynomial.
+        """
         return sp.Poly(getattr(self, which), X)
 
 
@@ -48,16 +71,43 @@ def parse_coefficients(
 ) -> Coefficients:
     """Convert and validate ``p0, p1, q0``.
 
-    ``var`` names the independent variable used in the inputs (default ``x``); ``params``
-    names the symbols that are parameters (e.g. Jacobi's ``alpha, beta``).  Any other free
-    symbol is an error, so that ``p0="1 - t**2"`` without ``var="t"`` is caught.  Strings
-    are read by the safe parser :func:`slbasis.symbolic.expr.parse_expression` (never
-    evaluated as Python); ``names`` are the argument names used in error messages.
-    Parameter names must be identifiers without ``__`` (generated code uses them).
+    Any free symbol other than the variable and the declared parameters is an error, so
+    that ``p0="1 - t**2"`` without ``var="t"`` is caught.  Strings are read by the safe
+    parser :func:`slbasis.symbolic.expr.parse_expression` (never evaluated as Python).
 
-    Raises ``ValueError`` when ``p0`` or ``p1`` is not a polynomial in the variable, when
-    ``q0`` is not rational in it, when an undeclared symbol appears, or when a string is
-    outside the grammar of the safe parser.
+    Parameters
+    ----------
+    p0 : str, number or sympy expression
+        Polynomial in the variable.
+    p1 : str, number or sympy expression
+        Polynomial in the variable.
+    q0 : str, number or sympy expression, optional
+        Rational function of the variable.
+    var : str or sympy.Symbol, optional
+        The independent variable used in the inputs (the outputs are in :data:`X`).
+    params : iterable of str or sympy.Symbol, optional
+        The symbols that are parameters (e.g. Jacobi's ``alpha, beta``): identifiers
+        without ``__`` (generated code uses them).
+    names : tuple of str, optional
+        The argument names used in error messages.
+
+    Returns
+    -------
+    Coefficients
+        The validated coefficients.
+
+    Raises
+    ------
+    ValueError
+        If ``p0`` or ``p1`` is not a polynomial in the variable, ``q0`` is not rational in
+        it, an undeclared symbol appears, a parameter is the variable or an invalid name, or
+        a string is outside the grammar of the safe parser.
+
+    Examples
+    --------
+    >>> c = parse_coefficients("1 - t**2", "-2*t", var="t")
+    >>> c.p0, c.p1
+    (1 - x**2, -2*x)
     """
     var_name = var.name if isinstance(var, sp.Symbol) else str(var)
     param_syms = []

@@ -241,8 +241,19 @@ class SturmLiouville:
     def positive_substitution(self) -> dict[sp.Symbol, sp.Expr]:
         """``{param: u - c}`` with positive symbols ``u`` encoding the assumptions.
 
-        Each assumption ``param + c > 0`` linear in one parameter becomes ``param = u - c``
-        with ``u > 0``, so that sympy may simplify ``sqrt((alpha+1)^2) = alpha + 1``.
+        Each assumption ``param + c > 0`` linear in one parameter becomes ``param = u - c`` with
+        ``u > 0``, so that sympy may simplify ``sqrt((alpha+1)^2) = alpha + 1``.
+
+        Returns
+        -------
+        dict of sympy.Symbol to sympy expression
+            The substitution (empty without such assumptions).
+
+        Examples
+        --------
+        >>> from slbasis.families import families
+        >>> families["jacobi"]().positive_substitution()
+        {beta: beta_pos - 1, alpha: alpha_pos - 1}
         """
         subst: dict[sp.Symbol, sp.Expr] = {}
         for expr in dict.fromkeys(self.weight_form.assumptions):
@@ -290,8 +301,25 @@ class SturmLiouville:
         return n.xreplace({self.n: N}) if self._user else n
 
     def eigenvalue(self, n: int | sp.Expr | None = None) -> sp.Expr:
-        """``lambda_n = -n (p1~' + (n-1) p0''/2) - K`` (``K`` the gauge shift); default: in
-        :attr:`n`."""
+        """``lambda_n = -n (p1~' + (n-1) p0''/2) - K`` (``K`` the gauge shift).
+
+        Parameters
+        ----------
+        n : int, str or sympy expression, optional
+            The index: an integer gives the exact value, a symbol or expression the closed form
+            there; None: the closed form in :attr:`n`.
+
+        Returns
+        -------
+        sympy expression
+            The eigenvalue.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.eigenvalue(), p.eigenvalue(3)
+        (n**2 + n, 12)
+        """
         shift = 0 if self.gauge is None else self.gauge.shift
         return self._out(sp.expand(self.closed.eigenvalue(self._index_in(n)) - shift))
 
@@ -299,20 +327,78 @@ class SturmLiouville:
         return self.direct.polynomial(_index(n)).as_expr()
 
     def polynomial(self, n: int) -> sp.Expr:
-        """Rodrigues polynomial ``P_n`` of the polynomial problem (eq. 10), expanded."""
+        """Rodrigues polynomial ``P_n`` of the polynomial problem (eq. 10), expanded.
+
+        Parameters
+        ----------
+        n : int
+            The degree, ``>= 0``.
+
+        Returns
+        -------
+        sympy expression
+            ``P_n`` in :attr:`x`.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.polynomial(2)
+        12*x**2 - 4
+        """
         return self._out(self._polynomial(n))
 
     def eigenfunction(self, n: int) -> sp.Expr:
-        """Eigenfunction ``f_n``: ``P_n`` (``q0 = 0``) or ``g P~_n`` for a gauge problem."""
+        """Eigenfunction ``f_n``: ``P_n`` (``q0 = 0``) or ``g P~_n`` for a gauge problem.
+
+        Parameters
+        ----------
+        n : int
+            The degree, ``>= 0``.
+
+        Returns
+        -------
+        sympy expression
+            ``f_n`` in :attr:`x`.
+        """
         poly = self._polynomial(n)
         return self._out(poly if self.gauge is None else self.gauge.factor * poly)
 
     def leading_coefficient(self, n: int | sp.Expr | None = None) -> sp.Expr:
-        """``k_n = c_n prod_{j<n} (p1~' + (n+j-1) p0''/2)``."""
+        """``k_n = c_n prod_{j<n} (p1~' + (n+j-1) p0''/2)``, the leading coefficient of ``P_n``.
+
+        Parameters
+        ----------
+        n : int, str or sympy expression, optional
+            The index: an integer gives the exact value, a symbol or expression the closed form
+            there; None: the closed form in :attr:`n`.
+
+        Returns
+        -------
+        sympy expression
+            ``k_n``.
+        """
         return self._out(self.closed.leading.subs(N, self._index_in(n)))
 
     def norm2(self, n: int | sp.Expr | None = None) -> sp.Expr:
-        """``d_n^2 = ∫ f_n^2 w`` (eq. 7), closed form in ``n`` or its exact value."""
+        """``d_n^2 = int f_n^2 w`` (eq. 7), closed form in ``n`` or its exact value.
+
+        Parameters
+        ----------
+        n : int, str or sympy expression, optional
+            The index: an integer gives the exact value, a symbol or expression the closed form
+            there; None: the closed form in :attr:`n`.
+
+        Returns
+        -------
+        sympy expression
+            The squared norm.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.norm2(2)  # int_{-1}^{1} (12 x^2 - 4)^2 dx
+        128/5
+        """
         return self._out(self._norm2(self._index_in(n)))
 
     @cache  # noqa: B019 - one instance per problem
@@ -328,19 +414,61 @@ class SturmLiouville:
         return self._polynomial(n) / sp.sqrt(self._norm2(n))
 
     def orthonormal_polynomial(self, n: int) -> sp.Expr:
-        """``p_n = P_n / d_n`` (orthonormal in ``L^2(w~)``)."""
+        """``p_n = P_n / d_n`` (orthonormal in ``L^2(w~)``).
+
+        Parameters
+        ----------
+        n : int
+            The degree, ``>= 0``.
+
+        Returns
+        -------
+        sympy expression
+            ``p_n`` in :attr:`x`.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.orthonormal_polynomial(1)
+        sqrt(6)*x/2
+        """
         return self._out(self._orthonormal_polynomial(n))
 
     def orthonormal_function(self, n: int, frame: str = "functions") -> sp.Expr:
-        """``psi_n = g p_n`` of a frame (see :mod:`slbasis.symbolic.ladder`)."""
+        """``psi_n = g p_n`` of a frame (see :mod:`slbasis.symbolic.ladder`).
+
+        Parameters
+        ----------
+        n : int
+            The degree, ``>= 0``.
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        sympy expression
+            ``psi_n`` in :attr:`x`.
+        """
         return self._out(self._frame_factor(frame) * self._orthonormal_polynomial(n))
 
     # ----- recurrences -------------------------------------------------------------------
     def recurrence(self) -> dict[str, sp.Expr]:
         """Closed forms of the three-term recurrences.
 
-        ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}`` and the orthonormal
-        ``x p_n = A_{n+1} p_{n+1} + B_n p_n + A_n p_{n-1}``.
+        ``x P_n = alpha P_{n+1} + beta P_n + gamma P_{n-1}`` and the orthonormal ``x p_n =
+        A_{n+1} p_{n+1} + B_n p_n + A_n p_{n-1}``.
+
+        Returns
+        -------
+        dict of str to sympy expression
+            ``alpha``, ``beta``, ``gamma``, ``A_next`` (``A_{n+1}``) and ``B`` (``B_n``), in
+            :attr:`n`.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.recurrence()["A_next"]
+        (n + 1)/(sqrt(2*n + 1)*sqrt(2*n + 3))
         """
         alpha, beta, gamma = self.closed.recurrence
         return self._out(
@@ -354,7 +482,26 @@ class SturmLiouville:
         )
 
     def jacobi_matrix(self, size: int) -> sp.Matrix:
-        """Exact ``size x size`` symmetric Jacobi matrix of multiplication by ``x``."""
+        """Exact ``size x size`` symmetric Jacobi matrix of multiplication by ``x``.
+
+        Parameters
+        ----------
+        size : int
+            Its size.
+
+        Returns
+        -------
+        sympy.Matrix
+            ``B_n`` on the diagonal, ``A_{n+1}`` beside it.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.jacobi_matrix(2)
+        Matrix([
+        [        0, sqrt(3)/3],
+        [sqrt(3)/3,         0]])
+        """
         size = _index(size, "size")
         mat = sp.zeros(size, size)
         for n in range(size):
@@ -374,7 +521,23 @@ class SturmLiouville:
         raise ValueError(f"frame must be one of {FRAMES}, got {frame!r}")
 
     def frame_p1(self, frame: str = "functions") -> sp.Expr:
-        """Effective ``p1f`` of a frame: ``p0'`` (functions), ``p1~`` (polynomials), ``p1``."""
+        """Effective ``p1f`` of a frame: ``p0'`` (functions), ``p1~`` (polynomials), ``p1``.
+
+        Parameters
+        ----------
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        sympy expression
+            ``p1f`` in :attr:`x`.
+
+        Raises
+        ------
+        ValueError
+            If ``frame`` is unknown.
+        """
         return self._out(self._frame_p1(frame))
 
     def _frame_factor(self, frame: str) -> sp.Expr:
@@ -387,7 +550,23 @@ class SturmLiouville:
         raise ValueError(f"frame must be one of {FRAMES}, got {frame!r}")
 
     def frame_factor(self, frame: str = "functions") -> sp.Expr:
-        """``g`` with ``psi_n = g p_n``: ``sqrt(w~)``, ``1`` or the gauge factor."""
+        """``g`` with ``psi_n = g p_n``: ``sqrt(w~)``, ``1`` or the gauge factor.
+
+        Parameters
+        ----------
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        sympy expression
+            ``g`` in :attr:`x`.
+
+        Raises
+        ------
+        ValueError
+            If ``frame`` is unknown.
+        """
         return self._out(self._frame_factor(frame))
 
     @cached_property
@@ -399,8 +578,18 @@ class SturmLiouville:
     def ladder_operators(self, frame: str = "functions") -> dict[str, sp.Expr]:
         """First-order ladder operators on a frame as ``(coefficient of p0 d/dx, multiplier)``.
 
-        ``a^† psi_n = raise_scale * (p0 psi_n' - raise_mult * psi_n) = psi_{n+1}`` and
-        ``a psi_n = lower_scale * (p0 psi_n' - lower_mult * psi_n) = psi_{n-1}``.
+        ``a^dagger psi_n = raise_scale (p0 psi_n' - raise_mult psi_n) = psi_{n+1}`` and ``a psi_n
+        = lower_scale (p0 psi_n' - lower_mult psi_n) = psi_{n-1}``.
+
+        Parameters
+        ----------
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        dict of str to sympy expression
+            ``raise_scale``, ``raise_mult``, ``lower_scale``, ``lower_mult``.
         """
         rel = self.ladder
         shift = (self._p1_poly - self._frame_p1(frame)) / 2
@@ -419,17 +608,57 @@ class SturmLiouville:
     ) -> dict[str, sp.Expr]:
         """Band coefficients (closed forms in ``n``) of ``2 p0 d/dx`` on a frame (eq. 11).
 
-        ``2 p0 psi_n' = sub_n psi_{n-1} + diag_n psi_n + sup_n psi_{n+1}``; ``method`` is
-        ``"commutator"`` (``(J Lambda - Lambda J) - p1f(J)``) or ``"ladder"`` (eq. 11 from the
-        ladder relations); the two agree exactly (:meth:`verify` proves it).
+        ``2 p0 psi_n' = sub_n psi_{n-1} + diag_n psi_n + sup_n psi_{n+1}``; the commutator form
+        ``(J Lambda - Lambda J) - p1f(J)`` and eq. 11 from the ladder relations agree exactly
+        (:meth:`verify` proves it).
+
+        Parameters
+        ----------
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+        method : {"commutator", "ladder", "printed"}, optional
+            Which derivation.
+
+        Returns
+        -------
+        dict of str to sympy expression
+            ``sub``, ``diag``, ``sup`` in :attr:`n`.
+
+        Raises
+        ------
+        ValueError
+            If ``frame`` or ``method`` is unknown.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.derivative_operator()["sub"]
+        2*n*(n + 1)/sqrt(4*n**2 - 1)
         """
         return self._out(self.derivative_operator_form(frame, method).bands())
 
     def derivative_operator_form(
         self, frame: str = "functions", method: str = "commutator"
     ) -> BandedOperator:
-        """The banded operator object behind :meth:`derivative_operator` (canonical
-        symbols)."""
+        """The banded operator object behind :meth:`derivative_operator` (canonical symbols).
+
+        Parameters
+        ----------
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+        method : {"commutator", "ladder", "printed"}, optional
+            ``"printed"``: eq. (11) as printed, read on the orthonormal functions only.
+
+        Returns
+        -------
+        BandedOperator
+            The bands.
+
+        Raises
+        ------
+        ValueError
+            If ``method`` is unknown, or ``"printed"`` is asked for another frame.
+        """
         p1f = self._frame_p1(frame)
         if method == "commutator":
             return commutator_form(self.closed, p1f)
@@ -444,8 +673,29 @@ class SturmLiouville:
     def derivative_matrix(self, size: int, frame: str = "functions") -> sp.Matrix:
         """Exact ``(size+1) x size`` matrix of ``2 p0 d/dx``.
 
-        Column ``n`` holds the coefficients of ``2 p0 psi_n'``.  The extra last row is what
-        a square cut loses.
+        Column ``n`` holds the coefficients of ``2 p0 psi_n'``.  The extra last row is what a
+        square cut loses.
+
+        Parameters
+        ----------
+        size : int
+            Number of functions.
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        sympy.Matrix
+            The matrix.
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.derivative_matrix(2)
+        Matrix([
+        [0,   4*sqrt(3)/3],
+        [0,             0],
+        [0, -4*sqrt(15)/15]])
         """
         size = _index(size, "size")
         mat = sp.zeros(size + 1, size)
@@ -458,7 +708,20 @@ class SturmLiouville:
         return self._out(mat)
 
     def derivative_band_values(self, n: int, frame: str = "functions") -> tuple[sp.Expr, ...]:
-        """Exact ``(sub_n, diag_n, sup_n)`` at integer ``n`` (direct at exceptional n)."""
+        """Exact ``(sub_n, diag_n, sup_n)`` at integer ``n`` (direct at exceptional ``n``).
+
+        Parameters
+        ----------
+        n : int
+            The degree, ``>= 0``.
+        frame : {"functions", "polynomials", "eigenfunctions"}, optional
+            The frame (:mod:`slbasis.symbolic.ladder`).
+
+        Returns
+        -------
+        tuple of sympy expressions
+            The three bands at ``n``.
+        """
         return self._out(self._band_values(n, frame))
 
     def _band_values(self, n: int, frame: str) -> tuple[sp.Expr, ...]:
@@ -567,7 +830,24 @@ class SturmLiouville:
 
     # ----- verification and reports ------------------------------------------------------
     def verify(self, nmax: int = 10):  # -> VerificationReport (import cycle avoided)
-        """Run every check (ODE, orthogonality, textbook oracles, recurrences, eq. 11)."""
+        """Run every check (ODE, orthogonality, textbook oracles, recurrences, eq. 11).
+
+        Parameters
+        ----------
+        nmax : int, optional
+            The largest degree checked.
+
+        Returns
+        -------
+        VerificationReport
+            The checks and their outcome (cached per ``nmax``).
+
+        Examples
+        --------
+        >>> p = SturmLiouville("1 - x**2", "-2*x")  # Legendre, default standardisation
+        >>> p.verify(4).ok
+        True
+        """
         from .verify import verify
 
         if nmax not in self._verified:
@@ -575,7 +855,20 @@ class SturmLiouville:
         return self._verified[nmax]
 
     def report(self, fmt: str = "markdown", nmax: int = 6) -> str:
-        """The derivation report (Markdown or LaTeX)."""
+        """The derivation report (Markdown or LaTeX).
+
+        Parameters
+        ----------
+        fmt : {"markdown", "latex"}, optional
+            The format.
+        nmax : int, optional
+            List ``P_n`` for ``n <= nmax``.
+
+        Returns
+        -------
+        str
+            The report.
+        """
         from .report import render_report
 
         return render_report(self.canonical, fmt=fmt, nmax=nmax)

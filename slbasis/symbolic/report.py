@@ -23,12 +23,34 @@ FORMATS = ("markdown", "latex")
 
 @dataclass(frozen=True)
 class Item:
+    """One row of a report section.
+
+    Attributes
+    ----------
+    label : str
+        What the value is.
+    value : sympy expression or str
+        The value.
+    """
+
     label: str
     value: sp.Expr | str
 
 
 @dataclass(frozen=True)
 class Section:
+    """One section of the derivation report.
+
+    Attributes
+    ----------
+    title : str
+        The heading.
+    items : tuple of Item
+        The rows.
+    text : str
+        Text before the rows.
+    """
+
     title: str
     items: tuple[Item, ...]
     text: str = ""
@@ -83,7 +105,20 @@ def _negated(op):
 
 
 def build_sections(p: SturmLiouville, nmax: int = 4) -> list[Section]:
-    """The content of the report, independent of the output format."""
+    """The content of the report, independent of the output format.
+
+    Parameters
+    ----------
+    p : SturmLiouville
+        The problem.
+    nmax : int, optional
+        List ``P_n`` for ``n <= nmax``.
+
+    Returns
+    -------
+    list of Section
+        The sections.
+    """
     sections = [
         Section(
             "Problem",
@@ -193,7 +228,27 @@ def build_sections(p: SturmLiouville, nmax: int = 4) -> list[Section]:
 
 
 def render_report(p: SturmLiouville, fmt: str = "markdown", nmax: int = 4) -> str:
-    """The derivation report with the verification table (``verify(max(nmax, 10))``)."""
+    """The derivation report with the verification table (``verify(max(nmax, 10))``).
+
+    Parameters
+    ----------
+    p : SturmLiouville
+        The problem.
+    fmt : {"markdown", "latex"}, optional
+        The format.
+    nmax : int, optional
+        List ``P_n`` for ``n <= nmax``.
+
+    Returns
+    -------
+    str
+        The report.
+
+    Raises
+    ------
+    ValueError
+        If ``fmt`` is unknown.
+    """
     if fmt not in FORMATS:
         raise ValueError(f"fmt must be one of {FORMATS}, got {fmt!r}")
     sections = build_sections(p, nmax=nmax)

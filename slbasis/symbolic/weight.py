@@ -61,7 +61,25 @@ def _require_positive(expr: sp.Expr, message: str, assumptions: list[sp.Expr]) -
 
 @dataclass(frozen=True)
 class WeightForm:
-    """The weight in normal form, its interval and the data needed for exact moments."""
+    """The weight in normal form, its interval and the data needed for exact moments.
+
+    Attributes
+    ----------
+    kind : {"hermite", "laguerre", "jacobi"}
+        The class.
+    interval : tuple of sympy expressions
+        The orthogonality interval.
+    weight : sympy expression
+        The weight ``w`` (eq. 9).
+    p0_sign : int
+        The sign of ``p0`` on the interval.
+    data : dict of str to sympy expression
+        Normal-form data (``s, m`` | ``r, A, s, side`` | ``r1, r2, A1, A2``).
+    endpoints : tuple of str
+        Boundary behaviour, human readable.
+    assumptions : tuple of sympy expressions
+        Expressions assumed ``> 0`` (conditions on symbolic parameters).
+    """
 
     kind: str  # "hermite" | "laguerre" | "jacobi"
     interval: tuple[sp.Expr, sp.Expr]
@@ -91,8 +109,39 @@ class WeightForm:
 def classify(p0: sp.Expr, p1: sp.Expr) -> WeightForm:
     """Weight, interval and class of ``p0 P'' + p1 P' = -lambda P`` (eq. 9).
 
-    Raises :class:`NotClassicalError` (a ``ValueError``) with the failing condition when the
-    problem has no polynomial eigenfunctions orthogonal on an interval.
+    The weight solves ``(p0 w)' = p1 w``; by Bochner's classification a problem has
+    polynomial eigenfunctions orthogonal on an interval only in the Hermite, Laguerre and
+    Jacobi classes, told apart by the degree and roots of ``p0``.
+
+    Parameters
+    ----------
+    p0 : sympy expression
+        Polynomial of degree at most 2.
+    p1 : sympy expression
+        Polynomial of degree at most 1.
+
+    Returns
+    -------
+    WeightForm
+        The weight in normal form.
+
+    Raises
+    ------
+    NotClassicalError
+        A ``ValueError`` with the failing condition, when the problem has no polynomial
+        eigenfunctions orthogonal on an interval.
+
+    References
+    ----------
+    .. [1] S. Bochner, "Uber Sturm-Liouvillesche Polynomsysteme", *Math. Z.* 29, 730-736,
+       1929.
+
+    Examples
+    --------
+    >>> from slbasis.symbolic.parse import X
+    >>> w = classify(1 - X**2, -2 * X)  # Legendre
+    >>> w.kind, w.interval, w.weight, w.total_mass
+    ('jacobi', (-1, 1), 1, 2)
     """
     P0, P1 = sp.Poly(p0, X), sp.Poly(p1, X)
     deg0, deg1 = P0.degree(), P1.degree()
