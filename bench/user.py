@@ -156,9 +156,13 @@ SIPPY_SPECS = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
 def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
     """SIPPY N4SID (``f = p = 60``, ``key="n4sid"``) or ``identify(t, u, y, order=2)``
     (``key="hdpbsid"``) on the seeds ``first ... first + reps - 1`` of
-    :func:`scaling.binary_record` in this process, after one untimed call on a short
-    record (imports, kernels): wall, CPU time and worst relative eigenvalue error of
-    each call.
+    :func:`scaling.binary_record` in this process, after one untimed call on the record
+    of another seed and the same length (imports, kernels, first-use setup, as the
+    other rows): wall, CPU time and worst relative eigenvalue error of each call.  Not a
+    shorter record: it can take other paths (on this case the refinement screens its
+    second input hold by one Gauss-Newton step only on the longer record), whose
+    compiled kernels would then load from numba's cache inside the timed call, a
+    one-off cost of the process that N4SID has no counterpart of.
 
     One side per process: a threaded BLAS keeps its threads spinning for a while after a
     call returns (OpenBLAS: a fixed number of cycles before they sleep), so a call
@@ -176,7 +180,7 @@ def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
 
     spec = SIPPY_SPECS[key]
     out: dict = {key: {"wall": [], "cpu": [], "err": []}}
-    _fit(spec, binary_record(SIPPY_SAMPLES // 5, 99)[0])  # imports, kernels
+    _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels, first use
     for seed in range(first, first + reps):
         data, true = binary_record(SIPPY_SAMPLES, seed)
         clear_caches()  # the method projects the record itself

@@ -19,8 +19,6 @@ import argparse
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 COMMANDS = ("frf", "input")
 
 
@@ -136,6 +134,8 @@ def run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
+    import numpy as np
+
     from hdpbsid.data.io import read_record
     from hdpbsid.frequency import (
         fit as frequency,  # here: the parsers (--help) need none of the library
@@ -216,6 +216,8 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_input(args: argparse.Namespace, out: TextIO) -> int:
+    import numpy as np
+
     from hdpbsid.design import inputs
 
     kind, dt = args.kind, args.dt
