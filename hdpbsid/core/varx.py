@@ -217,6 +217,10 @@ class VarxResult:
     ``Xi`` has shape ``(p, l, m + l)`` with ``Xi[j - 1] = Xi_j`` (the coefficient of
     ``z_{k-j}``); ``coef`` is the toolbox layout ``[Xi_p, ..., Xi_1]`` (l x p(m+l)).
     ``Zp`` and ``residuals`` are restricted to ``columns`` (the indices actually used).
+    ``zp_factor`` is the triangular factor ``R`` of the QR factorisation ``Zp^T = Q R``
+    (``p (m + l)`` square) when the least-squares fit computed it (``None`` otherwise,
+    e.g. for instrumental variables): the singular values and left singular vectors of
+    any ``L Zp`` are those of ``L R^T`` (:class:`hdpbsid.core.pbsid.SubspaceStage`).
     """
 
     Xi: Array
@@ -229,6 +233,7 @@ class VarxResult:
     regularize: str
     gcv: float | None = None
     extra: dict = field(default_factory=dict)
+    zp_factor: Array | None = None
 
 
 def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> Array:
@@ -437,6 +442,7 @@ def varx(
     kind, lam = parse_regularize(regularize)
     gcv_val = None
     extra: dict = {}
+    R = None
     if instruments is not None:
         Psi = np.asarray(instruments, dtype=float)
         if Psi.ndim != 2 or Psi.shape[1] != Z.shape[1]:
@@ -463,8 +469,13 @@ def varx(
         theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
         lam_used = 0.0
     else:
-        theta, lam_used, gcv_val = ridge_gcv(
-            Phi, Yc, lam if kind == "fixed" else None, floor=ridge_floor if kind == "gcv" else 0.0
+        R = r_factor(Phi, Yc)  # ridge_gcv's factorisation, kept for the state sequence
+        theta, lam_used, gcv_val = ridge_gcv_r(
+            R,
+            nreg,
+            cols.size,
+            lam if kind == "fixed" else None,
+            floor=ridge_floor if kind == "gcv" else 0.0,
         )
     coef = theta[:, : p * (m + l)]
     D = theta[:, p * (m + l) :] if (feedthrough and m > 0) else np.zeros((l, m))
@@ -482,6 +493,8 @@ def varx(
         regularize=kind,
         gcv=gcv_val,
         extra=extra,
+        # the regressors come first in Phi = [Zp; U]: R's leading block is Zp^T's factor
+        zp_factor=None if R is None else R[: p * (m + l), : p * (m + l)],
     )
 
 
