@@ -43,8 +43,9 @@ Rows (``--list``):
   Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
 * ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
   samples of the lightly damped record of ``bench/long_records.py`` (its functions:
-  one call per column and repetition in a fresh process, the columns alternating; peak
-  RSS, method, order, worst eigenvalue error of the default column in the label), and
+  one call per column and repetition in a fresh process, the columns alternating, timed
+  without ``tracemalloc``, which would slow the call threefold; peak RSS, method,
+  order, worst eigenvalue error of the default column in the label), and
   for 10^6 ``hdpbsid identify`` on the same record as a 10^6-line CSV, alternating
   likewise; ``long-7`` (only when named in ``--rows``: minutes)
   10^7 samples from a chunked HDF5 file (extra ``io``).  ``--timeout`` bounds each call.
@@ -377,7 +378,7 @@ def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> l
     got = _alternate(
         runs,
         lambda one, i: _one_run(
-            run_api(n_samples, path, options.timeout, env=_environment(one, None))
+            run_api(n_samples, path, options.timeout, env=_environment(one, None), trace=False)
         ),
     )
     src = "chunked HDF5" if path else "in memory"
