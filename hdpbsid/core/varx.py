@@ -393,6 +393,22 @@ def parse_regularize(regularize: bool | str | float | None) -> tuple[str, float 
     )
 
 
+def _regression_factor(
+    Z: Array, Phi: Array, Yc: Array, p: int, m: int, lag: LagOperator, feedthrough: bool
+) -> Array:
+    """The triangular factor of ``[Phi^T, Yc^T]`` for :func:`varx`: from the lagged Gram
+    matrix with the sample shift when it is certified to be as good as the data
+    (:func:`hdpbsid.core.lag_gram.regression_factor`: ``O(N d^2 p)`` operations instead
+    of the QR's ``O(N d^2 p^2)``), otherwise the QR factorisation (:func:`r_factor`)."""
+    if type(lag) is SampleShift:
+        from hdpbsid.core.lag_gram import regression_factor
+
+        R = regression_factor(Z, p, m, feedthrough)
+        if R is not None:
+            return R
+    return r_factor(Phi, Yc)
+
+
 def varx(
     U: Array,
     Y: Array,
@@ -464,12 +480,12 @@ def varx(
         )
     elif kind == "none":
         # minimum-norm least squares from the R factor (same rcond as numpy.linalg.lstsq)
-        R = r_factor(Phi, Yc)
+        R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)
         rcond = np.finfo(float).eps * max(Phi.shape)
         theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
         lam_used = 0.0
     else:
-        R = r_factor(Phi, Yc)  # ridge_gcv's factorisation, kept for the state sequence
+        R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)  # kept for the states
         theta, lam_used, gcv_val = ridge_gcv_r(
             R,
             nreg,
