@@ -6,7 +6,9 @@ in a fresh subprocess; reported: wall and CPU time of the call (the process's us
 system time, all threads), the peak resident set size of the subprocess
 (``resource.getrusage`` maxrss: data and interpreter included), the peak traced by
 ``tracemalloc`` during the call (numpy's buffers; the data excluded), the method and
-order chosen, the worst relative eigenvalue error.
+order chosen, the worst relative eigenvalue error.  The times here are taken with
+``tracemalloc`` running (the traced peak needs it), which slows the call; the user
+table (``bench/user.py``) times the same call untraced (:func:`run_api`).
 
 Case: a lightly damped resonance (5 Hz, damping 0.05) sampled at 1 kHz, driven by Gaussian
 noise low-passed to 20 Hz, 20 dB output noise (:func:`segments.resonance_record`).
@@ -38,7 +40,7 @@ import numpy as np
 from segments import resonance
 from hdpbsid import identify
 from hdpbsid.models.metrics import eigenvalue_errors
-ns, path = {ns}, {path!r}
+ns, path, trace = {ns}, {path!r}, {trace!r}
 if path:
     from hdpbsid.data.io import open_chunked
     data = (open_chunked(path, ["u"], ["y"], dt=1e-3),)
@@ -46,7 +48,8 @@ else:
     from segments import resonance_record
     data = resonance_record(ns, 0)
 lam = np.linalg.eigvals(resonance()[0])
-tracemalloc.start()
+if trace:
+    tracemalloc.start()
 r0 = resource.getrusage(resource.RUSAGE_SELF)
 t0 = time.perf_counter()
 with warnings.catch_warnings():
@@ -58,7 +61,7 @@ cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
 err = float(eigenvalue_errors(m.eigenvalues, lam).max()) if m.n == 2 else None
 lr = m.options.get("long_record") or {{}}
 print(json.dumps(dict(
-    wall=wall, cpu=cpu, traced=tracemalloc.get_traced_memory()[1],
+    wall=wall, cpu=cpu, **(dict(traced=tracemalloc.get_traced_memory()[1]) if trace else {{}}),
     rss=r1.ru_maxrss * 1024, method=m.options.get("method"), order=m.n, err=err,
     refine=m.options.get("refine"), skipped=[s["method"] for s in lr.get("skipped", [])],
     selection=lr.get("selection"),
@@ -72,11 +75,16 @@ def _env(base: dict[str, str] | None = None) -> dict[str, str]:
     return env
 
 
-def run_api(ns: int, path: str = "", timeout: float = 900, env: dict | None = None) -> dict:
+def run_api(
+    ns: int, path: str = "", timeout: float = 900, env: dict | None = None, trace: bool = True
+) -> dict:
     """``identify`` on ``ns`` samples (or the file ``path``) in a fresh subprocess whose
     environment is ``env`` (default: this process's); the measurements as a dict, or
-    ``{"status": ...}`` on a time-out or failure."""
-    code = CHILD.format(bench=str(HERE.parent), ns=ns, path=path)
+    ``{"status": ...}`` on a time-out or failure.  ``trace``: ``tracemalloc`` runs during
+    the call for its traced peak (``"traced"``); it records every allocation, which
+    slows the call (the first call in a process, whose imports allocate much, about
+    threefold), so a timing meant as a user's time passes ``trace=False``."""
+    code = CHILD.format(bench=str(HERE.parent), ns=ns, path=path, trace=trace)
     try:
         out = subprocess.run(
             [sys.executable, "-c", code],

@@ -43,8 +43,9 @@ Rows (``--list``):
   Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
 * ``long-5``, ``long-6``: ``identify(t, u, y)`` with nothing else on 10^5 and 10^6
   samples of the lightly damped record of ``bench/long_records.py`` (its functions:
-  one call per column and repetition in a fresh process, the columns alternating; peak
-  RSS, method, order, worst eigenvalue error of the default column in the label), and
+  one call per column and repetition in a fresh process, the columns alternating, timed
+  without ``tracemalloc``, which would slow the call threefold; peak RSS, method,
+  order, worst eigenvalue error of the default column in the label), and
   for 10^6 ``hdpbsid identify`` on the same record as a 10^6-line CSV, alternating
   likewise; ``long-7`` (only when named in ``--rows``: minutes)
   10^7 samples from a chunked HDF5 file (extra ``io``).  ``--timeout`` bounds each call.
@@ -156,9 +157,13 @@ SIPPY_SPECS = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
 def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
     """SIPPY N4SID (``f = p = 60``, ``key="n4sid"``) or ``identify(t, u, y, order=2)``
     (``key="hdpbsid"``) on the seeds ``first ... first + reps - 1`` of
-    :func:`scaling.binary_record` in this process, after one untimed call on a short
-    record (imports, kernels): wall, CPU time and worst relative eigenvalue error of
-    each call.
+    :func:`scaling.binary_record` in this process, after one untimed call on the record
+    of another seed and the same length (imports, kernels, first-use setup, as the
+    other rows): wall, CPU time and worst relative eigenvalue error of each call.  Not a
+    shorter record: it can take other paths (on this case the refinement screens its
+    second input hold by one Gauss-Newton step only on the longer record), whose
+    compiled kernels would then load from numba's cache inside the timed call, a
+    one-off cost of the process that N4SID has no counterpart of.
 
     One side per process: a threaded BLAS keeps its threads spinning for a while after a
     call returns (OpenBLAS: a fixed number of cycles before they sleep), so a call
@@ -176,7 +181,7 @@ def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
 
     spec = SIPPY_SPECS[key]
     out: dict = {key: {"wall": [], "cpu": [], "err": []}}
-    _fit(spec, binary_record(SIPPY_SAMPLES // 5, 99)[0])  # imports, kernels
+    _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels, first use
     for seed in range(first, first + reps):
         data, true = binary_record(SIPPY_SAMPLES, seed)
         clear_caches()  # the method projects the record itself
@@ -373,7 +378,7 @@ def long_record_row(n_samples: int, reps: int, options: argparse.Namespace) -> l
     got = _alternate(
         runs,
         lambda one, i: _one_run(
-            run_api(n_samples, path, options.timeout, env=_environment(one, None))
+            run_api(n_samples, path, options.timeout, env=_environment(one, None), trace=False)
         ),
     )
     src = "chunked HDF5" if path else "in memory"
@@ -440,8 +445,12 @@ def _environment(one_thread: bool, extra: dict[str, str] | None) -> dict[str, st
 
 
 def _cpu_of_children() -> float:
-    usage = os.times()
-    return usage.children_user + usage.children_system
+    """CPU time of the waited-for children, from ``getrusage`` (microseconds; ``os.times``
+    counts clock ticks, 10 ms, a tenth of the ``--help`` row)."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _spawn(

@@ -70,11 +70,13 @@ def _short_blas_spin() -> None:
 
 _short_blas_spin()
 
-import numpy as np  # noqa: E402 (after _short_blas_spin: OpenBLAS reads it when it loads)
+from hdpbsid import frequency_cli  # noqa: E402 (after _short_blas_spin)
 
-from hdpbsid import frequency_cli  # noqa: E402
-
+# numpy (and with it OpenBLAS, which starts its threads when it loads) is imported by the
+# commands that compute, not at module level: ``--help`` and a usage error need neither
 if TYPE_CHECKING:  # the library's modules load when a command runs, not for --help
+    import numpy as np
+
     from hdpbsid.data.io import Record
     from hdpbsid.models.model import StateSpaceModel
     from hdpbsid.models.model_io import model_from_dict, model_to_dict  # noqa: F401 (re-exported)
@@ -331,6 +333,8 @@ def _fmt_complex(z: complex) -> str:
 
 
 def _print_model(model: StateSpaceModel, out: TextIO) -> None:
+    import numpy as np
+
     np.set_printoptions(precision=6, suppress=False, linewidth=100)
     print(repr(model), file=out)
     for name in ("A", "B", "C", "D", "K"):
@@ -372,6 +376,8 @@ def _progress(choice: str, records: list[Record]) -> bool:
 
 
 def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
+    import numpy as np
+
     from hdpbsid.data.checks import check_names
     from hdpbsid.identify import identify
     from hdpbsid.models.model_io import save_model
@@ -507,6 +513,8 @@ def _validate_record(
     out: TextIO,
 ) -> None:
     """Fits, residual tests and figure of ``model`` on one record (``hdpbsid validate``)."""
+    import numpy as np
+
     uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
     sim = model.compare(rec.t, uu, rec.y)
     print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
@@ -541,6 +549,8 @@ def _validate_record(
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
+    import numpy as np
+
     from hdpbsid import studies
     from hdpbsid.models.metrics import match_eigenvalues
     from hdpbsid.models.model import StateSpaceModel

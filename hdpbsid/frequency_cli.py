@@ -19,8 +19,6 @@ import argparse
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 COMMANDS = ("frf", "input")
 
 
@@ -136,6 +134,8 @@ def run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
+    import numpy as np
+
     from hdpbsid.frequency import (
         fit as frequency,  # here: the parsers (--help) need none of the library
     )
@@ -175,6 +175,8 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
 def _frf_estimate(args: argparse.Namespace, frequency: Any) -> tuple[Any, Any]:
     """The record of ``args.file`` and its FRF: averaged over periods (``--period``) or
     Welch's estimate, with the reference columns as instruments (``--reference``)."""
+    import numpy as np
+
     from hdpbsid.data.io import read_record
 
     time = args.time if (args.time or args.dt is not None or args.fs is not None) else "t"
@@ -197,6 +199,8 @@ def _frf_columns(est: Any, inputs: list[str], outputs: list[str]) -> dict[str, A
     """The columns of ``frf.csv``: frequency, then per output and input the magnitude
     (dB), the phase (degrees) and the 95 % confidence radius when the estimate has a
     variance, and per output the coherence when it has one."""
+    import numpy as np
+
     cols: dict[str, Any] = {"w_rad_s": est.w}
     radius = est.confidence_radius() if est.variance is not None else None
     for i, yn in enumerate(outputs):
@@ -224,6 +228,8 @@ def _save_frf_figure(draw: Any, path: Path) -> None:
 
 
 def _run_input(args: argparse.Namespace, out: TextIO) -> int:
+    import numpy as np
+
     from hdpbsid.design import inputs
 
     kind, dt = args.kind, args.dt

@@ -117,3 +117,22 @@ def test_the_package_pickles_by_reference():
 
     assert cloudpickle.loads(cloudpickle.dumps(task))() is hdpbsid.identify
     assert pickle.loads(pickle.dumps(hdpbsid)) is hdpbsid
+
+
+def test_help_and_usage_errors_load_no_numpy():
+    """``hdpbsid --help``, a command's ``--help`` and a usage error print without numpy:
+    numpy loads OpenBLAS, which starts its threads at load, a cost a help text need not
+    pay (the commands that compute import it)."""
+    probe = (
+        "import contextlib, io, json, sys\nfrom hdpbsid.cli import main\n"
+        "codes = []\n"
+        "for argv in (['--help'], ['identify', '--help'], ['frf', '--help'], ['nonsense']):\n"
+        "    with contextlib.redirect_stdout(io.StringIO()), "
+        "contextlib.redirect_stderr(io.StringIO()):\n"
+        "        try:\n            codes.append(main(argv))\n"
+        "        except SystemExit as exc:\n            codes.append(exc.code)\n"
+        "print(json.dumps([codes, 'numpy' in sys.modules]))"
+    )
+    codes, numpy_loaded = json.loads(_run(probe))
+    assert codes[-1] == 2  # the usage error is reported as one (the probe ran the parser)
+    assert numpy_loaded is False

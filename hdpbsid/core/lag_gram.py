@@ -37,7 +37,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-__all__ = ["shift_gram", "nested_residual_covariances", "criterion_error_bounds"]
+__all__ = [
+    "shift_gram",
+    "nested_residual_covariances",
+    "criterion_error_bounds",
+    "regression_factor",
+]
 
 Array = NDArray[np.float64]
 
@@ -239,3 +244,97 @@ def criterion_error_bounds(
     if not np.all(eta < 1.0):
         return None
     return -l * np.log1p(-eta)
+
+
+#: :func:`regression_factor` keeps the factor from the Gram matrix when its rounding moves
+#: every least-squares coefficient by at most this fraction of the coefficient's standard
+#: error: a change the data cannot resolve, by three orders of magnitude
+COEFFICIENT_RESOLUTION = 1e-3
+
+
+def regression_factor(Z: Array, p: int, m: int, feedthrough: bool) -> Array | None:
+    """The triangular factor ``R`` of ``[Phi^T, Y^T] = Q R`` of the sample-shift VARX of
+    past window ``p`` (:func:`hdpbsid.core.varx.varx`) from the lagged Gram matrix, or
+    ``None`` when it is not certified.
+
+    ``Z = [U; Y]`` (``m`` inputs first, one row per signal); the regression's columns
+    are ``k = p..N-1``, its regressors ``Phi = [z_{k-p}; ...; z_{k-1}]`` (oldest first),
+    with ``u_k`` below them when ``feedthrough``, its targets ``y_k``.  The Gram matrix of
+    ``[Phi; Y]`` is read off :func:`shift_gram` (``O(N d^2 p)`` operations instead of the
+    ``O(N d^2 p^2)`` of a QR of the regressors), and its Cholesky factor is ``R`` up to the
+    signs of its rows, which no least-squares or ridge solution from ``R`` depends on.
+
+    Certified when the rounding cannot be resolved by the data: the backward error ``E``
+    of forming and factoring the (unit-diagonal) Gram matrix is bounded as in
+    :func:`criterion_error_bounds`; it moves the least-squares coefficients ``theta`` by at
+    most ``2 ||G_xx^{-1}|| ||E|| (1 + ||theta||)`` (the perturbed normal equations, once
+    ``||E|| ||G_xx^{-1}|| <= 1/2``; a ridge solution, whose filter factors are below one,
+    by no more), and the standard error of coefficient ``(i, j)`` is ``sqrt(Sigma_jj
+    [G_xx^{-1}]_ii)`` (``Cov(theta) = Sigma (x) G_xx^{-1}``, ``Sigma`` the residual
+    covariance per sample; its diagonal taken less the rounding's share, the diagonal of
+    ``G_xx^{-1}`` the squared row norms of ``R_xx^{-1}``).  The factor is kept when the
+    move is at most :data:`COEFFICIENT_RESOLUTION` times the smallest standard error; a
+    noise-free record (no residual) or an ill-conditioned one is left to the QR
+    factorisation.
+
+    Parameters
+    ----------
+    Z : ndarray, shape (m + l, N)
+        Inputs above outputs.
+    p : int
+        The past window, ``1 <= p < N``.
+    m : int
+        The number of inputs (the first rows of ``Z``).
+    feedthrough : bool
+        Whether ``u_k`` is a regressor.
+
+    Returns
+    -------
+    ndarray or None
+        ``R`` (``(p (m + l) + m_ft + l)`` square, ``m_ft = m`` with feedthrough), or None.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(500)
+    >>> y = np.convolve(u, [0.0, 1.0, 0.5])[:500] + 0.1 * rng.standard_normal(500)
+    >>> R = regression_factor(np.vstack([u, y]), 3, 1, False)
+    >>> Phi = np.vstack([np.vstack([u, y])[:, 3 - j : 500 - j] for j in (3, 2, 1)])
+    >>> G = np.vstack([Phi, y[3:]]) @ np.vstack([Phi, y[3:]]).T
+    >>> bool(np.allclose(R.T @ R, G))
+    True
+    """
+    d, N = Z.shape
+    l = d - m
+    lead = list(range(m)) if (feedthrough and m > 0) else []
+    idx = [j * d + a for j in range(p, 0, -1) for a in range(d)] + lead + [m + c for c in range(l)]
+    M = shift_gram(Z, p, p)[np.ix_(idx, idx)]
+    diag = np.diag(M).copy()
+    if not np.all(np.isfinite(M)) or np.any(diag <= 0):
+        return None
+    s = np.sqrt(diag)
+    try:
+        Rs = np.linalg.cholesky(M / s[:, None] / s[None, :]).T
+    except np.linalg.LinAlgError:
+        return None
+    K = Rs.shape[0]
+    k = K - l
+    n = N - p
+    rho = np.sqrt(np.sum(Z * Z, axis=1)[np.asarray(idx) % d] / diag)
+    eps = 2.0 * _gamma(n + 2 * p + 3) * float(rho @ rho) + _gamma(K + 1) * float(np.sum(Rs * Rs))
+    Rinv = scipy.linalg.solve_triangular(Rs[:k, :k], np.eye(k), check_finite=False)
+    if not np.all(np.isfinite(Rinv)):
+        return None
+    g_inv = float(np.linalg.norm(Rinv, 2)) ** 2  # ||G_xx^{-1}||_2 = ||R_xx^{-1}||_2^2
+    if eps * g_inv > 0.5:
+        return None
+    theta_term = (1.0 + float(np.linalg.norm(Rinv @ Rs[:k, k:]))) ** 2
+    move = 2.0 * g_inv * eps * np.sqrt(theta_term)
+    # the residual sums of squares (diagonal of the Schur complement), less what the
+    # rounding can add to them (module docstring), per sample; and the smallest diagonal
+    # entry of G_xx^{-1} = R^{-1} R^{-T} (the squared row norms of R^{-1})
+    rss = np.sum(Rs[k:, k:] ** 2, axis=0) - 2.0 * eps * theta_term
+    se_min = np.sqrt(max(float(np.min(rss)), 0.0) / n * float(np.min(np.sum(Rinv**2, axis=1))))
+    if not move <= COEFFICIENT_RESOLUTION * se_min:
+        return None
+    return Rs * s[None, :]

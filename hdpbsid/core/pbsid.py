@@ -569,30 +569,67 @@ class CoreResult:
         return np.linalg.eigvals(self.A)
 
 
+#: the state rows ``S_n^{-1/2} U_n^T M`` of :class:`SubspaceStage` are computed from the
+#: left singular vectors while ``s_n >= STATE_ROWS_RTOL s_1``: the rounding of ``U_n^T M``
+#: (about ``eps s_1`` in each entry) is then at most ``sqrt(eps)`` relative to row ``n``
+STATE_ROWS_RTOL = float(np.sqrt(np.finfo(float).eps))
+
+
 @dataclass
 class SubspaceStage:
     """Steps 1-2 of :func:`pbsid_core`, which do not depend on the order.
 
-    The VARX fit, the SVD ``Gamma_f L_p Z_p = U S V^T`` and every state row ``S^{1/2}
-    V^T``.  An order only truncates them, so the orders of an order selection can share one
-    stage (``pbsid_core(..., stage=)``).
+    The VARX fit, the SVD ``M = Gamma_f L_p Z_p = U S V^T`` and the state rows ``S^{1/2}
+    V^T`` (:meth:`state_rows`).  An order only truncates them, so the orders of an order
+    selection can share one stage (``pbsid_core(..., stage=)``).
+
+    When the VARX kept the triangular factor of its regressors (``Z_p^T = Q R``,
+    :attr:`~hdpbsid.core.varx.VarxResult.zp_factor`), ``M = (Gamma L R^T) Q^T`` with ``Q``
+    orthonormal, so ``U`` and ``S`` are those of the small ``Gamma L R^T`` (``f l x
+    p (m + l)``): the long dimension of ``M`` (one column per sample) never meets a
+    factorisation.  The first ``n`` state rows are then ``S_n^{1/2} V_n^T = S_n^{-1/2}
+    U_n^T M``, one product of ``n`` rows, while ``s_n`` is not below
+    :data:`STATE_ROWS_RTOL` times ``s_1``; rows past that, and a stage without the factor,
+    come from the thin SVD of ``M`` itself (:func:`state_sequence`).
 
     Attributes
     ----------
     varx : VarxResult
         The VARX fit.
-    states : ndarray, shape (k, N)
-        Every state row ``S^{1/2} V^T``.
     singular_values : ndarray, shape (k,)
         ``S``, descending.
     left : ndarray, shape (f l, k)
         ``U`` (its first block row times ``S^{1/2}`` is ``C``).
+    gamma_l : ndarray, shape (f l, p (m + l))
+        ``Gamma_f L_p``, the VARX's estimate of the product the SVD factors.
+    states : ndarray, shape (k, N)
+        Every state row ``S^{1/2} V^T`` (from the thin SVD of ``M``, computed on first use).
     """
 
     varx: VarxResult
-    states: Array
     singular_values: Array
     left: Array
+    gamma_l: Array
+    _states: Array | None = None
+
+    @property
+    def states(self) -> Array:
+        """Every state row ``S^{1/2} V^T`` (from the thin SVD of ``M``, computed once)."""
+        if self._states is None:
+            self._states = state_sequence(self.gamma_l, self.varx.Zp, None)[0]
+        return self._states
+
+    def state_rows(self, n: int) -> Array:
+        """The first ``n`` state rows ``S_n^{1/2} V_n^T`` (class docstring)."""
+        s = self.singular_values
+        if (
+            self._states is not None
+            or not 0 < n <= s.size
+            or not s[n - 1] >= STATE_ROWS_RTOL * s[0]
+        ):
+            return self.states[:n]
+        M_n = (self.left[:, :n].T @ self.gamma_l) @ self.varx.Zp
+        return M_n / np.sqrt(s[:n])[:, None]
 
 
 def subspace_stage(
@@ -649,8 +686,11 @@ def subspace_stage(
         exogenous=exogenous,
     )
     LK = gamma_l(vx.coef, p, f, U.shape[0], Y.shape[0])
-    Xall, s, Ug = state_sequence(LK, vx.Zp, None)
-    return SubspaceStage(vx, Xall, s, Ug)
+    if vx.zp_factor is None:
+        Xall, s, Ug = state_sequence(LK, vx.Zp, None)
+        return SubspaceStage(vx, s, Ug, LK, Xall)
+    Ug, s, _ = np.linalg.svd(LK @ vx.zp_factor.T, full_matrices=False)
+    return SubspaceStage(vx, s, Ug, LK)
 
 
 @library_call
@@ -784,9 +824,9 @@ def pbsid_core(
         stage = subspace_stage(
             U, Y, p, f, lag, feedthrough, regularize, ridge_floor, instruments, exogenous
         )
-    vx, Xall, s, Ug = stage.varx, stage.states, stage.singular_values, stage.left
-    n, info = resolve_order(s, order, max_order, Xall.shape[0])
-    X = Xall[:n]
+    vx, s, Ug = stage.varx, stage.singular_values, stage.left
+    n, info = resolve_order(s, order, max_order, s.size)
+    X = stage.state_rows(n)
     cols = vx.columns
     if instruments is None:
         C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)

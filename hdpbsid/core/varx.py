@@ -434,6 +434,11 @@ class VarxResult:
         The GCV function at ``ridge`` (``None`` when not computed).
     extra : dict
         Estimator details (``{"estimator": "iv", "instruments": r}`` for IV).
+    zp_factor : ndarray, shape (p (m + l), p (m + l)), or None
+        The triangular factor ``R`` of ``Zp^T = Q R`` when the least-squares fit computed
+        it (``None`` otherwise, e.g. for instrumental variables): the singular values and
+        left singular vectors of any ``L Zp`` are those of ``L R^T``
+        (:class:`hdpbsid.core.pbsid.SubspaceStage`).
     """
 
     Xi: Array
@@ -446,6 +451,7 @@ class VarxResult:
     regularize: str
     gcv: float | None = None
     extra: dict = field(default_factory=dict)
+    zp_factor: Array | None = None
 
 
 def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> Array:
@@ -737,6 +743,22 @@ def parse_regularize(regularize: bool | str | float | None) -> tuple[str, float 
     )
 
 
+def _regression_factor(
+    Z: Array, Phi: Array, Yc: Array, p: int, m: int, lag: LagOperator, feedthrough: bool
+) -> Array:
+    """The triangular factor of ``[Phi^T, Yc^T]`` for :func:`varx`: from the lagged Gram
+    matrix with the sample shift when it is certified to be as good as the data
+    (:func:`hdpbsid.core.lag_gram.regression_factor`: ``O(N d^2 p)`` operations instead
+    of the QR's ``O(N d^2 p^2)``), otherwise the QR factorisation (:func:`r_factor`)."""
+    if type(lag) is SampleShift:
+        from hdpbsid.core.lag_gram import regression_factor
+
+        R = regression_factor(Z, p, m, feedthrough)
+        if R is not None:
+            return R
+    return r_factor(Phi, Yc)
+
+
 def varx(
     U: Array,
     Y: Array,
@@ -843,6 +865,7 @@ def varx(
     kind, lam = parse_regularize(regularize)
     gcv_val = None
     extra: dict = {}
+    R = None
     if instruments is not None:
         Psi = np.asarray(instruments, dtype=float)
         if Psi.ndim != 2 or Psi.shape[1] != Z.shape[1]:
@@ -864,13 +887,18 @@ def varx(
         )
     elif kind == "none":
         # minimum-norm least squares from the R factor (same rcond as numpy.linalg.lstsq)
-        R = r_factor(Phi, Yc)
+        R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)
         rcond = np.finfo(float).eps * max(Phi.shape)
         theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
         lam_used = 0.0
     else:
-        theta, lam_used, gcv_val = ridge_gcv(
-            Phi, Yc, lam if kind == "fixed" else None, floor=ridge_floor if kind == "gcv" else 0.0
+        R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)  # kept for the states
+        theta, lam_used, gcv_val = ridge_gcv_r(
+            R,
+            nreg,
+            cols.size,
+            lam if kind == "fixed" else None,
+            floor=ridge_floor if kind == "gcv" else 0.0,
         )
     coef = theta[:, : p * (m + l)]
     D = theta[:, p * (m + l) :] if (feedthrough and m > 0) else np.zeros((l, m))
@@ -888,6 +916,8 @@ def varx(
         regularize=kind,
         gcv=gcv_val,
         extra=extra,
+        # the regressors come first in Phi = [Zp; U]: R's leading block is Zp^T's factor
+        zp_factor=None if R is None else R[: p * (m + l), : p * (m + l)],
     )
 
 

@@ -169,3 +169,80 @@ def test_error_bound_holds_against_50_digit_arithmetic(seed, smooth, lags):
             got = float(np.log(sigma[q, 0, 0]))
             want = float(mpmath.log(S[0, 0] + floor))
             assert abs(got - want) <= bound[q]
+
+
+def _explicit_varx(Z, p, m, feedthrough):
+    """The sample-shift VARX of window ``p`` built explicitly: regressors ``z_{k-p} ...
+    z_{k-1}`` (oldest first) and ``u_k`` with feedthrough, targets ``y_k``, on ``k = p..N-1``;
+    numpy's least squares and each coefficient's standard error ``sqrt(Sigma_jj
+    [G_xx^{-1}]_ii)``."""
+    N = Z.shape[1]
+    rows = [Z[:, p - j : N - j] for j in range(p, 0, -1)]
+    if feedthrough:
+        rows.append(Z[:m, p:])
+    Phi, Y = np.vstack(rows), Z[m:, p:]
+    theta = np.linalg.lstsq(Phi.T, Y.T, rcond=None)[0]
+    E = Y.T - Phi.T @ theta
+    se = np.sqrt(np.outer(np.diag(np.linalg.inv(Phi @ Phi.T)), np.diag(E.T @ E) / E.shape[0]))
+    return Phi, Y, theta, se
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    m=st.integers(1, 2),
+    l=st.integers(1, 2),
+    p=st.integers(1, 10),
+    feedthrough=st.booleans(),
+    smooth=st.integers(0, 3),
+)
+def test_regression_factor_gives_the_least_squares_fit_within_its_resolution(
+    seed, m, l, p, feedthrough, smooth
+):
+    from hdpbsid.core.lag_gram import COEFFICIENT_RESOLUTION, regression_factor
+
+    rng = np.random.default_rng(seed)
+    U, Y = _varx_record(rng, 400, m, l, smooth)
+    Z = np.vstack([U, Y])
+    R = regression_factor(Z, p, m, feedthrough)
+    Phi, Yt, theta, se = _explicit_varx(Z, p, m, feedthrough)
+    if R is None:
+        return  # left to the QR factorisation: nothing to check here
+    G = np.vstack([Phi, Yt]) @ np.vstack([Phi, Yt]).T
+    # R^T R is the Gram matrix of [Phi; Y] (rounding of 400-term sums)
+    np.testing.assert_allclose(R.T @ R, G, rtol=1e-10, atol=1e-10 * np.abs(G).max())
+    k = Phi.shape[0]
+    got = np.linalg.solve(R[:k, :k], R[:k, k:])
+    # the certificate: every coefficient within its resolution of the least-squares one
+    # (twice, for the rounding of the oracle's own QR)
+    assert np.all(np.abs(got - theta) <= 2 * COEFFICIENT_RESOLUTION * se)
+
+
+def test_regression_factor_certifies_a_noisy_record_and_not_a_noise_free_one():
+    from hdpbsid.core.lag_gram import regression_factor
+
+    rng = np.random.default_rng(3)
+    U, Y = _varx_record(rng, 2000, 1, 1, 1)
+    # unit noise on a VARX(2): standard errors O(1/sqrt(N)), the rounding far below
+    assert regression_factor(np.vstack([U, Y]), 8, 1, False) is not None
+    u = rng.standard_normal((1, 600))
+    y = np.zeros((1, 600))
+    for k in range(2, 600):
+        y[0, k] = 0.5 * y[0, k - 1] - 0.2 * y[0, k - 2] + u[0, k - 1]
+    # noise-free: the residual is rounding, no standard error to hide the Gram's in
+    assert regression_factor(np.vstack([u, y]), 4, 1, False) is None
+
+
+def test_varx_takes_the_certified_factor_and_keeps_its_fit():
+    """The sample-shift VARX with the Gram route: the same coefficients (within the
+    resolution) and residuals as the explicit least squares, and the factor it keeps for
+    the state sequence is ``Zp^T``'s."""
+    from hdpbsid.core.varx import varx
+
+    rng = np.random.default_rng(11)
+    U, Y = _varx_record(rng, 3000, 1, 2, 2)
+    vx = varx(U, Y, 6, regularize=False)
+    Phi, Yt, theta, se = _explicit_varx(np.vstack([U, Y]), 6, 1, False)
+    assert np.all(np.abs(vx.coef - theta.T) <= 2e-3 * se.T)  # COEFFICIENT_RESOLUTION, twice
+    G = vx.Zp @ vx.Zp.T
+    np.testing.assert_allclose(vx.zp_factor.T @ vx.zp_factor, G, rtol=1e-10, atol=1e-10 * G.max())

@@ -143,3 +143,60 @@ def test_thin_svd_is_numpys_svd(shape):
     sign = np.sign(np.sum(U * U0, axis=0))
     np.testing.assert_allclose(U * sign, U0, atol=1e-8)
     np.testing.assert_allclose(Vt * sign[:, None], Vt0, atol=1e-8)
+
+
+def _svd_states(stage):
+    """The oracle: every state row ``S^{1/2} V^T`` from numpy's SVD of ``M = Gamma L Zp``
+    formed explicitly, and its singular values."""
+    _, s, Vt = np.linalg.svd(stage.gamma_l @ stage.varx.Zp, full_matrices=False)
+    return np.sqrt(s)[:, None] * Vt, s
+
+
+@pytest.mark.parametrize("regularize", [False, "gcv"])
+@pytest.mark.parametrize("feedthrough", [False, True])
+def test_stage_state_rows_from_the_varx_factor_are_the_svd_states(
+    closed_loop, regularize, feedthrough
+):
+    from hdpbsid.core.pbsid import subspace_stage
+    from hdpbsid.core.varx import SampleShift
+
+    d = closed_loop
+    stage = subspace_stage(d["u"].T, d["y"].T, 10, 8, SampleShift(), feedthrough, regularize)
+    Zp, R = stage.varx.Zp, stage.varx.zp_factor
+    # the factor kept by the VARX is Zp^T's: R^T R = Zp Zp^T (rounding of a 4000-term
+    # Gram matrix, relative to its largest entry)
+    G = Zp @ Zp.T
+    assert np.abs(R.T @ R - G).max() <= 1e-11 * np.abs(G).max()
+    X, s = _svd_states(stage)
+    np.testing.assert_allclose(stage.singular_values, s, rtol=1e-10)  # rounding only
+    for n in (1, 4, 6):
+        rows = stage.state_rows(n)
+        assert rows.shape == (n, Zp.shape[1])
+        # singular vectors are defined up to a sign per pair; the rows of the order-4
+        # system's signal part are well separated (s_i / s_1 > 1e-3), so rounding moves
+        # them by far less than 1e-8 of their size
+        for i in range(n):
+            sign = np.sign(rows[i] @ X[i])
+            np.testing.assert_allclose(sign * rows[i], X[i], atol=1e-8 * np.abs(X[i]).max())
+    assert stage._states is None  # computed from the factor, the wide SVD never ran
+
+
+def test_stage_state_rows_past_the_numerical_rank_come_from_the_wide_svd():
+    """A noise-free first-order record: ``M`` has rank 1, so ``s_2`` is rounding and the
+    rows from ``S^{-1/2} U^T M`` would divide by it; they come from the SVD of ``M``."""
+    from hdpbsid.core.pbsid import STATE_ROWS_RTOL, subspace_stage
+    from hdpbsid.core.varx import SampleShift
+
+    rng = np.random.default_rng(7)
+    u = rng.standard_normal(600)
+    y = np.zeros(600)
+    for k in range(599):
+        y[k + 1] = 0.9 * y[k] + u[k]
+    stage = subspace_stage(u[None, :], y[None, :], 6, 6, SampleShift(), False, False)
+    s = stage.singular_values
+    assert s[1] < STATE_ROWS_RTOL * s[0]  # the premise: one exact state
+    rows = stage.state_rows(2)
+    assert stage._states is not None
+    np.testing.assert_array_equal(rows, stage.states[:2])
+    X, _ = _svd_states(stage)
+    np.testing.assert_allclose(np.abs(rows[0]), np.abs(X[0]), atol=1e-8 * np.abs(X[0]).max())
