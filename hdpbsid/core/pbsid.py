@@ -620,7 +620,20 @@ class SubspaceStage:
         return self._states
 
     def state_rows(self, n: int) -> Array:
-        """The first ``n`` state rows ``S_n^{1/2} V_n^T`` (class docstring)."""
+        """The first ``n`` state rows ``S_n^{1/2} V_n^T`` (class docstring).
+
+        Parameters
+        ----------
+        n : int
+            The order: how many rows.
+
+        Returns
+        -------
+        ndarray, shape (n, N)
+            ``S_n^{1/2} V_n^T``: from ``S_n^{-1/2} U_n^T M`` while ``s_n >=``
+            :data:`STATE_ROWS_RTOL` ``s_1`` and the VARX kept its factor, else from the thin
+            SVD of ``M``.
+        """
         s = self.singular_values
         if (
             self._states is not None
