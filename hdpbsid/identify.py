@@ -33,7 +33,6 @@ from hdpbsid.methods.registry import (
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
 from hdpbsid.refine.pem import (
     REFINE_CHOICES,
-    WARM_START,
     one_step_errors,
     refine_pem,
 )
@@ -291,7 +290,7 @@ def identify(
         )
     t_refine = time.perf_counter()
     if refine == "pem":
-        model = refine_pem(model, tm, um, ym)
+        model = refine_pem(model, tm, um, ym, warm_start=model.report.warm_start)
     elif refine == "auto":
         if several:
             do, rule, stats, start = False, "auto: several records, no refinement", None, model
@@ -301,32 +300,37 @@ def identify(
             do, rule, stats, start = refine_plan(model, tm, um, ym, uniform, errors=errors)
         if do:
             model = start  # in closed loop, offering the refinement a consistent start
-            refined = refine_pem(model, tm, um, ym)
+            refined = refine_pem(model, tm, um, ym, warm_start=model.report.warm_start)
             unsound = _refinement_problem(model, refined, tm, um, ym)
             if unsound:
                 rule += f"; the refined model is not kept: {unsound}"
-            elif refined.options.get("refine_converged", True):
+            elif refined.report.converged:
                 model = refined
             else:
                 # an iterate cut off by the evaluation budget is neither the subspace
                 # estimate nor a prediction-error one (docstring): keep the former
+                assert refined.report.refinement is not None
                 rule += (
-                    f"; the refinement did not converge in {refined.options['refine_nfev']} "
+                    f"; the refinement did not converge in {refined.report.refinement.nfev} "
                     f"evaluations: the unrefined model is kept"
                 )
         model.options["refine_rule"] = rule
         model.options["refine_statistics"] = stats
     # a starting point offered to the refinement (method="auto"), not part of the result
-    model.options.pop(WARM_START, None)
+    model.report = model.report.but(warm_start=None)
     if not several:
         _warn_if_fallback(model)
     if refine is not None:
-        model.options["refine_time"] = time.perf_counter() - t_refine
+        seconds = time.perf_counter() - t_refine
+        model.options["refine_time"] = seconds
+        model.report = model.report.but(timings={**model.report.timings, "refine": seconds})
     _set_levels(model, u0, y0, trend)
     model, op_info = signal_scale.undo(model, op_info)
     labels.apply(model, t if several else [(t, u, y)])
     model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
+    if model.report.method is None:
+        model.report = model.report.but(method=method)
     model.options["detrend"] = detrend
     model.options["operating_points"] = op_info
     model.options["requested_method"] = method
@@ -432,12 +436,14 @@ def _warn_if_fallback(model: StateSpaceModel) -> None:
     given)."""
     from hdpbsid.selection.auto import SelectionWarning
 
-    fallback = model.options.get("selection_fallback")
-    if fallback and model.options.get("refine") == "pem":
-        model.options["selection_fallback"] = (
+    fallback = model.report.selection_fallback
+    if fallback and model.report.refinement is not None:
+        text = (
             "the held-out selection's candidate, fitted on the estimation part (its refit "
             "on the whole record did not hold), started the refinement on the whole record"
         )
+        model.options["selection_fallback"] = text
+        model.report = model.report.but(selection_fallback=text)
     elif fallback:
         warnings.warn(fallback, SelectionWarning, stacklevel=3)
 

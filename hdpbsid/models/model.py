@@ -273,13 +273,6 @@ class _ModelBase:
         self.A, self.B, self.C, self.D, self.K = check_state_space(
             self.A, self.B, self.C, self.D, self.K
         )
-        if self.report is None:
-            self.report = IdentificationReport.from_options(self.options)
-        elif not isinstance(self.report, IdentificationReport):
-            raise TypeError(
-                "report must be a hdpbsid.models.report.IdentificationReport or None, got "
-                f"{type(self.report).__name__}"
-            )
         m, l = self.B.shape[1], self.C.shape[0]
         self.time_unit = check_label(self.time_unit, "time_unit")
         self.input_names = check_names(self.input_names, "input_names", m, "u")
@@ -408,6 +401,28 @@ def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     return h, h[first], inv.reshape(-1)
 
 
+def _get_report(self: _ModelBase) -> IdentificationReport:
+    """What the identification decided and why (:mod:`hdpbsid.models.report`): the report
+    the model was given, else the report of its ``options``."""
+    own = self.__dict__.get("_report")
+    return own if own is not None else IdentificationReport.from_options(self.options)
+
+
+def _set_report(self: _ModelBase, report: IdentificationReport | None) -> None:
+    if report is not None and not isinstance(report, IdentificationReport):
+        raise TypeError(
+            "report must be a hdpbsid.models.report.IdentificationReport or None, got "
+            f"{type(report).__name__}"
+        )
+    self.__dict__["_report"] = report
+
+
+# a property over the dataclass field: a model given no report (built by hand, by a
+# user's method that records its choices in options, or read from a model file written
+# before the report existed) reports its options, also after they change
+_ModelBase.report = property(_get_report, _set_report)  # type: ignore[assignment]
+
+
 @dataclass(repr=False)
 class StateSpaceModel(_ModelBase):
     """Continuous-time innovation model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
@@ -444,8 +459,9 @@ class StateSpaceModel(_ModelBase):
     input_names, output_names : list of str, optional
         Channel names (default ``u1, ...`` and ``y1, ...``).
     report : IdentificationReport or None, optional (keyword only)
-        What the identification decided and why (:mod:`hdpbsid.models.report`); default
-        the report of ``options`` (:meth:`IdentificationReport.from_options`).
+        What the identification decided and why (:mod:`hdpbsid.models.report`); without
+        one, ``model.report`` is the report of ``options``
+        (:meth:`IdentificationReport.from_options`).
     discrete : DiscreteModel or None, optional
         The sampled model this one was converted from, if any.
     sampling_interval : float or None, optional

@@ -451,6 +451,12 @@ class IdentificationReport:
         return f"IdentificationReport({', '.join(parts)})"
 
     @property
+    def converged(self) -> bool:
+        """False only when the model is a refinement that ran out of its evaluation budget
+        (:attr:`refinement`); True for a converged one and for an unrefined model."""
+        return self.refinement is None or self.refinement.converged
+
+    @property
     def hold(self) -> str | None:
         """The input hold's value, or None when the method did not report one."""
         return None if self.input_hold is None else self.input_hold.value
