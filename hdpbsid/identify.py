@@ -31,6 +31,7 @@ from hdpbsid.methods.registry import (
     get_method,
 )
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
+from hdpbsid.models.report import Choice
 from hdpbsid.refine.pem import (
     REFINE_CHOICES,
     one_step_errors,
@@ -234,6 +235,7 @@ def identify(
                                       progress=progress, **options)  # fmt: skip
         if labels is not None:
             labels.apply(model, [(t, u, y)])
+        model.report = _decided(model, order, model.report.refine_decision, {})
         return model
     func = get_method(method)
     require_joblib(options.get("n_jobs"))
@@ -242,6 +244,7 @@ def identify(
     several = isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple))
     signal_scale = _Scaling(t, u, y, several)
     t, u, y = signal_scale.apply(t, u, y)
+    t_method = time.perf_counter()
     if several:
         if u is not None or y is not None:
             raise ValueError(
@@ -289,6 +292,8 @@ def identify(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
         )
     t_refine = time.perf_counter()
+    timings = {"method": t_refine - t_method}
+    rule = "pem: asked for"
     if refine == "pem":
         model = refine_pem(model, tm, um, ym, warm_start=model.report.warm_start)
     elif refine == "auto":
@@ -321,9 +326,10 @@ def identify(
     if not several:
         _warn_if_fallback(model)
     if refine is not None:
-        seconds = time.perf_counter() - t_refine
-        model.options["refine_time"] = seconds
-        model.report = model.report.but(timings={**model.report.timings, "refine": seconds})
+        timings["refine"] = time.perf_counter() - t_refine
+        model.options["refine_time"] = timings["refine"]
+    decision = None if refine is None else Choice(model.report.refinement is not None, rule)
+    model.report = _decided(model, order, decision, timings)
     _set_levels(model, u0, y0, trend)
     model, op_info = signal_scale.undo(model, op_info)
     labels.apply(model, t if several else [(t, u, y)])
@@ -415,6 +421,26 @@ def _identify_delayed(
     return model
 
 
+def _decided(
+    model: StateSpaceModel, order: Any, decision: Choice[bool] | None, timings: dict[str, float]
+) -> Any:
+    """``model.report`` completed with what :func:`identify` decided itself: how the order
+    was chosen, whether the model returned is the refinement and why (``decision``), and
+    the seconds of the stages (``timings``)."""
+    report = model.report
+    if isinstance(order, int):
+        how = "given"
+    elif report.candidates:
+        how = "held-out selection (report.selection_rule)"
+    else:
+        how = "the method's rule (singular values)"
+    return report.but(
+        order=Choice(model.n, how),
+        refine_decision=decision,
+        timings={**report.timings, **timings},
+    )
+
+
 def _refinement_problem(
     start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
 ) -> str:
@@ -445,6 +471,7 @@ def _warn_if_fallback(model: StateSpaceModel) -> None:
         model.options["selection_fallback"] = text
         model.report = model.report.but(selection_fallback=text)
     elif fallback:
+        model.report = model.report.warned(fallback)
         warnings.warn(fallback, SelectionWarning, stacklevel=3)
 
 

@@ -381,6 +381,8 @@ class IdentificationReport:
     ----------
     method : str or None, optional
         The method that produced the model.
+    order : Choice of int or None, optional
+        The model's order and how it was chosen (set by :func:`hdpbsid.identify`).
     input_hold : Choice of str or None, optional
         How the inputs behave between samples (``"zoh"``, ``"foh"``, ...), and why
         (``"given"`` when the method was told).
@@ -400,6 +402,9 @@ class IdentificationReport:
         Set when the selection returned its candidate fitted on part of the record.
     refinement : Refinement or None, optional
         The prediction-error refinement the model is the result of, if any.
+    refine_decision : Choice of bool or None, optional
+        Whether the returned model is the refined one, and why (``refine=`` of
+        :func:`hdpbsid.identify`; None without a refinement asked for).
     warm_start : WarmStart or None, optional
         A starting point the next refinement of this model should be offered (not part of
         a finished identification's result).
@@ -418,6 +423,7 @@ class IdentificationReport:
     """
 
     method: str | None = None
+    order: Choice[int] | None = None
     input_hold: Choice[str] | None = None
     feedthrough: DirectTerm | None = None
     windows: Mapping[str, int] = field(default_factory=dict)
@@ -426,6 +432,7 @@ class IdentificationReport:
     selection_rule: str = ""
     selection_fallback: str = ""
     refinement: Refinement | None = None
+    refine_decision: Choice[bool] | None = None
     warm_start: WarmStart | None = None
     timings: Mapping[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
@@ -438,6 +445,8 @@ class IdentificationReport:
 
     def __repr__(self) -> str:
         parts = [f"method={self.method!r}"]
+        if self.order is not None:
+            parts.append(f"order {self.order.value}")
         if self.input_hold is not None:
             parts.append(f"input hold {self.input_hold.value} ({self.input_hold.reason})")
         if self.feedthrough is not None:

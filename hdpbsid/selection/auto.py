@@ -1387,14 +1387,14 @@ def _choose(
             + "; a longer record, a smaller max_order, or giving order= and method= "
             "explicitly may help"
         )
-    warnings.warn(
+    text = (
         f"no candidate model passes the checks on {where} (model.options['selection_rule'] "
         f"lists the failures); the best by the windowed held-out score is returned "
         f"({model.report.method or '?'} order {model.n}), check it on other data "
-        f"before use",
-        SelectionWarning,
-        stacklevel=4,
+        f"before use"
     )
+    model.report = model.report.warned(text)
+    warnings.warn(text, SelectionWarning, stacklevel=4)
     return (
         model,
         failures,

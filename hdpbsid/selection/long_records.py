@@ -75,7 +75,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.data.checks import check_data, check_positive_int
-from hdpbsid.models.report import Candidate
+from hdpbsid.models.report import Candidate, Choice
 
 if TYPE_CHECKING:
     from hdpbsid.data.chunked import ChunkedRecord
@@ -745,6 +745,7 @@ def _refine(
         info["refine_statistics"] = stats
         if not do:
             model.options["refine_rule"] = rule
+            model.report = model.report.but(refine_decision=Choice(False, rule))
             return model
     else:
         rule = "pem"
@@ -770,11 +771,13 @@ def _refine(
     info["refine_part"] = (a, b)
     info["refine_relative_std"] = rel
     if not converged:
-        model.options["refine_rule"] = (
+        text = (
             f"{rule}; the refinement on samples {a}..{b - 1} did not converge: the "
             f"whole-record subspace model is kept"
         )
+        model.options["refine_rule"] = text
         model.options["refine_time"] = time.perf_counter() - t0
+        model.report = model.report.but(refine_decision=Choice(False, text))
         return model
     # judge the two on a segment outside the refinement part
     n_val = plan.selection[1] - plan.selection[0]
@@ -799,15 +802,17 @@ def _refine(
                 "z": z,
             }
     out = refined if choice == "refined" else model
-    out.options["refine_rule"] = (
+    text = (
         f"{rule}; refined on samples {a}..{b - 1} ({b - a} of {rec.ns}: predicted relative "
         f"eigenvalue std {rel:.3g}, target {policy.refine_std:g}); kept: {choice} model "
         f"(held-out one-step prediction on samples {val_ab[0]}..{val_ab[1] - 1})"
     )
+    out.options["refine_rule"] = text
     out.options["refine_time"] = time.perf_counter() - t0
     if choice != "refined":
         out.options["refine"] = None
-        out.report = out.report.but(refinement=None)
+    kept = out.report.refinement if choice == "refined" else None
+    out.report = out.report.but(refinement=kept, refine_decision=Choice(choice == "refined", text))
     return out
 
 

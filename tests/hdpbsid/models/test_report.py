@@ -139,6 +139,7 @@ def test_the_direct_term_asked_for_is_reported_and_estimated() -> None:
     t, u, y = _record(1)
     with_d = hdpbsid.identify(t, u, y, 2, method="dt", feedthrough=True, refine=None)
     without = hdpbsid.identify(t, u, y, 2, method="dt", feedthrough=False, refine=None)
+    assert with_d.report.order == Choice(2, "given") and with_d.report.refine_decision is None
     assert with_d.report.feedthrough == DirectTerm(True, False)
     assert without.report.feedthrough == DirectTerm(False, False)
     assert np.all(without.D == 0.0)  # D = 0 exactly when not asked for
@@ -161,7 +162,9 @@ def test_the_selection_report_holds_the_one_standard_error_choice() -> None:
     assert scored and min(c.z for c in scored) <= 1.0
     assert {c.order for c in report.candidates} <= {1, 2, 3, 4}
     assert report.refinement is not None and report.refinement.nfev > 0
-    assert report.warm_start is None and "refine" in report.timings
+    assert report.refine_decision == Choice(True, "pem: asked for")
+    assert report.order is not None and report.order.value == 2 and not report.order.given
+    assert report.warm_start is None and set(report.timings) == {"method", "refine"}
 
 
 # -- old model files ------------------------------------------------------------------
