@@ -207,7 +207,11 @@ def identify(
 
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
-    arguments as passed here).
+    arguments as passed here).  ``model.report``
+    (:class:`~hdpbsid.models.report.IdentificationReport`) says, typed, what was decided
+    and why: the method, the order, the input hold and the direct term with their
+    reasons, the selection's candidates, the refinement and whether it was kept, the
+    seconds of the stages.
     Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
     ``detrend`` and bad data, and whatever the method raises.
     """
