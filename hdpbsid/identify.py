@@ -26,6 +26,7 @@ from hdpbsid.data.checks import (
     scale_exponents,
 )
 from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
+from hdpbsid.data.records import Dataset
 from hdpbsid.methods.registry import (
     IdentifyFunc,
     get_method,
@@ -97,8 +98,10 @@ def identify(
     ``t (Ns,)``, ``u (Ns, m)`` (or ``None`` for no input), ``y (Ns, l)`` follow
     :func:`scipy.signal.lsim` (1-D for one channel).  Several experiments of the same
     system: ``identify([(t1, u1, y1), (t2, u2, y2), ...], order=...)`` (``u``, ``y``
-    left out); every record is detrended on its own and the list is passed to the
-    method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
+    left out), or ``identify(dataset)`` with a :class:`~hdpbsid.data.records.Dataset`;
+    every record is detrended on its own, and the method is given them as one
+    :class:`~hdpbsid.data.records.Dataset`, checked once here.  ``method`` names an entry
+    of :data:`METHODS`: ``"auto"`` (the default) tries
     ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
     prediction error (:func:`hdpbsid.selection.auto.identify_auto`; with several records the
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
@@ -215,6 +218,10 @@ def identify(
     Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
     ``detrend`` and bad data, and whatever the method raises.
     """
+    if isinstance(t, Dataset):
+        if u is not None or y is not None:
+            raise ValueError("with a Dataset in t, leave u and y out (u=None, y=None)")
+        t = list(t)  # its records, checked again below with the list form's messages
     if delay is not None:
         return _identify_delayed(
             t, u, y, order, method, refine, detrend, delay,
@@ -265,7 +272,8 @@ def identify(
             records.append((tt, None if uu is None else ud, yd))
             levels.append(lv)
         options.pop("order_rule", None)
-        model = func(records, None, None, order=order, **options)
+        # made once here: the method takes the records as they are (as_records)
+        model = func(Dataset.of(records), None, None, order=order, **options)
         if feedthrough == "auto":
             model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
         if order is None:
