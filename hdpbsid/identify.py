@@ -69,6 +69,16 @@ def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
     return out
 
 
+def _listed(t: Any, u: Any, y: Any) -> Any:
+    """``t``, or the list form of a :class:`~hdpbsid.data.records.Dataset` given as ``t``
+    (its records, checked again with the list form's messages)."""
+    if not isinstance(t, Dataset):
+        return t
+    if u is not None or y is not None:
+        raise ValueError("with a Dataset in t, leave u and y out (u=None, y=None)")
+    return list(t)
+
+
 def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
     """Sample-weighted mean operating point ``sum N_i x0_i / sum N_i``."""
     w = np.array([lv.samples for lv in levels], dtype=float)
@@ -218,10 +228,7 @@ def identify(
     Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
     ``detrend`` and bad data, and whatever the method raises.
     """
-    if isinstance(t, Dataset):
-        if u is not None or y is not None:
-            raise ValueError("with a Dataset in t, leave u and y out (u=None, y=None)")
-        t = list(t)  # its records, checked again below with the list form's messages
+    t = _listed(t, u, y)
     if delay is not None:
         return _identify_delayed(
             t, u, y, order, method, refine, detrend, delay,
@@ -246,7 +253,7 @@ def identify(
                                       progress=progress, **options)  # fmt: skip
         if labels is not None:
             labels.apply(model, [(t, u, y)])
-        model.report = _decided(model, order, model.report.refine_decision, {})
+        model.report = _decided(model, order, method, model.report.refine_decision, {})
         return model
     func = get_method(method)
     require_joblib(options.get("n_jobs"))
@@ -305,34 +312,7 @@ def identify(
         )
     t_refine = time.perf_counter()
     timings = {"method": t_refine - t_method}
-    rule = "pem: asked for"
-    if refine == "pem":
-        model = refine_pem(model, tm, um, ym, warm_start=model.report.warm_start)
-    elif refine == "auto":
-        if several:
-            do, rule, stats, start = False, "auto: several records, no refinement", None, model
-        else:
-            uniform = is_uniform(check_time(tm, "t", min_samples=2))
-            errors = _one_step_errors(model, tm, um, ym) if uniform else None
-            do, rule, stats, start = refine_plan(model, tm, um, ym, uniform, errors=errors)
-        if do:
-            model = start  # in closed loop, offering the refinement a consistent start
-            refined = refine_pem(model, tm, um, ym, warm_start=model.report.warm_start)
-            unsound = _refinement_problem(model, refined, tm, um, ym)
-            if unsound:
-                rule += f"; the refined model is not kept: {unsound}"
-            elif refined.report.converged:
-                model = refined
-            else:
-                # an iterate cut off by the evaluation budget is neither the subspace
-                # estimate nor a prediction-error one (docstring): keep the former
-                assert refined.report.refinement is not None
-                rule += (
-                    f"; the refinement did not converge in {refined.report.refinement.nfev} "
-                    f"evaluations: the unrefined model is kept"
-                )
-        model.options["refine_rule"] = rule
-        model.options["refine_statistics"] = stats
+    model, rule = _refined(model, refine, several, tm, um, ym)
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.report = model.report.but(warm_start=None)
     if not several:
@@ -341,14 +321,12 @@ def identify(
         timings["refine"] = time.perf_counter() - t_refine
         model.options["refine_time"] = timings["refine"]
     decision = None if refine is None else Choice(model.report.refinement is not None, rule)
-    model.report = _decided(model, order, decision, timings)
+    model.report = _decided(model, order, method, decision, timings)
     _set_levels(model, u0, y0, trend)
     model, op_info = signal_scale.undo(model, op_info)
     labels.apply(model, t if several else [(t, u, y)])
     model.options.setdefault("refine", None)
     model.options.setdefault("method", method)
-    if model.report.method is None:
-        model.report = model.report.but(method=method)
     model.options["detrend"] = detrend
     model.options["operating_points"] = op_info
     model.options["requested_method"] = method
@@ -433,12 +411,54 @@ def _identify_delayed(
     return model
 
 
+def _refined(
+    model: StateSpaceModel, refine: Any, several: bool, t: Any, u: Any, y: Any
+) -> tuple[StateSpaceModel, str]:
+    """The refinement ``refine`` of :func:`identify` (its docstring) of ``model`` on the
+    record ``(t, u, y)``: the model returned and the rule that decided it."""
+    rule = "pem: asked for"
+    if refine == "pem":
+        return refine_pem(model, t, u, y, warm_start=model.report.warm_start), rule
+    if refine != "auto":
+        return model, rule
+    if several:
+        do, rule, stats, start = False, "auto: several records, no refinement", None, model
+    else:
+        uniform = is_uniform(check_time(t, "t", min_samples=2))
+        errors = _one_step_errors(model, t, u, y) if uniform else None
+        do, rule, stats, start = refine_plan(model, t, u, y, uniform, errors=errors)
+    if do:
+        model = start  # in closed loop, offering the refinement a consistent start
+        refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
+        unsound = _refinement_problem(model, refined, t, u, y)
+        if unsound:
+            rule += f"; the refined model is not kept: {unsound}"
+        elif refined.report.converged:
+            model = refined
+        else:
+            # an iterate cut off by the evaluation budget is neither the subspace
+            # estimate nor a prediction-error one (docstring): keep the former
+            assert refined.report.refinement is not None
+            rule += (
+                f"; the refinement did not converge in {refined.report.refinement.nfev} "
+                f"evaluations: the unrefined model is kept"
+            )
+    model.options["refine_rule"] = rule
+    model.options["refine_statistics"] = stats
+    return model, rule
+
+
 def _decided(
-    model: StateSpaceModel, order: Any, decision: Choice[bool] | None, timings: dict[str, float]
+    model: StateSpaceModel,
+    order: Any,
+    method: str,
+    decision: Choice[bool] | None,
+    timings: dict[str, float],
 ) -> Any:
-    """``model.report`` completed with what :func:`identify` decided itself: how the order
-    was chosen, whether the model returned is the refinement and why (``decision``), and
-    the seconds of the stages (``timings``)."""
+    """``model.report`` completed with what :func:`identify` decided itself: the method
+    asked for when the model's does not say, how the order was chosen, whether the model
+    returned is the refinement and why (``decision``), and the seconds of the stages
+    (``timings``)."""
     report = model.report
     if isinstance(order, int):
         how = "given"
@@ -447,6 +467,7 @@ def _decided(
     else:
         how = "the method's rule (singular values)"
     return report.but(
+        method=report.method if report.method is not None else method,
         order=Choice(model.n, how),
         refine_decision=decision,
         timings={**report.timings, **timings},

@@ -305,11 +305,7 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
     (2, (50, 1))
     """
     if isinstance(t, Dataset):
-        if u is not None or y is not None:
-            raise TypeError("u and y must be None when t is a Dataset (it carries its own)")
-        if all(r.ns >= min_samples for r in t.records):
-            return list(t.records)
-        return as_records(list(t), None, None, min_samples)  # the checks name the record
+        return _dataset_records(t, u, y, min_samples)
     if not is_record_list(t):
         if isinstance(t, list | tuple) and len(t) > 0 and isinstance(t[0], list | tuple):
             raise TypeError(
@@ -340,6 +336,16 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
                 )
         records.append(rec)
     return records
+
+
+def _dataset_records(data: Dataset, u: Any, y: Any, min_samples: int) -> list[Record]:
+    """The records of ``data`` as they are (checked when it was made), unless one is
+    shorter than ``min_samples`` (then the checks of the list form name it)."""
+    if u is not None or y is not None:
+        raise TypeError("u and y must be None when t is a Dataset (it carries its own)")
+    if all(r.ns >= min_samples for r in data.records):
+        return list(data.records)
+    return as_records(list(data), None, None, min_samples)
 
 
 def split_windows(record: Record, length: float, uniform: bool) -> list[Record]:

@@ -817,16 +817,7 @@ def refine_pem(
         )
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be 'zoh' or 'foh', got {hold!r}")
-    if warm_start is not None and not isinstance(warm_start, WarmStart):
-        raise TypeError(
-            "warm_start must be a hdpbsid.models.report.WarmStart or None, got "
-            f"{type(warm_start).__name__}"
-        )
-    holds = _candidate_holds(model, hold)
-    warm_hold = None if warm_start is None else warm_start.input_hold
-    if warm_hold in holds[1:]:
-        # the warm start's hold was chosen by a prediction-error fit: tried first
-        holds = (warm_hold, *[hd for hd in holds if hd != warm_hold])
+    holds = _warm_first(_candidate_holds(model, hold), _check_warm_start(warm_start))
     h = float((t[-1] - t[0]) / (t.size - 1))
     feedthrough = _fits_feedthrough(model)
     lay = _Layout(model.n, model.m, model.l, feedthrough)
@@ -853,8 +844,7 @@ def refine_pem(
         starts["Kalman gain, measurement noise only"] = lay.pack(A0, B0, C0, D0, K_oe)
     warm = _warm_start(model, warm_start, ys, us)
     if warm is not None and predicts(warm):
-        assert warm_start is not None
-        starts[str(warm_start.name or WARM_START_NAME)] = lay.pack(*warm)
+        starts[_warm_name(warm_start)] = lay.pack(*warm)
     if not starts:
         warnings.warn(
             "refine='pem': the initial model's sampled predictor is unstable and no "
@@ -930,11 +920,8 @@ def refine_pem(
         eigenvalues_before_refine=model.eigenvalues,
         eigenvalue_std=eig_std,
     )
-    given = _hold_was_given(model)
-    report = model.report.but(
-        input_hold=Choice(hold, "given" if given else "the smaller prediction-error cost"),
-        refinement=Refinement(converged, nfev, hold, k_start, (cost0, cost), eig_std),
-        warm_start=None,
+    report = _refined_report(
+        model, Refinement(converged, nfev, hold, k_start, (cost0, cost), eig_std)
     )
     return StateSpaceModel(
         A,
@@ -1071,6 +1058,39 @@ def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: A
         np.broadcast_to(inv_us[None, :], (n, m)),
         np.broadcast_to(ys[:, None], (l, n)),
         ys[:, None] * inv_us[None, :],
+    )
+
+
+def _check_warm_start(warm_start: Any) -> WarmStart | None:
+    """``warm_start`` of :func:`refine_pem`, checked."""
+    if warm_start is not None and not isinstance(warm_start, WarmStart):
+        raise TypeError(
+            "warm_start must be a hdpbsid.models.report.WarmStart or None, got "
+            f"{type(warm_start).__name__}"
+        )
+    return warm_start
+
+
+def _warm_first(holds: tuple[str, ...], warm_start: WarmStart | None) -> tuple[str, ...]:
+    """``holds`` with the warm start's hold first when it is among them: that hold was
+    chosen by a prediction-error fit."""
+    warm_hold = None if warm_start is None else warm_start.input_hold
+    if warm_hold in holds[1:]:
+        return (warm_hold, *[hd for hd in holds if hd != warm_hold])
+    return holds
+
+
+def _warm_name(warm_start: WarmStart | None) -> str:
+    """The name of the warm start among the starting points."""
+    return str((warm_start.name if warm_start is not None else None) or WARM_START_NAME)
+
+
+def _refined_report(model: StateSpaceModel, refinement: Refinement) -> Any:
+    """The report of the refinement of ``model``: its own, with the hold fitted (given
+    when the method was told it) and the refinement's outcome, and no warm start."""
+    why = "given" if _hold_was_given(model) else "the smaller prediction-error cost"
+    return model.report.but(
+        input_hold=Choice(refinement.hold, why), refinement=refinement, warm_start=None
     )
 
 

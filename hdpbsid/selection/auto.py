@@ -922,10 +922,7 @@ def _first_that_holds(
                 if with_d(chosen) and not honours_feedthrough(model) and model.m:
                     # judged as a structure with D: D is a parameter of the refinement
                     # (hdpbsid.refine.pem), whatever the method says of its own D
-                    own = model.report.feedthrough
-                    model.options["feedthrough_method"] = None if own is None else own.reason
-                    model.options["feedthrough"] = True
-                    model.report = model.report.but(feedthrough=DirectTerm(True, False))
+                    _with_d_asked(model)
                 if "p_rule" in chosen:
                     model.options["p_rule"] = chosen["p_rule"]
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
@@ -953,15 +950,7 @@ def _first_that_holds(
                 # the candidate refined on the estimation part: a starting point of the
                 # refinement of the refit (hdpbsid.refine.pem.refine_pem)
                 model.report = model.report.but(warm_start=warm_start_option(warm))
-            carried = chosen["model"].report.refit_settings
-            if carried is not None and carried.value:
-                model.options["refit_settings"] = carried.value
-                model.options["refit_settings_rule"] = (
-                    "chosen with the candidate on the held-out part (its options "
-                    f"{sorted(carried.value)}: {carried.reason}); "
-                    "given to the refit on the whole record"
-                )
-                model.report = model.report.but(refit_settings=carried)
+            _carry_refit_settings(model, chosen["model"])
             if kept:
                 model.options["refit_kept"] = kept
                 model.options["refit_kept_rule"] = (
@@ -971,6 +960,30 @@ def _first_that_holds(
             return model, failures, chosen
         failures.append(("refit", f"{name}: {how}", chosen))
     return None, failures, None
+
+
+def _with_d_asked(model: StateSpaceModel) -> None:
+    """Mark the refit ``model`` of a candidate judged as a structure with ``D`` as asked
+    for ``D``: a parameter of the refinement (:mod:`hdpbsid.refine.pem`), whatever the
+    method says of its own ``D`` (kept in ``options["feedthrough_method"]``)."""
+    own = model.report.feedthrough
+    model.options["feedthrough_method"] = None if own is None else own.reason
+    model.options["feedthrough"] = True
+    model.report = model.report.but(feedthrough=DirectTerm(True, False))
+
+
+def _carry_refit_settings(model: StateSpaceModel, candidate: StateSpaceModel) -> None:
+    """Report on the refit ``model`` the settings its ``candidate`` chose on the held-out
+    part and the refit was given (``report.refit_settings``)."""
+    carried = candidate.report.refit_settings
+    if carried is None or not carried.value:
+        return
+    model.options["refit_settings"] = carried.value
+    model.options["refit_settings_rule"] = (
+        "chosen with the candidate on the held-out part (its options "
+        f"{sorted(carried.value)}: {carried.reason}); given to the refit on the whole record"
+    )
+    model.report = model.report.but(refit_settings=carried)
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
