@@ -27,7 +27,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any, Generic, TypeVar
 
 import numpy as np
@@ -369,8 +368,10 @@ class WarmStart:
         )
 
 
-def _frozen(mapping: Mapping[str, Any] | None) -> Mapping[str, Any]:
-    return MappingProxyType(dict(mapping or {}))
+def _copied(mapping: Mapping[str, Any] | None) -> dict[str, Any]:
+    """A copy of ``mapping``: a report does not share a dictionary with its maker (a plain
+    dict, so that a report pickles, e.g. to and from the workers of a parallel sweep)."""
+    return dict(mapping or {})
 
 
 @dataclass(frozen=True)
@@ -438,8 +439,8 @@ class IdentificationReport:
     warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "windows", _frozen(self.windows))
-        object.__setattr__(self, "timings", _frozen(self.timings))
+        object.__setattr__(self, "windows", _copied(self.windows))
+        object.__setattr__(self, "timings", _copied(self.timings))
         object.__setattr__(self, "candidates", tuple(self.candidates))
         object.__setattr__(self, "warnings", tuple(self.warnings))
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import ast
 import copy
 import json
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -93,6 +94,23 @@ def test_the_repr_is_a_short_summary_without_arrays() -> None:
     text = repr(report)
     assert "array" not in text and "1." not in text and len(text) < 200, text
     assert "8 candidates" in text and "input hold foh (given)" in text
+
+
+def test_a_model_with_its_report_pickles() -> None:
+    """The workers of a parallel sweep (joblib) return models with their reports."""
+    report = IdentificationReport(
+        method="hermite",
+        windows={"p": 3},
+        refit_settings=Choice({"alpha": "basis"}, "4 * scale"),
+        candidates=(Candidate("hermite", 2, status="ok"),),
+        refinement=Refinement(True, 9, "zoh", "model K", (1.0, 0.5), np.ones(2)),
+        timings={"method": 0.5},
+    )
+    model = StateSpaceModel(A2, B2, C2, D2, np.zeros((2, 1)), report=report)
+    back = pickle.loads(pickle.dumps(model))
+    assert back.report.windows == {"p": 3} and back.report.refit_settings == report.refit_settings
+    assert back.report.candidates == report.candidates and back.report.timings == report.timings
+    np.testing.assert_array_equal(back.report.refinement.eigenvalue_std, np.ones(2))
 
 
 def test_a_report_is_changed_by_copy_only() -> None:
