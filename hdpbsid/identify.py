@@ -279,6 +279,7 @@ def identify(
             records.append((tt, None if uu is None else ud, yd))
             levels.append(lv)
         options.pop("order_rule", None)
+        tm = um = ym = None  # no single record to refine on
         # made once here: the method takes the records as they are (as_records)
         model = func(Dataset.of(records), None, None, order=order, **options)
         if feedthrough == "auto":
