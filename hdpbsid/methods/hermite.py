@@ -165,8 +165,8 @@ def identify_hermite(
       scale is judged by the same data as the order and the method, on all of them
       rather than on a third of a second split, and without refits; the model then
       carries the rule taken (``"basis"`` or ``"dynamics"``) in
-      ``report.refit_settings`` (and ``options["refit_settings"]``), which
-      ``method="auto"`` passes to the refit on the whole record, as it passes the order;
+      ``options["refit_settings"]``, which ``method="auto"`` passes to the refit on the
+      whole record, as it passes the order;
     * ``p``: AIC over 2..4 with ``p (m + q + l) <= N / 6``; ``f = p`` (closed-loop
       quadrotor at 20 dB: with 2..6 AIC picked 6, and p = 4 has about half the spread);
       an order needing ``f l >= n`` above that range gets ``p = ceil(n / l)`` within
