@@ -26,14 +26,15 @@ from hdpbsid.data.checks import (
     scale_exponents,
 )
 from hdpbsid.data.detrend import DETREND_CHOICES, Levels, detrend_record, warn_if_levels_dominate
+from hdpbsid.data.records import Dataset
 from hdpbsid.methods.registry import (
     IdentifyFunc,
     get_method,
 )
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels, scale_signals
+from hdpbsid.models.report import Choice
 from hdpbsid.refine.pem import (
     REFINE_CHOICES,
-    WARM_START,
     one_step_errors,
     refine_pem,
 )
@@ -68,6 +69,16 @@ def _check_records(records: Any) -> list[tuple[Any, Any, Any]]:
     return out
 
 
+def _listed(t: Any, u: Any, y: Any) -> Any:
+    """``t``, or the list form of a :class:`~hdpbsid.data.records.Dataset` given as ``t``
+    (its records, checked again with the list form's messages)."""
+    if not isinstance(t, Dataset):
+        return t
+    if u is not None or y is not None:
+        raise ValueError("with a Dataset in t, leave u and y out (u=None, y=None)")
+    return list(t)
+
+
 def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
     """Sample-weighted mean operating point ``sum N_i x0_i / sum N_i``."""
     w = np.array([lv.samples for lv in levels], dtype=float)
@@ -97,8 +108,10 @@ def identify(
     ``t (Ns,)``, ``u (Ns, m)`` (or ``None`` for no input), ``y (Ns, l)`` follow
     :func:`scipy.signal.lsim` (1-D for one channel).  Several experiments of the same
     system: ``identify([(t1, u1, y1), (t2, u2, y2), ...], order=...)`` (``u``, ``y``
-    left out); every record is detrended on its own and the list is passed to the
-    method.  ``method`` names an entry of :data:`METHODS`: ``"auto"`` (the default) tries
+    left out), or ``identify(dataset)`` with a :class:`~hdpbsid.data.records.Dataset`;
+    every record is detrended on its own, and the method is given them as one
+    :class:`~hdpbsid.data.records.Dataset`, checked once here.  ``method`` names an entry
+    of :data:`METHODS`: ``"auto"`` (the default) tries
     ``hermite``, ``laguerre``, ``legendre`` and ``dt`` and keeps the best by held-out
     prediction error (:func:`hdpbsid.selection.auto.identify_auto`; with several records the
     last one is held out); ``"hermite"`` is HD-PBSID as the thesis describes it;
@@ -207,10 +220,15 @@ def identify(
 
     The returned model's ``options`` hold every setting the method used plus
     ``"method"``, ``"refine"``, ``"detrend"`` and ``"requested_options"`` (the keyword
-    arguments as passed here).
+    arguments as passed here).  ``model.report``
+    (:class:`~hdpbsid.models.report.IdentificationReport`) says, typed, what was decided
+    and why: the method, the order, the input hold and the direct term with their
+    reasons, the selection's candidates, the refinement and whether it was kept, the
+    seconds of the stages.
     Raises ``ValueError`` for an unknown method (listing the known ones), an unknown
     ``detrend`` and bad data, and whatever the method raises.
     """
+    t = _listed(t, u, y)
     if delay is not None:
         return _identify_delayed(
             t, u, y, order, method, refine, detrend, delay,
@@ -235,6 +253,7 @@ def identify(
                                       progress=progress, **options)  # fmt: skip
         if labels is not None:
             labels.apply(model, [(t, u, y)])
+        model.report = _decided(model, order, method, model.report.refine_decision, {})
         return model
     func = get_method(method)
     require_joblib(options.get("n_jobs"))
@@ -243,6 +262,7 @@ def identify(
     several = isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple))
     signal_scale = _Scaling(t, u, y, several)
     t, u, y = signal_scale.apply(t, u, y)
+    t_method = time.perf_counter()
     if several:
         if u is not None or y is not None:
             raise ValueError(
@@ -259,7 +279,9 @@ def identify(
             records.append((tt, None if uu is None else ud, yd))
             levels.append(lv)
         options.pop("order_rule", None)
-        model = func(records, None, None, order=order, **options)
+        tm = um = ym = None  # no single record to refine on
+        # made once here: the method takes the records as they are (as_records)
+        model = func(Dataset.of(records), None, None, order=order, **options)
         if feedthrough == "auto":
             model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
         if order is None:
@@ -290,38 +312,17 @@ def identify(
             f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
         )
     t_refine = time.perf_counter()
-    if refine == "pem":
-        model = refine_pem(model, tm, um, ym)
-    elif refine == "auto":
-        if several:
-            do, rule, stats, start = False, "auto: several records, no refinement", None, model
-        else:
-            uniform = is_uniform(check_time(tm, "t", min_samples=2))
-            errors = _one_step_errors(model, tm, um, ym) if uniform else None
-            do, rule, stats, start = refine_plan(model, tm, um, ym, uniform, errors=errors)
-        if do:
-            model = start  # in closed loop, offering the refinement a consistent start
-            refined = refine_pem(model, tm, um, ym)
-            unsound = _refinement_problem(model, refined, tm, um, ym)
-            if unsound:
-                rule += f"; the refined model is not kept: {unsound}"
-            elif refined.options.get("refine_converged", True):
-                model = refined
-            else:
-                # an iterate cut off by the evaluation budget is neither the subspace
-                # estimate nor a prediction-error one (docstring): keep the former
-                rule += (
-                    f"; the refinement did not converge in {refined.options['refine_nfev']} "
-                    f"evaluations: the unrefined model is kept"
-                )
-        model.options["refine_rule"] = rule
-        model.options["refine_statistics"] = stats
+    timings = {"method": t_refine - t_method}
+    model, rule = _refined(model, refine, several, tm, um, ym)
     # a starting point offered to the refinement (method="auto"), not part of the result
-    model.options.pop(WARM_START, None)
+    model.report = model.report.but(warm_start=None)
     if not several:
         _warn_if_fallback(model)
     if refine is not None:
-        model.options["refine_time"] = time.perf_counter() - t_refine
+        timings["refine"] = time.perf_counter() - t_refine
+        model.options["refine_time"] = timings["refine"]
+    decision = None if refine is None else Choice(model.report.refinement is not None, rule)
+    model.report = _decided(model, order, method, decision, timings)
     _set_levels(model, u0, y0, trend)
     model, op_info = signal_scale.undo(model, op_info)
     labels.apply(model, t if several else [(t, u, y)])
@@ -411,6 +412,69 @@ def _identify_delayed(
     return model
 
 
+def _refined(
+    model: StateSpaceModel, refine: Any, several: bool, t: Any, u: Any, y: Any
+) -> tuple[StateSpaceModel, str]:
+    """The refinement ``refine`` of :func:`identify` (its docstring) of ``model`` on the
+    record ``(t, u, y)``: the model returned and the rule that decided it."""
+    rule = "pem: asked for"
+    if refine == "pem":
+        return refine_pem(model, t, u, y, warm_start=model.report.warm_start), rule
+    if refine != "auto":
+        return model, rule
+    if several:
+        do, rule, stats, start = False, "auto: several records, no refinement", None, model
+    else:
+        uniform = is_uniform(check_time(t, "t", min_samples=2))
+        errors = _one_step_errors(model, t, u, y) if uniform else None
+        do, rule, stats, start = refine_plan(model, t, u, y, uniform, errors=errors)
+    if do:
+        model = start  # in closed loop, offering the refinement a consistent start
+        refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
+        unsound = _refinement_problem(model, refined, t, u, y)
+        if unsound:
+            rule += f"; the refined model is not kept: {unsound}"
+        elif refined.report.converged:
+            model = refined
+        else:
+            # an iterate cut off by the evaluation budget is neither the subspace
+            # estimate nor a prediction-error one (docstring): keep the former
+            assert refined.report.refinement is not None
+            rule += (
+                f"; the refinement did not converge in {refined.report.refinement.nfev} "
+                f"evaluations: the unrefined model is kept"
+            )
+    model.options["refine_rule"] = rule
+    model.options["refine_statistics"] = stats
+    return model, rule
+
+
+def _decided(
+    model: StateSpaceModel,
+    order: Any,
+    method: str,
+    decision: Choice[bool] | None,
+    timings: dict[str, float],
+) -> Any:
+    """``model.report`` completed with what :func:`identify` decided itself: the method
+    asked for when the model's does not say, how the order was chosen, whether the model
+    returned is the refinement and why (``decision``), and the seconds of the stages
+    (``timings``)."""
+    report = model.report
+    if isinstance(order, int):
+        how = "given"
+    elif report.candidates:
+        how = "held-out selection (report.selection_rule)"
+    else:
+        how = "the method's rule (singular values)"
+    return report.but(
+        method=report.method if report.method is not None else method,
+        order=Choice(model.n, how),
+        refine_decision=decision,
+        timings={**report.timings, **timings},
+    )
+
+
 def _refinement_problem(
     start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
 ) -> str:
@@ -432,13 +496,16 @@ def _warn_if_fallback(model: StateSpaceModel) -> None:
     given)."""
     from hdpbsid.selection.auto import SelectionWarning
 
-    fallback = model.options.get("selection_fallback")
-    if fallback and model.options.get("refine") == "pem":
-        model.options["selection_fallback"] = (
+    fallback = model.report.selection_fallback
+    if fallback and model.report.refinement is not None:
+        text = (
             "the held-out selection's candidate, fitted on the estimation part (its refit "
             "on the whole record did not hold), started the refinement on the whole record"
         )
+        model.options["selection_fallback"] = text
+        model.report = model.report.but(selection_fallback=text)
     elif fallback:
+        model.report = model.report.warned(fallback)
         warnings.warn(fallback, SelectionWarning, stacklevel=3)
 
 

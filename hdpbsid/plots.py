@@ -211,10 +211,17 @@ def _default_frequencies(model: StateSpaceModel, t: NDArray[np.float64]) -> NDAr
     return np.logspace(np.log10(lo), np.log10(hi), 400)
 
 
+def _order_table(model: Any) -> list[dict[str, Any]] | None:
+    """The chosen method's candidates of the held-out selection as rows
+    (``model.report``), or ``None`` when the order was not chosen on held-out data."""
+    rows = model.report.order_candidates()
+    return [c.as_dict() for c in rows] if rows else None
+
+
 def order_criterion(
     table: Any,
 ) -> tuple[NDArray[np.int64], NDArray[np.float64], float | None] | None:
-    """The held-out criterion per order from a model's ``options["order_selection"]``.
+    """The held-out criterion per order from the candidates of a model's selection.
 
     Parameters
     ----------
@@ -273,7 +280,7 @@ def plot_order_criterion(model: StateSpaceModel, ax: Any) -> bool:
     Parameters
     ----------
     model : StateSpaceModel
-        The model, with its selection table in ``options["order_selection"]``.
+        The model, with its selection's candidates in ``model.report``.
     ax : matplotlib.axes.Axes
         Where to draw.
 
@@ -282,7 +289,7 @@ def plot_order_criterion(model: StateSpaceModel, ax: Any) -> bool:
     bool
         ``False`` (a note drawn instead) when the model carries no selection table.
     """
-    crit = order_criterion(model.options.get("order_selection"))
+    crit = order_criterion(_order_table(model))
     if crit is None:
         ax.text(
             0.5,
@@ -425,7 +432,7 @@ def plot_identification(
         ax.grid(True, alpha=0.3)
         if i == l - 1:
             ax.set_xlabel(f"time [{unit}] ({fit.kind})")
-    method = model.options.get("method", "?")
+    method = model.report.method or "?"
     fig.suptitle(title or f"hdpbsid: method {method!r}, order {model.n}")
     return fig
 
@@ -798,7 +805,5 @@ def plot_validation(
                 fontsize="small",
             )
             ax.set_xlabel("lag")
-    fig.suptitle(
-        title or f"Validation: method {model.options.get('method', '?')!r}, order {model.n}"
-    )
+    fig.suptitle(title or f"Validation: method {model.report.method or '?'!r}, order {model.n}")
     return fig

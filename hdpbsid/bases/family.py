@@ -20,7 +20,7 @@ A family is a small class; the Hermite (:mod:`hdpbsid.methods.hermite`), Laguerr
 (:mod:`hdpbsid.methods.laguerre`), finite-interval Sturm-Liouville
 (:mod:`hdpbsid.methods.sturm_liouville`) and Jacobi (:mod:`hdpbsid.methods.jacobi`)
 families are instances.  The choices a method makes (basis size, operator scale, input
-hold, past window) are values with a reason, :class:`Choice`.
+hold, past window) are values with a reason, :class:`~hdpbsid.models.report.Choice`.
 
 >>> Choice(3, "given")
 Choice(value=3, reason='given')
@@ -31,7 +31,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,27 +40,11 @@ from hdpbsid.bases.basis_domain import CoreOut, clip_basis_size, integrator_mode
 from hdpbsid.bases.settings import BasisSettings
 from hdpbsid.core.varx import LagOperator
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import Choice
 
 __all__ = ["Choice", "Integrator", "BasisFamily", "IntegratorFamily", "size_policy"]
 
 Array = NDArray[np.float64]
-T_ = TypeVar("T_")
-
-
-@dataclass(frozen=True)
-class Choice(Generic[T_]):
-    """A value chosen by a policy and the reason for it (reported beside the model).
-
-    Parameters
-    ----------
-    value : any
-        What was chosen (a basis size, an operator scale, an input hold, ...).
-    reason : str
-        Why: ``"given"`` for a user's value, else the rule and its inputs.
-    """
-
-    value: T_
-    reason: str
 
 
 @dataclass(frozen=True)

@@ -243,7 +243,7 @@ def alpha_from_dynamics(
     for _ in range(MAX_PASSES):
         lam = np.asarray(model.eigenvalues, dtype=complex)
         lam = lam[(np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)]
-        new = minimax_alpha(lam, int(model.options.get("p", 1)))
+        new = minimax_alpha(lam, int(model.report.windows.get("p", 1)))
         if new is None or abs(new - alpha) <= SETTLED * alpha:
             # settled: the current model's alpha is already within SETTLED of the one its
             # own modes ask for, so it is kept rather than refitted at the new value

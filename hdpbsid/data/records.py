@@ -24,7 +24,14 @@ from numpy.typing import NDArray
 
 from hdpbsid.data.checks import check_data, check_varies, is_uniform, time_resolution
 
-__all__ = ["Record", "as_records", "split_windows", "is_record_list", "relative_times"]
+__all__ = [
+    "Record",
+    "Dataset",
+    "as_records",
+    "split_windows",
+    "is_record_list",
+    "relative_times",
+]
 
 Array = NDArray[np.float64]
 
@@ -71,6 +78,119 @@ class Record:
         return float(self.t[-1])
 
 
+@dataclass(frozen=True)
+class Dataset:
+    """Several checked records of one system, made once and passed down whole.
+
+    Made at the front door (:func:`hdpbsid.identify` turns a list of ``(t_i, u_i, y_i)``
+    records into one after detrending them) and given to the methods in place of a list:
+    :func:`as_records` returns its records without checking them again.  Iterating it, or
+    indexing it with an integer, gives ``(t_i, u_i, y_i)`` tuples with the times relative
+    to each record's first sample (the absolute start is ``records[i].t0``), so code
+    written for the list form reads it unchanged; a slice is a :class:`Dataset`.
+
+    Parameters
+    ----------
+    records : tuple of Record
+        At least one record; every one with the channel counts of the first.
+
+    Attributes
+    ----------
+    m, l : int
+        Input and output channels.
+    uniform : bool
+        Whether every record is uniformly sampled (:func:`hdpbsid.data.checks.is_uniform`
+        of its relative times, which are ``k h`` exactly for a uniform record).
+
+    Raises
+    ------
+    TypeError
+        If an entry is not a :class:`Record`.
+    ValueError
+        If there is no record, or the channel counts differ.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> t = 100.0 + np.arange(50) * 0.1
+    >>> data = Dataset.of([(t, rng.standard_normal(50), rng.standard_normal(50))] * 3)
+    >>> len(data), data.m, data.l, data.uniform, data.records[0].t0
+    (3, 1, 1, True, 100.0)
+    >>> tt, uu, yy = data[0]
+    >>> float(tt[0]), uu.shape
+    (0.0, (50, 1))
+    """
+
+    records: tuple[Record, ...]
+
+    def __post_init__(self) -> None:
+        records = tuple(self.records)
+        if not records:
+            raise ValueError("records: a Dataset needs at least one record")
+        for i, r in enumerate(records):
+            if not isinstance(r, Record):
+                raise TypeError(f"records[{i}] must be a Record, got {type(r).__name__}")
+            if (r.u.shape[1], r.y.shape[1]) != (records[0].u.shape[1], records[0].y.shape[1]):
+                raise ValueError(
+                    f"records[{i}]: has {r.u.shape[1]} input(s) and {r.y.shape[1]} output(s), "
+                    f"records[0] has {records[0].u.shape[1]} and {records[0].y.shape[1]}"
+                )
+        object.__setattr__(self, "records", records)
+
+    @classmethod
+    def of(cls, t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> Dataset:
+        """The records of ``(t, u, y)`` or of a list of ``(t_i, u_i, y_i)``, checked once.
+
+        Parameters
+        ----------
+        t, u, y, min_samples
+            As :func:`as_records` takes them.
+
+        Returns
+        -------
+        Dataset
+
+        Raises
+        ------
+        TypeError, ValueError
+            As :func:`as_records` raises them.
+        """
+        return cls(tuple(as_records(t, u, y, min_samples)))
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def __iter__(self) -> Any:
+        return ((r.t, r.u, r.y) for r in self.records)
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, slice):
+            return Dataset(self.records[key])
+        r = self.records[key]
+        return (r.t, r.u, r.y)
+
+    def __repr__(self) -> str:
+        ns = ", ".join(str(r.ns) for r in self.records[:6])
+        more = ", ..." if len(self.records) > 6 else ""
+        return f"Dataset({len(self)} records of {ns}{more} samples, m={self.m}, l={self.l})"
+
+    @property
+    def m(self) -> int:
+        """Input channels."""
+        return int(self.records[0].u.shape[1])
+
+    @property
+    def l(self) -> int:  # noqa: E743 - l is the standard name for the number of outputs
+        """Output channels."""
+        return int(self.records[0].y.shape[1])
+
+    @property
+    def uniform(self) -> bool:
+        """Whether every record is uniformly sampled."""
+        return all(is_uniform(r.t) for r in self.records)
+
+
 def is_record_list(t: Any) -> bool:
     """Whether ``t`` is a list of ``(t_i, u_i, y_i)`` records rather than a time vector.
 
@@ -82,8 +202,8 @@ def is_record_list(t: Any) -> bool:
     Returns
     -------
     bool
-        True when ``t`` is a non-empty list or tuple whose first entry is a 3-sequence with
-        a 1-D first element.
+        True when ``t`` is a :class:`Dataset`, or a non-empty list or tuple whose first entry
+        is a 3-sequence with a 1-D first element.
 
     Examples
     --------
@@ -92,6 +212,8 @@ def is_record_list(t: Any) -> bool:
     >>> is_record_list(t), is_record_list([(t, t, t)])
     (False, True)
     """
+    if isinstance(t, Dataset):
+        return True
     if not isinstance(t, list | tuple) or len(t) == 0:
         return False
     first = t[0]
@@ -147,9 +269,10 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
 
     Parameters
     ----------
-    t : array_like, shape (Ns,), or list of (t_i, u_i, y_i)
+    t : array_like, shape (Ns,), list of (t_i, u_i, y_i), or Dataset
         One record's times, or several records (experiments on the same system, each with
-        its own time axis and initial state).
+        its own time axis and initial state); a :class:`Dataset`'s records are returned
+        as they are (checked when it was made).
     u : array_like, shape (Ns, m), or None, optional
         The input of one record; ``None`` with a list.
     y : array_like, shape (Ns, l), or None, optional
@@ -181,6 +304,8 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
     >>> len(recs), recs[0].u.shape
     (2, (50, 1))
     """
+    if isinstance(t, Dataset):
+        return _dataset_records(t, u, y, min_samples)
     if not is_record_list(t):
         if isinstance(t, list | tuple) and len(t) > 0 and isinstance(t[0], list | tuple):
             raise TypeError(
@@ -211,6 +336,16 @@ def as_records(t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> li
                 )
         records.append(rec)
     return records
+
+
+def _dataset_records(data: Dataset, u: Any, y: Any, min_samples: int) -> list[Record]:
+    """The records of ``data`` as they are (checked when it was made), unless one is
+    shorter than ``min_samples`` (then the checks of the list form name it)."""
+    if u is not None or y is not None:
+        raise TypeError("u and y must be None when t is a Dataset (it carries its own)")
+    if all(r.ns >= min_samples for r in data.records):
+        return list(data.records)
+    return as_records(list(data), None, None, min_samples)
 
 
 def split_windows(record: Record, length: float, uniform: bool) -> list[Record]:

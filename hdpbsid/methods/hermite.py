@@ -440,7 +440,9 @@ def _dynamics_rule(
     if held_out is not None:
         # the rule the held-out data chose, for the refit on a longer record (whose basis
         # rule gives another 4 * scale and whose modes ask for their own alpha)
-        model.options["refit_settings"] = {"alpha": "basis" if alpha == alpha0 else "dynamics"}
+        settings = {"alpha": "basis" if alpha == alpha0 else "dynamics"}
+        model.options["refit_settings"] = settings
+        model.report = model.report.but(refit_settings=Choice(settings, info["alpha_rule"]))
     return model
 
 

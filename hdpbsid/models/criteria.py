@@ -182,7 +182,7 @@ def windowed_simulation_error(
         Number of consecutive windows of ``Ns // windows`` samples (the remainder at the end
         is not scored).
     hold : {"zoh", "foh"} or None, optional
-        Input between samples; ``None``: the model's ``options["input_hold"]``, ``"zoh"`` if
+        Input between samples; ``None``: the model's ``report.hold``, ``"zoh"`` if
         it has none.
     weights : ndarray, shape (l,), optional
         Per-output weights of the squared residuals, default ``1 / var(y)`` (each output
@@ -341,7 +341,7 @@ def _windowed_error(
             f"states; use fewer windows or a longer record"
         )
     if hold is None:
-        hold = model.options.get("input_hold", "zoh")
+        hold = model.report.hold
         hold = hold if hold in ("zoh", "foh") else "zoh"
     h = float((t[-1] - t[0]) / (ns - 1))
     if not is_uniform(t):

@@ -46,6 +46,7 @@ from hdpbsid.models.assessment import Comparison, ResidualReport, fit_percent, r
 from hdpbsid.models.conversion import c2d, d2c, sampled_steps
 from hdpbsid.models.dead_time import check_delay, delayed_input_terms, pade, pade_order
 from hdpbsid.models.recursion import linear_recursion
+from hdpbsid.models.report import IdentificationReport
 from hdpbsid.models.uncertainty import ParameterCovariance
 from hdpbsid.runtime import library_call, user_stacklevel
 
@@ -266,6 +267,7 @@ class _ModelBase:
     time_unit: str = "s"
     input_names: list[str] | None = None
     output_names: list[str] | None = None
+    report: IdentificationReport | None = field(default=None, kw_only=True, compare=False)
 
     def __post_init__(self) -> None:
         self.A, self.B, self.C, self.D, self.K = check_state_space(
@@ -399,6 +401,28 @@ def _step_groups(t: Array) -> tuple[Array, Array, Array]:
     return h, h[first], inv.reshape(-1)
 
 
+def _get_report(self: _ModelBase) -> IdentificationReport:
+    """What the identification decided and why (:mod:`hdpbsid.models.report`): the report
+    the model was given, else the report of its ``options``."""
+    own = self.__dict__.get("_report")
+    return own if own is not None else IdentificationReport.from_options(self.options)
+
+
+def _set_report(self: _ModelBase, report: IdentificationReport | None) -> None:
+    if report is not None and not isinstance(report, IdentificationReport):
+        raise TypeError(
+            "report must be a hdpbsid.models.report.IdentificationReport or None, got "
+            f"{type(report).__name__}"
+        )
+    self.__dict__["_report"] = report
+
+
+# a property over the dataclass field: a model given no report (built by hand, by a
+# user's method that records its choices in options, or read from a model file written
+# before the report existed) reports its options, also after they change
+_ModelBase.report = property(_get_report, _set_report)  # type: ignore[assignment]
+
+
 @dataclass(repr=False)
 class StateSpaceModel(_ModelBase):
     """Continuous-time innovation model ``dx/dt = A x + B u + K e``, ``y = C x + D u + e``.
@@ -422,7 +446,8 @@ class StateSpaceModel(_ModelBase):
     singular_values : ndarray or None, optional
         The singular values of the SVD step the order was chosen from.
     options : dict, optional
-        Every setting the identification used, defaults included.
+        Every setting the identification used, defaults included: a record for printing
+        and the model file (the stages of the identification read ``report``).
     noise_covariance : ndarray, shape (l, l), or None, optional
         Innovation covariance estimate; ``None`` when unknown.
     u0, y0 : array_like, shape (m,) and (l,), optional
@@ -433,6 +458,10 @@ class StateSpaceModel(_ModelBase):
         Unit of the times ``t`` (default ``"s"``); the eigenvalues are in rad per that unit.
     input_names, output_names : list of str, optional
         Channel names (default ``u1, ...`` and ``y1, ...``).
+    report : IdentificationReport or None, optional (keyword only)
+        What the identification decided and why (:mod:`hdpbsid.models.report`); without
+        one, ``model.report`` is the report of ``options``
+        (:meth:`IdentificationReport.from_options`).
     discrete : DiscreteModel or None, optional
         The sampled model this one was converted from, if any.
     sampling_interval : float or None, optional
@@ -606,7 +635,7 @@ class StateSpaceModel(_ModelBase):
             )
 
     def __repr__(self) -> str:
-        method = self.options.get("method")
+        method = self.report.method if self.report is not None else None
         extra = f", method={method!r}" if method else ""
         if self.has_delay:
             extra += f", delay={np.array2string(self.delay, precision=6)} {self.time_unit}"
@@ -1347,6 +1376,8 @@ class DiscreteModel(_ModelBase):
     A, B, C, D, K : array_like
         Shapes ``(n, n)``, ``(n, m)``, ``(l, n)``, ``(l, m)``, ``(n, l)``.
     singular_values, options, noise_covariance, u0, y0, trend, time_unit, input_names, output_names
+        As in :class:`StateSpaceModel`.
+    report : IdentificationReport or None, optional (keyword only)
         As in :class:`StateSpaceModel`.
     dt : float, optional
         Sampling interval in ``time_unit`` (``1.0`` when the index is just a sample count).

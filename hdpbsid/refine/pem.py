@@ -92,6 +92,7 @@ from scipy.linalg import expm, solve_discrete_are
 from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import select_kernels
+from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
 from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
 from hdpbsid.refine.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
 from hdpbsid.runtime import library_call
@@ -161,9 +162,10 @@ DDLC_CONVERGED_NFEV = 3
 FTOL_STATUS = (2, 4)
 #: input holds the sampled predictor handles (module docstring)
 HOLDS = ("zoh", "foh")
-#: the option of the initial model that carries a further starting point
-#: (:func:`refine_pem`), and that start's name in ``options["refine_start"]``
-WARM_START = "refine_warm_start"
+#: the option that carried a further starting point in earlier versions (now the
+#: ``warm_start`` argument of :func:`refine_pem`), and the default name of that start in
+#: ``options["refine_start"]``
+WARM_START = WARM_START_OPTION
 WARM_START_NAME = "prediction-error fit on part of the record"
 #: a second starting point or the other input hold is fitted only when one Gauss-Newton
 #: step predicts a drop of the ``-2 log`` likelihood ratio (``n_r`` times the relative
@@ -296,7 +298,7 @@ def _candidate_holds(model: StateSpaceModel, hold: str | None) -> tuple[str, ...
     """
     if hold is not None:
         return (hold,)
-    own = model.options.get("input_hold")
+    own = model.report.hold
     own = own if own in HOLDS else "zoh"
     if model.m == 0 or _hold_was_given(model):
         return (own,)
@@ -425,8 +427,8 @@ def _modes_resolved(lay: _Layout, theta: Array, h: float) -> bool:
 
 def _hold_was_given(model: StateSpaceModel) -> bool:
     """Whether the method that produced ``model`` was told its input hold (the basis
-    methods record ``input_hold_rule="given"`` then)."""
-    return model.options.get("input_hold_rule") == "given"
+    methods report the hold's reason ``"given"`` then)."""
+    return model.report.input_hold is not None and model.report.input_hold.given
 
 
 def _kalman_gain(A: Array, C: Array, h: float, q: float) -> Array:
@@ -768,6 +770,7 @@ def refine_pem(
     *,
     hold: str | None = None,
     max_nfev: int | None = None,
+    warm_start: WarmStart | None = None,
 ) -> StateSpaceModel:
     """Prediction-error refinement of ``model`` on the record ``t, u, y`` (module docstring).
 
@@ -779,16 +782,17 @@ def refine_pem(
     together (default :data:`DEFAULT_MAX_NFEV`; the other hold, when fitted, has its own).
 
     Starting points: the model, and the model with the gain of a measurement-noise
-    Kalman predictor; and, when ``model.options["refine_warm_start"]`` holds the
-    matrices ``{"A", "B", "C", "D", "K"}`` of a model of the same dimensions (and its
-    ``"input_hold"``, then the hold fitted first: a prediction-error fit chose it), that model
-    (:data:`WARM_START`; ``method="auto"`` passes its chosen candidate refined on the
-    estimation part, :func:`hdpbsid.selection.auto.rejudge_refined`): a prediction-error fit
+    Kalman predictor; and, when ``warm_start`` (a
+    :class:`~hdpbsid.models.report.WarmStart`) holds the matrices of a model of the same
+    dimensions (and its ``input_hold``, then the hold fitted first: a prediction-error fit
+    chose it), that model (``method="auto"`` offers its chosen candidate refined on the
+    estimation part in ``model.report.warm_start``, which :func:`hdpbsid.identify` passes
+    here, :func:`hdpbsid.selection.auto.rejudge_refined`): a prediction-error fit
     on part of the record is a consistent estimate close to the fit on all of it, where
     one Gauss-Newton step is already efficient, and the screen of :func:`_fit_starts`
-    fits the most promising start first.  The option is not carried to the result; its
-    optional ``"name"`` names the start in ``options["refine_start"]`` (default: that of
-    a prediction-error fit on part of the record).
+    fits the most promising start first.  The start is not carried to the result; its
+    optional ``name`` names it in ``options["refine_start"]`` (default: that of a
+    prediction-error fit on part of the record).
 
     Returns a new :class:`StateSpaceModel` with the refined ``A, B, C, D, K`` and the
     initial model's options plus ``refine="pem"``, ``input_hold`` (the refined hold;
@@ -813,12 +817,7 @@ def refine_pem(
         )
     if hold is not None and hold not in HOLDS:
         raise ValueError(f"hold must be 'zoh' or 'foh', got {hold!r}")
-    holds = _candidate_holds(model, hold)
-    warm_option = model.options.get(WARM_START)
-    warm_hold = warm_option.get("input_hold") if isinstance(warm_option, dict) else None
-    if warm_hold in holds[1:]:
-        # the warm start's hold was chosen by a prediction-error fit: tried first
-        holds = (warm_hold, *[hd for hd in holds if hd != warm_hold])
+    holds = _warm_first(_candidate_holds(model, hold), _check_warm_start(warm_start))
     h = float((t[-1] - t[0]) / (t.size - 1))
     feedthrough = _fits_feedthrough(model)
     lay = _Layout(model.n, model.m, model.l, feedthrough)
@@ -843,10 +842,9 @@ def refine_pem(
         starts["model K"] = lay.pack(A0, B0, C0, D0, K0)
     if K_oe is not None:  # stable by construction (the Kalman predictor)
         starts["Kalman gain, measurement noise only"] = lay.pack(A0, B0, C0, D0, K_oe)
-    warm = _warm_start(model, ys, us)
+    warm = _warm_start(model, warm_start, ys, us)
     if warm is not None and predicts(warm):
-        name = warm_option.get("name") if isinstance(warm_option, dict) else None
-        starts[str(name or WARM_START_NAME)] = lay.pack(*warm)
+        starts[_warm_name(warm_start)] = lay.pack(*warm)
     if not starts:
         warnings.warn(
             "refine='pem': the initial model's sampled predictor is unstable and no "
@@ -906,7 +904,7 @@ def refine_pem(
     options.pop(WARM_START, None)
     options.update(
         input_hold=hold,
-        input_hold_before_refine=model.options.get("input_hold"),
+        input_hold_before_refine=model.report.hold,
         refine="pem",
         refine_hold=hold,
         refine_holds_tried=holds,
@@ -922,6 +920,9 @@ def refine_pem(
         eigenvalues_before_refine=model.eigenvalues,
         eigenvalue_std=eig_std,
     )
+    report = _refined_report(
+        model, Refinement(converged, nfev, hold, k_start, (cost0, cost), eig_std)
+    )
     return StateSpaceModel(
         A,
         B,
@@ -934,6 +935,7 @@ def refine_pem(
         parameter_covariance=ParameterCovariance(
             _abcd_factor(lay, Q, Jq, cost, ys, us), "refine_pem"
         ),
+        report=report,
     )
 
 
@@ -949,7 +951,7 @@ def one_step_errors(
     (``"zoh"`` when it has none of :data:`HOLDS`).  ``None`` when the sampled predictor
     is unstable (its errors grow without bound; ``predict`` overflows there)."""
     if hold is None:
-        hold = model.options.get("input_hold", "zoh")
+        hold = model.report.hold
         hold = hold if hold in HOLDS else "zoh"
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
@@ -969,7 +971,7 @@ def one_step_errors(
 
 def _fits_feedthrough(model: StateSpaceModel) -> bool:
     """Whether ``D`` is a parameter of the refinement: only when the method was asked for
-    a direct term (``options["feedthrough"]`` is the boolean ``True``).
+    a direct term (``model.report.feedthrough.asked``).
 
     A method that estimates ``D`` as part of its own algebra without being asked (the
     Laguerre-domain ``D_d``, reported as a string) does not make ``D`` a parameter: the
@@ -982,8 +984,8 @@ def _fits_feedthrough(model: StateSpaceModel) -> bool:
     with a free ``D``: 150-4000 % eigenvalue errors at a one-step cost half that of a
     long VARX, i.e. below the innovation variance).
     """
-    fd = model.options.get("feedthrough", False)
-    return isinstance(fd, bool | np.bool_) and bool(fd) and model.m > 0
+    fd = model.report.feedthrough
+    return fd is not None and fd.asked and model.m > 0
 
 
 def _ddlc_basis(lay: _Layout, theta: Array) -> Array:
@@ -1059,25 +1061,72 @@ def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: A
     )
 
 
-def warm_start_option(model: StateSpaceModel) -> dict[str, Any]:
-    """The value of ``options["refine_warm_start"]`` (:func:`refine_pem`) that offers
-    ``model`` (a prediction-error fit on part of the record) as a starting point: its
-    matrices and its input hold."""
-    return {
-        **{k: getattr(model, k) for k in "ABCDK"},
-        "input_hold": model.options.get("input_hold"),
-    }
+def _check_warm_start(warm_start: Any) -> WarmStart | None:
+    """``warm_start`` of :func:`refine_pem`, checked."""
+    if warm_start is not None and not isinstance(warm_start, WarmStart):
+        raise TypeError(
+            "warm_start must be a hdpbsid.models.report.WarmStart or None, got "
+            f"{type(warm_start).__name__}"
+        )
+    return warm_start
 
 
-def _warm_start(model: StateSpaceModel, ys: Array, us: Array) -> tuple[Array, ...] | None:
-    """The scaled ``(A, B, C, D, K)`` of ``model.options[WARM_START]`` (:func:`refine_pem`),
-    or None when there is none or its shapes are not the model's."""
-    warm = model.options.get(WARM_START)
-    if not isinstance(warm, dict):
+def _warm_first(holds: tuple[str, ...], warm_start: WarmStart | None) -> tuple[str, ...]:
+    """``holds`` with the warm start's hold first when it is among them: that hold was
+    chosen by a prediction-error fit."""
+    warm_hold = None if warm_start is None else warm_start.input_hold
+    if warm_hold in holds[1:]:
+        return (warm_hold, *[hd for hd in holds if hd != warm_hold])
+    return holds
+
+
+def _warm_name(warm_start: WarmStart | None) -> str:
+    """The name of the warm start among the starting points."""
+    return str((warm_start.name if warm_start is not None else None) or WARM_START_NAME)
+
+
+def _refined_report(model: StateSpaceModel, refinement: Refinement) -> Any:
+    """The report of the refinement of ``model``: its own, with the hold fitted (given
+    when the method was told it) and the refinement's outcome, and no warm start."""
+    why = "given" if _hold_was_given(model) else "the smaller prediction-error cost"
+    return model.report.but(
+        input_hold=Choice(refinement.hold, why), refinement=refinement, warm_start=None
+    )
+
+
+def warm_start_option(model: StateSpaceModel) -> WarmStart:
+    """The ``warm_start`` of :func:`refine_pem` that offers ``model`` (a prediction-error
+    fit on part of the record) as a starting point: its matrices and its input hold.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The starting model.
+
+    Returns
+    -------
+    WarmStart
+
+    Examples
+    --------
+    >>> from hdpbsid import StateSpaceModel
+    >>> m = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.5]])
+    >>> warm_start_option(m)
+    WarmStart(n=1, input_hold=None, name=None)
+    """
+    return WarmStart.of(model, model.report.hold)
+
+
+def _warm_start(
+    model: StateSpaceModel, warm: WarmStart | None, ys: Array, us: Array
+) -> tuple[Array, ...] | None:
+    """The scaled ``(A, B, C, D, K)`` of the warm start ``warm`` (:func:`refine_pem`), or
+    None when there is none or its shapes are not the model's."""
+    if warm is None:
         return None
     try:
-        wm = StateSpaceModel(*(np.asarray(warm[k], dtype=float) for k in "ABCDK"))
-    except (KeyError, ValueError, TypeError):
+        wm = StateSpaceModel(*(np.asarray(getattr(warm, k), dtype=float) for k in "ABCDK"))
+    except (ValueError, TypeError):
         return None
     if (wm.n, wm.m, wm.l) != (model.n, model.m, model.l):
         return None

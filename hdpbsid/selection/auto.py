@@ -116,6 +116,7 @@ from hdpbsid.models.criteria import (
     windowed_simulation_error,
 )
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import Candidate, Choice, DirectTerm
 from hdpbsid.runtime import library_call
 from hdpbsid.selection.feedthrough import (
     check_feedthrough,
@@ -253,10 +254,20 @@ def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dic
     included; the refit re-estimates that structure on more data (as it keeps the
     order), instead of asking the data again for a setting the judgement did not test.
     A method lists a setting here when choosing it again would be costly (``dt``'s
-    past-window criterion: a QR over up to 200 lags, most of a refit's time).
+    past-window criterion: a QR over up to 200 lags, most of a refit's time); the
+    settings that can be kept are the core's windows ``"p"`` and ``"f"``, which the
+    model reports (``model.report.windows``).
     """
     keys = getattr(func, "refit_keeps", ())
-    return {k: model.options[k] for k in keys if k not in given and k in model.options}
+    used = model.report.windows
+    return {k: used[k] for k in keys if k not in given and k in used}
+
+
+def _refit_settings(model: StateSpaceModel) -> dict[str, Any]:
+    """The settings ``model``'s method chose on held-out data for a refit of it
+    (``model.report.refit_settings``; empty when none)."""
+    chosen = model.report.refit_settings
+    return {} if chosen is None else dict(chosen.value)
 
 
 def settle_candidate(
@@ -286,7 +297,13 @@ def settle_candidate(
         err = None
     if err is None or not err.finite:
         # the first-pass fit stands; its refit on the whole record gets its settings
-        row["model"].options["refit_settings"] = {k: v for k, v in first.items() if k not in given}
+        carried = {k: v for k, v in first.items() if k not in given}
+        row["model"].options["refit_settings"] = carried
+        row["model"].report = row["model"].report.but(
+            refit_settings=Choice(
+                carried, "the first pass's (its fit judged on held-out data failed)"
+            )
+        )
         return row
     row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
     if "p_rule" in row:
@@ -346,7 +363,7 @@ def _given(row: dict[str, Any], options: dict) -> dict[str, Any]:
 
 def _fit_at_order(
     func: Any, rec: tuple, order: int, settings: dict[str, Any], order_given: bool
-) -> tuple[StateSpaceModel, dict[str, Any]]:
+) -> tuple[StateSpaceModel, dict[str, Any], str]:
     """``func`` fitted on ``rec`` at ``order`` with ``settings``, and the settings it took
     beyond them.  When the user gave the order (``order_given``) and the method's default
     past window cannot reach it on this basis (:class:`~hdpbsid.bases.basis_domain.
@@ -354,20 +371,22 @@ def _fit_at_order(
     the ``f l >= n`` rows the order needs), the smallest window that reaches it is
     passed, if the VARX is determined there: a less precise model of the order asked
     for instead of none.  In a sweep over orders the rule stands, so that an imprecise
-    large order does not compete with the orders the basis supports."""
+    large order does not compete with the orders the basis supports.  The third value is
+    the reason for the window passed (empty when none was)."""
     try:
-        return func(*rec, order=order, **settings), {}
+        return func(*rec, order=order, **settings), {}, ""
     except BasisTooSmall as exc:
         if not order_given or "p" in settings or exc.p_needed > exc.p_max:
             raise
         extra = {"p": exc.p_needed}
         model = func(*rec, order=order, **settings, **extra)
-        model.options["p_rule"] = (
+        rule = (
             f"p = {exc.p_needed}, the smallest window that reaches the order asked for, "
             f"above the precision rule (the VARX is determined up to p = {exc.p_max}; "
             f"less precise than a basis that holds the default window)"
         )
-        return model, extra
+        model.options["p_rule"] = rule
+        return model, extra, rule
 
 
 def _fit_one(
@@ -387,10 +406,10 @@ def _fit_one(
             warnings.simplefilter("ignore")
             func = get_method(method)
             settings = sweep_settings(func, options.get(method, {}))
-            model, extra = _fit_at_order(func, est, order, settings, order_given)
+            model, extra, p_rule = _fit_at_order(func, est, order, settings, order_given)
             if extra:
                 row["settings"] = extra
-                row["p_rule"] = model.options["p_rule"]
+                row["p_rule"] = p_rule
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -482,7 +501,7 @@ def _refine_and_score(
         warnings.simplefilter("ignore")
         try:
             fit = refine_pem(model, *est)
-            if fit.options.get("refine_converged", True):
+            if fit.report.converged:
                 refined = fit
         except (ValueError, np.linalg.LinAlgError):
             pass
@@ -898,17 +917,12 @@ def _first_that_holds(
                 func = get_method(chosen["method"])
                 given = _given(chosen, opts)
                 kept = refit_keeps(func, chosen["model"], given)
-                settings = {
-                    **given,
-                    **kept,
-                    **chosen["model"].options.get("refit_settings", {}),
-                }
+                settings = {**given, **kept, **_refit_settings(chosen["model"])}
                 model = func(*whole, order=chosen["order"], **settings)
                 if with_d(chosen) and not honours_feedthrough(model) and model.m:
                     # judged as a structure with D: D is a parameter of the refinement
                     # (hdpbsid.refine.pem), whatever the method says of its own D
-                    model.options["feedthrough_method"] = model.options.get("feedthrough")
-                    model.options["feedthrough"] = True
+                    _with_d_asked(model)
                 if "p_rule" in chosen:
                     model.options["p_rule"] = chosen["p_rule"]
                 holds, how = refit_holds(model, chosen["criterion"], val, windows)
@@ -931,19 +945,12 @@ def _first_that_holds(
         if holds:
             warm = chosen.get("refined_model")
             if warm is not None:
-                from hdpbsid.refine.pem import WARM_START, warm_start_option
+                from hdpbsid.refine.pem import warm_start_option
 
                 # the candidate refined on the estimation part: a starting point of the
                 # refinement of the refit (hdpbsid.refine.pem.refine_pem)
-                model.options[WARM_START] = warm_start_option(warm)
-            carried = chosen["model"].options.get("refit_settings")
-            if carried:
-                model.options["refit_settings"] = carried
-                model.options["refit_settings_rule"] = (
-                    "chosen with the candidate on the held-out part (its options "
-                    f"{sorted(carried)}: {chosen['model'].options.get('alpha_rule', '')}); "
-                    "given to the refit on the whole record"
-                )
+                model.report = model.report.but(warm_start=warm_start_option(warm))
+            _carry_refit_settings(model, chosen["model"])
             if kept:
                 model.options["refit_kept"] = kept
                 model.options["refit_kept_rule"] = (
@@ -953,6 +960,30 @@ def _first_that_holds(
             return model, failures, chosen
         failures.append(("refit", f"{name}: {how}", chosen))
     return None, failures, None
+
+
+def _with_d_asked(model: StateSpaceModel) -> None:
+    """Mark the refit ``model`` of a candidate judged as a structure with ``D`` as asked
+    for ``D``: a parameter of the refinement (:mod:`hdpbsid.refine.pem`), whatever the
+    method says of its own ``D`` (kept in ``options["feedthrough_method"]``)."""
+    own = model.report.feedthrough
+    model.options["feedthrough_method"] = None if own is None else own.reason
+    model.options["feedthrough"] = True
+    model.report = model.report.but(feedthrough=DirectTerm(True, False))
+
+
+def _carry_refit_settings(model: StateSpaceModel, candidate: StateSpaceModel) -> None:
+    """Report on the refit ``model`` the settings its ``candidate`` chose on the held-out
+    part and the refit was given (``report.refit_settings``)."""
+    carried = candidate.report.refit_settings
+    if carried is None or not carried.value:
+        return
+    model.options["refit_settings"] = carried.value
+    model.options["refit_settings_rule"] = (
+        "chosen with the candidate on the held-out part (its options "
+        f"{sorted(carried.value)}: {carried.reason}); given to the refit on the whole record"
+    )
+    model.report = model.report.but(refit_settings=carried)
 
 
 def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -1206,7 +1237,7 @@ def _feedthrough_report(model: StateSpaceModel, ok: list[dict[str, Any]], why: s
     direct term, why candidates with ``D`` were (not) offered, and at its order the
     distance of the best candidates with and without ``D`` from the best candidate, in
     the standard errors of the one-standard-error rule (``z``; it admits up to 1)."""
-    has_d = honours_feedthrough(model) and bool(model.options.get("feedthrough"))
+    has_d = honours_feedthrough(model) and model.report.feedthrough.estimated
     text = f"auto: {why}; returned: {'D estimated' if has_d else 'D = 0'}"
     at_n = [r for r in ok if r["order"] == model.n and r.get("z") is not None]
     z = {d: min((r["z"] for r in at_n if with_d(r) == d), default=None) for d in (False, True)}
@@ -1369,14 +1400,14 @@ def _choose(
             + "; a longer record, a smaller max_order, or giving order= and method= "
             "explicitly may help"
         )
-    warnings.warn(
+    text = (
         f"no candidate model passes the checks on {where} (model.options['selection_rule'] "
         f"lists the failures); the best by the windowed held-out score is returned "
-        f"({model.options.get('method', '?')} order {model.n}), check it on other data "
-        f"before use",
-        SelectionWarning,
-        stacklevel=4,
+        f"({model.report.method or '?'} order {model.n}), check it on other data "
+        f"before use"
     )
+    model.report = model.report.warned(text)
+    warnings.warn(text, SelectionWarning, stacklevel=4)
     return (
         model,
         failures,
@@ -1433,6 +1464,7 @@ def _warn_if_much_worse(
         f"model.options['selection_rule'] lists every candidate that was rejected"
     )
     model.options["selection_warning"] = text
+    model.report = model.report.warned(text)
     warnings.warn(text, SelectionWarning, stacklevel=5)
 
 
@@ -1451,6 +1483,7 @@ def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> Sta
         f"or giving those settings explicitly, lets the whole record be used"
     )
     model.options["selection_fallback"] = text
+    model.report = model.report.but(selection_fallback=text)
     if warn:
         warnings.warn(text, SelectionWarning, stacklevel=5)
     return model
@@ -1523,10 +1556,13 @@ def identify_auto(
         judge_feedthrough=judge,
         order_given=order is not None,
     )
-    chosen = model.options.get("method")
+    chosen = model.report.method
     model.options["selection"] = table
     model.options["order_selection"] = [r for r in table if r["method"] == chosen]
     model.options["selection_rule"] = rule
+    model.report = model.report.but(
+        candidates=tuple(Candidate.from_dict(r) for r in table), selection_rule=rule
+    )
     return model
 
 
@@ -1583,6 +1619,9 @@ def select_order(
         return model
     model.options["order_selection"] = table
     model.options["order_selection_rule"] = rule
+    model.report = model.report.but(
+        candidates=tuple(Candidate.from_dict(r) for r in table), selection_rule=rule
+    )
     return model
 
 

@@ -60,6 +60,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from hdpbsid.models.assessment import correlation
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import WarmStart
 
 __all__ = [
     "AR_ORDER",
@@ -154,7 +155,7 @@ def feedback_statistics(
     for name, v in (("lags", lags), ("ar_order", ar_order)):
         if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
-    hold = model.options.get("input_hold", "zoh")
+    hold = model.report.hold
     hold = hold if hold in ("zoh", "foh") else "zoh"
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
@@ -290,7 +291,7 @@ def closed_loop_start(
     another local minimum.  PBSID on the samples (``method="dt"``) is consistent in closed
     loop (Chiuso, Automatica 43 (2007); the predictor form removes the feedback's
     correlation), so its model is near the minimum on a long enough record.  It is
-    offered as the refinement's warm start (:data:`hdpbsid.refine.pem.WARM_START`) at
+    offered as the refinement's warm start (``report.warm_start``) at
     the model's order and direct term; the refinement's screen fits the most promising
     start first (:func:`hdpbsid.refine.pem.refine_pem`), so a start that is not better
     costs one evaluation.  Nothing changes in open loop (the basis estimate is consistent
@@ -311,13 +312,12 @@ def closed_loop_start(
     -------
     StateSpaceModel
         ``model`` itself when nothing is offered (also when ``dt`` cannot fit the
-        record), else a copy with ``options["refine_warm_start"]`` set.
+        record), else a copy with ``report.warm_start`` set (the ``warm_start`` its
+        caller passes to :func:`~hdpbsid.refine.pem.refine_pem`).
     """
-    from hdpbsid.refine.pem import WARM_START
-
     if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
         return model
-    if model.options.get("method") == CLOSED_LOOP_START_METHOD or WARM_START in model.options:
+    if model.report.method == CLOSED_LOOP_START_METHOD or model.report.warm_start is not None:
         return model
     start = _closed_loop_model(model, t, u, y)
     return model if start is None else _offer(model, start)
@@ -328,7 +328,7 @@ def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateS
     it cannot be fitted (no continuous-time model of that order) or differs in shape."""
     from hdpbsid.methods.registry import get_method
 
-    feedthrough = bool(model.options.get("feedthrough", False))
+    feedthrough = model.report.feedthrough is not None and model.report.feedthrough.estimated
     try:
         with np.errstate(all="ignore"):
             start = get_method(CLOSED_LOOP_START_METHOD)(
@@ -341,13 +341,7 @@ def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateS
 
 def _offer(model: StateSpaceModel, start: StateSpaceModel) -> StateSpaceModel:
     """A copy of ``model`` offering ``start`` as the refinement's warm start."""
-    from hdpbsid.refine.pem import WARM_START
-
     offered = copy.copy(model)
     offered.options = dict(model.options)
-    offered.options[WARM_START] = {
-        **{k: getattr(start, k) for k in "ABCDK"},
-        "input_hold": None,
-        "name": CLOSED_LOOP_START_NAME,
-    }
+    offered.report = model.report.but(warm_start=WarmStart.of(start, None, CLOSED_LOOP_START_NAME))
     return offered

@@ -75,11 +75,12 @@ def check_feedthrough(value: Any) -> bool | str:
 
 def honours_feedthrough(model: StateSpaceModel) -> bool:
     """Whether the method that fitted ``model`` takes ``feedthrough=`` as the choice of
-    ``D``: it reports the boolean in ``options["feedthrough"]`` (the PBSID core does).  A
-    method that estimates ``D`` as part of its own algebra whatever it is asked (the
-    Laguerre-domain ``D_d``, reported as a text) has no candidate with ``D`` to add."""
-    fd = model.options.get("feedthrough")
-    return isinstance(fd, bool | np.bool_) and model.m > 0
+    ``D``: it reports the boolean ``feedthrough`` option (the PBSID core does), typed in
+    ``model.report.feedthrough``.  A method that estimates ``D`` as part of its own
+    algebra whatever it is asked (the Laguerre-domain ``D_d``, reported as a text:
+    ``by_method``) has no candidate with ``D`` to add."""
+    fd = model.report.feedthrough
+    return fd is not None and not fd.by_method and model.m > 0
 
 
 def takes_feedthrough(method: str) -> bool:

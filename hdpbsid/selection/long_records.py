@@ -64,7 +64,6 @@ the passes over the record.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import time
 import warnings
@@ -76,6 +75,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.data.checks import check_data, check_positive_int
+from hdpbsid.models.report import Candidate, Choice
 
 if TYPE_CHECKING:
     from hdpbsid.data.chunked import ChunkedRecord
@@ -617,7 +617,7 @@ def identify_long(
                 *seg, order=order, methods=list(plan.methods), refined=refine is not None, **opts
             )
         t_sel = time.perf_counter() - t_sel
-        method, n = chosen.options["method"], chosen.n
+        method, n = chosen.report.method, chosen.n
         # 4. the whole record
         bar.stage(f"{method} order {n} on {rec.ns} samples")
         model = _whole_record(method, n, rec, reading, chosen, opts, plan, bar)
@@ -629,11 +629,12 @@ def identify_long(
         bar.stage("done")
     finally:
         bar.close()
-    table = list(chosen.options.get("selection") or [])
+    table = [c.as_dict() for c in chosen.report.candidates]
     table += [_skip_row(s) for s in plan.skipped]
+    rule = f"{plan.rule}; {chosen.report.selection_rule}"
     model.options["selection"] = table
     model.options["order_selection"] = [r for r in table if r["method"] == method]
-    model.options["selection_rule"] = f"{plan.rule}; {chosen.options.get('selection_rule', '')}"
+    model.options["selection_rule"] = rule
     model.options["long_record"] = {
         **plan.as_dict(),
         "policy": {k: v for k, v in dataclasses.asdict(policy).items() if not k.startswith("_")},
@@ -641,10 +642,15 @@ def identify_long(
         "time": time.perf_counter() - t_start,
         **info,
     }
-    model.options.pop("refine_warm_start", None)
     _set_levels(model, u0, y0, trend)
     model.options.setdefault("refine", None)
     model.options["method"] = method
+    model.report = model.report.but(
+        method=method,
+        candidates=tuple(Candidate.from_dict(r) for r in table),
+        selection_rule=rule,
+        warm_start=None,
+    )
     model.options["detrend"] = detrend
     model.options["operating_points"] = op_info
     model.options["requested_method"] = "auto"
@@ -697,10 +703,11 @@ def _whole_record(
         model.options["long_record_fit"] = "streamed core (hdpbsid.methods.chunked)"
         return model
     func = get_method(method)
+    refit = chosen.report.refit_settings
     settings = {
         **given,
         **refit_keeps(func, chosen, given),
-        **chosen.options.get("refit_settings", {}),
+        **({} if refit is None else refit.value),
     }
     t, u, y = _segment(rec, 0, rec.ns)
     with warnings.catch_warnings():
@@ -726,7 +733,7 @@ def _refine(
     """The refinement on a bounded part and the choice between it and ``model``
     (module docstring); what was done goes to ``info``."""
     from hdpbsid.models.criteria import choose_smallest_adequate, default_windows
-    from hdpbsid.refine.pem import WARM_START, refine_pem, warm_start_option
+    from hdpbsid.refine.pem import refine_pem, warm_start_option
     from hdpbsid.selection.auto import score_model
     from hdpbsid.selection.feedback import refine_decision
 
@@ -738,37 +745,39 @@ def _refine(
         info["refine_statistics"] = stats
         if not do:
             model.options["refine_rule"] = rule
+            model.report = model.report.but(refine_decision=Choice(False, rule))
             return model
     else:
         rule = "pem"
     # the selection's candidate refined on its estimation part: a second starting point
-    start = _with_warm(model, chosen.options.get(WARM_START))
+    start, warm = model, chosen.report.warm_start
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        refined = refine_pem(start, *part)
+        refined = refine_pem(start, *part, warm_start=warm)
         rel = _relative_std(refined)
         parts = [b - a]
-        converged = refined is not start and refined.options.get("refine_converged", True)
+        converged = refined is not start and refined.report.converged
         want = int(np.ceil((b - a) * (rel / policy.refine_std) ** 2)) if converged else 0
         size = min(rec.ns, policy.max_refine_samples, want)
         if size > b - a:
             # the part whose predicted std meets the target: N s^2 / target^2 samples
             a = (rec.ns - size) // 2
             b = a + size
-            start = _with_warm(model, warm_start_option(refined))
-            again = refine_pem(start, *_segment(rec, a, b))
-            if again is not start and again.options.get("refine_converged", True):
+            again = refine_pem(start, *_segment(rec, a, b), warm_start=warm_start_option(refined))
+            if again is not start and again.report.converged:
                 refined, rel = again, _relative_std(again)
             parts.append(b - a)
     info["refine_samples"] = parts
     info["refine_part"] = (a, b)
     info["refine_relative_std"] = rel
     if not converged:
-        model.options["refine_rule"] = (
+        text = (
             f"{rule}; the refinement on samples {a}..{b - 1} did not converge: the "
             f"whole-record subspace model is kept"
         )
+        model.options["refine_rule"] = text
         model.options["refine_time"] = time.perf_counter() - t0
+        model.report = model.report.but(refine_decision=Choice(False, text))
         return model
     # judge the two on a segment outside the refinement part
     n_val = plan.selection[1] - plan.selection[0]
@@ -793,32 +802,24 @@ def _refine(
                 "z": z,
             }
     out = refined if choice == "refined" else model
-    out.options["refine_rule"] = (
+    text = (
         f"{rule}; refined on samples {a}..{b - 1} ({b - a} of {rec.ns}: predicted relative "
         f"eigenvalue std {rel:.3g}, target {policy.refine_std:g}); kept: {choice} model "
         f"(held-out one-step prediction on samples {val_ab[0]}..{val_ab[1] - 1})"
     )
+    out.options["refine_rule"] = text
     out.options["refine_time"] = time.perf_counter() - t0
     if choice != "refined":
         out.options["refine"] = None
+    kept = out.report.refinement if choice == "refined" else None
+    out.report = out.report.but(refinement=kept, refine_decision=Choice(choice == "refined", text))
     return out
-
-
-def _with_warm(model: Any, warm: dict[str, Any] | None) -> Any:
-    """A copy of ``model`` offering ``warm`` (:func:`~hdpbsid.refine.pem.warm_start_option`
-    of a prediction-error fit) to the refinement as a starting point."""
-    from hdpbsid.refine.pem import WARM_START
-
-    start = copy.copy(model)
-    start.options = dict(model.options)
-    if warm is not None:
-        start.options[WARM_START] = warm
-    return start
 
 
 def _relative_std(model: Any) -> float:
     """Largest ``eigenvalue_std / |eigenvalue|`` of a refined model (inf without one)."""
-    std = model.options.get("eigenvalue_std")
+    refinement = model.report.refinement
+    std = None if refinement is None else refinement.eigenvalue_std
     if std is None:
         return float("inf")
     lam = np.abs(np.asarray(model.eigenvalues))

@@ -243,11 +243,10 @@ def summarize(records: list[dict[str, Any]], s: dict[str, Any]) -> list[dict[str
 def _order_rows(model: Any) -> list[dict[str, Any]] | None:
     """The order choice's table as plain rows (order, held-out error, its distance to the
     best in standard errors), or ``None`` when the order was not chosen on held-out data."""
-    table = None if model is None else model.options.get("order_selection")
-    if not isinstance(table, list):
+    rows = () if model is None else model.report.order_candidates()
+    if not rows:
         return None
-    keys = ("method", "order", "error", "z")
-    return [{k: r.get(k) for k in keys} for r in table if isinstance(r, dict)]
+    return [{"method": r.method, "order": r.order, "error": r.error, "z": r.z} for r in rows]
 
 
 def _fmt(z: list[float]) -> str:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdpbsid.data.records import Dataset
 from hdpbsid.identify import identify
 from hdpbsid.methods.dt import identify_dt
 from hdpbsid.methods.registry import METHODS
@@ -128,8 +129,9 @@ def test_list_of_one_record_equals_the_record(ball_and_beam) -> None:
     t, u, y = ball_and_beam
 
     def stacked(t, u, y, order=None, **options):
-        # stand-in for a method that accepts a list: one record only here
-        assert u is None and y is None and isinstance(t, list)
+        # stand-in for a method that accepts several records (identify gives them as a
+        # Dataset, checked once): one record only here
+        assert u is None and y is None and isinstance(t, Dataset)
         (tt, uu, yy), *rest = t
         assert not rest
         return identify_dt(tt, uu, yy, order=order, **options)

@@ -294,11 +294,12 @@ def test_the_other_hold_is_fitted_from_the_starts_when_the_data_want_it() -> Non
 
 def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum() -> None:
     """A prediction-error fit on part of the record offered as a further start
-    (options["refine_warm_start"], as method="auto" offers its chosen candidate refined
-    on the estimation part): the screen ranks it with the method's own starts, the fit
-    reaches the same minimum as without it, and the option is not carried to the
-    result; a start of other dimensions is ignored."""
-    from hdpbsid.refine.pem import WARM_START, WARM_START_NAME, warm_start_option
+    (``warm_start=``, as method="auto" offers its chosen candidate refined on the
+    estimation part): the screen ranks it with the method's own starts, the fit reaches
+    the same minimum as without it, and the start is not carried to the result; a start
+    of other dimensions is ignored."""
+    from hdpbsid.models.report import WarmStart
+    from hdpbsid.refine.pem import WARM_START_NAME, warm_start_option
 
     rng = np.random.default_rng(3)
     t = np.arange(0.0, 40.0, 0.01)
@@ -307,13 +308,9 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     model = identify(t, u, y, 2, method="hermite", refine=None, detrend=None)
     cold = refine_pem(model, t, u, y)
     part = refine_pem(model, t[:2667], u[:2667], y[:2667])  # the first two thirds
-    warm_model = StateSpaceModel(
-        model.A, model.B, model.C, model.D, model.K, options=dict(model.options)
-    )
-    warm_model.options[WARM_START] = warm_start_option(part)
-    warm = refine_pem(warm_model, t, u, y)
+    warm = refine_pem(model, t, u, y, warm_start=warm_start_option(part))
     assert WARM_START_NAME in warm.options["refine_start_predicted"]
-    assert WARM_START not in warm.options
+    assert warm.report.warm_start is None
     # the same minimum: the costs of the two fits (each whitened by its own first
     # start's residuals, so compared through the models' eigenvalues) agree within a
     # tenth of the reported standard deviation (the fits stop at STALL_SD = 0.1 of it)
@@ -321,12 +318,6 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     gap = eigenvalue_errors(warm.eigenvalues, cold.eigenvalues) * np.abs(cold.eigenvalues)
     assert np.max(gap) <= 0.2 * std, (gap, std)
     # a start of another order is not a start of this model: ignored
-    bad = StateSpaceModel(model.A, model.B, model.C, model.D, model.K, options=dict(model.options))
-    bad.options[WARM_START] = {
-        "A": np.eye(3),
-        "B": np.ones((3, 1)),
-        "C": np.ones((1, 3)),
-        "D": np.zeros((1, 1)),
-        "K": np.zeros((3, 1)),
-    }
-    assert WARM_START_NAME not in refine_pem(bad, t, u, y).options["refine_start_predicted"]
+    bad = WarmStart(np.eye(3), np.ones((3, 1)), np.ones((1, 3)), np.zeros((1, 1)), np.zeros((3, 1)))
+    out = refine_pem(model, t, u, y, warm_start=bad)
+    assert WARM_START_NAME not in out.options["refine_start_predicted"]

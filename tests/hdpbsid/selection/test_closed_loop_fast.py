@@ -13,7 +13,7 @@ from scipy.signal import place_poles
 from hdpbsid import identify
 from hdpbsid.models.metrics import eigenvalue_errors, match_eigenvalues
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.refine.pem import WARM_START, refine_pem
+from hdpbsid.refine.pem import refine_pem
 from hdpbsid.selection.feedback import closed_loop_start
 
 TS = 0.004  # 250 Hz
@@ -103,6 +103,6 @@ def test_no_start_offered_in_open_loop_or_without_the_statistics(record) -> None
     for stats in (None, {"feedback": False}):
         assert closed_loop_start(model, t, u, y, stats) is model
     offered = closed_loop_start(model, t, u - u.mean(0), y - y.mean(0), {"feedback": True})
-    assert offered is not model and WARM_START in offered.options
-    assert WARM_START not in model.options  # the caller's model is not changed
+    assert offered is not model and offered.report.warm_start is not None
+    assert model.report.warm_start is None  # the caller's model is not changed
     np.testing.assert_array_equal(offered.A, model.A)
