@@ -158,19 +158,24 @@ def identify(
     *System Identification*, 2nd ed., ch. 8-9); the measured effect is in the
     benchmark pages (``hdpbsid study table1``).
 
-    ``feedthrough`` (a keyword among ``options``): not given (the default), ``D = 0``
-    for every method that has the setting; ``"auto"`` decides the
+    ``feedthrough`` (a keyword among ``options``): ``"auto"`` (the default) decides the
     direct term ``D`` from the data (:mod:`hdpbsid.selection.feedthrough`), judged like
-    the order: candidates with and without ``D`` fitted on the first two thirds and
-    scored on the last third, ranked by order and then without ``D`` before with it, and
-    the one-standard-error rule takes the first within one standard error of the best;
-    with the method and the order given, the two candidates of that order
-    (:func:`hdpbsid.selection.auto.decide_feedthrough`).  Candidates with ``D`` are
-    offered only when the feedback test finds no loop: with a controller that reacts
-    within the sample, ``D`` is not identifiable from ``u`` and ``y``, so in closed loop
-    ``D = 0`` unless ``feedthrough=True`` says the loop has at least one sample of delay.
-    Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
-    keep ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
+    the order on the last third of the record: the best candidates with and without
+    ``D`` (each by the one-standard-error rule among its own orders and methods; with
+    the method and the order given, the two candidates of that order,
+    :func:`hdpbsid.selection.auto.decide_feedthrough`) are compared, and ``D`` is
+    estimated only when it is better by more than two standard errors of the paired
+    difference on both the one-step prediction error and the simulation error, and no
+    worse over the whole held-out simulation
+    (:func:`hdpbsid.selection.feedthrough.judge_direct_term`).  Candidates with ``D`` are
+    offered in open loop, and in closed loop when the input is predictable from the
+    past by more than half its variance: a controller reacting within the sample makes
+    ``D`` unidentifiable, no test on ``u`` and ``y`` tells its path from a direct term,
+    and there the simulation criterion rejects the ``D`` such a controller would
+    produce (derivation in :mod:`hdpbsid.selection.feedthrough`); otherwise ``D = 0``
+    and ``feedthrough=True`` says the loop has at least one sample of delay.  Several
+    records, non-uniform samples, ``order_rule="svd"`` and the long-record path keep
+    ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
     ``True``/``False`` estimate ``D`` or keep it at zero, as given.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
@@ -221,9 +226,8 @@ def identify(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
-    given_ft = options.pop("feedthrough", None)
-    feedthrough = None if given_ft is None else check_feedthrough(given_ft)
-    if feedthrough is not None and feedthrough != "auto":
+    feedthrough = check_feedthrough(options.pop("feedthrough", "auto"))
+    if feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     in_memory = isinstance(t, np.ndarray | list | tuple)
