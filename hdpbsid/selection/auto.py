@@ -1724,6 +1724,5 @@ def decide_feedthrough(
         bound=bound,
     )
     return choice.value, (
-        f"auto: {why}; at order {order} on the held-out part ({windows} windows): "
-        f"{choice.text()}"
+        f"auto: {why}; at order {order} on the held-out part ({windows} windows): {choice.text()}"
     )

@@ -22,23 +22,27 @@ a direct term in open loop as well.  What the data do tell:
   causal ARX predictor, :func:`arx_residuals`).  In open loop only the plant links
   ``u_k`` to ``y_k``: ``D`` is offered;
 * in closed loop, how much a controller's instantaneous path can imitate a direct term.
-  Let ``w_k = u_k - E[u_k | past u, y]`` be the input's innovation, ``v`` the output
-  noise (variance ``s_v^2``) and ``u_k = -F y_k + ...`` a controller reacting within the
-  sample, with no direct term in the plant.  ``u_k`` meets ``v_k`` only through ``w_k``,
-  so ``cov(v_k, u_k) = -F s_v^2`` and ``F^2 s_v^2 <= var(w)``.  The ``D`` that best
-  simulates ``y`` from ``u`` (the output-error fit, which the prediction-error fit is
-  with white output noise) is ``D_oe = cov(v_k, u_k) / var(u)``, and it lowers the
-  mean squared simulation error ``s_v^2`` by ``D_oe^2 var(u) = s_v^2 F^2 s_v^2 /
-  var(u) <= s_v^2 var(w) / var(u)``: a relative improvement of at most ``1 - rho``,
-  ``rho = 1 - var(w) / var(u)`` the share of the input that its past predicts
-  (:func:`input_predictability`; model errors in the candidate without ``D`` only
-  enlarge the denominator).  A real direct term improves it by ``D^2 var(u)``,
-  whatever the controller.  So in closed loop ``D`` must also improve the held-out
-  simulation error by a larger share than ``1 - rho`` (:func:`feedthrough_offered`
-  returns that bound, :func:`judge_direct_term` applies it).  With a nearly white input
-  (``rho`` near 0) that is out of reach: the data cannot tell a direct term from the
-  controller's path, and ``feedthrough=True`` is the user's statement that the loop
-  has at least one sample of delay.
+  Let ``v`` be white output noise (variance ``s_v^2``) and ``u_k = -F y_k + ...`` a
+  controller reacting within the sample, with no direct term in the plant.  A model's
+  simulated output is ``y_k = G(past u) + D u_k``; the ``D`` that best simulates ``y``
+  (the output-error fit, which the prediction-error fit is with white output noise) is
+  ``D_oe = cov(v_k, a_k) / var(a_k)``, ``a_k`` the part of ``u_k`` that the model's
+  other regressors (past inputs) do not explain, and it lowers the mean squared
+  simulation error ``s_v^2`` by the share ``cov(v_k, a_k)^2 / (s_v^2 var(a_k))``.  Now
+  ``u_k`` meets ``v_k`` only through ``-F v_k``, which neither past ``u`` nor past ``y``
+  predicts: it is part of the innovation ``w_k`` of ``u_k`` given past ``u`` *and*
+  ``y``, so ``cov(v_k, a_k)^2 = F^2 s_v^4 <= s_v^2 var(w)``; and ``var(a_k) >=
+  var(w^u)``, the innovation of ``u_k`` given its own past only.  So the share is at
+  most ``var(w) / var(w^u)`` (:func:`controller_share`; model errors in the candidate
+  without ``D`` only enlarge the denominator), while a real direct term lowers the
+  error by ``D^2 var(a_k)``, whatever the controller.  In closed loop ``D`` must
+  therefore lower the held-out simulation error by a larger share
+  (:func:`feedthrough_offered` returns it, :func:`judge_direct_term` applies it).  The
+  stronger the loop, the more of the input the past outputs predict and the smaller
+  the share; with weak feedback it nears 1 and only a direct term that dominates the
+  noise is told from a controller's path -- the data cannot do better, and
+  ``feedthrough=True`` is the user's statement that the loop has at least one sample
+  of delay.
 
 How ``D`` is chosen (:func:`judge_direct_term`, :class:`FeedthroughChoice`).  The best
 candidates with and without ``D`` (each chosen among its own structure's orders and
@@ -77,7 +81,7 @@ __all__ = [
     "FEEDTHROUGH_Z",
     "FeedthroughReason",
     "FeedthroughChoice",
-    "input_predictability",
+    "controller_share",
     "paired_z",
     "judge_direct_term",
     "check_feedthrough",
@@ -275,32 +279,33 @@ def _grows(model: StateSpaceModel) -> bool:
     return model.n > 0 and bool(np.any(np.linalg.eigvals(model.A).real > 0.0))
 
 
-def input_predictability(u: Any, y: Any, lags: int) -> float:
-    """``rho = 1 - var(w) / var(u)``: the share of the input's variance that a strictly
-    causal least-squares VARX of ``u_k`` on ``u`` and ``y`` at lags ``1..lags``
-    predicts, for the least predictable input channel (module docstring).  ``0`` for a
-    constant input.
+def controller_share(u: Any, y: Any, lags: int) -> float:
+    """``var(w) / var(w^u)``, the largest share of the simulation error that a
+    controller reacting within the sample can let a free ``D`` explain (module
+    docstring): ``w`` the residuals of the least-squares VARX of ``u_k`` on ``u`` and
+    ``y`` at lags ``1..lags``, ``w^u`` those of the AR of ``u_k`` on its own lags
+    ``1..lags``; the largest over the input channels, at most 1.  ``1`` for a channel the
+    AR already predicts exactly (nothing is left to tell the paths apart).
 
     Examples
     --------
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
-    >>> w = rng.standard_normal((4000, 1))
     >>> y = rng.standard_normal((4000, 1))
-    >>> round(input_predictability(w, y, 4), 1)  # white: nothing predictable
-    0.0
-    >>> u = np.cumsum(w, axis=0) * 0.01 + 0.05 * w  # mostly its own past
-    >>> input_predictability(u, y, 4) > 0.9
-    True
+    >>> u = np.r_[0.0, y[:-1, 0]][:, None] + 0.1 * rng.standard_normal((4000, 1))
+    >>> round(controller_share(u, y, 4), 2)  # u_k = y_{k-1} + small: past y predicts u
+    0.01
+    >>> round(controller_share(rng.standard_normal((4000, 1)), y, 4), 1)  # open loop
+    1.0
     """
     u = np.asarray(u, dtype=float)
     w = arx_residuals(y, u, lags)[lags:]  # u_k from its own and y's past
-    uc = u[lags:] - u[lags:].mean(axis=0)
-    var_u = np.sum(uc**2, axis=0)
-    shares = [
-        1.0 - float(np.sum(w[:, j] ** 2)) / float(var_u[j]) for j in range(u.shape[1]) if var_u[j] > 0
-    ]
-    return min(shares, default=0.0)
+    wu = arx_residuals(np.zeros((u.shape[0], 0)), u, lags)[lags:]  # from its own past
+    shares = []
+    for j in range(u.shape[1]):
+        den = float(np.sum(wu[:, j] ** 2))
+        shares.append(min(float(np.sum(w[:, j] ** 2)) / den, 1.0) if den > 0 else 1.0)
+    return max(shares, default=1.0)
 
 
 def check_feedthrough(value: Any) -> bool | str:
@@ -376,8 +381,8 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, 
     (module docstring), the reason, and the share by which ``D`` must lower the held-out
     simulation error (:func:`judge_direct_term`'s ``bound``).  Offered for a uniformly
     sampled record with an input.  When the feedback test finds no loop the share is
-    0; when it finds one, it is ``1 - rho`` (:func:`input_predictability`), the most a
-    controller reacting within the sample could give.  The feedback test correlates the
+    0; when it finds one, it is :func:`controller_share`, the most a controller
+    reacting within the sample could give.  The feedback test correlates the
     residuals of a strictly causal least-squares ARX predictor (:func:`arx_residuals`,
     lags up to :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per
     regressor) with the prewhitened input.  ``model``: a candidate of the record (its
@@ -402,15 +407,15 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, 
             lags = max(min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1]))), 1)
             errors = arx_residuals(u, y, lags)
             st = feedback_statistics(model, t, u, y, errors=errors)
-            rho = input_predictability(u, y, lags) if st["feedback"] else 1.0
+            share = controller_share(u, y, lags) if st["feedback"] else 0.0
     except (ValueError, np.linalg.LinAlgError):
         return False, "not judged: the feedback test cannot be computed", 0.0
     test = f"feedback test S = {st['statistic']:.4g} vs {st['threshold']:.4g}"
     if not st["feedback"]:
         return True, f"offered: open loop ({test})", 0.0
-    bound = float(np.clip(1.0 - rho, 0.0, 1.0)) if np.isfinite(rho) else 1.0
+    bound = float(share) if np.isfinite(share) else 1.0
     return True, (
-        f"offered: closed loop ({test}); the input's innovation is {bound:.2f} of its "
-        f"variance, the most by which a controller reacting within the sample could "
-        f"lower the simulation error"
+        f"offered: closed loop ({test}); a controller reacting within the sample could "
+        f"let D explain at most {bound:.2f} of the simulation error (the input's "
+        f"innovation given past u and y over that given past u)"
     ), bound  # fmt: skip
