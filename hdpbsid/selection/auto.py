@@ -1165,8 +1165,9 @@ def _feedthrough_candidates(
 ) -> tuple[list[dict[str, Any]], str, float]:
     """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
     the reason they are or are not offered and the closed-loop bound on the simulation
-    gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with ``chosen``, the candidate without ``D`` the
-    one-standard-error rule takes, on the estimation part): every built-in method of
+    gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
+    ``chosen``, the candidate without ``D`` the one-standard-error rule takes, on the
+    estimation part): every built-in method of
     ``swept`` (:func:`~hdpbsid.selection.feedthrough.takes_feedthrough`) whose candidates
     do not estimate ``D`` of their own (:func:`~hdpbsid.selection.feedthrough.
     honours_feedthrough`) is fitted with ``feedthrough=True`` at every order of the
