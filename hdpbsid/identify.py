@@ -164,7 +164,7 @@ def identify(
     ``D`` (each by the one-standard-error rule among its own orders and methods; with
     the method and the order given, the two candidates of that order,
     :func:`hdpbsid.selection.auto.decide_feedthrough`) are compared, and ``D`` is
-    estimated only when it is better by more than two standard errors of the paired
+    estimated only when it is better by more than three standard errors of the paired
     difference on both the one-step prediction error and the simulation error, and no
     worse over the whole held-out simulation
     (:func:`hdpbsid.selection.feedthrough.judge_direct_term`).  Candidates with ``D`` are

@@ -1202,10 +1202,9 @@ def _choose_structure(
 ) -> tuple[list[dict[str, Any]], str]:
     """The pool the selection goes on with: the candidates without ``D`` (``ok``, where
     the one-standard-error rule takes ``ok[k]``) or those with ``D`` (the scored rows of
-    ``extra``), and the rule's text.  The candidate with ``D`` is the one the
-    one-standard-error rule takes among the candidates with ``D``; it is compared with
-    the best candidate without ``D`` *of its order* (as many states: an extra state
-    must not pass for the direct term, nor a missing one against it), and the
+    ``extra``), and the rule's text.  Each structure is represented by the candidate the
+    one-standard-error rule takes among its own orders and methods -- the model a user
+    would get with ``feedthrough=False`` and with ``feedthrough=True`` -- and the
     candidates with ``D`` are kept only when :func:`~hdpbsid.selection.feedthrough.
     judge_direct_term` says so (better by more than :data:`~hdpbsid.selection.
     feedthrough.FEEDTHROUGH_Z` standard errors on the held-out one-step and simulation
@@ -1226,9 +1225,7 @@ def _choose_structure(
     plain = [r for r in ok if honours_feedthrough(r["model"])]
     scored.sort(key=structure_key)
     b = scored[choose_smallest_adequate([r["criterion"] for r in scored])[0]]
-    # at the order chosen with D: D is judged against as many states without it
-    same = [r for r in plain if r["order"] == b["order"]]
-    a = min(same, key=lambda r: r["criterion"].total) if same else ok[k]
+    a = plain[choose_smallest_adequate([r["criterion"] for r in plain])[0]] if plain else ok[k]
     choice = judge_direct_term(
         a["model"],
         b["model"],

@@ -22,15 +22,18 @@ def _err(per_window) -> WindowedError:
     return WindowedError(w, float(w.sum()), 0.0, True)
 
 
-def test_paired_z_is_the_paired_t_statistic():
+def test_paired_z_is_the_paired_t_statistic_of_the_log_ratios():
     a, b = _err([1.0, 1.2, 0.9, 1.1, 1.3]), _err([0.7, 1.0, 0.8, 0.8, 1.0])
-    d = np.array([0.3, 0.2, 0.1, 0.3, 0.3])
-    # the one-sample t statistic of the differences, written out
+    d = np.log(a.per_window / b.per_window)
+    # the one-sample t statistic of the log ratios, written out
     assert paired_z(a, b) == pytest.approx(d.mean() / (d.std(ddof=1) / np.sqrt(5)), rel=1e-12)
     assert paired_z(b, a) == pytest.approx(-paired_z(a, b), rel=1e-12)
     # scale free: errors near overflow give the same statistic
     big = [_err(1e300 * e.per_window) for e in (a, b)]
     assert paired_z(*big) == pytest.approx(paired_z(a, b), rel=1e-9)
+    # one window of a poor model does not swamp the others
+    c = _err(np.r_[1e12, a.per_window[1:]])
+    assert paired_z(c, b) > 0.5 * paired_z(a, b)
     assert paired_z(a, WindowedError(np.full(5, np.inf), np.inf, -np.inf, False)) == -np.inf
     assert paired_z(a, a) == 0.0
 
