@@ -165,15 +165,15 @@ def identify(
     the method and the order given, the two candidates of that order,
     :func:`hdpbsid.selection.auto.decide_feedthrough`) are compared, and ``D`` is
     estimated only when it is better by more than three standard errors of the paired
-    difference on both the one-step prediction error and the simulation error, and no
-    worse over the whole held-out simulation
-    (:func:`hdpbsid.selection.feedthrough.judge_direct_term`).  Candidates with ``D`` are
-    offered in open loop, and in closed loop when the input is predictable from the
-    past by more than half its variance: a controller reacting within the sample makes
-    ``D`` unidentifiable, no test on ``u`` and ``y`` tells its path from a direct term,
-    and there the simulation criterion rejects the ``D`` such a controller would
-    produce (derivation in :mod:`hdpbsid.selection.feedthrough`); otherwise ``D = 0``
-    and ``feedthrough=True`` says the loop has at least one sample of delay.  Several
+    difference on the one-step prediction error and two on the simulation error, no
+    worse over the whole held-out simulation, and in closed loop when it lowers the
+    simulation error by more than a controller reacting within the sample could (such
+    a controller makes ``D`` unidentifiable, and no test on ``u`` and ``y`` tells its
+    path from a direct term; the bound is derived in
+    :mod:`hdpbsid.selection.feedthrough`, :func:`hdpbsid.selection.feedthrough.
+    judge_direct_term`).  Where that bound leaves no room (weak feedback, a white
+    input) ``D = 0``, and ``feedthrough=True`` says the loop has at least one sample
+    of delay.  Several
     records, non-uniform samples, ``order_rule="svd"`` and the long-record path keep
     ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
     ``True``/``False`` estimate ``D`` or keep it at zero, as given.

@@ -1206,9 +1206,10 @@ def _choose_structure(
     one-standard-error rule takes among its own orders and methods -- the model a user
     would get with ``feedthrough=False`` and with ``feedthrough=True`` -- and the
     candidates with ``D`` are kept only when :func:`~hdpbsid.selection.feedthrough.
-    judge_direct_term` says so (better by more than :data:`~hdpbsid.selection.
-    feedthrough.FEEDTHROUGH_Z` standard errors on the held-out one-step and simulation
-    errors, paired, not worse over the whole held-out simulation, and in closed loop
+    judge_direct_term` says so (better on the held-out one-step and simulation errors
+    by more than :data:`~hdpbsid.selection.feedthrough.FEEDTHROUGH_Z` and
+    :data:`~hdpbsid.selection.feedthrough.SIMULATION_Z` standard errors, paired, not
+    worse over the whole held-out simulation, and in closed loop
     a larger simulation gain than ``bound``, the most a controller's instantaneous path
     could give).
 
