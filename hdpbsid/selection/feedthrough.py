@@ -195,11 +195,12 @@ def paired_z(without: WindowedError, with_: WindowedError) -> float:
     the paired t statistic ``mean(d) / (std(d) / sqrt(W))`` of the per-window log ratios
     ``d_w = log(a_w / b_w)`` (positive: ``with_`` better).  Paired, because the two share
     each window's noise; on logs, because a window's error is a sum of squares whose
-    spread grows with its size, so one window of a poor model would otherwise dominate
-    the mean and the spread alike (the log is the variance-stabilising transform of a
-    scaled chi-square, and ``log(a_w / b_w)`` is the per-window F statistic on the
-    log scale).  ``-inf`` when ``with_`` is not finite, ``inf`` when only ``without`` is
-    not; with one window or no spread the sign of the mean times ``inf`` (or 0).
+    spread grows with its size, so the windows with the most output energy (or where a
+    poor model is worst) would otherwise dominate the mean and the spread alike (the
+    log is the variance-stabilising transform of a scaled chi-square, and ``log(a_w /
+    b_w)`` is the per-window F statistic on the log scale).  ``-inf`` when ``with_`` is
+    not finite, ``inf`` when only ``without`` is not; with one window or no spread the
+    sign of the mean times ``inf`` (or 0).
 
     Examples
     --------
