@@ -158,9 +158,12 @@ def identify(
     *System Identification*, 2nd ed., ch. 8-9); the measured effect is in the
     benchmark pages (``hdpbsid study table1``).
 
-    ``feedthrough`` (a keyword among ``options``): ``"auto"`` (the default) decides the
-    direct term ``D`` from the data (:mod:`hdpbsid.selection.feedthrough`), judged like
-    the order on the last third of the record: the best candidates with and without
+    ``feedthrough`` (a keyword among ``options``): not given (the default), ``D = 0``
+    for every method that has the setting (not yet ``"auto"``: on closed-loop records
+    at high SNR the rule below still admits a small ``D`` that compensates model
+    error); ``"auto"`` decides the direct term ``D`` from the data
+    (:mod:`hdpbsid.selection.feedthrough`), judged like the order on the last third
+    of the record: the best candidates with and without
     ``D`` (each by the one-standard-error rule among its own orders and methods; with
     the method and the order given, the two candidates of that order,
     :func:`hdpbsid.selection.auto.decide_feedthrough`) are compared, and ``D`` is
@@ -173,9 +176,8 @@ def identify(
     :mod:`hdpbsid.selection.feedthrough`, :func:`hdpbsid.selection.feedthrough.
     judge_direct_term`).  Where that bound leaves no room (weak feedback, a white
     input) ``D = 0``, and ``feedthrough=True`` says the loop has at least one sample
-    of delay.  Several
-    records, non-uniform samples, ``order_rule="svd"`` and the long-record path keep
-    ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
+    of delay.  Several records, non-uniform samples, ``order_rule="svd"`` and the
+    long-record path keep ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
     ``True``/``False`` estimate ``D`` or keep it at zero, as given.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a
@@ -226,8 +228,9 @@ def identify(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
-    feedthrough = check_feedthrough(options.pop("feedthrough", "auto"))
-    if feedthrough != "auto":
+    given_ft = options.pop("feedthrough", None)
+    feedthrough = None if given_ft is None else check_feedthrough(given_ft)
+    if feedthrough is not None and feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     in_memory = isinstance(t, np.ndarray | list | tuple)
