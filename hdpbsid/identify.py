@@ -172,18 +172,25 @@ def identify(
     benchmark pages (``hdpbsid study table1``).
 
     ``feedthrough`` (a keyword among ``options``): not given (the default), ``D = 0``
-    for every method that has the setting; ``"auto"`` decides the
-    direct term ``D`` from the data (:mod:`hdpbsid.selection.feedthrough`), judged like
-    the order: candidates with and without ``D`` fitted on the first two thirds and
-    scored on the last third, ranked by order and then without ``D`` before with it, and
-    the one-standard-error rule takes the first within one standard error of the best;
-    with the method and the order given, the two candidates of that order
-    (:func:`hdpbsid.selection.auto.decide_feedthrough`).  Candidates with ``D`` are
-    offered only when the feedback test finds no loop: with a controller that reacts
-    within the sample, ``D`` is not identifiable from ``u`` and ``y``, so in closed loop
-    ``D = 0`` unless ``feedthrough=True`` says the loop has at least one sample of delay.
-    Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
-    keep ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
+    for every method that has the setting (not yet ``"auto"``: on closed-loop records
+    at high SNR the rule below still admits a small ``D`` that compensates model
+    error); ``"auto"`` decides the direct term ``D`` from the data
+    (:mod:`hdpbsid.selection.feedthrough`), judged like the order on the last third
+    of the record: the best candidates with and without
+    ``D`` (each by the one-standard-error rule among its own orders and methods; with
+    the method and the order given, the two candidates of that order,
+    :func:`hdpbsid.selection.auto.decide_feedthrough`) are compared, and ``D`` is
+    estimated only when it is better by more than three standard errors of the paired
+    difference on the one-step prediction error and two on the simulation error, no
+    worse over the whole held-out simulation, and in closed loop when it lowers the
+    simulation error by more than a controller reacting within the sample could (such
+    a controller makes ``D`` unidentifiable, and no test on ``u`` and ``y`` tells its
+    path from a direct term; the bound is derived in
+    :mod:`hdpbsid.selection.feedthrough`, :func:`hdpbsid.selection.feedthrough.
+    judge_direct_term`).  Where that bound leaves no room (weak feedback, a white
+    input) ``D = 0``, and ``feedthrough=True`` says the loop has at least one sample
+    of delay.  Several records, non-uniform samples, ``order_rule="svd"`` and the
+    long-record path keep ``D = 0``.  What was decided and why: ``options["feedthrough_rule"]``.
     ``True``/``False`` estimate ``D`` or keep it at zero, as given.
 
     Long records (``method="auto"`` on more than 50 000 samples, or a

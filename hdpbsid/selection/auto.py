@@ -122,6 +122,7 @@ from hdpbsid.selection.feedthrough import (
     check_feedthrough,
     feedthrough_offered,
     honours_feedthrough,
+    judge_direct_term,
     structure_key,
     takes_feedthrough,
     with_d,
@@ -1137,12 +1138,11 @@ def _select(
     k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
     ft_rule = ""
     if judge_feedthrough:
-        extra, ft_rule = _feedthrough_candidates(
-            get_method, ok, ok[k], orders, est, val, windows, opts, n_jobs, relax
+        extra, ft_rule, bound = _feedthrough_candidates(
+            get_method, ok, ok[k], methods, orders, est, val, windows, opts, n_jobs, relax
         )
         rows = rows + extra
-        ok += [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
-        ok.sort(key=structure_key)
+        ok, ft_rule = _choose_structure(ok, k, extra, val, windows, ft_rule, bound)
         k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
     for r, z in zip(ok, stats, strict=True):
         r["z"] = z
@@ -1185,6 +1185,7 @@ def _feedthrough_candidates(
     get_method: Any,
     ok: list[dict[str, Any]],
     chosen: dict[str, Any],
+    swept: Sequence[str],
     orders: list[int],
     est: tuple,
     val: tuple,
@@ -1192,61 +1193,95 @@ def _feedthrough_candidates(
     opts: dict,
     n_jobs: int | None,
     order_given: bool = False,
-) -> tuple[list[dict[str, Any]], str]:
+) -> tuple[list[dict[str, Any]], str, float]:
     """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
-    the reason they are or are not offered (:mod:`hdpbsid.selection.feedthrough`): when
-    the record is open loop by the feedback test of ``chosen`` (the candidate without
-    ``D`` the one-standard-error rule takes) on the estimation part, every method whose
-    candidates honour ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.
-    honours_feedthrough`) is fitted with ``feedthrough=True`` at the orders up to
-    ``chosen``'s.  Not above it: without ``D`` a direct term costs states (a fast mode
-    imitates it), so the order of the structure with ``D`` is at most the one chosen
-    without it.  The candidates of ``ok`` whose method estimates ``D`` whatever it is
-    asked (Laguerre's ``D_d``) are marked as of the structure with ``D`` (their
-    ``settings``), so they rank after the candidates without ``D`` of their order."""
-    offered, why = feedthrough_offered(chosen["model"], est)
+    the reason they are or are not offered and the closed-loop bound on the simulation
+    gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
+    ``chosen``, the candidate without ``D`` the one-standard-error rule takes, on the
+    estimation part): every built-in method of
+    ``swept`` (:func:`~hdpbsid.selection.feedthrough.takes_feedthrough`) whose candidates
+    do not estimate ``D`` of their own (:func:`~hdpbsid.selection.feedthrough.
+    honours_feedthrough`) is fitted with ``feedthrough=True`` at every order of the
+    sweep.  Every order: without ``D`` a direct term can cost states (a fast mode
+    imitates it) or remove them (a plant whose output is dominated by ``D u`` looks
+    static), so the order without ``D`` bounds nothing."""
+    offered, why, bound = feedthrough_offered(chosen["model"], est)
     if not offered:
-        return [], why
-    for r in ok:
-        if not honours_feedthrough(r["model"]) and r["model"].m and np.any(r["model"].D):
-            # a method that estimates D whatever it is asked (Laguerre's D_d): its
-            # candidates are of the structure with D, and rank as such
-            r["settings"] = {**r.get("settings", {}), "feedthrough": True}
-    methods = list(
-        dict.fromkeys(
-            r["method"]
-            for r in ok
-            if honours_feedthrough(r["model"]) and takes_feedthrough(r["method"])
-        )
-    )
-    d_orders = [n for n in orders if n <= chosen["order"]]
-    if not methods or not d_orders:
-        return [], why + "; no method here takes feedthrough=, so no candidate with D"
+        return [], why, bound
+    # every built-in method of the sweep but those whose candidates showed they estimate
+    # D whatever they are asked; a method with no candidate without D (dt with no
+    # continuous-time model at an order) may have one with D
+    own = {r["method"] for r in ok if not honours_feedthrough(r["model"])}
+    methods = [m for m in swept if takes_feedthrough(m) and m not in own]
+    if not methods:
+        return [], why + "; no method here takes feedthrough=, so no candidate with D", bound
     d_opts = {m: {**opts.get(m, {}), "feedthrough": True} for m in methods}
-    extra = _sweep(get_method, methods, d_orders, est, val, windows, d_opts, n_jobs, order_given)
+    extra = _sweep(get_method, methods, orders, est, val, windows, d_opts, n_jobs, order_given)
     for r in extra:
         r["settings"] = {**r.get("settings", {}), "feedthrough": True}
-    return extra, why + (
-        f"; candidates with D of {', '.join(methods)} at orders "
-        f"{d_orders[0]}..{d_orders[-1]} ranked after those without D of their order"
+    return extra, why + f"; candidates with D of {', '.join(methods)} at every order", bound
+
+
+def _choose_structure(
+    ok: list[dict[str, Any]],
+    k: int,
+    extra: list[dict[str, Any]],
+    val: tuple,
+    windows: int,
+    why: str,
+    bound: float = 0.0,
+) -> tuple[list[dict[str, Any]], str]:
+    """The pool the selection goes on with: the candidates without ``D`` (``ok``, where
+    the one-standard-error rule takes ``ok[k]``) or those with ``D`` (the scored rows of
+    ``extra``), and the rule's text.  Each structure is represented by the candidate the
+    one-standard-error rule takes among its own orders and methods -- the model a user
+    would get with ``feedthrough=False`` and with ``feedthrough=True`` -- and the
+    candidates with ``D`` are kept only when :func:`~hdpbsid.selection.feedthrough.
+    judge_direct_term` says so (better on the held-out one-step and simulation errors
+    by more than :data:`~hdpbsid.selection.feedthrough.FEEDTHROUGH_Z` and
+    :data:`~hdpbsid.selection.feedthrough.SIMULATION_Z` standard errors, paired, not
+    worse over the whole held-out simulation, and in closed loop
+    a larger simulation gain than ``bound``, the most a controller's instantaneous path
+    could give).
+
+    A method that estimates ``D`` whatever it is asked (Laguerre's ``D_d``) has no
+    structure to choose: the structures are compared between the methods that take
+    ``feedthrough=`` (a method with its own ``D`` would otherwise stand for "without
+    ``D``"), and its candidates then compete in the pool of the structure chosen, as
+    candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
+    others with ``D``)."""
+    scored = [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
+    if not scored:
+        return ok, why + ("; no candidate with D could be scored" if extra else "")
+    own = [r for r in ok if not honours_feedthrough(r["model"])]
+    plain = [r for r in ok if honours_feedthrough(r["model"])]
+    scored.sort(key=structure_key)
+    b = scored[choose_smallest_adequate([r["criterion"] for r in scored])[0]]
+    a = plain[choose_smallest_adequate([r["criterion"] for r in plain])[0]] if plain else ok[k]
+    choice = judge_direct_term(
+        a["model"],
+        b["model"],
+        (a["criterion"], b["criterion"]),
+        check_data(*val),
+        windows,
+        bound=bound,
     )
+    text = (
+        f"{why}; without D {a['method']} order {a['order']}, with D {b['method']} order "
+        f"{b['order']}: {choice.text()}"
+    )
+    if not choice.value:
+        return ok, text
+    for r in own:
+        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+    return sorted(scored + own, key=structure_key), text
 
 
 def _feedthrough_report(model: StateSpaceModel, ok: list[dict[str, Any]], why: str) -> str:
     """The text of ``options["feedthrough_rule"]``: whether the returned ``model`` has a
-    direct term, why candidates with ``D`` were (not) offered, and at its order the
-    distance of the best candidates with and without ``D`` from the best candidate, in
-    the standard errors of the one-standard-error rule (``z``; it admits up to 1)."""
+    direct term, and why (:func:`_feedthrough_candidates`, :func:`_choose_structure`)."""
     has_d = honours_feedthrough(model) and model.report.feedthrough.estimated
-    text = f"auto: {why}; returned: {'D estimated' if has_d else 'D = 0'}"
-    at_n = [r for r in ok if r["order"] == model.n and r.get("z") is not None]
-    z = {d: min((r["z"] for r in at_n if with_d(r) == d), default=None) for d in (False, True)}
-    if z[False] is not None and z[True] is not None:
-        text += (
-            f" (order {model.n}, held-out error above the best candidate's: without D "
-            f"{z[False]:.2f}, with D {z[True]:.2f} standard errors)"
-        )
-    return text
+    return f"auto: {why}; returned: {'D estimated' if has_d else 'D = 0'}"
 
 
 def _ranked(
@@ -1640,11 +1675,11 @@ def decide_feedthrough(
 
     The rule of :mod:`hdpbsid.selection.feedthrough` for two candidates: the method at
     ``order`` with ``D = 0`` and with ``D`` estimated, fitted on the first ``1 -
-    holdout`` of the record and scored on the rest (:func:`score_model`); ``D`` is
-    estimated when its candidate is better by more than one standard error
-    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`, the candidate without
-    ``D`` listed first), and offered only when the feedback test finds no loop
-    (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`).  ``False`` when the
+    holdout`` of the record and scored on the rest; ``D`` is offered by
+    :func:`~hdpbsid.selection.feedthrough.feedthrough_offered` (with, in closed loop, the
+    share of the simulation error a controller's instantaneous path could explain) and
+    estimated when its candidate wins on the held-out one-step and simulation errors
+    beyond that (:func:`~hdpbsid.selection.feedthrough.judge_direct_term`).  ``False`` when the
     record is too short to hold out the windows the rule needs, when the method does not
     take ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.honours_feedthrough`),
     when the method is not a built-in one (:func:`~hdpbsid.selection.feedthrough.
@@ -1693,6 +1728,12 @@ def decide_feedthrough(
     fitted = without["criterion"] is not None and without["criterion"].finite
     if fitted and not honours_feedthrough(without["model"]):
         return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
+    if fitted:
+        # the test needs one candidate: tested first, a record where D is not offered
+        # costs no fit with D
+        offered, why, bound = feedthrough_offered(without["model"], est)
+        if not offered:
+            return False, f"auto: {why}; D = 0"
     with_row = _fit_one(
         get_method, method, order, est, val, windows, {method: {**options, "feedthrough": True}}
     )
@@ -1701,9 +1742,10 @@ def decide_feedthrough(
         return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
     if not (fitted or fitted_d):
         return False, f"auto: not judged (no candidate: {without['status']}); D = 0"
-    offered, why = feedthrough_offered((without if fitted else with_row)["model"], est)
-    if not offered:
-        return False, f"auto: {why}; D = 0"
+    if not fitted:
+        offered, why, bound = feedthrough_offered(with_row["model"], est)
+        if not offered:
+            return False, f"auto: {why}; D = 0"
     if not fitted_d:
         return False, f"auto: {why}; the candidate with D: {with_row['status']}; D = 0"
     if not fitted:
@@ -1711,9 +1753,14 @@ def decide_feedthrough(
             f"auto: {why}; the candidate without D: {without['status']}; the one with D "
             f"scores: D estimated"
         )
-    k, z = choose_smallest_adequate([without["criterion"], with_row["criterion"]])
-    return k == 1, (
-        f"auto: {why}; at order {order} on the held-out part (windowed one-step error, "
-        f"{windows} windows) with D the error is {z[0] - z[1]:.2f} standard errors below "
-        f"that without; {'D estimated' if k == 1 else 'D = 0'} (D needs more than 1)"
+    choice = judge_direct_term(
+        without["model"],
+        with_row["model"],
+        (without["criterion"], with_row["criterion"]),
+        val,
+        windows,
+        bound=bound,
+    )
+    return choice.value, (
+        f"auto: {why}; at order {order} on the held-out part ({windows} windows): {choice.text()}"
     )

@@ -1,50 +1,96 @@
-"""``feedthrough="auto"``: whether the model has a direct term ``D``, decided from the data.
+"""``feedthrough="auto"`` of :func:`hdpbsid.identify`: whether the model has a direct term
+``D``, decided from the data.
 
-The direct term is a structural choice like the order, and it is judged the same way
-(:mod:`hdpbsid.selection.auto`): candidates with ``D = 0`` and with ``D`` estimated are
-fitted on the estimation part and scored on the held-out part by the selection's own
-criterion (the windowed one-step prediction error, :func:`~hdpbsid.selection.auto.
-score_model`); they are ranked by order first and, within an order, without ``D`` before
-with ``D`` (:func:`structure_key`), and the one-standard-error rule
-(:func:`~hdpbsid.models.criteria.choose_smallest_adequate`) takes the first candidate
-within one standard error of the best.  So ``D`` is estimated only when a candidate
-with it predicts the held-out part better than every candidate without it of its order,
-by more than one standard error: no new threshold, and the burden of proof is on the
-extra parameters, as it is on an extra state.
+The direct term is a structural choice like the order, and it is judged on the same
+held-out part (:mod:`hdpbsid.selection.auto`), in two steps.
 
-Closed loop.  With a controller that reacts to ``y_k`` within the sample, ``u_k``
-depends on the innovation ``e_k``, and a free ``D`` lets ``D u_k`` predict ``e_k``
-through the controller: the direct term is then not identifiable from ``u`` and ``y``,
-and the prediction-error minimum is not the system (Ljung, *System Identification*,
-2nd ed., sec. 13.4: the direct approach needs a delay in the loop; Forssell & Ljung,
-"Closed-loop identification revisited", Automatica 35(7), 1999).  Whether the loop has
-that delay cannot be read from the data: the correlation of ``u_k`` with ``e_k`` at lag
-0 is the same for a controller that reacts within the sample and for a direct term.  So
-the candidates with ``D`` are offered only when the feedback test
-(:func:`hdpbsid.selection.feedback.feedback_statistics`, the residuals of a strictly
-causal ARX predictor against the prewhitened input at lags ``1..M``) finds no loop
-(:func:`feedthrough_offered`); in open loop ``u`` does not depend on the noise and
-``D`` is identifiable.  In a loop with at least one sample of delay (a digital controller
-that computes ``u_k`` from ``y_{k-1}``) the user says so with ``feedthrough=True``.  The
-test is valid whether or not the record has a direct term: the predictor's errors then
-contain ``D u_k``, which depends on ``u_j, j <= k`` only, and the test looks at positive
-lags.
-Where the test cannot be computed (non-uniform samples, no input, a diverging
-predictor) no ``D`` is offered.
+Whether ``D`` is offered (:func:`feedthrough_offered`).  ``D`` is identifiable from
+``(u, y)`` when ``u_k`` does not depend on the innovation ``e_k`` of ``y_k``: in open loop,
+and in a loop whose controller has at least one sample of delay (``u_k`` computed from
+``y_{k-1}, y_{k-2}, ...``).  With a controller that reacts to ``y_k`` within the sample
+it is not: a free ``D`` then lets ``D u_k`` predict ``e_k`` through the controller
+(Ljung, *System Identification*, 2nd ed., sec. 13.4; Forssell & Ljung, "Closed-loop
+identification revisited", Automatica 35(7), 1999).  No test on ``(u, y)`` alone tells
+the two lag-0 paths apart: both appear only as a correlation of the innovations of
+``u_k`` and ``y_k`` at lag 0, which is symmetric ("instantaneous causality" has no
+direction: Geweke, JASA 77 (1982), sec. 2; Lutkepohl, *New Introduction to Multiple
+Time Series Analysis*, 2005, sec. 2.3.1), so a regression of ``u_k`` on ``y_k`` fires for
+a direct term in open loop as well.  What the data do tell:
+
+* whether there is a loop at all, by the feedback test at positive lags
+  (:func:`hdpbsid.selection.feedback.feedback_statistics`, on the residuals of a strictly
+  causal ARX predictor, :func:`arx_residuals`).  In open loop only the plant links
+  ``u_k`` to ``y_k``: ``D`` is offered;
+* in closed loop, how much a controller's instantaneous path can imitate a direct term.
+  Let ``v`` be white output noise (variance ``s_v^2``) and ``u_k = -F y_k + ...`` a
+  controller reacting within the sample, with no direct term in the plant.  A model's
+  simulated output is ``y_k = G(past u) + D u_k``; the ``D`` that best simulates ``y``
+  (the output-error fit, which the prediction-error fit is with white output noise) is
+  ``D_oe = cov(v_k, a_k) / var(a_k)``, ``a_k`` the part of ``u_k`` that the model's
+  other regressors (past inputs) do not explain, and it lowers the mean squared
+  simulation error ``s_v^2`` by the share ``cov(v_k, a_k)^2 / (s_v^2 var(a_k))``.  Now
+  ``u_k`` meets ``v_k`` only through ``-F v_k``, which neither past ``u`` nor past ``y``
+  predicts: it is part of the innovation ``w_k`` of ``u_k`` given past ``u`` *and*
+  ``y``, so ``cov(v_k, a_k)^2 = F^2 s_v^4 <= s_v^2 var(w)``; and ``var(a_k) >=
+  var(w^u)``, the innovation of ``u_k`` given its own past only.  So the share is at
+  most ``var(w) / var(w^u)`` (:func:`controller_share`; model errors in the candidate
+  without ``D`` only enlarge the denominator), while a real direct term lowers the
+  error by ``D^2 var(a_k)``, whatever the controller.  In closed loop ``D`` must
+  therefore lower the held-out simulation error by a larger share
+  (:func:`feedthrough_offered` returns it, :func:`judge_direct_term` applies it).  The
+  stronger the loop, the more of the input the past outputs predict and the smaller
+  the share; with weak feedback it nears 1 and only a direct term that dominates the
+  noise is told from a controller's path -- the data cannot do better, and
+  ``feedthrough=True`` is the user's statement that the loop has at least one sample
+  of delay.
+
+How ``D`` is chosen (:func:`judge_direct_term`, :class:`FeedthroughChoice`).  The best
+candidates with and without ``D`` (each chosen among its own structure's orders and
+methods by the one-standard-error rule) are compared on the held-out part by the
+windowed one-step prediction error **and** the windowed simulation error, paired over
+the same windows: ``D`` is estimated only when it is better on the one-step error by
+more than :data:`FEEDTHROUGH_Z` standard errors of the paired difference and on the
+simulation error by more than :data:`SIMULATION_Z` (:func:`paired_z`, on the per-window
+log ratios; the per-window losses are batch means of the per-sample losses, nearly
+independent between windows: Law & Kelton, *Simulation Modeling and Analysis*, 3rd
+ed., sec. 9.5.3), and when its
+simulation over the whole held-out part from one initial state is not worse either (the
+errors slower than a window, :func:`hdpbsid.selection.auto.break_tie`).  The one-step
+criterion alone admits a ``D`` that predicts noise (in open loop on a short record, by
+chance; in closed loop, through the controller); the simulation criterion alone is
+biased in closed loop (:mod:`hdpbsid.selection.auto`); a direct term that is there
+improves both.  The burden of proof is on the extra parameters, as on an extra state.
+
+Where the feedback test cannot be computed (non-uniform samples, no input, several
+records, a diverging predictor) no ``D`` is offered.
 """
 
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
 
 from hdpbsid.data.checks import is_uniform
+from hdpbsid.models.criteria import (
+    WindowedError,
+    windowed_prediction_error,
+    windowed_simulation_error,
+)
 from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "FEEDTHROUGH_CHOICES",
+    "FEEDTHROUGH_Z",
+    "SIMULATION_Z",
+    "FeedthroughReason",
+    "FeedthroughChoice",
+    "controller_share",
+    "paired_z",
+    "judge_direct_term",
     "check_feedthrough",
     "honours_feedthrough",
     "feedthrough_offered",
@@ -56,6 +102,238 @@ __all__ = [
 
 #: the values of ``feedthrough=``: estimate ``D``, keep ``D = 0``, or decide from the data
 FEEDTHROUGH_CHOICES = (True, False, "auto")
+#: standard errors of the paired held-out difference by which the candidate with ``D``
+#: must beat the one without on the one-step prediction error, the criterion that
+#: decides (module docstring): three, a one-sided false-alarm probability of about
+#: 0.13 % for nearly normal batch means.  Not two: the rule runs on every record a user
+#: identifies, nearly all without a direct term, and a spurious ``D`` makes a closed-loop
+#: model worse (the refinement then frees it); a direct term that is there wins by far
+#: more (its log ratios are large in every window)
+FEEDTHROUGH_Z = 3.0
+#: the same for the simulation error, which confirms: the conventional two standard
+#: errors (about 2.3 %).  The simulation criterion is biased in closed loop
+#: (:mod:`hdpbsid.selection.auto`) and, with its initial state fitted per window, blind
+#: to slow errors, so it is asked to agree beyond its noise, not to decide; the whole
+#: held-out simulation and, in closed loop, the controller bound check it further
+SIMULATION_Z = 2.0
+
+
+class FeedthroughReason(str, Enum):
+    """Why ``feedthrough="auto"`` decided as it did (:class:`FeedthroughChoice`)."""
+
+    #: the candidate with ``D`` won on every criterion
+    WON = "won"
+    #: no better by the stated margin on the one-step prediction error
+    LOST_PREDICTION = "lost on the one-step prediction error"
+    #: no better by the stated margin on the windowed simulation error
+    LOST_SIMULATION = "lost on the simulation error"
+    #: worse on the simulation of the whole held-out part from one initial state
+    LOST_WHOLE_SIMULATION = "lost on the whole held-out simulation"
+    #: closed loop: the simulation improved by no more than a controller's
+    #: instantaneous path can give (module docstring)
+    WITHIN_CONTROLLER_BOUND = "no larger than a controller reacting within the sample could give"
+    #: not offered (no input, several records, not testable)
+    NOT_OFFERED = "not offered"
+    #: one of the two candidates could not be fitted or scored
+    NO_CANDIDATE = "no candidate"
+
+
+@dataclass(frozen=True)
+class FeedthroughChoice:
+    """The direct-term decision and its reason (reported in
+    ``options["feedthrough_rule"]``).
+
+    Parameters
+    ----------
+    value : bool
+        Whether ``D`` is estimated.
+    reason : FeedthroughReason
+        Why (typed).
+    z_prediction, z_simulation : float or None
+        How many standard errors of the paired difference the candidate with ``D`` is
+        better by (positive: better) on the held-out one-step prediction and windowed
+        simulation errors; ``None`` where not compared.
+    whole_simulation : tuple of float or None
+        The whole-held-out simulation errors ``(without D, with D)``.
+    gain, bound : float or None
+        The relative improvement of the windowed simulation error by ``D``, and the
+        largest a controller's instantaneous path could give (0 in open loop).
+    """
+
+    value: bool
+    reason: FeedthroughReason
+    z_prediction: float | None = None
+    z_simulation: float | None = None
+    whole_simulation: tuple[float, float] | None = None
+    gain: float | None = None
+    bound: float | None = None
+
+    def text(self) -> str:
+        """One line for the report: the decision, the reason and the statistics."""
+        out = f"{'D estimated' if self.value else 'D = 0'} ({self.reason.value}"
+        if self.z_prediction is not None and self.z_simulation is not None:
+            out += (
+                f"; with D better by {self.z_prediction:.2f} standard errors on the one-step "
+                f"prediction, {self.z_simulation:.2f} on the simulation; needs more than "
+                f"{FEEDTHROUGH_Z:g} and {SIMULATION_Z:g}"
+            )
+        if self.gain is not None and self.bound:
+            out += (
+                f"; simulation error {100 * self.gain:.3g} % lower with D, needs more than "
+                f"{100 * self.bound:.3g} % in closed loop"
+            )
+        if self.whole_simulation is not None:
+            out += (
+                f"; whole held-out simulation error {self.whole_simulation[0]:.4g} without D, "
+                f"{self.whole_simulation[1]:.4g} with D"
+            )
+        return out + ")"
+
+
+def paired_z(without: WindowedError, with_: WindowedError) -> float:
+    """How many standard errors ``with_`` is better than ``without`` on the same windows:
+    the paired t statistic ``mean(d) / (std(d) / sqrt(W))`` of the per-window log ratios
+    ``d_w = log(a_w / b_w)`` (positive: ``with_`` better).  Paired, because the two share
+    each window's noise; on logs, because a window's error is a sum of squares whose
+    spread grows with its size, so the windows with the most output energy (or where a
+    poor model is worst) would otherwise dominate the mean and the spread alike (the
+    log is the variance-stabilising transform of a scaled chi-square, and ``log(a_w /
+    b_w)`` is the per-window F statistic on the log scale).  ``-inf`` when ``with_`` is
+    not finite, ``inf`` when only ``without`` is not; with one window or no spread the
+    sign of the mean times ``inf`` (or 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = WindowedError(np.array([1.0, 1.2, 0.9, 1.1]), 4.2, 0.0, True)
+    >>> b = WindowedError(np.array([0.5, 0.8, 0.4, 0.5]), 2.2, 0.0, True)
+    >>> round(paired_z(a, b), 2)
+    7.23
+    """
+    if not with_.finite:
+        return -np.inf
+    if not without.finite:
+        return np.inf
+    tiny = np.finfo(float).tiny
+    a = np.maximum(np.asarray(without.per_window, dtype=float), tiny)
+    b = np.maximum(np.asarray(with_.per_window, dtype=float), tiny)
+    with np.errstate(all="ignore"):
+        d = np.log(a) - np.log(b)
+    if not np.all(np.isfinite(d)):
+        return float(np.sign(np.sum(np.sign(d))) * np.inf)
+    mean = float(np.mean(d))
+    sd = float(np.std(d, ddof=1)) if d.size > 1 else 0.0
+    if sd <= 0.0:
+        return float(np.sign(mean) * np.inf) if mean != 0 else 0.0
+    return float(mean / (sd / np.sqrt(d.size)))
+
+
+def judge_direct_term(
+    without: StateSpaceModel,
+    with_: StateSpaceModel,
+    scores: tuple[WindowedError, WindowedError],
+    val: tuple,
+    windows: int,
+    z: float = FEEDTHROUGH_Z,
+    bound: float = 0.0,
+    z_simulation: float = SIMULATION_Z,
+) -> FeedthroughChoice:
+    """Whether the candidate ``with_`` (``D`` estimated) replaces ``without`` (``D = 0``):
+    better on the held-out record ``val = (t, u, y)`` by more than ``z`` standard errors
+    of the paired difference on the windowed one-step prediction error (each model's
+    predictor with its ``K``; where one of them does not run, or the samples are not
+    uniform, on ``scores``, the selection's scores of :func:`hdpbsid.selection.auto.
+    score_model`), by more than ``z_simulation`` on the windowed simulation error over
+    ``windows`` windows, and no
+    worse on the simulation of the whole held-out part from one initial state (module
+    docstring), and in closed loop lower the
+    windowed simulation error by a larger share than ``bound``.  The whole simulation of
+    an unstable plant's model diverges whatever its fit: there the check is passed only
+    when the candidate without ``D`` diverges as well (or further), so a ``D`` is then
+    estimated only against a model that cannot simulate the record either.
+
+    Parameters
+    ----------
+    without, with_ : StateSpaceModel
+        The candidates without and with ``D``, fitted on the estimation part.
+    scores : tuple of WindowedError
+        Their held-out one-step scores ``(without, with_)`` on the same windows.
+    val : tuple
+        The held-out record ``(t, u, y)`` (checked arrays).
+    windows : int
+        The windows of ``scores``.
+    z : float
+        The margin on the one-step prediction error, in standard errors
+        (:data:`FEEDTHROUGH_Z`).
+    bound : float
+        The share by which ``D`` must lower the windowed simulation error: in closed loop
+        the most a controller's instantaneous path could give (:func:`feedthrough_offered`);
+        0 in open loop.
+    z_simulation : float
+        The margin on the windowed simulation error (:data:`SIMULATION_Z`).
+
+    Returns
+    -------
+    FeedthroughChoice
+        The decision, its typed reason and the statistics.
+    """
+    t, u, y = val
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        preds = (
+            [windowed_prediction_error(m, t, u, y, windows) for m in (without, with_)]
+            if is_uniform(t)
+            else []
+        )
+        sims = [windowed_simulation_error(m, t, u, y, windows) for m in (without, with_)]
+        whole = [windowed_simulation_error(m, t, u, y, 1) for m in (without, with_)]
+    z_sim = paired_z(*sims)
+    # the one-step criterion proper (with each model's K) where both predictors run;
+    # else the selection's scores, which fall back to the simulation for a bad K
+    z_pred = paired_z(*preds) if preds and all(p.finite for p in preds) else paired_z(*scores)
+    wh = (float(whole[0].total), float(whole[1].total))
+    gain = 1.0 - sims[1].total / sims[0].total if sims[0].total > 0 else 0.0
+    if not z_pred > z:
+        reason = FeedthroughReason.LOST_PREDICTION
+    elif not z_sim > z_simulation:
+        reason = FeedthroughReason.LOST_SIMULATION
+    elif not (whole[1].finite and (not whole[0].finite or wh[1] <= wh[0])):
+        reason = FeedthroughReason.LOST_WHOLE_SIMULATION
+    elif not gain > bound:
+        reason = FeedthroughReason.WITHIN_CONTROLLER_BOUND
+    else:
+        reason = FeedthroughReason.WON
+    won = reason is FeedthroughReason.WON
+    return FeedthroughChoice(won, reason, z_pred, z_sim, wh, float(gain), float(bound))
+
+
+def controller_share(u: Any, y: Any, lags: int) -> float:
+    """``var(w) / var(w^u)``, the largest share of the simulation error that a
+    controller reacting within the sample can let a free ``D`` explain (module
+    docstring): ``w`` the residuals of the least-squares VARX of ``u_k`` on ``u`` and
+    ``y`` at lags ``1..lags``, ``w^u`` those of the AR of ``u_k`` on its own lags
+    ``1..lags``; the largest over the input channels, at most 1.  ``1`` for a channel the
+    AR already predicts exactly (nothing is left to tell the paths apart).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> y = rng.standard_normal((4000, 1))
+    >>> u = np.r_[0.0, y[:-1, 0]][:, None] + 0.1 * rng.standard_normal((4000, 1))
+    >>> round(controller_share(u, y, 4), 2)  # u_k = y_{k-1} + small: past y predicts u
+    0.01
+    >>> round(controller_share(rng.standard_normal((4000, 1)), y, 4), 1)  # open loop
+    1.0
+    """
+    u = np.asarray(u, dtype=float)
+    w = arx_residuals(y, u, lags)[lags:]  # u_k from its own and y's past
+    wu = arx_residuals(np.zeros((u.shape[0], 0)), u, lags)[lags:]  # from its own past
+    shares = []
+    for j in range(u.shape[1]):
+        den = float(np.sum(wu[:, j] ** 2))
+        shares.append(min(float(np.sum(w[:, j] ** 2)) / den, 1.0) if den > 0 else 1.0)
+    return max(shares, default=1.0)
 
 
 def check_feedthrough(value: Any) -> bool | str:
@@ -127,40 +405,46 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
     return out
 
 
-def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str]:
+def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, float]:
     """Whether candidates with ``D`` are offered for the record ``rec = (t, u, y)``
-    (module docstring), and the reason.  Offered only for a uniformly sampled record
-    with an input whose feedback test finds no loop; the test correlates the residuals
-    of a strictly causal least-squares ARX predictor (:func:`arx_residuals`, lags up to
-    :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per regressor)
-    with the prewhitened input.  ``model``: a candidate of the record (its input hold)."""
+    (module docstring), the reason, and the share by which ``D`` must lower the held-out
+    simulation error (:func:`judge_direct_term`'s ``bound``).  Offered for a uniformly
+    sampled record with an input.  When the feedback test finds no loop the share is
+    0; when it finds one, it is :func:`controller_share`, the most a controller
+    reacting within the sample could give.  The feedback test correlates the
+    residuals of a strictly causal least-squares ARX predictor (:func:`arx_residuals`,
+    lags up to :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per
+    regressor) with the prewhitened input.  ``model``: a candidate of the record (its
+    input hold)."""
     from hdpbsid.selection.feedback import AR_ORDER, feedback_statistics
 
     t, u, y = rec
     if isinstance(t, list | tuple):
-        return False, "not judged: several estimation records; D = 0"
+        return False, "not judged: several estimation records; D = 0", 0.0
     if model.m == 0:
-        return False, "no input, no direct term"
+        return False, "no input, no direct term", 0.0
     if not is_uniform(np.asarray(t, dtype=float)):
         return False, (
             "not judged: the feedback test that tells whether D is identifiable needs "
             "uniformly sampled times; D = 0"
-        )
+        ), 0.0  # fmt: skip
     u = np.asarray(u, dtype=float).reshape(len(t), -1)
     y = np.asarray(y, dtype=float).reshape(len(t), -1)
     try:
         with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):
             warnings.simplefilter("ignore")
-            lags = min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1])))
-            errors = arx_residuals(u, y, max(lags, 1))
+            lags = max(min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1]))), 1)
+            errors = arx_residuals(u, y, lags)
             st = feedback_statistics(model, t, u, y, errors=errors)
+            share = controller_share(u, y, lags) if st["feedback"] else 0.0
     except (ValueError, np.linalg.LinAlgError):
-        return False, "not judged: the feedback test cannot be computed"
+        return False, "not judged: the feedback test cannot be computed", 0.0
     test = f"feedback test S = {st['statistic']:.4g} vs {st['threshold']:.4g}"
-    if st["feedback"]:
-        return False, (
-            f"not offered: closed loop ({test}), where a controller that reacts within the "
-            f"sample makes D unidentifiable from u and y; pass feedthrough=True when the "
-            f"loop has at least one sample of delay"
-        )
-    return True, f"offered: open loop ({test})"
+    if not st["feedback"]:
+        return True, f"offered: open loop ({test})", 0.0
+    bound = float(share) if np.isfinite(share) else 1.0
+    return True, (
+        f"offered: closed loop ({test}); a controller reacting within the sample could "
+        f"let D explain at most {bound:.2f} of the simulation error (the input's "
+        f"innovation given past u and y over that given past u)"
+    ), bound  # fmt: skip

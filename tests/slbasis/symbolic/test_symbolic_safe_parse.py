@@ -23,7 +23,12 @@ from hypothesis import strategies as st
 import slbasis
 import slbasis.codegen  # a submodule: not imported by `import slbasis`
 from slbasis import SturmLiouville, families
-from slbasis.symbolic.expr import MAX_LENGTH, parse_expression, to_expression
+from slbasis.symbolic.expr import (
+    MAX_FACTORIAL_ARGUMENT,
+    MAX_LENGTH,
+    parse_expression,
+    to_expression,
+)
 from slbasis.symbolic.parse import N, X
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -285,6 +290,18 @@ def _extend(children: st.SearchStrategy) -> st.SearchStrategy:
 def test_printed_expressions_round_trip(expr: sp.Expr) -> None:
     # complex or undefined values (log of a negative number, 1/0) are outside the grammar
     assume(not expr.has(sp.I, sp.zoo, sp.nan, sp.oo, -sp.oo))
+    # inside the grammar's documented bounds: no number longer than the text may be (3.33
+    # bits a digit; Python would not even print one past 4300 digits), no factorial-type
+    # function of a number beyond its bound (parsing refuses both, with the bound named)
+    assume(all(max(abs(r.p), r.q).bit_length() <= 3 * MAX_LENGTH for r in expr.atoms(sp.Rational)))
+    factorial_type = (sp.gamma, sp.factorial, sp.binomial, sp.RisingFactorial)
+    assume(
+        not any(
+            a.is_Number and abs(a) > MAX_FACTORIAL_ARGUMENT
+            for f in expr.atoms(*factorial_type)
+            for a in f.args
+        )
+    )
     assume(len(str(expr)) <= MAX_LENGTH)
     parsed = _parse(str(expr))
     # the same expression, not always the same tree: sympy distributes a number over a
