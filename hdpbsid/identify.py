@@ -38,7 +38,7 @@ from hdpbsid.refine.pem import (
     one_step_errors,
     refine_pem,
 )
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_plan
 from hdpbsid.selection.feedthrough import check_feedthrough
@@ -383,7 +383,7 @@ def _identify_delayed(
                 "chosen together (Schwarz's criterion), and on short or noisy records an "
                 "extra mode can take the place of a sample of delay; pass order= when known",
                 UserWarning,
-                stacklevel=3,
+                stacklevel=user_stacklevel(),
             )
         est = estimate_delay(
             tt, ua, yy, max_delay, order=order if isinstance(order, int) else None,
@@ -513,7 +513,7 @@ def _warn_if_fallback(model: StateSpaceModel) -> None:
         model.report = model.report.but(selection_fallback=text)
     elif fallback:
         model.report = model.report.warned(fallback)
-        warnings.warn(fallback, SelectionWarning, stacklevel=3)
+        warnings.warn(fallback, SelectionWarning, stacklevel=user_stacklevel())
 
 
 def _one_step_errors(model: StateSpaceModel, t: Any, u: Any, y: Any) -> Any:
@@ -673,7 +673,7 @@ def _warn_not_exciting(u: Any) -> None:
             f"(B) cannot be identified from this record; excite the system (steps, a "
             f"multisine, a random binary signal) or leave the input out",
             UserWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
 

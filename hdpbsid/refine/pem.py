@@ -95,7 +95,7 @@ from hdpbsid.models.recursion import select_kernels
 from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
 from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
 from hdpbsid.refine.pem_predictor import conjugate_representatives, modal_filter, sampled_predictor
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
     "refine_pem",
@@ -850,7 +850,7 @@ def refine_pem(
             "refine='pem': the initial model's sampled predictor is unstable and no "
             "stabilising gain exists; keeping the unrefined model",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=user_stacklevel(),
         )
         return model
     # residuals of this record for parameters theta and output weighting W, per hold;
@@ -890,7 +890,7 @@ def refine_pem(
             f"refine='pem' did not lower the prediction-error cost ({cost0:.4g} -> "
             f"{cost:.4g}); keeping the unrefined model",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=user_stacklevel(),
         )
         return model
     weighted_fit, record_fit = weighted[hold], record[hold]

@@ -117,7 +117,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Candidate, Choice, DirectTerm
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection.feedthrough import (
     check_feedthrough,
     feedthrough_offered,
@@ -1442,7 +1442,7 @@ def _choose(
         f"before use"
     )
     model.report = model.report.warned(text)
-    warnings.warn(text, SelectionWarning, stacklevel=4)
+    warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
     return (
         model,
         failures,
@@ -1500,7 +1500,7 @@ def _warn_if_much_worse(
     )
     model.options["selection_warning"] = text
     model.report = model.report.warned(text)
-    warnings.warn(text, SelectionWarning, stacklevel=5)
+    warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
 
 
 def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
@@ -1520,7 +1520,7 @@ def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> Sta
     model.options["selection_fallback"] = text
     model.report = model.report.but(selection_fallback=text)
     if warn:
-        warnings.warn(text, SelectionWarning, stacklevel=5)
+        warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
     return model
 
 
