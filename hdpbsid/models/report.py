@@ -204,19 +204,25 @@ class Candidate:
     status: str = ""
 
     @classmethod
-    def from_dict(cls, row: Mapping[str, Any]) -> Candidate:
+    def from_dict(cls, row: Mapping[str, Any], method: str = "") -> Candidate:
         """A candidate from a row of the selection table (``options["selection"]``).
 
         Parameters
         ----------
         row : mapping
             The row; columns it lacks take their defaults, unknown ones are ignored.
+        method : str, optional
+            The method of a row that names none (a method's own order table, e.g. the
+            frequency-domain fit's, lists orders of one method).
 
         Returns
         -------
         Candidate
         """
-        return cls(**{k: row[k] for k in _CANDIDATE_COLUMNS if k in row})
+        values = {k: row[k] for k in _CANDIDATE_COLUMNS if k in row}
+        values.setdefault("method", method)
+        values.setdefault("order", None)
+        return cls(**values)
 
     def as_dict(self) -> dict[str, Any]:
         """The row as plain values, in the columns of the selection table.
@@ -544,6 +550,7 @@ class IdentificationReport:
         if not isinstance(table, list):
             table = options.get("order_selection")
         rows = [r for r in table if isinstance(r, Mapping)] if isinstance(table, list) else []
+        method = str(options.get("method") or "")
         return cls(
             method=options.get("method"),
             input_hold=hold,
@@ -554,7 +561,7 @@ class IdentificationReport:
                 if isinstance(refit, Mapping)
                 else None
             ),
-            candidates=tuple(Candidate.from_dict(r) for r in rows),
+            candidates=tuple(Candidate.from_dict(r, method) for r in rows),
             selection_rule=str(options.get("selection_rule", "")),
             selection_fallback=str(options.get("selection_fallback") or ""),
             refinement=Refinement.from_options(options),

@@ -292,3 +292,19 @@ def test_the_hold_of_the_report_is_the_one_simulated(name, reason) -> None:
         windowed_simulation_error(model, t, u, y, 3).total
         == windowed_simulation_error(model, t, u, y, 3, hold=name).total
     )
+
+
+def test_a_method_s_own_order_table_becomes_its_candidates() -> None:
+    """A method that lists the orders it tried without naming itself in each row (the
+    frequency-domain fit) gets a report whose candidates carry its name; the model's
+    repr, which reads the report, works."""
+    from hdpbsid.frequency import fit as frequency
+
+    w = np.logspace(-1, 1, 60)
+    H = (1.0 / ((1j * w) ** 2 + 0.8j * w + 4.0))[None, None, :]
+    model = frequency.identify_frequency(w, H)
+    rows = model.options["selection"]
+    assert rows and all("method" not in r for r in rows)
+    assert {c.method for c in model.report.candidates} == {"frequency"}
+    assert [c.order for c in model.report.candidates] == [r["order"] for r in rows]
+    assert "frequency" in repr(model)
