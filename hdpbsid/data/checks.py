@@ -107,9 +107,9 @@ def check_step(dt: Any, name: str = "dt") -> float:
     """``dt`` as a positive finite float (a sampling interval); ``TypeError`` /
     ``ValueError`` naming ``name`` otherwise."""
     if isinstance(dt, bool) or not isinstance(dt, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a number, got {type(dt).__name__}")
+        raise TypeError(f"{name} must be a positive number, got {dt!r}")
     if not np.isfinite(dt) or dt <= 0:
-        raise ValueError(f"{name} must be a positive finite number (s), got {dt}")
+        raise ValueError(f"{name} must be a positive finite number, got {dt!r}")
     return float(dt)
 
 

@@ -45,6 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdpbsid.data.checks import check_step
+
 __all__ = [
     "Record",
     "read_columns",
@@ -639,12 +641,7 @@ def _sampling_step(dt: Any, fs: Any) -> float | None:
         raise ValueError("give the sampling interval dt or the rate fs, not both")
     if dt is None and fs is None:
         return None
-    val, what = (dt, "dt") if dt is not None else (fs, "fs")
-    if isinstance(val, bool) or not isinstance(val, int | float | np.number):
-        raise TypeError(f"{what} must be a positive number, got {val!r}")
-    if not np.isfinite(val) or val <= 0:
-        raise ValueError(f"{what} must be a positive finite number, got {val!r}")
-    return float(val) if what == "dt" else 1.0 / float(val)
+    return check_step(dt, "dt") if dt is not None else 1.0 / check_step(fs, "fs")
 
 
 def _read_with_time_hint(
