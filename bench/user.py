@@ -33,8 +33,9 @@ Rows (``--list``):
   included), with ``import numpy`` (which ``--help`` needs) and ``import numpy,
   scipy.linalg`` (which the first ``identify`` needs) for comparison.
 
-* ``sippy``: SIPPY N4SID (``f = p = 60``) and ``identify(t, u, y, order=2)`` (the order
-  is what N4SID is told; every other argument at its default) on ``--reps`` seeds of
+* ``sippy``: SIPPY N4SID (``f = p = 60``), ``identify(t, u, y, order=2)`` and HD-PBSID,
+  ``identify(t, u, y, order=2, method="hermite")`` (the order is what N4SID is told;
+  every other argument at its default) on ``--reps`` seeds of
   the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions), one worker
   process per method, seed and column (a threaded BLAS still spinning after one
   method's call must not be charged to the other); the worst eigenvalue error (median
@@ -148,22 +149,30 @@ def _first_call(reps: int, first: int = 0) -> dict:
 #: (the one thing N4SID is told), every other argument at its default
 SIPPY_SAMPLES = 10**4
 HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
+#: HD-PBSID itself: ``method="hermite"``, its refinement and every setting at the default
+HERMITE_SPEC = "hermite+auto"
 
 
-#: the two sides of the SIPPY row: the key of the result and the spec of ``scaling._fit``
-SIPPY_SPECS = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC}
+#: the sides of the SIPPY row: the key of the result and the spec of ``scaling._fit``
+SIPPY_SPECS = {"n4sid": "n4sid", "hdpbsid": HDPBSID_SPEC, "hermite": HERMITE_SPEC}
+#: the labels of the sides that are ours, in the order of the table
+OUR_SIDES = {
+    "hdpbsid": "identify(t, u, y, order=2), same records",
+    "hermite": 'HD-PBSID: identify(t, u, y, order=2, method="hermite"), same records',
+}
+SHORT_NAMES = {"hdpbsid": "identify(order=2)", "hermite": "HD-PBSID"}
 
 
 def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
-    """SIPPY N4SID (``f = p = 60``, ``key="n4sid"``) or ``identify(t, u, y, order=2)``
-    (``key="hdpbsid"``) on the seeds ``first ... first + reps - 1`` of
-    :func:`scaling.binary_record` in this process, after one untimed call on the record
-    of another seed and the same length (imports, kernels, first-use setup, as the
-    other rows): wall, CPU time and worst relative eigenvalue error of each call.  Not a
-    shorter record: it can take other paths (on this case the refinement screens its
-    second input hold by one Gauss-Newton step only on the longer record), whose
-    compiled kernels would then load from numba's cache inside the timed call, a
-    one-off cost of the process that N4SID has no counterpart of.
+    """SIPPY N4SID (``f = p = 60``, ``key="n4sid"``), ``identify(t, u, y, order=2)``
+    (``key="hdpbsid"``) or HD-PBSID (``key="hermite"``) on the seeds ``first ... first +
+    reps - 1`` of :func:`scaling.binary_record` in this process, after one untimed call on
+    the record of another seed and the same length (imports, kernels, first-use setup, as
+    the other rows): wall, CPU time and worst relative eigenvalue error of each call. Not a
+    shorter record: it can take other paths (on this case the refinement screens its second
+    input hold by one Gauss-Newton step only on the longer record), whose compiled kernels
+    would then load from numba's cache inside the timed call, a one-off cost of the process
+    that N4SID has no counterpart of.
 
     One side per process: a threaded BLAS keeps its threads spinning for a while after a
     call returns (OpenBLAS: a fixed number of cycles before they sleep), so a call
@@ -226,6 +235,7 @@ WORKERS: dict[str, Callable[[int, int], dict]] = {
     "first-call": _first_call,
     "sippy-n4sid": lambda r, f: _sippy_binary("n4sid", r, f),
     "sippy-hdpbsid": lambda r, f: _sippy_binary("hdpbsid", r, f),
+    "sippy-hermite": lambda r, f: _sippy_binary("hermite", r, f),
 }
 
 
@@ -288,12 +298,12 @@ def _pct(x: float | None) -> str:
 
 
 def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
-    """SIPPY N4SID (``f = p = 60``) against ``identify(t, u, y, order=2)`` (every other
-    argument at its default) on the 10^4-sample binary-input case of ``bench/scaling.py``,
-    each in its own worker process per seed and column (:func:`_sippy_binary`), the
-    columns alternating on ``reps`` seeds.  Lines: each method's times (labels: median
-    worst eigenvalue error in the default column), then the ratio hdpbsid / N4SID of the
-    default column's medians."""
+    """SIPPY N4SID (``f = p = 60``) against ``identify(t, u, y, order=2)`` and HD-PBSID
+    (``method="hermite"``; every other argument at its default) on the 10^4-sample
+    binary-input case of ``bench/scaling.py``, each in its own worker process per seed,
+    side and column (:func:`_sippy_binary`), the columns alternating on ``reps`` seeds.
+    Lines: each side's times (labels: median worst eigenvalue error in the default
+    column), then the ratio of each of ours to N4SID of the default column's medians."""
 
     def both(one: bool, i: int) -> dict:
         env = _environment(one, None)
@@ -303,29 +313,26 @@ def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
     if "status" in got[False]:
         return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
     lines: list[Line] = []
-    labels = {
-        "n4sid": "SIPPY N4SID f=p=60, 10^4 binary input",
-        "hdpbsid": "identify(t, u, y, order=2), same records",
-    }
+    labels = {"n4sid": "SIPPY N4SID f=p=60, 10^4 binary input", **OUR_SIDES}
     for key, label in labels.items():
         err = _median(got[False][key]["err"])
         lines.append((f"{label}; worst eig. error {_pct(err)}", got[False][key], got[True][key]))
-    ratio = {
-        k: _median(got[False]["hdpbsid"][k]) / _median(got[False]["n4sid"][k])
-        for k in ("wall", "cpu")
-    }
-    pairs = list(zip(got[False]["hdpbsid"]["err"], got[False]["n4sid"]["err"], strict=True))
-    smaller = sum(h <= n for h, n in pairs)
-    lines.append(
-        (
-            f"hdpbsid / N4SID, default environment: wall {ratio['wall']:.2f}x,"
-            f" CPU {ratio['cpu']:.2f}x; hdpbsid's worst eig. error no larger than N4SID's"
-            f" on {smaller} of {len(pairs)} seeds",
-            None,
-            None,
-        )
-    )
+    for key in OUR_SIDES:
+        lines.append((_ratio_line(key, got[False]), None, None))
     return lines
+
+
+def _ratio_line(key: str, default: dict) -> str:
+    """The ratio ``key`` / N4SID of the default column's median wall and CPU times, and on
+    how many seeds ``key``'s worst eigenvalue error is no larger than N4SID's."""
+    ratio = {k: _median(default[key][k]) / _median(default["n4sid"][k]) for k in ("wall", "cpu")}
+    pairs = list(zip(default[key]["err"], default["n4sid"]["err"], strict=True))
+    smaller = sum(h <= n for h, n in pairs)
+    return (
+        f"{SHORT_NAMES[key]} / N4SID, default environment: wall"
+        f" {ratio['wall']:.2f}x, CPU {ratio['cpu']:.2f}x; worst eig. error no larger than"
+        f" N4SID's on {smaller} of {len(pairs)} seeds"
+    )
 
 
 def _long_details(r: dict) -> str:

@@ -55,3 +55,14 @@ def test_table_is_written_as_markdown_with_its_command_and_load(tmp_path: Path, 
     cells = rows[2].split("|")[1:-1]
     assert cells[0].strip() == "process: import hdpbsid" and len(cells) == 7
     assert all(float(c) > 0 for c in cells[1:])  # times and ratios were measured
+
+
+def test_ratio_line_divides_medians_and_counts_seeds_no_worse():
+    default = {
+        "n4sid": {"wall": [1.0, 2.0, 3.0], "cpu": [2.0, 2.0, 9.0], "err": [0.1, 0.2, 0.3]},
+        "hermite": {"wall": [0.5, 0.6, 9.0], "cpu": [0.5, 1.0, 1.0], "err": [0.1, 0.3, 0.2]},
+    }
+    line = U._ratio_line("hermite", default)
+    # medians 0.6 / 2.0 and 1.0 / 2.0; errors no larger on seeds 0 (equal) and 2
+    assert line.startswith("HD-PBSID / N4SID, default environment: wall 0.30x, CPU 0.50x")
+    assert line.endswith("no larger than N4SID's on 2 of 3 seeds")
