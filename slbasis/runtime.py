@@ -222,9 +222,16 @@ def _enter() -> None:
 def _exit() -> None:
     with _lock:
         _state["depth"] -= 1
-        if _state["depth"] == 0 and _state["limiter"] is not None:
+        if _state["depth"] > 0:
+            return
+        if _state["limiter"] is not None:
             _state["limiter"].restore_original_limits()
             _state["limiter"] = None
+        # the modules the call imported (its first use of scipy.optimize, numba, ...) are
+        # scanned now, not at the start of the next call: the scan resolves the path of
+        # every newly loaded shared library, a one-off cost of the process that belongs
+        # with the imports of the call that caused it
+        _controller()
 
 
 def library_call(func: F) -> F:

@@ -217,3 +217,35 @@ def test_warnings_name_the_users_line() -> None:
         size(1e6, 10**7)  # the rule asks for far more functions than the cap
     assert caught, "the size cap binds and must warn"
     assert {w.filename for w in caught} == {__file__}
+
+
+def test_a_call_that_imports_leaves_no_library_scan_to_the_next(monkeypatch):
+    # the scan of the loaded libraries (threadpoolctl's controller) is redone when modules
+    # were imported since the last one; modules imported inside a call are scanned when
+    # it returns, so the next call starts without that one-off cost
+    import sys
+    import types
+
+    import threadpoolctl
+
+    built = []
+    original = threadpoolctl.ThreadpoolController.__init__
+
+    def counting(self, *args, **kwargs):
+        built.append(1)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(threadpoolctl.ThreadpoolController, "__init__", counting)
+    name = "_slbasis_runtime_test_module"
+
+    @runtime.library_call
+    def importing():
+        sys.modules[name] = types.ModuleType(name)  # stands in for a lazy import
+
+    try:
+        importing()
+        before = len(built)
+        importing()  # nothing imported since the first call returned
+        assert len(built) == before
+    finally:
+        sys.modules.pop(name, None)
