@@ -73,12 +73,35 @@ from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_chunked", "averaged_spectra", "SPECTRUM_SAMPLES"]
+__all__ = ["identify_chunked", "averaged_spectra", "ChunkedDefaults", "SPECTRUM_SAMPLES"]
 
 Array = NDArray[np.float64]
 
-#: samples per periodogram of the averaged spectrum (frequency resolution ``fs / 2^20``)
-SPECTRUM_SAMPLES = 2**20
+
+@dataclass(frozen=True)
+class ChunkedDefaults:
+    """The numbers of the chunked path that are not settings of the basis methods.
+
+    Attributes
+    ----------
+    spectrum_samples : int
+        Samples per periodogram of the averaged spectrum (:func:`averaged_spectra`).
+    selection_rows : int
+        Rows ``f l`` of ``Gamma L`` a past window must give when the order is selected
+        (:func:`~hdpbsid.bases.basis_domain.run_core`'s rule).
+    """
+
+    #: a frequency resolution of ``fs / 2^20``, and one periodogram (the in-memory
+    #: estimate) for records up to 2^20 samples
+    spectrum_samples: int = 2**20
+    #: order selection compares orders up to ``f l - 1``: at least 1 and 2
+    selection_rows: int = 3
+
+
+#: the defaults in use
+DEFAULTS = ChunkedDefaults()
+#: samples per periodogram of the averaged spectrum (:attr:`ChunkedDefaults.spectrum_samples`)
+SPECTRUM_SAMPLES = DEFAULTS.spectrum_samples
 
 
 def _spectra(rec: ChunkedRecord, a: int, b: int) -> tuple[Array, Array, Array]:
@@ -158,6 +181,7 @@ def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
     """Edges of :func:`hdpbsid.data.records.split_windows` (one window: the whole record)."""
     if length is None or rec.duration < 2 * length:
         return np.array([0, rec.ns - 1])
+    # 1e-9: a whole number of windows up to rounding counts as whole (as split_windows)
     K = max(1, int(np.floor(rec.duration / length + 1e-9)))
     K = min(K, max(1, (rec.ns - 1) // 2))
     return np.round(np.linspace(0, rec.ns - 1, K + 1)).astype(int)
@@ -282,10 +306,6 @@ def _batch_task(
     return [step(U, Y, lag, pseudo, prm, sizes) for U, prm in zip(Us, params, strict=True)]
 
 
-def _coefficient_task(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
-    return _coefficients(shared, a, b, sizes, single)
-
-
 class _Batches:
     """The batches of a record: ``(first sample, end, window sizes, single)`` each, run
     serially or as ``dask.delayed`` tasks and reduced."""
@@ -309,7 +329,7 @@ class _Batches:
 
     def gather(self) -> list[Any]:
         """Every batch's coefficients (the memory of all of them at once)."""
-        tasks = [[_coefficient_task, self.shared, a, b, sz, one] for a, b, sz, one in self.jobs]
+        tasks = [[_coefficients, self.shared, a, b, sz, one] for a, b, sz, one in self.jobs]
         return _compute(tasks, self.use_dask, shared=self.shared)
 
 
@@ -344,7 +364,7 @@ def _p_plan(
 ) -> tuple[list[int], int | None, int, int, str]:
     """The past windows to try, as :func:`~hdpbsid.bases.basis_domain.run_core` rules
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
-    need = order if order is not None else 3
+    need = order if order is not None else DEFAULTS.selection_rows
     f_min = -(-need // l)
     worst, nb, d, p_cap, ncols = _tightest(kinds, sizes, m, l)
     if st.p is not None:
@@ -425,6 +445,40 @@ def _best_hold_streamed(
     pass made for that hold only."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     ps, p_fixed, lo, hi, p_rule = _p_plan(kinds, sizes, m, l, st, order)
+    first, hold, hold_crit = _first_pass(ctx, sizes, m, l, st, ps)
+    k = holds.index(hold)
+    vf = first[k]
+    crit = None
+    p = p_fixed
+    if p is None:
+        p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+    f = _future_window(st, p, l, order)
+    vs = streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize)
+    # the second pass for the chosen hold only (None: nothing to gather for the others)
+    second = ctx.reduce(
+        _state_step, [vs if i == k else None for i in range(len(holds))], streamed.merge
+    )
+    mo = _max_order(st, vs.f, l, order)
+    core = streamed.solve_model(vs, second[k], m, l, order, mo, RIDGE_FLOOR, st.stable_k)
+    report = {
+        "normalize": st.normalize,
+        "input_scale": vs.su,
+        "output_scale": vs.sy,
+        "p_rule": p_rule,
+        "p_criterion_values": crit,
+        "f_rule": "given" if st.f is not None else "f = p",
+        **_block_counts(kinds, sizes),
+    }
+    return _core_out(core, vs, m, l, kinds, sizes, report), hold, hold_crit
+
+
+def _first_pass(
+    ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, ps: list[int]
+) -> tuple[list[Any], str, dict[str, float]]:
+    """The first-pass factors of every input hold (the windows ``ps`` and those of the
+    hold criterion), the hold of the smallest criterion (the first on ties) and the
+    criterion of each hold (empty for one hold)."""
+    kinds, holds = ctx.shared.kinds, ctx.shared.holds
     hold_ps = _hold_windows(kinds, sizes, m, l, st) if len(holds) > 1 else []
     first = ctx.reduce(_varx_step, [sorted(set(ps) | set(hold_ps))] * len(holds), streamed.merge)
     hold_crit = {
@@ -433,59 +487,61 @@ def _best_hold_streamed(
         if len(holds) > 1
     }
     hold = min(holds, key=lambda h: (hold_crit.get(h, 0.0), holds.index(h)))
-    k = holds.index(hold)
-    vf = first[k]
-    need = order if order is not None else 3
-    crit = None
-    p = p_fixed
-    if p is None:
-        p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+    return first, hold, hold_crit
+
+
+def _future_window(st: BasisSettings, p: int, l: int, order: int | None) -> int:
+    """The future window: ``st.f`` checked against ``p`` and the order, else ``p``
+    (:func:`~hdpbsid.bases.basis_domain.run_core`'s rule)."""
+    need = order if order is not None else DEFAULTS.selection_rows
     if st.f is not None and st.f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={st.f} > p={p}")
     if st.f is not None and st.f * l < need:
         raise ValueError(f"order needs f*l >= {need}, but f*l = {st.f * l}; increase f")
-    f = p if st.f is None else st.f
-    vs = streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize)
-    # the second pass for the chosen hold only (None: nothing to gather for the others)
-    second = ctx.reduce(
-        _state_step, [vs if i == k else None for i in range(len(holds))], streamed.merge
-    )
-    sf = second[k]
-    n_blocks = int(sizes.size)
+    return p if st.f is None else st.f
+
+
+def _max_order(st: BasisSettings, f: int, l: int, order: int | None) -> int | None:
+    """The largest order of the selection (None with a given order), checked against the
+    ``f l`` rows of ``Gamma L``."""
+    mo = min(st.max_order, f * l - 1) if order is None else None
+    if mo is not None and mo < 1:
+        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+    if order is not None and order > f * l:
+        raise ValueError(
+            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows "
+            f"of Gamma L; increase f (and p) or reduce the order"
+        )
+    return mo
+
+
+def _block_counts(kinds: dict[int, _Kind], sizes: Array) -> dict[str, int]:
+    """The pseudo-inputs kept and the blocks, as the in-memory core reports them."""
     n_pseudo = sum(
         _kept_rows(kinds[int(n)]) * int(c)
         for n, c in zip(*np.unique(sizes, return_counts=True), strict=True)
     )
-    lag_text = (
-        f"BlockLag({n_blocks} blocks: {', '.join(sorted({repr(k.lag) for k in kinds.values()}))})"
-    )
-    f_used = vs.f
-    mo = min(st.max_order, f_used * l - 1) if order is None else None
-    if mo is not None and mo < 1:
-        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
-    if order is not None and order > f_used * l:
-        raise ValueError(
-            f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
-            f"of Gamma L; increase f (and p) or reduce the order"
-        )
-    core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
-    core.options["lag"] = lag_text
+    return {"n_pseudo_inputs": n_pseudo, "n_blocks": int(sizes.size)}
+
+
+def _core_out(
+    core: Any,
+    vs: Any,
+    m: int,
+    l: int,
+    kinds: dict[int, _Kind],
+    sizes: Array,
+    report: dict[str, Any],
+) -> CoreOut:
+    """The streamed core's model in user units (the normalisation undone), as
+    :func:`~hdpbsid.bases.basis_domain.run_core` returns it."""
+    lags = ", ".join(sorted({repr(k.lag) for k in kinds.values()}))
+    core.options["lag"] = f"BlockLag({int(sizes.size)} blocks: {lags})"
     su, sy = vs.su, vs.sy
     ncov = sy[:, None] * core.noise_covariance * sy[None, :]
     opts: dict[str, Any] = dict(core.options)
-    opts.update(
-        {
-            "normalize": st.normalize,
-            "input_scale": su,
-            "output_scale": sy,
-            "p_rule": p_rule,
-            "p_criterion_values": crit,
-            "f_rule": "given" if st.f is not None else "f = p",
-            "n_pseudo_inputs": n_pseudo,
-            "n_blocks": n_blocks,
-        }
-    )
-    out = CoreOut(
+    opts.update(report)
+    return CoreOut(
         core.A,
         core.B / su[None, :] if m else core.B[:, :0],
         core.C * sy[:, None],
@@ -496,7 +552,6 @@ def _best_hold_streamed(
         core,
         opts,
     )
-    return out, hold, hold_crit
 
 
 def _best_hold_in_memory(
@@ -701,6 +756,7 @@ def _plan_batches(
             batch.clear()
 
     for k, n in enumerate(int(n) for n in sizes):
+        # the maps of every hold and the output's, 8 bytes per float64 entry
         if bases[n].N * n * 8 * (n_holds + 1) > MAP_BYTES:  # too large a map: one by one
             flush()
             single.add(n)
