@@ -55,7 +55,6 @@ from hdpbsid.bases.basis_domain import (
     CoreOut,
     _largest_determined_p,
     _power_spectra,
-    best_hold,
     project_record,
     resolve_holds,
     spectra_data_bandwidth,
@@ -63,7 +62,15 @@ from hdpbsid.bases.basis_domain import (
 )
 from hdpbsid.bases.family import Integrator, size_policy
 from hdpbsid.bases.hermite_family import HermiteFamily
-from hdpbsid.bases.pipeline import one_or_all
+from hdpbsid.bases.pipeline import (
+    BlockKind,
+    block_kinds,
+    core_on_rows,
+    size_bases,
+    size_report,
+    stacked,
+    to_fit,
+)
 from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core import streamed
@@ -230,17 +237,6 @@ def _project_single(
     return project_record(basis, np.arange(b - a) * rec.dt, u, y, holds)
 
 
-@dataclass(frozen=True)
-class _Kind:
-    """What the windows of one sample count share: lag operator, basis size, pseudo rows
-    and basis."""
-
-    lag: Any
-    N: int
-    rows: Array
-    basis: Any
-
-
 class _Shared:
     """The record and the per-length data every batch task needs (one copy in a Dask
     graph).
@@ -256,7 +252,7 @@ class _Shared:
         self,
         record: ChunkedRecord,
         mapped: dict[int, Any],
-        kinds: dict[int, _Kind],
+        kinds: dict[int, BlockKind],
         holds: tuple[str, ...],
     ) -> None:
         self.record, self.kinds, self.holds = record, kinds, holds
@@ -344,7 +340,7 @@ def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any,
 
 
 def _tightest(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int
 ) -> tuple[int, int, int, int, int]:
     """The tightest window kind (fewest coefficients per ``m + q + l`` regressor rows; the
     first such length in dict order), its ``N`` and ``d = m + q + l``, the default rule's
@@ -360,7 +356,7 @@ def _tightest(
 
 
 def _p_plan(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[list[int], int | None, int, int, str]:
     """The past windows to try, as :func:`~hdpbsid.bases.basis_domain.run_core` rules
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
@@ -404,14 +400,14 @@ def _p_plan(
     return list(range(lo, hi + 1)), (lo if hi == lo else None), lo, hi, rule
 
 
-def _kept_rows(kind: _Kind) -> int:
+def _kept_rows(kind: BlockKind) -> int:
     """Pseudo rows of a window kept by :class:`~hdpbsid.core.blocks.BlockPseudo`."""
     one = BlockPseudo(BlockLag([kind.lag], [kind.N]), [kind.rows])
     return int(one.groups[0][4].shape[0])
 
 
 def _hold_windows(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int, st: BasisSettings
 ) -> list[int]:
     """The past windows the input-hold criterion compares the holds over, as
     :func:`~hdpbsid.bases.basis_domain.hold_criterion` rules them: the given ``p``, or
@@ -515,7 +511,7 @@ def _max_order(st: BasisSettings, f: int, l: int, order: int | None) -> int | No
     return mo
 
 
-def _block_counts(kinds: dict[int, _Kind], sizes: Array) -> dict[str, int]:
+def _block_counts(kinds: dict[int, BlockKind], sizes: Array) -> dict[str, int]:
     """The pseudo-inputs kept and the blocks, as the in-memory core reports them."""
     n_pseudo = sum(
         _kept_rows(kinds[int(n)]) * int(c)
@@ -529,7 +525,7 @@ def _core_out(
     vs: Any,
     m: int,
     l: int,
-    kinds: dict[int, _Kind],
+    kinds: dict[int, BlockKind],
     sizes: Array,
     report: dict[str, Any],
 ) -> CoreOut:
@@ -555,17 +551,16 @@ def _core_out(
 
 
 def _best_hold_in_memory(
-    ctx: _Batches, sizes: Array, core_options: dict[str, Any]
+    ctx: _Batches, sizes: Array, family: HermiteFamily, st: BasisSettings, order: int | None
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.bases.basis_domain.best_hold` on every window's coefficients at
+    """:func:`~hdpbsid.bases.pipeline.core_on_rows` on every window's coefficients at
     once (the settings the streamed core does not cover)."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     results = ctx.gather()
     Us = [np.hstack([r[0][i] for r in results]) for i in range(len(holds))]
     Yc = np.hstack([r[1] for r in results])
-    keys = [int(n) for n in sizes]
-    lag = BlockLag([kinds[n].lag for n in keys], [kinds[n].N for n in keys])
-    return best_hold(holds, Us, Yc, [kinds[n].rows for n in keys], lag, **core_options)
+    lag, rows = stacked(kinds, [int(n) for n in sizes])
+    return core_on_rows(family, st, order, holds, Us, Yc, rows, lag)
 
 
 def _reduce(
@@ -684,24 +679,24 @@ def identify_chunked(
     length, info = _window(record, st, family, wb, lambda: spectrum_bandwidth(w, Py, LOW_FRACTION))
     edges = _window_edges(record, length)
     sizes = np.diff(edges) + 1  # samples per window (edge samples shared)
-    bases, n_rules = _bases(record, family, sizes, size_policy(family, N, wb))
+    # one basis per window length (samples), in order of first appearance
+    spans = {n: ((n - 1) * record.dt, n) for n in dict.fromkeys(int(n) for n in sizes)}
+    bases, size_choices = size_bases(family, size_policy(family, N, wb), spans)
     s_ref = float(np.median([b.scale for b in bases.values()]))
     op = Integrator(4.0 * s_ref, 1.0, 1.0)
     holds = resolve_holds(st.input_hold, record.m)
-    kinds = {
-        n: _Kind(family.lag(b, op), b.N, family.pseudo_rows(b, op, st.boundary, None), b)
-        for n, b in bases.items()
-    }
+    kinds = block_kinds(family, bases, op, st.boundary)
     jobs, single = _plan_batches(edges, sizes, bases, len(holds), chunk_samples)
     mapped = {n: b for n, b in bases.items() if n not in single}
     ctx = _Batches(jobs, _Shared(record, mapped, kinds, holds), use_dask)
     if st.feedthrough:
         # not covered by the streamed core: every window's coefficients held at once
-        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
+        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, family, st, order)
     else:
         out, hold, hold_crit = _best_hold_streamed(ctx, sizes, record.m, record.l, st, order)
+    reasons = [c.reason for c in size_choices.values()]
     options = {
-        **_report(record, bases, sizes, n_rules, s_ref, st.boundary),
+        **_report(record, bases, sizes, reasons, s_ref, st.boundary),
         "bandwidth": wb,
         "bandwidth_rule": (
             f"periodograms averaged over chunks of {min(record.ns, spectrum_samples)} samples"
@@ -715,9 +710,7 @@ def identify_chunked(
         **info,
         "window": length,
     }
-    return family.model(
-        out, op, options, settings=st, hold=hold, hold_criterion=hold_crit, order=order
-    )
+    return to_fit(family, out, op, options, st, order, hold, hold_crit).model
 
 
 def _window(
@@ -769,40 +762,19 @@ def _plan_batches(
     return jobs, single
 
 
-def _bases(
-    record: ChunkedRecord,
-    family: HermiteFamily,
-    sizes: Array,
-    size: Callable[[float, int], Any],
-) -> tuple[dict[int, Any], dict[int, str]]:
-    """One basis per distinct window length (samples), in order of first appearance, of
-    the size ``size(T, n)`` chooses; and the reason for each size."""
-    bases: dict[int, Any] = {}
-    n_rules: dict[int, str] = {}
-    for n in dict.fromkeys(int(n) for n in sizes):
-        T = (n - 1) * record.dt
-        choice = size(T, n)
-        n_rules[n] = choice.reason
-        bases[n] = family.basis(int(choice.value), T)
-    return bases, n_rules
-
-
 def _report(
     record: ChunkedRecord,
     bases: dict[int, Any],
     sizes: Array,
-    n_rules: dict[int, str],
+    reasons: list[str],
     s_ref: float,
     boundary: bool,
 ) -> dict[str, Any]:
     """The options of the blocks as :func:`~hdpbsid.methods.hermite.identify_hermite`
     reports them."""
-    Ns_all = [bases[int(n)].N for n in sizes]
     return {
         "method": "hermite",
-        "N": int(max(Ns_all)),
-        "N_per_block": Ns_all if len(Ns_all) > 1 else None,
-        "N_rule": one_or_all(list(n_rules.values())),
+        **size_report([bases[int(n)].N for n in sizes], reasons),
         "scale": s_ref,
         "centre": record.t0 + bases[int(sizes[0])].centre,
         "alpha_rule": "4 * scale (median over blocks)",
