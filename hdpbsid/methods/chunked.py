@@ -26,14 +26,16 @@ With ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
 well, so only the final factors reach the caller.  The basis-domain problem of all
 windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (the same
 family, :class:`~hdpbsid.methods.hermite.HermiteFamily`: bases, size rule, lags,
-pseudo-inputs, map back; the same rules of ``p`` and of the input hold), solved from triangular
-factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so on the
-same windows the model is the in-memory one to rounding, up to the sign of each state
-coordinate.  Memory: one batch of samples and its coefficients, the projection maps
-(one per window length) and factors of a few rows squared -- nothing grows with the
-record.  ``feedthrough=True`` is not covered by the streamed core: with it every
-window's coefficients are gathered and solved at once (memory ``N_w / Ns_w`` of the
-samples per signal and input hold, plus the core's work arrays).
+pseudo-inputs, map back; the same rules of ``p`` and of the input hold), built by the
+steps of the in-memory pipeline (:func:`~hdpbsid.bases.pipeline.size_bases`,
+:func:`~hdpbsid.bases.pipeline.block_kinds`, :func:`~hdpbsid.bases.pipeline.to_fit`) and
+solved from triangular factors instead of the stacked coefficients
+(:mod:`hdpbsid.core.streamed`), so on the same windows the model is the in-memory one to
+rounding, up to the sign of each state coordinate.  Memory: one batch of samples and its
+coefficients, the projection maps (one per window length) and factors of a few rows
+squared -- nothing grows with the record.  ``feedthrough=True`` is not covered by the
+streamed core: with it every window's coefficients are gathered and solved at once (memory
+``N_w / Ns_w`` of the samples per signal and input hold, plus the core's work arrays).
 """
 
 from __future__ import annotations
