@@ -407,21 +407,29 @@ def merge(a: Any, b: Any) -> Any:
     if isinstance(a, list):
         return [merge(x, y) for x, y in zip(a, b, strict=True)]
     if isinstance(a, StateFactors):
-        return StateFactors(
-            a.ncols + b.ncols,
-            _stack(a.sy, b.sy),
-            _stack(a.abk, b.abk),
-            a.compressed + b.compressed,
-            _stack(a.lagged, b.lagged),
-            a.batches + b.batches,
-        )
+        return _merge_state(a, b)
+    return _merge_varx(a, b)
+
+
+def _merge_state(a: StateFactors, b: StateFactors) -> StateFactors:
+    """:func:`merge` of second-pass statistics: factors stacked, counts added."""
+    return StateFactors(
+        a.ncols + b.ncols,
+        _stack(a.sy, b.sy),
+        _stack(a.abk, b.abk),
+        a.compressed + b.compressed,
+        _stack(a.lagged, b.lagged),
+        a.batches + b.batches,
+    )
+
+
+def _merge_varx(a: VarxFactors, b: VarxFactors) -> VarxFactors:
+    """:func:`merge` of first-pass statistics: factors stacked per window (the ridge
+    factors per ``(kind, direction)``), sums and counts added."""
     soft: dict[int, dict[tuple[Hashable, int], Array]] = {}
     sv = {p: {**a.sv[p], **b.sv[p]} for p in a.hard}
     for p in a.hard:
-        for kind in set(a.sv[p]) & set(b.sv[p]):
-            # the same rows in another process may differ by rounding (1e-8: far above)
-            if not np.allclose(a.sv[p][kind], b.sv[p][kind], rtol=1e-8, atol=0.0):
-                raise ValueError(f"kinds: blocks labelled {kind!r} have different pseudo rows")
+        _check_kinds(a.sv[p], b.sv[p])
     for p in a.hard:
         soft[p] = dict(a.soft[p])
         for key, R in b.soft[p].items():
@@ -437,6 +445,14 @@ def merge(a: Any, b: Any) -> Any:
         sv,
         a.batches + b.batches,
     )
+
+
+def _check_kinds(sa: dict[Hashable, Array], sb: dict[Hashable, Array]) -> None:
+    """Blocks of one kind in two sets have the same nuisance singular values."""
+    for kind in set(sa) & set(sb):
+        # the same rows in another process may differ by rounding (1e-8: far above)
+        if not np.allclose(sa[kind], sb[kind], rtol=1e-8, atol=0.0):
+            raise ValueError(f"kinds: blocks labelled {kind!r} have different pseudo rows")
 
 
 def _scales(vf: VarxFactors, m: int, normalize: bool) -> tuple[Array, Array]:
@@ -673,57 +689,12 @@ def solve_model(
     Uu, s = state_map(sf, fl)
     n, info = resolve_order(s, order, max_order)
     T = Uu[:, :n].T / np.sqrt(s[:n])[:, None]  # X = T S
-    eps = np.finfo(float).eps
-    # C: Y = C X + E on all columns; the factor of [X; Y] is that of [S; Y] mapped
-    R1 = r_of(sf.sy @ _blkdiag(T.T, np.eye(l)), n + l)
-    C = np.linalg.lstsq(R1[:n, :n], R1[:n, n:], rcond=eps * max(sf.ncols, n))[0].T
-    E2 = R1[n:, n:].T @ R1[n:, n:]
-    noise_cov = E2 / sf.ncols
-    # A, B, K: X = A lag X + B lag U + K lag E, lag E = lag Y - C lag X
-    dreg = n + m + l
-    if sf.compressed <= dreg:
-        raise ValueError(
-            f"too few usable columns ({sf.compressed}) to estimate A, B, K with "
-            f"{dreg} regressors per state; supply more data or reduce p/order"
-        )
-    Mt = np.zeros((dreg + n, 2 * fl + m + l))
-    Mt[:n, :fl] = T
-    Mt[n : n + m, fl : fl + m] = np.eye(m)
-    Mt[n + m : dreg, :fl] = -C @ T
-    Mt[n + m : dreg, fl + m : fl + m + l] = np.eye(l)
-    Mt[dreg:, fl + m + l :] = T
-    R2 = r_of(sf.abk @ Mt.T, dreg + n)
-    th = np.linalg.lstsq(R2[:dreg, :dreg], R2[:dreg, dreg:], rcond=eps * max(sf.compressed, dreg))[
-        0
-    ].T
-    A, B, K = th[:, :n], th[:, n : n + m], th[:, n + m :]
+    C, noise_cov = _output_step(sf, T, l)
+    A, B, K, F_res = _abk_step(sf, T, C, m, l)
     k_method = "least squares"
     if stable_k:
-        # W = X - A lag X - B lag U - (pseudo part) = residual + K lag E, V = lag E; the
-        # residual is orthogonal to the regressor lag E, so with L = lag E lag E^T:
-        # W W^T = Res + K L K^T, W V^T = K L, V V^T = L.  Columns with these products:
-        # W' = [F_res^T, K F_L^T], V' = [0, F_L^T] (F^T F = Res, L), scaled to N columns
-        F_res = R2[dreg:, dreg:]
-        Ml = np.hstack([-C @ T, np.eye(l)])  # lag E = Ml [lag S; lag Y]
-        F_L = r_of(sf.lagged @ Ml.T, l)
-        w = np.sqrt((n + l) / sf.ncols)
-        Wv = w * np.hstack([F_res.T, K @ F_L.T])
-        Vv = w * np.hstack([np.zeros((l, n)), F_L.T])
-        K, k_method = stable_gain(A, C, Wv, Vv, K)
-    coef = vs.theta[:, : p * (m + l)]
-    Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
-    vx = VarxResult(
-        Xi=Xi,
-        coef=coef,
-        D=np.zeros((l, m)),
-        Zp=np.zeros((p * (m + l), 0)),
-        columns=np.zeros(0, dtype=np.intp),
-        residuals=np.zeros((l, 0)),
-        ridge=vs.ridge,
-        regularize=vs.kind,
-        gcv=vs.gcv,
-        extra=dict(vs.extra),
-    )
+        K, k_method = _stable_k(sf, T, A, C, K, F_res)
+    vx = _varx_result(vs, m, l)
     options = core_options(
         p, f, n, order, False, vx, ridge_floor, stable_k, k_method, "", info, max_order
     )
@@ -745,6 +716,84 @@ def solve_model(
         varx=vx,
         noise_covariance=noise_cov,
         options=options,
+    )
+
+
+def _output_step(sf: StateFactors, T: Array, l: int) -> tuple[Array, Array]:
+    """``C`` and the innovation covariance: ``Y = C X + E`` on all columns, the factor of
+    ``[X; Y]`` that of ``[S; Y]`` mapped by ``X = T S``."""
+    n = T.shape[0]
+    eps = np.finfo(float).eps
+    R1 = r_of(sf.sy @ _blkdiag(T.T, np.eye(l)), n + l)
+    C = np.linalg.lstsq(R1[:n, :n], R1[:n, n:], rcond=eps * max(sf.ncols, n))[0].T
+    E2 = R1[n:, n:].T @ R1[n:, n:]
+    return C, E2 / sf.ncols
+
+
+def _abk_step(
+    sf: StateFactors, T: Array, C: Array, m: int, l: int
+) -> tuple[Array, Array, Array, Array]:
+    """``A, B, K`` of ``X = A lag X + B lag U + K lag E`` (``lag E = lag Y - C lag X``) from
+    the factor of ``[lag S; lag U; lag Y; S]`` mapped to ``[lag X; lag U; lag E; X]``;
+    and the factor of the state residual (for ``stable_k``)."""
+    n, fl = T.shape
+    eps = np.finfo(float).eps
+    dreg = n + m + l
+    if sf.compressed <= dreg:
+        raise ValueError(
+            f"too few usable columns ({sf.compressed}) to estimate A, B, K with "
+            f"{dreg} regressors per state; supply more data or reduce p/order"
+        )
+    Mt = np.zeros((dreg + n, 2 * fl + m + l))
+    Mt[:n, :fl] = T
+    Mt[n : n + m, fl : fl + m] = np.eye(m)
+    Mt[n + m : dreg, :fl] = -C @ T
+    Mt[n + m : dreg, fl + m : fl + m + l] = np.eye(l)
+    Mt[dreg:, fl + m + l :] = T
+    R2 = r_of(sf.abk @ Mt.T, dreg + n)
+    th = np.linalg.lstsq(R2[:dreg, :dreg], R2[:dreg, dreg:], rcond=eps * max(sf.compressed, dreg))[
+        0
+    ].T
+    return th[:, :n], th[:, n : n + m], th[:, n + m :], R2[dreg:, dreg:]
+
+
+def _stable_k(
+    sf: StateFactors, T: Array, A: Array, C: Array, K: Array, F_res: Array
+) -> tuple[Array, str]:
+    """The Riccati gain from the factors (:func:`~hdpbsid.core.pbsid.stable_gain`).
+
+    ``W = X - A lag X - B lag U - (pseudo part) = residual + K lag E``, ``V = lag E``; the
+    residual is orthogonal to the regressor ``lag E``, so with ``L = lag E lag E^T``:
+    ``W W^T = Res + K L K^T``, ``W V^T = K L``, ``V V^T = L``.  Columns with these
+    products: ``W' = [F_res^T, K F_L^T]``, ``V' = [0, F_L^T]`` (``F^T F = Res, L``),
+    scaled to ``N`` columns.
+    """
+    n, l = T.shape[0], C.shape[0]
+    Ml = np.hstack([-C @ T, np.eye(l)])  # lag E = Ml [lag S; lag Y]
+    F_L = r_of(sf.lagged @ Ml.T, l)
+    w = np.sqrt((n + l) / sf.ncols)
+    Wv = w * np.hstack([F_res.T, K @ F_L.T])
+    Vv = w * np.hstack([np.zeros((l, n)), F_L.T])
+    return stable_gain(A, C, Wv, Vv, K)
+
+
+def _varx_result(vs: VarxSolution, m: int, l: int) -> VarxResult:
+    """The VARX of the solution as the in-memory core reports it (per-column arrays
+    empty: never formed)."""
+    p = vs.p
+    coef = vs.theta[:, : p * (m + l)]
+    Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
+    return VarxResult(
+        Xi=Xi,
+        coef=coef,
+        D=np.zeros((l, m)),
+        Zp=np.zeros((p * (m + l), 0)),
+        columns=np.zeros(0, dtype=np.intp),
+        residuals=np.zeros((l, 0)),
+        ridge=vs.ridge,
+        regularize=vs.kind,
+        gcv=vs.gcv,
+        extra=dict(vs.extra),
     )
 
 

@@ -26,14 +26,16 @@ With ``use_dask=True`` every batch is a ``dask.delayed`` task (run on the active
 well, so only the final factors reach the caller.  The basis-domain problem of all
 windows is the one :func:`~hdpbsid.methods.hermite.identify_hermite` solves (the same
 family, :class:`~hdpbsid.methods.hermite.HermiteFamily`: bases, size rule, lags,
-pseudo-inputs, map back; the same rules of ``p`` and of the input hold), solved from triangular
-factors instead of the stacked coefficients (:mod:`hdpbsid.core.streamed`), so on the
-same windows the model is the in-memory one to rounding, up to the sign of each state
-coordinate.  Memory: one batch of samples and its coefficients, the projection maps
-(one per window length) and factors of a few rows squared -- nothing grows with the
-record.  ``feedthrough=True`` is not covered by the streamed core: with it every
-window's coefficients are gathered and solved at once (memory ``N_w / Ns_w`` of the
-samples per signal and input hold, plus the core's work arrays).
+pseudo-inputs, map back; the same rules of ``p`` and of the input hold), built by the
+steps of the in-memory pipeline (:func:`~hdpbsid.bases.pipeline.size_bases`,
+:func:`~hdpbsid.bases.pipeline.block_kinds`, :func:`~hdpbsid.bases.pipeline.to_fit`) and
+solved from triangular factors instead of the stacked coefficients
+(:mod:`hdpbsid.core.streamed`), so on the same windows the model is the in-memory one to
+rounding, up to the sign of each state coordinate.  Memory: one batch of samples and its
+coefficients, the projection maps (one per window length) and factors of a few rows
+squared -- nothing grows with the record.  ``feedthrough=True`` is not covered by the
+streamed core: with it every window's coefficients are gathered and solved at once (memory
+``N_w / Ns_w`` of the samples per signal and input hold, plus the core's work arrays).
 """
 
 from __future__ import annotations
@@ -55,7 +57,6 @@ from hdpbsid.bases.basis_domain import (
     CoreOut,
     _largest_determined_p,
     _power_spectra,
-    best_hold,
     project_record,
     resolve_holds,
     spectra_data_bandwidth,
@@ -63,7 +64,15 @@ from hdpbsid.bases.basis_domain import (
 )
 from hdpbsid.bases.family import Integrator, size_policy
 from hdpbsid.bases.hermite_family import HermiteFamily
-from hdpbsid.bases.pipeline import one_or_all
+from hdpbsid.bases.pipeline import (
+    BlockKind,
+    block_kinds,
+    core_on_rows,
+    size_bases,
+    size_report,
+    stacked,
+    to_fit,
+)
 from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core import streamed
@@ -73,12 +82,35 @@ from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_chunked", "averaged_spectra", "SPECTRUM_SAMPLES"]
+__all__ = ["identify_chunked", "averaged_spectra", "ChunkedDefaults", "SPECTRUM_SAMPLES"]
 
 Array = NDArray[np.float64]
 
-#: samples per periodogram of the averaged spectrum (frequency resolution ``fs / 2^20``)
-SPECTRUM_SAMPLES = 2**20
+
+@dataclass(frozen=True)
+class ChunkedDefaults:
+    """The numbers of the chunked path that are not settings of the basis methods.
+
+    Attributes
+    ----------
+    spectrum_samples : int
+        Samples per periodogram of the averaged spectrum (:func:`averaged_spectra`).
+    selection_rows : int
+        Rows ``f l`` of ``Gamma L`` a past window must give when the order is selected
+        (:func:`~hdpbsid.bases.basis_domain.run_core`'s rule).
+    """
+
+    #: a frequency resolution of ``fs / 2^20``, and one periodogram (the in-memory
+    #: estimate) for records up to 2^20 samples
+    spectrum_samples: int = 2**20
+    #: order selection compares orders up to ``f l - 1``: at least 1 and 2
+    selection_rows: int = 3
+
+
+#: the defaults in use
+DEFAULTS = ChunkedDefaults()
+#: samples per periodogram of the averaged spectrum (:attr:`ChunkedDefaults.spectrum_samples`)
+SPECTRUM_SAMPLES = DEFAULTS.spectrum_samples
 
 
 def _spectra(rec: ChunkedRecord, a: int, b: int) -> tuple[Array, Array, Array]:
@@ -158,6 +190,7 @@ def _window_edges(rec: ChunkedRecord, length: float | None) -> Array:
     """Edges of :func:`hdpbsid.data.records.split_windows` (one window: the whole record)."""
     if length is None or rec.duration < 2 * length:
         return np.array([0, rec.ns - 1])
+    # 1e-9: a whole number of windows up to rounding counts as whole (as split_windows)
     K = max(1, int(np.floor(rec.duration / length + 1e-9)))
     K = min(K, max(1, (rec.ns - 1) // 2))
     return np.round(np.linspace(0, rec.ns - 1, K + 1)).astype(int)
@@ -206,17 +239,6 @@ def _project_single(
     return project_record(basis, np.arange(b - a) * rec.dt, u, y, holds)
 
 
-@dataclass(frozen=True)
-class _Kind:
-    """What the windows of one sample count share: lag operator, basis size, pseudo rows
-    and basis."""
-
-    lag: Any
-    N: int
-    rows: Array
-    basis: Any
-
-
 class _Shared:
     """The record and the per-length data every batch task needs (one copy in a Dask
     graph).
@@ -232,7 +254,7 @@ class _Shared:
         self,
         record: ChunkedRecord,
         mapped: dict[int, Any],
-        kinds: dict[int, _Kind],
+        kinds: dict[int, BlockKind],
         holds: tuple[str, ...],
     ) -> None:
         self.record, self.kinds, self.holds = record, kinds, holds
@@ -282,10 +304,6 @@ def _batch_task(
     return [step(U, Y, lag, pseudo, prm, sizes) for U, prm in zip(Us, params, strict=True)]
 
 
-def _coefficient_task(shared: _Shared, a: int, b: int, sizes: list[int], single: bool):
-    return _coefficients(shared, a, b, sizes, single)
-
-
 class _Batches:
     """The batches of a record: ``(first sample, end, window sizes, single)`` each, run
     serially or as ``dask.delayed`` tasks and reduced."""
@@ -309,7 +327,7 @@ class _Batches:
 
     def gather(self) -> list[Any]:
         """Every batch's coefficients (the memory of all of them at once)."""
-        tasks = [[_coefficient_task, self.shared, a, b, sz, one] for a, b, sz, one in self.jobs]
+        tasks = [[_coefficients, self.shared, a, b, sz, one] for a, b, sz, one in self.jobs]
         return _compute(tasks, self.use_dask, shared=self.shared)
 
 
@@ -324,7 +342,7 @@ def _state_step(U: Array, Y: Array, lag: BlockLag, pseudo: BlockPseudo, vs: Any,
 
 
 def _tightest(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int
 ) -> tuple[int, int, int, int, int]:
     """The tightest window kind (fewest coefficients per ``m + q + l`` regressor rows; the
     first such length in dict order), its ``N`` and ``d = m + q + l``, the default rule's
@@ -340,11 +358,11 @@ def _tightest(
 
 
 def _p_plan(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int, st: BasisSettings, order: int | None
 ) -> tuple[list[int], int | None, int, int, str]:
     """The past windows to try, as :func:`~hdpbsid.bases.basis_domain.run_core` rules
     them: ``(candidates, p or None for AIC, lo, hi, rule)``."""
-    need = order if order is not None else 3
+    need = order if order is not None else DEFAULTS.selection_rows
     f_min = -(-need // l)
     worst, nb, d, p_cap, ncols = _tightest(kinds, sizes, m, l)
     if st.p is not None:
@@ -384,14 +402,14 @@ def _p_plan(
     return list(range(lo, hi + 1)), (lo if hi == lo else None), lo, hi, rule
 
 
-def _kept_rows(kind: _Kind) -> int:
+def _kept_rows(kind: BlockKind) -> int:
     """Pseudo rows of a window kept by :class:`~hdpbsid.core.blocks.BlockPseudo`."""
     one = BlockPseudo(BlockLag([kind.lag], [kind.N]), [kind.rows])
     return int(one.groups[0][4].shape[0])
 
 
 def _hold_windows(
-    kinds: dict[int, _Kind], sizes: Array, m: int, l: int, st: BasisSettings
+    kinds: dict[int, BlockKind], sizes: Array, m: int, l: int, st: BasisSettings
 ) -> list[int]:
     """The past windows the input-hold criterion compares the holds over, as
     :func:`~hdpbsid.bases.basis_domain.hold_criterion` rules them: the given ``p``, or
@@ -425,6 +443,40 @@ def _best_hold_streamed(
     pass made for that hold only."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     ps, p_fixed, lo, hi, p_rule = _p_plan(kinds, sizes, m, l, st, order)
+    first, hold, hold_crit = _first_pass(ctx, sizes, m, l, st, ps)
+    k = holds.index(hold)
+    vf = first[k]
+    crit = None
+    p = p_fixed
+    if p is None:
+        p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+    f = _future_window(st, p, l, order)
+    vs = streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize)
+    # the second pass for the chosen hold only (None: nothing to gather for the others)
+    second = ctx.reduce(
+        _state_step, [vs if i == k else None for i in range(len(holds))], streamed.merge
+    )
+    mo = _max_order(st, vs.f, l, order)
+    core = streamed.solve_model(vs, second[k], m, l, order, mo, RIDGE_FLOOR, st.stable_k)
+    report = {
+        "normalize": st.normalize,
+        "input_scale": vs.su,
+        "output_scale": vs.sy,
+        "p_rule": p_rule,
+        "p_criterion_values": crit,
+        "f_rule": "given" if st.f is not None else "f = p",
+        **_block_counts(kinds, sizes),
+    }
+    return _core_out(core, vs, m, l, kinds, sizes, report), hold, hold_crit
+
+
+def _first_pass(
+    ctx: _Batches, sizes: Array, m: int, l: int, st: BasisSettings, ps: list[int]
+) -> tuple[list[Any], str, dict[str, float]]:
+    """The first-pass factors of every input hold (the windows ``ps`` and those of the
+    hold criterion), the hold of the smallest criterion (the first on ties) and the
+    criterion of each hold (empty for one hold)."""
+    kinds, holds = ctx.shared.kinds, ctx.shared.holds
     hold_ps = _hold_windows(kinds, sizes, m, l, st) if len(holds) > 1 else []
     first = ctx.reduce(_varx_step, [sorted(set(ps) | set(hold_ps))] * len(holds), streamed.merge)
     hold_crit = {
@@ -433,59 +485,61 @@ def _best_hold_streamed(
         if len(holds) > 1
     }
     hold = min(holds, key=lambda h: (hold_crit.get(h, 0.0), holds.index(h)))
-    k = holds.index(hold)
-    vf = first[k]
-    need = order if order is not None else 3
-    crit = None
-    p = p_fixed
-    if p is None:
-        p, crit = streamed.select_p(vf, m, l, lo, hi, st.normalize)
+    return first, hold, hold_crit
+
+
+def _future_window(st: BasisSettings, p: int, l: int, order: int | None) -> int:
+    """The future window: ``st.f`` checked against ``p`` and the order, else ``p``
+    (:func:`~hdpbsid.bases.basis_domain.run_core`'s rule)."""
+    need = order if order is not None else DEFAULTS.selection_rows
     if st.f is not None and st.f > p:
         raise ValueError(f"the future window f must satisfy f <= p, got f={st.f} > p={p}")
     if st.f is not None and st.f * l < need:
         raise ValueError(f"order needs f*l >= {need}, but f*l = {st.f * l}; increase f")
-    f = p if st.f is None else st.f
-    vs = streamed.solve_varx(vf, m, l, p, f, st.regularize, RIDGE_FLOOR, st.normalize)
-    # the second pass for the chosen hold only (None: nothing to gather for the others)
-    second = ctx.reduce(
-        _state_step, [vs if i == k else None for i in range(len(holds))], streamed.merge
-    )
-    sf = second[k]
-    n_blocks = int(sizes.size)
+    return p if st.f is None else st.f
+
+
+def _max_order(st: BasisSettings, f: int, l: int, order: int | None) -> int | None:
+    """The largest order of the selection (None with a given order), checked against the
+    ``f l`` rows of ``Gamma L``."""
+    mo = min(st.max_order, f * l - 1) if order is None else None
+    if mo is not None and mo < 1:
+        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
+    if order is not None and order > f * l:
+        raise ValueError(
+            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows "
+            f"of Gamma L; increase f (and p) or reduce the order"
+        )
+    return mo
+
+
+def _block_counts(kinds: dict[int, BlockKind], sizes: Array) -> dict[str, int]:
+    """The pseudo-inputs kept and the blocks, as the in-memory core reports them."""
     n_pseudo = sum(
         _kept_rows(kinds[int(n)]) * int(c)
         for n, c in zip(*np.unique(sizes, return_counts=True), strict=True)
     )
-    lag_text = (
-        f"BlockLag({n_blocks} blocks: {', '.join(sorted({repr(k.lag) for k in kinds.values()}))})"
-    )
-    f_used = vs.f
-    mo = min(st.max_order, f_used * l - 1) if order is None else None
-    if mo is not None and mo < 1:
-        raise ValueError("order selection needs f*l >= 2; increase p/f or pass an order")
-    if order is not None and order > f_used * l:
-        raise ValueError(
-            f"order={order} exceeds f*l = {f_used}*{l} = {f_used * l}, the number of rows "
-            f"of Gamma L; increase f (and p) or reduce the order"
-        )
-    core = streamed.solve_model(vs, sf, m, l, order, mo, RIDGE_FLOOR, st.stable_k)
-    core.options["lag"] = lag_text
+    return {"n_pseudo_inputs": n_pseudo, "n_blocks": int(sizes.size)}
+
+
+def _core_out(
+    core: Any,
+    vs: Any,
+    m: int,
+    l: int,
+    kinds: dict[int, BlockKind],
+    sizes: Array,
+    report: dict[str, Any],
+) -> CoreOut:
+    """The streamed core's model in user units (the normalisation undone), as
+    :func:`~hdpbsid.bases.basis_domain.run_core` returns it."""
+    lags = ", ".join(sorted({repr(k.lag) for k in kinds.values()}))
+    core.options["lag"] = f"BlockLag({int(sizes.size)} blocks: {lags})"
     su, sy = vs.su, vs.sy
     ncov = sy[:, None] * core.noise_covariance * sy[None, :]
     opts: dict[str, Any] = dict(core.options)
-    opts.update(
-        {
-            "normalize": st.normalize,
-            "input_scale": su,
-            "output_scale": sy,
-            "p_rule": p_rule,
-            "p_criterion_values": crit,
-            "f_rule": "given" if st.f is not None else "f = p",
-            "n_pseudo_inputs": n_pseudo,
-            "n_blocks": n_blocks,
-        }
-    )
-    out = CoreOut(
+    opts.update(report)
+    return CoreOut(
         core.A,
         core.B / su[None, :] if m else core.B[:, :0],
         core.C * sy[:, None],
@@ -496,21 +550,19 @@ def _best_hold_streamed(
         core,
         opts,
     )
-    return out, hold, hold_crit
 
 
 def _best_hold_in_memory(
-    ctx: _Batches, sizes: Array, core_options: dict[str, Any]
+    ctx: _Batches, sizes: Array, family: HermiteFamily, st: BasisSettings, order: int | None
 ) -> tuple[CoreOut, str, dict[str, float]]:
-    """:func:`~hdpbsid.bases.basis_domain.best_hold` on every window's coefficients at
+    """:func:`~hdpbsid.bases.pipeline.core_on_rows` on every window's coefficients at
     once (the settings the streamed core does not cover)."""
     kinds, holds = ctx.shared.kinds, ctx.shared.holds
     results = ctx.gather()
     Us = [np.hstack([r[0][i] for r in results]) for i in range(len(holds))]
     Yc = np.hstack([r[1] for r in results])
-    keys = [int(n) for n in sizes]
-    lag = BlockLag([kinds[n].lag for n in keys], [kinds[n].N for n in keys])
-    return best_hold(holds, Us, Yc, [kinds[n].rows for n in keys], lag, **core_options)
+    lag, rows = stacked(kinds, [int(n) for n in sizes])
+    return core_on_rows(family, st, order, holds, Us, Yc, rows, lag)
 
 
 def _reduce(
@@ -629,24 +681,24 @@ def identify_chunked(
     length, info = _window(record, st, family, wb, lambda: spectrum_bandwidth(w, Py, LOW_FRACTION))
     edges = _window_edges(record, length)
     sizes = np.diff(edges) + 1  # samples per window (edge samples shared)
-    bases, n_rules = _bases(record, family, sizes, size_policy(family, N, wb))
+    # one basis per window length (samples), in order of first appearance
+    spans = {n: ((n - 1) * record.dt, n) for n in dict.fromkeys(int(n) for n in sizes)}
+    bases, size_choices = size_bases(family, size_policy(family, N, wb), spans)
     s_ref = float(np.median([b.scale for b in bases.values()]))
     op = Integrator(4.0 * s_ref, 1.0, 1.0)
     holds = resolve_holds(st.input_hold, record.m)
-    kinds = {
-        n: _Kind(family.lag(b, op), b.N, family.pseudo_rows(b, op, st.boundary, None), b)
-        for n, b in bases.items()
-    }
+    kinds = block_kinds(family, bases, op, st.boundary)
     jobs, single = _plan_batches(edges, sizes, bases, len(holds), chunk_samples)
     mapped = {n: b for n, b in bases.items() if n not in single}
     ctx = _Batches(jobs, _Shared(record, mapped, kinds, holds), use_dask)
     if st.feedthrough:
         # not covered by the streamed core: every window's coefficients held at once
-        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, st.core_options(order))
+        out, hold, hold_crit = _best_hold_in_memory(ctx, sizes, family, st, order)
     else:
         out, hold, hold_crit = _best_hold_streamed(ctx, sizes, record.m, record.l, st, order)
+    reasons = [c.reason for c in size_choices.values()]
     options = {
-        **_report(record, bases, sizes, n_rules, s_ref, st.boundary),
+        **_report(record, bases, sizes, reasons, s_ref, st.boundary),
         "bandwidth": wb,
         "bandwidth_rule": (
             f"periodograms averaged over chunks of {min(record.ns, spectrum_samples)} samples"
@@ -660,9 +712,7 @@ def identify_chunked(
         **info,
         "window": length,
     }
-    return family.model(
-        out, op, options, settings=st, hold=hold, hold_criterion=hold_crit, order=order
-    )
+    return to_fit(family, out, op, options, st, order, hold, hold_crit).model
 
 
 def _window(
@@ -701,6 +751,7 @@ def _plan_batches(
             batch.clear()
 
     for k, n in enumerate(int(n) for n in sizes):
+        # the maps of every hold and the output's, 8 bytes per float64 entry
         if bases[n].N * n * 8 * (n_holds + 1) > MAP_BYTES:  # too large a map: one by one
             flush()
             single.add(n)
@@ -713,40 +764,19 @@ def _plan_batches(
     return jobs, single
 
 
-def _bases(
-    record: ChunkedRecord,
-    family: HermiteFamily,
-    sizes: Array,
-    size: Callable[[float, int], Any],
-) -> tuple[dict[int, Any], dict[int, str]]:
-    """One basis per distinct window length (samples), in order of first appearance, of
-    the size ``size(T, n)`` chooses; and the reason for each size."""
-    bases: dict[int, Any] = {}
-    n_rules: dict[int, str] = {}
-    for n in dict.fromkeys(int(n) for n in sizes):
-        T = (n - 1) * record.dt
-        choice = size(T, n)
-        n_rules[n] = choice.reason
-        bases[n] = family.basis(int(choice.value), T)
-    return bases, n_rules
-
-
 def _report(
     record: ChunkedRecord,
     bases: dict[int, Any],
     sizes: Array,
-    n_rules: dict[int, str],
+    reasons: list[str],
     s_ref: float,
     boundary: bool,
 ) -> dict[str, Any]:
     """The options of the blocks as :func:`~hdpbsid.methods.hermite.identify_hermite`
     reports them."""
-    Ns_all = [bases[int(n)].N for n in sizes]
     return {
         "method": "hermite",
-        "N": int(max(Ns_all)),
-        "N_per_block": Ns_all if len(Ns_all) > 1 else None,
-        "N_rule": one_or_all(list(n_rules.values())),
+        **size_report([bases[int(n)].N for n in sizes], reasons),
         "scale": s_ref,
         "centre": record.t0 + bases[int(sizes[0])].centre,
         "alpha_rule": "4 * scale (median over blocks)",
