@@ -302,6 +302,15 @@ def _add_identify_parser(sub: Any) -> None:
     _add_time_arguments(
         p, "unit of the times, recorded in the model (eigenvalues in rad/UNIT; default s)"
     )
+    _add_identification_settings(p)
+    p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
+    p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+
+def _add_identification_settings(p: argparse.ArgumentParser) -> None:
+    """The ``identify`` command's choices of the identification: operating point, order,
+    method, refinement, method options and progress bars."""
     p.add_argument(
         "--detrend",
         choices=("mean", "linear", "none"),
@@ -340,9 +349,6 @@ def _add_identify_parser(sub: Any) -> None:
         metavar="KEY=VALUE",
         help="extra option for the method, e.g. --option p=20 (repeatable)",
     )
-    p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
-    p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
-    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
 
 def _add_validate_parser(sub: Any) -> None:
