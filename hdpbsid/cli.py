@@ -3,9 +3,11 @@
 The command-line front end (docs/user-guide.md, "Command line").  :func:`main` takes
 an argument list and *returns* an exit code (0 success, 1 identification failed,
 2 usage / input error, 130 interrupted); it never calls ``sys.exit`` (a library that
-exits takes the caller's process with it).  Only this module prints.  ``--out`` is
-checked before any data are read; a closed standard output (``| head``) ends the
-printing quietly and the files are still written.
+exits takes the caller's process with it).  Only the command line prints (this module,
+the commands of :mod:`hdpbsid.commands` and :mod:`hdpbsid.frequency_cli`); this module
+parses the arguments and dispatches them.  ``--out`` is checked before any data are
+read; a closed standard output (``| head``) ends the printing quietly and the files are
+still written.
 
 ``identify`` reads a data file (CSV, MATLAB, NumPy, Parquet, HDF5: :mod:`hdpbsid.data.io`),
 picks the time (or takes ``--dt`` / ``--fs``), input and output columns by name, removes
@@ -35,49 +37,72 @@ a progress bar, serially, on local processes (``--jobs``) or on a Dask cluster
 ``summary.csv``, ``summary.json``, ``records.csv`` and PNG figures to ``--out``.
 
 The command's process keeps an idle OpenBLAS thread spinning for at most
-``2^BLAS_SPIN_LOG2_CYCLES`` cycles (:func:`_short_blas_spin`), unless the user set
+``2^BLAS_SPIN.log2_cycles`` cycles (:func:`_short_blas_spin`), unless the user set
 ``OPENBLAS_THREAD_TIMEOUT``.
 """
 
 from __future__ import annotations
 
 import argparse
-import ast
 import os
 import sys
-import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-#: log2 of the cycles an idle OpenBLAS thread of the command's process spins before it
-#: sleeps (``OPENBLAS_THREAD_TIMEOUT``; OpenBLAS's own default is 28, about 0.1 s).
-#: 2^20 cycles (about 0.4 ms at 2.5 GHz) outlasts by far the wake-up of a sleeping thread
-#: (tens of microseconds), so the dispatches inside one threaded factorisation still find
-#: their threads awake, while the spin after OpenBLAS starts its threads (at ``import
-#: numpy``) and after each threaded call costs a fraction of a millisecond per thread
-#: instead of a tenth of a second: the library's calls run their small-matrix work on one
-#: thread (:mod:`hdpbsid.runtime`), so nothing else waits for a spinning thread.
-BLAS_SPIN_LOG2_CYCLES = 20
+
+@dataclass(frozen=True)
+class BlasSpin:
+    """How long an idle OpenBLAS thread of the command's process spins before it sleeps.
+
+    ``OPENBLAS_THREAD_TIMEOUT`` is the log2 of the cycles (OpenBLAS's own default is 28,
+    about 0.1 s).  2^20 cycles (about 0.4 ms at 2.5 GHz) outlasts by far the wake-up of a
+    sleeping thread (tens of microseconds), so the dispatches inside one threaded
+    factorisation still find their threads awake, while the spin after OpenBLAS starts its
+    threads (at ``import numpy``) and after each threaded call costs a fraction of a
+    millisecond per thread instead of a tenth of a second: the library's calls run their
+    small-matrix work on one thread (:mod:`hdpbsid.runtime`), so nothing else waits for a
+    spinning thread.
+
+    Attributes
+    ----------
+    log2_cycles : int
+        The value given to ``OPENBLAS_THREAD_TIMEOUT``.
+    """
+
+    #: a fraction of a millisecond of spin, far above a thread's wake-up time (see above)
+    log2_cycles: int = 20
+
+
+#: the OpenBLAS spin of the command's process (:func:`_short_blas_spin`)
+BLAS_SPIN = BlasSpin()
+#: :attr:`BlasSpin.log2_cycles`, under the name earlier callers import
+BLAS_SPIN_LOG2_CYCLES = BLAS_SPIN.log2_cycles
 
 
 def _short_blas_spin() -> None:
-    """Set ``OPENBLAS_THREAD_TIMEOUT`` (:data:`BLAS_SPIN_LOG2_CYCLES`) for this process
+    """Set ``OPENBLAS_THREAD_TIMEOUT`` (:data:`BLAS_SPIN`) for this process
     when the user has not set it and numpy is not imported yet (OpenBLAS reads it once,
     when it loads): the command's own process, whose BLAS the user did not start."""
     if "numpy" not in sys.modules:
-        os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", str(BLAS_SPIN_LOG2_CYCLES))
+        os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", str(BLAS_SPIN.log2_cycles))
 
 
 _short_blas_spin()
 
+# the commands import numpy (and with it OpenBLAS, which starts its threads when it loads)
+# when they compute, not at module level: ``--help`` and a usage error need neither
 from hdpbsid import frequency_cli  # noqa: E402 (after _short_blas_spin)
+from hdpbsid.commands.common import EXIT, CLIError, best_method  # noqa: E402
+from hdpbsid.commands.demo import run_demo as _cmd_demo  # noqa: E402
+from hdpbsid.commands.demo import run_study as _cmd_study  # noqa: E402
+from hdpbsid.commands.identify import progress as _progress  # noqa: E402, F401 (re-exported)
+from hdpbsid.commands.identify import run_identify as _cmd_identify  # noqa: E402
+from hdpbsid.commands.identify import run_validate as _cmd_validate  # noqa: E402
 
-# numpy (and with it OpenBLAS, which starts its threads when it loads) is imported by the
-# commands that compute, not at module level: ``--help`` and a usage error need neither
 if TYPE_CHECKING:  # the library's modules load when a command runs, not for --help
     import numpy as np
 
-    from hdpbsid.data.io import Record
     from hdpbsid.models.model import StateSpaceModel
     from hdpbsid.models.model_io import model_from_dict, model_to_dict  # noqa: F401 (re-exported)
 
@@ -102,16 +127,6 @@ def __getattr__(name: str) -> Any:
 
         return getattr(model_io, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
-
-
-class CLIError(Exception):
-    """A usage or input problem: reported on stderr, exit code 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -172,13 +187,6 @@ def read_model_json(path: str | Path) -> StateSpaceModel:
 
 
 # -- data files -----------------------------------------------------------------------------
-def _split_columns(values: list[str] | None) -> list[str]:
-    out: list[str] = []
-    for v in values or []:
-        out.extend(c.strip() for c in v.split(",") if c.strip())
-    return out
-
-
 def read_csv_columns(
     path: str | Path, columns: list[str], delimiter: str | None = None
 ) -> dict[str, np.ndarray]:
@@ -215,498 +223,7 @@ def read_csv_columns(
     return read_columns(path, columns, delimiter)
 
 
-def _read_records(
-    args: argparse.Namespace, files: list[str], columns: dict[str, Any]
-) -> list[Record]:
-    """Every file of ``files`` as a :class:`~hdpbsid.data.io.Record` with the chosen columns."""
-    from hdpbsid.data.io import read_record
-
-    time = columns["time"]
-    if args.dt is None and args.fs is None and time is None:
-        time = "t"
-    return [
-        read_record(
-            f,
-            columns["inputs"],
-            columns["outputs"],
-            time=time,
-            dt=args.dt,
-            fs=args.fs,
-            delimiter=args.delimiter,
-        )
-        for f in files
-    ]
-
-
-# -- checks made before any work ---------------------------------------------------------------
-def _check_out(out: str | Path, names: list[str]) -> Path:
-    """The output directory ``out``: an existing directory, or a path that can be created
-    as one, in which ``names`` can be written as files.  Checked before the data are read,
-    so a bad ``--out`` costs nothing (it is created only when something is written)."""
-    path = Path(out)
-    if path.exists() and not path.is_dir():
-        raise CLIError(f"--out {path}: exists and is not a directory; give a directory to write to")
-    parent = path
-    while not parent.exists():  # the nearest existing ancestor must be a writable directory
-        parent = parent.parent
-    if not parent.is_dir():
-        raise CLIError(f"--out {path}: cannot create it, because {parent} is not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise CLIError(f"--out {path}: cannot write in {parent} (permission denied)")
-    for name in names:
-        if (path / name).is_dir():
-            raise CLIError(f"--out {path}: {path / name} is a directory; cannot write {name}")
-    return path
-
-
-def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
-    """The column names a model was identified from: ``options["columns"]`` (written by
-    ``hdpbsid identify``), else the model's channel names (a model saved from Python)."""
-    cols = model.options.get("columns")
-    if cols is None:
-        return {"time": None, "inputs": model.input_names, "outputs": model.output_names}
-    ok = isinstance(cols, dict) and isinstance(cols.get("time"), str | None)
-    for key in ("inputs", "outputs"):
-        names = cols.get(key) if isinstance(cols, dict) else None
-        ok = ok and isinstance(names, list) and all(isinstance(c, str) for c in names)
-    if not ok:
-        raise CLIError(
-            f"{path}: key 'options.columns' must be an object with 'time' (a name or null), "
-            f"'inputs' and 'outputs' (lists of names), got {cols!r:.200}"
-        )
-    return {"time": cols["time"], "inputs": list(cols["inputs"]), "outputs": list(cols["outputs"])}
-
-
-def _time_unit(unit: str) -> str:
-    from hdpbsid.data.checks import check_label
-
-    try:
-        return check_label(unit, "--time-unit")
-    except (TypeError, ValueError) as exc:
-        raise CLIError(str(exc)) from exc
-
-
-def _warn_time_scale(model: StateSpaceModel, rec: Record, unit: str | None) -> None:
-    """The record-against-model time scale check of :meth:`StateSpaceModel.check_record`,
-    printed once per record (the evaluations that follow would repeat it)."""
-    from hdpbsid.models.model import TimeScaleWarning
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", TimeScaleWarning)
-        model.check_record(rec.t, unit, name=rec.time or "t")
-    for w in caught:
-        print(f"warning: {rec.source}: {w.message}", file=sys.stderr)
-
-
-# -- commands -----------------------------------------------------------------------------
-def best_method() -> str:
-    """The method of the ``demo`` command: ``"hermite"`` (HD-PBSID) when it is available,
-    else ``"dt"``.
-
-    Returns
-    -------
-    str
-        The method name.
-    """
-    from hdpbsid.methods.registry import is_available
-
-    return "hermite" if is_available("hermite") else "dt"
-
-
-def _parse_options(items: list[str] | None) -> dict[str, Any]:
-    opts: dict[str, Any] = {}
-    for item in items or []:
-        if "=" not in item:
-            raise CLIError(f"--option expects KEY=VALUE, got {item!r}")
-        key, val = item.split("=", 1)
-        try:
-            opts[key.strip()] = ast.literal_eval(val)
-        except (ValueError, SyntaxError):
-            opts[key.strip()] = val
-    return opts
-
-
-def _fmt_complex(z: complex) -> str:
-    if abs(z.imag) <= 1e-12 * max(1.0, abs(z)):
-        return f"{z.real:+.6g}"
-    return f"{z.real:+.6g} {z.imag:+.6g}j"
-
-
-def _print_model(model: StateSpaceModel, out: TextIO) -> None:
-    import numpy as np
-
-    np.set_printoptions(precision=6, suppress=False, linewidth=100)
-    print(repr(model), file=out)
-    for name in ("A", "B", "C", "D", "K"):
-        print(f"{name} =\n{getattr(model, name)}", file=out)
-    print(f"eigenvalues (rad/{model.time_unit}):", file=out)
-    for z in model.eigenvalues:
-        print(f"  {_fmt_complex(complex(z))}", file=out)
-
-
-def _print_fit(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, names: list[str], out: TextIO
-) -> None:
-    from hdpbsid.plots import display_fit
-
-    shown = display_fit(model, t, u, y)
-    print(f"fit, 100 (1 - NRMSE) as MATLAB's compare ({shown.kind}):", file=out)
-    for name, fit in zip(names, shown.fit, strict=True):
-        print(f"  {name}: {fit:.1f} %", file=out)
-
-
-def _check_method(method: str) -> None:
-    from hdpbsid.methods.registry import available_methods, is_available
-
-    if not is_available(method):
-        raise CLIError(
-            f"unknown or unavailable method {method!r}; available: {available_methods()}"
-        )
-
-
-def _progress(choice: str, records: list[Record]) -> bool:
-    """Progress bars (stderr): ``on``, ``off``, or ``auto``: only where the work is long,
-    i.e. a record longer than :data:`hdpbsid.selection.long_records.LONG_SAMPLES` (a
-    shorter record is identified in seconds, and bars would only add lines to the
-    output)."""
-    from hdpbsid.selection.long_records import LONG_SAMPLES
-
-    long = max(r.t.size for r in records) > LONG_SAMPLES
-    return choice == "on" or (choice == "auto" and long)
-
-
-def _cmd_identify(args: argparse.Namespace, out: TextIO) -> int:
-    import numpy as np
-
-    from hdpbsid.data.checks import check_names
-    from hdpbsid.identify import identify
-    from hdpbsid.models.model_io import save_model
-
-    inputs = _split_columns(args.inputs)
-    outputs = _split_columns(args.outputs)
-    if not outputs:
-        raise CLIError("--outputs needs at least one column name")
-    files = ([args.file] if args.file else []) + list(args.data or [])
-    if not files:
-        raise CLIError("identify: give a data file (FILE or --data FILE, repeatable)")
-    method = args.method
-    _check_method(method)
-    options = _parse_options(args.option)
-    unit = _time_unit(args.time_unit or "s")
-    try:  # column names become the channel names: printable, short
-        check_names(inputs, "--inputs", len(inputs), "u")
-        check_names(outputs, "--outputs", len(outputs), "y")
-    except (TypeError, ValueError) as exc:
-        raise CLIError(f"{exc}; rename the column") from exc
-    outdir = _check_out(args.out, ["model.json"] + ([] if args.no_plot else ["identification.png"]))
-    columns = {"time": args.time, "inputs": inputs, "outputs": outputs}
-    records = _read_records(args, files, columns)
-    detrend = None if args.detrend == "none" else args.detrend
-    refine = None if args.refine == "none" else args.refine
-    options.setdefault("progress", _progress(args.progress, records))
-    labels = {"input_names": inputs, "output_names": outputs, "time_unit": unit}
-    try:
-        if len(records) == 1:
-            t, u, y = records[0].as_tuple()
-            model = identify(
-                t,
-                u,
-                y,
-                order=args.order,
-                method=method,
-                refine=refine,
-                detrend=detrend,
-                **labels,
-                **options,
-            )
-        else:
-            model = identify(
-                [r.as_tuple() for r in records],
-                order=args.order,
-                method=method,
-                refine=refine,
-                detrend=detrend,
-                **labels,
-                **options,
-            )
-    except (ValueError, TypeError) as exc:
-        print(f"hdpbsid identify: identification failed: {exc}", file=sys.stderr)
-        return EXIT_FAILED
-    first = records[0]
-    model.options["columns"] = {"time": first.time, "inputs": inputs, "outputs": outputs}
-    model.options["sampling_interval"] = first.dt
-    model.options["source"] = files[0] if len(files) == 1 else files
-    for rec in records:
-        print(
-            f"data: {rec.source}  samples: {rec.t.size}  "
-            + (f"time column: {rec.time}" if rec.time else f"dt: {rec.dt:g}"),
-            file=out,
-        )
-    print(f"method: {method}  inputs: {inputs}  outputs: {outputs}  detrend: {detrend}", file=out)
-    _print_model(model, out)
-    for rec in records:
-        uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
-        if len(records) > 1:
-            print(f"{rec.source}:", file=out)
-        _print_fit(model, rec.t, uu, rec.y, outputs, out)
-    path = save_model(model, outdir / "model.json")
-    print(f"wrote {path}", file=out)
-    if not args.no_plot:
-        from hdpbsid.plots import plot_identification, save_figure
-
-        uu = np.zeros((first.t.size, 0)) if first.u is None else first.u
-        fig = plot_identification(
-            model, first.t, uu, first.y, output_names=outputs, input_names=inputs
-        )
-        print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
-    return EXIT_OK
-
-
-def _cmd_validate(args: argparse.Namespace, out: TextIO) -> int:
-    """Fit and residual tests of a saved model on other records
-    (:mod:`hdpbsid.models.assessment`)."""
-    from hdpbsid.models.model import TimeScaleWarning
-    from hdpbsid.models.model_io import load_model
-
-    model = load_model(args.model)
-    saved = _saved_columns(model, args.model)
-    inputs = _split_columns(args.inputs) if args.inputs else saved["inputs"]
-    outputs = _split_columns(args.outputs) if args.outputs else saved["outputs"]
-    if not outputs:
-        raise CLIError("validate: the model file names no output columns; give --outputs")
-    if len(inputs) != model.m or len(outputs) != model.l:
-        raise CLIError(
-            f"validate: the model has {model.m} input(s) and {model.l} output(s), the "
-            f"columns are inputs {inputs} and outputs {outputs}"
-        )
-    time = args.time
-    if time is None and args.dt is None and args.fs is None:
-        dt = model.options.get("sampling_interval")
-        if saved["time"] is None and isinstance(dt, int | float) and dt > 0:
-            args.dt = float(dt)  # identified with --dt
-        else:
-            time = saved["time"] or "t"
-    if args.k is not None and args.k < 1:
-        raise CLIError(f"--k must be a positive number of steps, got {args.k}")
-    unit = None if args.time_unit is None else _time_unit(args.time_unit)
-    names = [] if args.no_plot else ["validation.png"]
-    if not args.no_plot and len(args.files) > 1:
-        names = [f"validation-{Path(f).stem}.png" for f in args.files]
-    outdir = _check_out(args.out, names)
-    records = _read_records(args, args.files, {"time": time, "inputs": inputs, "outputs": outputs})
-    for rec in records:
-        _warn_time_scale(model, rec, unit)
-        name = "validation.png" if len(records) == 1 else f"validation-{Path(rec.source).stem}.png"
-        with warnings.catch_warnings():  # said once above; the evaluations would repeat it
-            warnings.simplefilter("ignore", TimeScaleWarning)
-            _validate_record(args, model, rec, inputs, outputs, outdir / name, out)
-    return EXIT_OK
-
-
-def _validate_record(
-    args: argparse.Namespace,
-    model: StateSpaceModel,
-    rec: Record,
-    inputs: list[str],
-    outputs: list[str],
-    figure: Path,
-    out: TextIO,
-) -> None:
-    """Fits, residual tests and figure of ``model`` on one record (``hdpbsid validate``)."""
-    import numpy as np
-
-    uu = np.zeros((rec.t.size, 0)) if rec.u is None else rec.u
-    sim = model.compare(rec.t, uu, rec.y)
-    print(f"{rec.source}: {rec.t.size} samples, model {args.model}", file=out)
-    for name, f in zip(outputs, sim.fit, strict=True):
-        print(f"  fit {name} ({sim.kind}, x0 estimated): {f:.2f} %", file=out)
-    if args.k is not None:
-        pred = model.compare(rec.t, uu, rec.y, k=args.k)
-        for name, f in zip(outputs, pred.fit, strict=True):
-            print(f"  fit {name} ({pred.kind}): {f:.2f} %", file=out)
-    try:
-        report = model.residuals(rec.t, uu, rec.y, max_lag=args.max_lag)
-    except ValueError as exc:
-        print(f"  residual tests not possible: {exc}", file=out)
-        return
-    print(report.summary(outputs, inputs), file=out)
-    if not args.no_plot:
-        from hdpbsid.plots import plot_validation, save_figure
-
-        fig = plot_validation(
-            model,
-            rec.t,
-            uu,
-            rec.y,
-            k=args.k,
-            report=report,
-            output_names=outputs,
-            input_names=inputs,
-            title=f"Validation of {Path(args.model).name} on {Path(rec.source).name}",
-        )
-        print(f"wrote {save_figure(fig, figure)}", file=out)
-
-
-def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
-    """The quadrotor study (:mod:`hdpbsid.studies.quadrotor`, the thesis, §6) for one run."""
-    import numpy as np
-
-    from hdpbsid import studies
-    from hdpbsid.models.metrics import match_eigenvalues
-    from hdpbsid.models.model import StateSpaceModel
-    from hdpbsid.models.model_io import save_model
-    from hdpbsid.studies.data import quadrotor_record
-    from hdpbsid.studies.runner import task_rng
-
-    method = best_method() if args.method == "auto" else args.method
-    _check_method(method)
-    if method not in studies.methods.METHODS:
-        raise CLIError(f"demo: method must be one of {list(studies.methods.METHODS)}")
-    snr = None if str(args.snr).lower() in ("none", "inf") else float(args.snr)
-    outputs = tuple(_split_columns(args.outputs))
-    orders = tuple(int(o) for o in _split_columns([args.orders]))
-    outdir = _check_out(args.out, ["model.json"])
-    result = studies.run_study(
-        "quadrotor",
-        runs=1,
-        seed=args.seed,
-        out=None,
-        progress=False,
-        resume=False,
-        snr_db=snr,
-        duration=args.duration,
-        excitation=args.excitation,
-        n_max_u=args.n_max_u,
-        outputs=outputs,
-        orders=orders,
-        method=method,
-    )
-    rec = result.records[0]
-    case = rec["case"]
-    data = quadrotor_record(task_rng(args.seed, case, 0), **case["data"])
-    exc = args.excitation + (f" (n_max,u = {args.n_max_u})" if "hermite" in args.excitation else "")
-    print(
-        "quadrotor pitch closed loop (the thesis's §6 experiment, simulated): "
-        f"{data.t.size} samples "
-        f"at 250 Hz, {args.duration:g} s, excitation {exc}, SNR "
-        f"{'none' if snr is None else f'{snr:g} dB'}, seed {args.seed}, "
-        f"saturated {100 * data.saturation_fraction:.1f} % of samples",
-        file=out,
-    )
-    print(
-        f"identify(t, moment, {list(data.outputs)}, order={list(orders)}, method={method!r})",
-        file=out,
-    )
-    if not rec["ok"]:
-        print(
-            f"hdpbsid demo: identification with {method!r} failed: {rec['error']}", file=sys.stderr
-        )
-        return EXIT_FAILED
-    res = rec["result"]
-    sv = np.asarray(res["singular_values"], dtype=float)
-    print(
-        "singular values: "
-        + " ".join(f"{v:.3g}" for v in sv[:8])
-        + (f"  -> order chosen (held-out error): {res['auto_order']}" if res["auto_order"] else ""),
-        file=out,
-    )
-    true = data.true_eigenvalues
-    models: dict[int, StateSpaceModel] = {}
-    for o, err in res["order_errors"].items():
-        print(f"order {o}: identification failed: {err}", file=out)
-    for o, mrec in res["models"].items():
-        mats = [np.asarray(mrec["matrices"][k], dtype=float) for k in ("A", "B", "C", "D", "K")]
-        model = StateSpaceModel(*mats, singular_values=sv, options=dict(mrec["options"]))
-        if res.get("order_selection"):  # what chose the order, for the figure
-            model.options["order_selection"] = res["order_selection"]
-        models[int(o)] = model
-        est, tru = match_eigenvalues(model.eigenvalues, true)
-        errs = np.abs(est - tru) / np.abs(tru)
-        print(
-            f"order {o}: eigenvalues  identified            true                  rel. error",
-            file=out,
-        )
-        for e, tv, err in zip(est, tru, errs, strict=True):
-            print(f"  {_fmt_complex(e):<22}{_fmt_complex(tv):<22}{100 * err:.3f} %", file=out)
-        for z in mrec.get("extra") or []:
-            print(f"  {_fmt_complex(complex(*z)):<22}{'(no true match)':<22}", file=out)
-        fit_i = ", ".join(
-            f"{n} {v:.1f} %" for n, v in zip(data.outputs, mrec["fit_identification"], strict=True)
-        )
-        fit_v = ", ".join(
-            f"{n} {v:.1f} %" for n, v in zip(data.outputs, mrec["fit_validation"], strict=True)
-        )
-        print(
-            f"  fit, 100 (1 - NRMSE): identification record {fit_i}; new record {fit_v}",
-            file=out,
-        )
-    main_order = 3 if 3 in models else min(models)
-    model = models[main_order]
-    model.set_labels(input_names=["moment"], output_names=list(data.outputs), time_unit="s")
-    model.sampling_interval = float(np.median(np.diff(data.t)))
-    model.options["demo"] = {
-        "seed": args.seed,
-        "snr_db": snr,
-        "duration": args.duration,
-        "excitation": args.excitation,
-        "order": main_order,
-    }
-    print(f"wrote {save_model(model, outdir / 'model.json')} (order {main_order})", file=out)
-    if not args.no_plot:
-        from hdpbsid.plots import plot_identification, save_figure
-        from hdpbsid.studies.figures import quadrotor_figures
-
-        truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
-        fig = plot_identification(
-            model,
-            data.t,
-            data.u,
-            data.y,
-            output_names=list(data.outputs),
-            input_names=["moment"],
-            true_model=truth,
-            title=f"Quadrotor pitch, closed loop: method {method!r}, order {main_order}",
-        )
-        print(f"wrote {save_figure(fig, outdir / 'identification.png')}", file=out)
-        for _name, path in sorted(quadrotor_figures(result, outdir).items()):
-            print(f"wrote {path}", file=out)
-    return EXIT_OK
-
-
 STUDY_NAMES = ("snr", "samples", "basis-order", "operator", "table1", "quadrotor")
-
-
-def _cmd_study(args: argparse.Namespace, out: TextIO) -> int:
-    from hdpbsid import studies
-
-    settings = _parse_options(args.set)
-    outdir = _check_out(args.out or Path("hdpbsid-study") / args.name, [])
-    try:
-        result = studies.run_study(
-            args.name,
-            runs=args.runs,
-            seed=args.seed,
-            jobs=args.jobs,
-            scheduler=args.scheduler,
-            out=outdir,
-            progress=not args.no_progress,
-            resume=not args.no_resume,
-            **settings,
-        )
-    except TypeError as exc:  # unknown --set keys or wrongly typed values
-        raise CLIError(str(exc)) from exc
-    print(result.table(), file=out)
-    n_fail = sum(not r["ok"] for r in result.records)
-    print(
-        f"{len(result.records)} tasks ({n_fail} failed identifications recorded), "
-        f"runs {result.settings['runs']}, seed {args.seed}, "
-        f"{result.elapsed:.1f} s",
-        file=out,
-    )
-    print(f"wrote {outdir}/: results.jsonl summary.csv summary.json records.csv", file=out)
-    for name in sorted(result.figures):
-        print(f"wrote {result.figures[name]}", file=out)
-    return EXIT_OK
 
 
 def _add_time_arguments(p: argparse.ArgumentParser, unit_help: str) -> None:
@@ -744,7 +261,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    _add_identify_parser(sub)
+    _add_validate_parser(sub)
+    _add_demo_parser(sub)
+    _add_study_parser(sub)
+    frequency_cli.add_parsers(sub)
+    return parser
 
+
+def _add_identify_parser(sub: Any) -> None:
+    """The ``identify`` command's arguments."""
     p = sub.add_parser(
         "identify",
         help="identify a continuous-time model from a data file",
@@ -776,6 +302,15 @@ def build_parser() -> argparse.ArgumentParser:
     _add_time_arguments(
         p, "unit of the times, recorded in the model (eigenvalues in rad/UNIT; default s)"
     )
+    _add_identification_settings(p)
+    p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
+    p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
+    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
+
+
+def _add_identification_settings(p: argparse.ArgumentParser) -> None:
+    """The ``identify`` command's choices of the identification: operating point, order,
+    method, refinement, method options and progress bars."""
     p.add_argument(
         "--detrend",
         choices=("mean", "linear", "none"),
@@ -814,10 +349,10 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="extra option for the method, e.g. --option p=20 (repeatable)",
     )
-    p.add_argument("--delimiter", default=None, help="CSV delimiter (default: sniffed)")
-    p.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
-    p.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
+
+def _add_validate_parser(sub: Any) -> None:
+    """The ``validate`` command's arguments."""
     v = sub.add_parser(
         "validate",
         help="fit and residual tests of a saved model on other records",
@@ -845,6 +380,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--out", default="hdpbsid-out", help="output directory (default: hdpbsid-out)")
     v.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
+
+def _add_demo_parser(sub: Any) -> None:
+    """The ``demo`` command's arguments."""
     d = sub.add_parser(
         "demo",
         help="closed-loop quadrotor pitch example end to end",
@@ -882,6 +420,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="hdpbsid-demo", help="output directory")
     d.add_argument("--no-plot", action="store_true", help="do not write figures")
 
+
+def _add_study_parser(sub: Any) -> None:
+    """The ``study`` command's arguments."""
     st = sub.add_parser(
         "study",
         help="run a simulation study of the thesis (§5-6)",
@@ -905,8 +446,6 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="study setting, e.g. --set snrs=(50,6) --set methods=('hermite',) (repeatable)",
     )
-    frequency_cli.add_parsers(sub)
-    return parser
 
 
 def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
@@ -957,13 +496,13 @@ def main(argv: list[str] | None = None, stdout: TextIO | None = None) -> int:
         return exc.status
     except CLIError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
+        return EXIT.usage
     except (ValueError, TypeError, ImportError) as exc:  # bad data file, --option, ...
         print(f"error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
+        return EXIT.usage
     except KeyboardInterrupt:  # Ctrl-C: the shell's convention, 128 + SIGINT, no traceback
         print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT.interrupted
     finally:
         out.flush()
 

@@ -30,6 +30,12 @@ def add_parsers(sub: Any) -> None:
     sub : argparse._SubParsersAction
         The ``add_subparsers()`` object of the ``hdpbsid`` parser.
     """
+    _add_frf_parser(sub)
+    _add_input_parser(sub)
+
+
+def _add_frf_parser(sub: Any) -> None:
+    """The ``frf`` command's arguments."""
     f = sub.add_parser(
         "frf",
         help="frequency response, coherence and a model from frequency data",
@@ -69,6 +75,9 @@ def add_parsers(sub: Any) -> None:
     f.add_argument("--out", default="hdpbsid-frf", help="output directory")
     f.add_argument("--no-plot", action="store_true", help="do not write the figure")
 
+
+def _add_input_parser(sub: Any) -> None:
+    """The ``input`` command's arguments."""
     i = sub.add_parser(
         "input",
         help="design an input signal (PRBS, random binary, multisine, chirp, Hermite sweep)",
@@ -168,7 +177,7 @@ def _run_frf(args: argparse.Namespace, out: TextIO) -> int:
         eig = ", ".join(f"{e:.4g}" for e in model.eigenvalues)
         print(f"model: order {model.n}, eigenvalues {eig}", file=out)
     if not args.no_plot:
-        _save_frf_figure(lambda: frequency.plot_frf(est, model), outdir / "frf.png")
+        _save_figure(lambda: frequency.plot_frf(est, model), outdir / "frf.png")
     return 0
 
 
@@ -215,7 +224,7 @@ def _frf_columns(est: Any, inputs: list[str], outputs: list[str]) -> dict[str, A
     return cols
 
 
-def _save_frf_figure(draw: Any, path: Path) -> None:
+def _save_figure(draw: Any, path: Path) -> None:
     """Draw (``draw()`` returns the figure) with the file backend, save, close."""
     import matplotlib
 
@@ -232,51 +241,7 @@ def _run_input(args: argparse.Namespace, out: TextIO) -> int:
 
     from hdpbsid.design import inputs
 
-    kind, dt = args.kind, args.dt
-    band = tuple(args.band) if args.band is not None else None
-    if kind == "prbs":
-        d = inputs.prbs(
-            args.order, dt, periods=args.periods, amplitude=args.amplitude, channels=args.channels
-        )
-    elif kind == "rbs":
-        d = inputs.random_binary(
-            _need(args.samples, "--samples"),
-            dt,
-            rng=np.random.default_rng(args.seed),
-            clock=args.clock,
-            band=band,
-            amplitude=args.amplitude,
-            channels=args.channels,
-        )
-    elif kind == "multisine":
-        d = inputs.multisine(
-            _need(args.samples, "--samples"),
-            dt,
-            _need(band, "--band"),
-            periods=args.periods,
-            amplitude=args.amplitude,
-            channels=args.channels,
-        )
-    elif kind in ("chirp", "logchirp"):
-        f0, f1 = _need(band, "--band")
-        d = inputs.chirp(
-            _need(args.samples, "--samples"),
-            dt,
-            f0,
-            f1,
-            amplitude=args.amplitude,
-            method="linear" if kind == "chirp" else "logarithmic",
-        )
-    else:
-        f0, f1 = _need(band, "--band")
-        d = inputs.hermite_sweep(
-            _need(args.samples, "--samples"),
-            dt,
-            f0,
-            f1,
-            n_max_u=args.n_max_u,
-            amplitude=args.amplitude,
-        )
+    d = _DESIGNS[args.kind](args, inputs)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     header = ",".join(["t"] + [f"u{j + 1}" for j in range(d.m)])
@@ -290,15 +255,84 @@ def _run_input(args: argparse.Namespace, out: TextIO) -> int:
         file=out,
     )
     if not args.no_plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig = inputs.plot_input(d)
-        fig.savefig(outdir / "input.png", dpi=120)
-        plt.close(fig)
+        _save_figure(lambda: inputs.plot_input(d), outdir / "input.png")
     return 0
+
+
+def _band(args: argparse.Namespace) -> tuple[float, ...] | None:
+    """``--band`` as a tuple, or ``None``."""
+    return tuple(args.band) if args.band is not None else None
+
+
+def _prbs(args: argparse.Namespace, inputs: Any) -> Any:
+    """A maximum-length binary sequence (``prbs``)."""
+    return inputs.prbs(
+        args.order, args.dt, periods=args.periods, amplitude=args.amplitude, channels=args.channels
+    )
+
+
+def _rbs(args: argparse.Namespace, inputs: Any) -> Any:
+    """A random binary signal (``rbs``)."""
+    import numpy as np
+
+    return inputs.random_binary(
+        _need(args.samples, "--samples"),
+        args.dt,
+        rng=np.random.default_rng(args.seed),
+        clock=args.clock,
+        band=_band(args),
+        amplitude=args.amplitude,
+        channels=args.channels,
+    )
+
+
+def _multisine(args: argparse.Namespace, inputs: Any) -> Any:
+    """A multisine over ``--band`` (``multisine``)."""
+    return inputs.multisine(
+        _need(args.samples, "--samples"),
+        args.dt,
+        _need(_band(args), "--band"),
+        periods=args.periods,
+        amplitude=args.amplitude,
+        channels=args.channels,
+    )
+
+
+def _chirp(args: argparse.Namespace, inputs: Any) -> Any:
+    """A linear (``chirp``) or logarithmic (``logchirp``) sweep over ``--band``."""
+    f0, f1 = _need(_band(args), "--band")
+    return inputs.chirp(
+        _need(args.samples, "--samples"),
+        args.dt,
+        f0,
+        f1,
+        amplitude=args.amplitude,
+        method="linear" if args.kind == "chirp" else "logarithmic",
+    )
+
+
+def _hermite_sweep(args: argparse.Namespace, inputs: Any) -> Any:
+    """A sweep projected on Hermite functions (``hermite-sweep``)."""
+    f0, f1 = _need(_band(args), "--band")
+    return inputs.hermite_sweep(
+        _need(args.samples, "--samples"),
+        args.dt,
+        f0,
+        f1,
+        n_max_u=args.n_max_u,
+        amplitude=args.amplitude,
+    )
+
+
+#: the design of each ``hdpbsid input KIND`` (:mod:`hdpbsid.design.inputs`) from the arguments
+_DESIGNS = {
+    "prbs": _prbs,
+    "rbs": _rbs,
+    "multisine": _multisine,
+    "chirp": _chirp,
+    "logchirp": _chirp,
+    "hermite-sweep": _hermite_sweep,
+}
 
 
 def _need(value: Any, flag: str) -> Any:

@@ -378,12 +378,33 @@ def plot_identification(
     l = y.shape[1]
     m = u.shape[1]
     onames, inames = _names(model, output_names, input_names, l, m)
-    unit = model.time_unit
     fig = new_figure((11.0, 6.4 + 2.2 * l))
     gs = fig.add_gridspec(l + 2, 2, height_ratios=[1.3, 1.3] + [1.0] * l)
-
     plot_order_criterion(model, fig.add_subplot(gs[0, 0]))
-    ax = fig.add_subplot(gs[0, 1])
+    _singular_value_panel(model, fig.add_subplot(gs[0, 1]))
+    ax_mag = fig.add_subplot(gs[1, 0])
+    ax_ph = fig.add_subplot(gs[1, 1], sharex=ax_mag)
+    wgrid = None
+    if m:
+        wgrid = _default_frequencies(model, t) if w is None else np.asarray(w, dtype=float)
+    _bode_panels((ax_mag, ax_ph), model, true_model, wgrid, (onames, inames))
+    fit = display_fit(model, t, u, y)
+    for i in range(l):
+        ax = fig.add_subplot(gs[i + 2, :])
+        ax.plot(t, y[:, i], color="0.6", lw=0.8, label="measured")
+        ax.plot(t, fit.y_sim[:, i], color="C0", lw=1.0, label=f"simulated, fit {fit.fit[i]:.1f} %")
+        ax.set_ylabel(onames[i])
+        ax.legend(loc="upper right", fontsize="small")
+        ax.grid(True, alpha=0.3)
+        if i == l - 1:
+            ax.set_xlabel(f"time [{model.time_unit}] ({fit.kind})")
+    method = model.report.method or "?"
+    fig.suptitle(title or f"hdpbsid: method {method!r}, order {model.n}")
+    return fig
+
+
+def _singular_value_panel(model: StateSpaceModel, ax: Any) -> None:
+    """The singular values of the subspace step (log scale), the model's order marked."""
     sv = model.singular_values
     if sv is not None and np.size(sv):
         sv = np.asarray(sv, dtype=float)
@@ -398,43 +419,36 @@ def plot_identification(
     ax.set_ylabel("singular value")
     ax.set_title("Singular values of the subspace step")
 
-    ax_mag = fig.add_subplot(gs[1, 0])
-    ax_ph = fig.add_subplot(gs[1, 1], sharex=ax_mag)
-    if m:
-        wgrid = _default_frequencies(model, t) if w is None else np.asarray(w, dtype=float)
+
+def _bode_panels(
+    axes: tuple[Any, Any],
+    model: StateSpaceModel,
+    true_model: StateSpaceModel | None,
+    wgrid: NDArray[np.float64] | None,
+    names: tuple[list[str], list[str]],
+) -> None:
+    """Bode magnitude and phase of every input-output pair on ``wgrid`` (``None``: the
+    model has no inputs), dashed for ``true_model``."""
+    ax_mag, ax_ph = axes
+    onames, inames = names
+    if wgrid is not None:
         G = model.frequency_response(wgrid)
         Gt = true_model.frequency_response(wgrid) if true_model is not None else None
-        k = 0
-        for i in range(l):
-            for j in range(m):
-                color = f"C{k % 10}"
-                _bode_pair(ax_mag, ax_ph, wgrid, G[i, j], color, f"{inames[j]} -> {onames[i]}")
-                if Gt is not None:
-                    _bode_pair(ax_mag, ax_ph, wgrid, Gt[i, j], color, None, ls="--", lw=1)
-                k += 1
+        pairs = [(i, j) for i in range(len(onames)) for j in range(len(inames))]
+        for k, (i, j) in enumerate(pairs):
+            color = f"C{k % 10}"
+            _bode_pair(ax_mag, ax_ph, wgrid, G[i, j], color, f"{inames[j]} -> {onames[i]}")
+            if Gt is not None:
+                _bode_pair(ax_mag, ax_ph, wgrid, Gt[i, j], color, None, ls="--", lw=1)
         ax_mag.legend(fontsize="small")
     else:
         ax_mag.text(0.5, 0.5, "no inputs", ha="center", transform=ax_mag.transAxes)
     dashed = " (dashed: true)" if true_model is not None else ""
     for ax, ylabel, name in ((ax_mag, "|G| [dB]", "magnitude"), (ax_ph, "phase [deg]", "phase")):
-        ax.set_xlabel(f"frequency [rad/{unit}]")
+        ax.set_xlabel(f"frequency [rad/{model.time_unit}]")
         ax.set_ylabel(ylabel)
         ax.set_title(f"Bode {name}{dashed}")
         ax.grid(True, which="both", alpha=0.3)
-
-    fit = display_fit(model, t, u, y)
-    for i in range(l):
-        ax = fig.add_subplot(gs[i + 2, :])
-        ax.plot(t, y[:, i], color="0.6", lw=0.8, label="measured")
-        ax.plot(t, fit.y_sim[:, i], color="C0", lw=1.0, label=f"simulated, fit {fit.fit[i]:.1f} %")
-        ax.set_ylabel(onames[i])
-        ax.legend(loc="upper right", fontsize="small")
-        ax.grid(True, alpha=0.3)
-        if i == l - 1:
-            ax.set_xlabel(f"time [{unit}] ({fit.kind})")
-    method = model.report.method or "?"
-    fig.suptitle(title or f"hdpbsid: method {method!r}, order {model.n}")
-    return fig
 
 
 def _bode_pair(

@@ -46,6 +46,8 @@ from numpy.typing import NDArray
 from hdpbsid.data.checks import as_columns, check_positive_int, check_step
 
 __all__ = [
+    "CrestSettings",
+    "CREST",
     "InputDesign",
     "crest_factor",
     "line_power",
@@ -61,16 +63,35 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: Iterations of the clipping algorithm of :func:`reduce_crest_factor` by default.  Its
-#: crest factor decreases quickly over the first tens of iterations and then slowly; the
-#: best iterate is kept, so more iterations never make the result worse.
-CREST_ITERATIONS = 300
 
-#: Clipping level of the swapping algorithm, as a fraction of the current peak: it rises
-#: linearly from the first to the second value over the iterations.  Deep clipping first
-#: moves the phases far from the Schroeder start; shallow clipping at the end settles
-#: them (a fixed level either stalls, if shallow, or oscillates, if deep).
-CLIP_SCHEDULE = (0.8, 0.98)
+@dataclass(frozen=True)
+class CrestSettings:
+    """The clipping algorithm of :func:`reduce_crest_factor`.
+
+    Attributes
+    ----------
+    iterations : int
+        Iterations by default.
+    clip_schedule : tuple of float
+        Clipping level as a fraction of the current peak: it rises linearly from the first
+        to the second value over the iterations.
+    """
+
+    #: the crest factor decreases quickly over the first tens of iterations and then
+    #: slowly; the best iterate is kept, so more iterations never make the result worse
+    iterations: int = 300
+    #: deep clipping first moves the phases far from the Schroeder start; shallow clipping
+    #: at the end settles them (a fixed level either stalls, if shallow, or oscillates, if
+    #: deep)
+    clip_schedule: tuple[float, float] = (0.8, 0.98)
+
+
+#: the settings of :func:`reduce_crest_factor` and :func:`multisine`
+CREST = CrestSettings()
+#: :attr:`CrestSettings.iterations`, under its earlier name
+CREST_ITERATIONS = CREST.iterations
+#: :attr:`CrestSettings.clip_schedule`, under its earlier name
+CLIP_SCHEDULE = CREST.clip_schedule
 
 
 @dataclass(frozen=True)
@@ -392,11 +413,11 @@ def reduce_crest_factor(
     lines: Any,
     amplitudes: Any,
     phases: Any,
-    iterations: int = CREST_ITERATIONS,
+    iterations: int = CREST.iterations,
 ) -> tuple[Array, float]:
     """Lower the crest factor of a multisine by time-frequency swapping (clipping).
 
-    Each iteration clips the period at a fraction of its peak (:data:`CLIP_SCHEDULE`),
+    Each iteration clips the period at a fraction of its peak (:attr:`CrestSettings.clip_schedule`),
     takes the DFT of the clipped signal, keeps its phases on the excited lines and puts
     back the prescribed amplitudes (and zeros elsewhere): the projection of the clipped
     signal on the multisines with the prescribed spectrum (Van der Ouderaa, Schoukens &
@@ -445,7 +466,7 @@ def reduce_crest_factor(
     iterations = check_positive_int(iterations, "iterations", 0)
     x = _periodic_from_lines(n, lines, amp, phase)
     best_phase, best_cf = phase, float(crest_factor(x)[0])
-    lo, hi = CLIP_SCHEDULE
+    lo, hi = CREST.clip_schedule
     for it in range(iterations):
         level = (lo + (hi - lo) * it / max(iterations - 1, 1)) * np.max(np.abs(x))
         phase = np.angle(np.fft.rfft(np.clip(x, -level, level))[lines])
@@ -467,7 +488,7 @@ def multisine(
     channels: int = 1,
     phases: str = "crest",
     rng: np.random.Generator | None = None,
-    iterations: int = CREST_ITERATIONS,
+    iterations: int = CREST.iterations,
 ) -> InputDesign:
     """Periodic multisine with a flat amplitude spectrum on a band of harmonics.
 

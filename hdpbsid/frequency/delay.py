@@ -65,22 +65,51 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.data.checks import as_columns, check_positive_int, check_step
-from hdpbsid.frequency.fit import FrequencyResponse, _frequency_data, frf_welch, identify_frequency
+from hdpbsid.frequency.estimate import FrequencyResponse, frf_welch
+from hdpbsid.frequency.fit import _frequency_data, identify_frequency
 from hdpbsid.models.dead_time import SNAP, check_delay
 
-__all__ = ["DelayEstimate", "estimate_delay", "delay_from_frf", "MAX_LINES", "DEFAULT_MAX_ORDER"]
+__all__ = [
+    "DelayEstimate",
+    "estimate_delay",
+    "delay_from_frf",
+    "DelaySettings",
+    "DELAY",
+    "MAX_LINES",
+    "DEFAULT_MAX_ORDER",
+]
 
 Array = NDArray[np.float64]
 
-#: Lines used by the delay search: a longer estimate is thinned to this many, log-spaced
-#: in index (every decade alike, the highest lines kept, where the delay's phase is
-#: largest).  Each candidate delay costs a fit; 200 lines determine a model of order up
-#: to about 20 many times over.
-MAX_LINES = 200
-#: Orders tried by default: the dynamics a delay is estimated against are those of a
-#: low-order model (flight-dynamics modes, actuators); a user with more passes
-#: ``max_order``.
-DEFAULT_MAX_ORDER = 4
+
+@dataclass(frozen=True)
+class DelaySettings:
+    """Sizes of the delay search of :func:`delay_from_frf`.
+
+    Attributes
+    ----------
+    max_lines : int
+        Lines used by the search: a longer estimate is thinned to this many, log-spaced in
+        index (every decade alike, the highest lines kept, where the delay's phase is
+        largest).
+    max_order : int
+        Orders tried by default.
+    """
+
+    #: each candidate delay costs a fit; 200 lines determine a model of order up to about
+    #: 20 many times over
+    max_lines: int = 200
+    #: the dynamics a delay is estimated against are those of a low-order model
+    #: (flight-dynamics modes, actuators); a user with more passes ``max_order``
+    max_order: int = 4
+
+
+#: the settings of the delay search
+DELAY = DelaySettings()
+#: :attr:`DelaySettings.max_lines`, under its earlier name
+MAX_LINES = DELAY.max_lines
+#: :attr:`DelaySettings.max_order`, under its earlier name
+DEFAULT_MAX_ORDER = DELAY.max_order
 
 
 @dataclass
@@ -112,9 +141,9 @@ class DelayEstimate:
 
 
 def _thin(nf: int) -> NDArray[np.intp]:
-    if nf <= MAX_LINES:
+    if nf <= DELAY.max_lines:
         return np.arange(nf)
-    return np.unique(np.round(np.logspace(0, np.log10(nf), MAX_LINES)).astype(np.intp) - 1)
+    return np.unique(np.round(np.logspace(0, np.log10(nf), DELAY.max_lines)).astype(np.intp) - 1)
 
 
 HOLDS = ("zoh", "foh")
@@ -173,7 +202,7 @@ def delay_from_frf(
     max_delay: float | None = None,
     weight: Any = "auto",
     order: int | None = None,
-    max_order: int = DEFAULT_MAX_ORDER,
+    max_order: int = DELAY.max_order,
     hold: str | None = None,
 ) -> DelayEstimate:
     """Dead time of each input from a frequency response (module docstring).

@@ -78,6 +78,17 @@ def test_identify_round_trip(csv_file: Path, tmp_path: Path, capsys) -> None:
     np.testing.assert_allclose(np.sort_complex(m.eigenvalues), _eigs(d), rtol=1e-12)
 
 
+def test_identify_leaves_numpy_print_options_alone(csv_file: Path, tmp_path: Path) -> None:
+    """The printed model uses its own print options for its own lines only: the caller's
+    numpy options (a process that runs the CLI in-line, a notebook) are unchanged after."""
+    argv = ["identify", str(csv_file), "--time", "time", "--inputs", "force", "--outputs"]
+    argv += ["pos", "--order", "2", "--method", "dt", "--refine", "none", "--no-plot"]
+    with np.printoptions(precision=3, linewidth=60, suppress=True):
+        before = np.get_printoptions()
+        assert main([*argv, "--out", str(tmp_path / "o")]) == 0
+        assert np.get_printoptions() == before
+
+
 def test_identify_refine_flag(csv_file: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     argv = ["identify", str(csv_file), "--time", "time", "--inputs", "force"]
