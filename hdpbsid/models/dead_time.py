@@ -212,7 +212,7 @@ def _shifted_times(t: Array, tau: float) -> tuple[NDArray[np.intp], Array]:
 
 def _groups(x: Array) -> tuple[Array, NDArray[np.intp]]:
     """Representatives of the values of ``x >= 0`` equal to 1e-12 of the largest, and each
-    entry's group (as :func:`hdpbsid.models.model._step_groups` groups steps)."""
+    entry's group (as :func:`hdpbsid.models.simulation.step_groups` groups steps)."""
     top = float(np.max(x, initial=0.0))
     if top == 0.0:
         return np.zeros(1), np.zeros(x.size, dtype=np.intp)
