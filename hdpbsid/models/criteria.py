@@ -340,9 +340,7 @@ def _windowed_error(
             f"windows={windows} leaves {L} samples per window for a model with {model.n} "
             f"states; use fewer windows or a longer record"
         )
-    if hold is None:
-        hold = model.report.hold
-        hold = hold if hold in ("zoh", "foh") else "zoh"
+    hold = _hold(model) if hold is None else hold
     h = float((t[-1] - t[0]) / (ns - 1))
     if not is_uniform(t):
         if predict:
@@ -362,42 +360,71 @@ def _windowed_error(
     # forced response in every window from a zero state, all windows at once, and the
     # free response C F^k of the window's initial state (hdpbsid.models.recursion)
     with np.errstate(over="ignore", invalid="ignore"):
-        drive = uw[:, :-1] @ G1.T
-        if G2 is not None:
-            drive += np.diff(uw, axis=1) @ G2.T
-        if predict:
-            drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
-        X = forced_responses(F, drive)  # (W, L, n)
+        X = forced_responses(F, _drive(uw, yw, G1, G2, Gk, D, predict))  # (W, L, n)
         Yf = X @ C.T + uw @ D.T
         O = C @ matrix_powers(F, L)  # (L, l, n)
         R = (yw - Yf) * sw  # (W, L, l)
         Ow = (O * sw[None, :, None]).reshape(L * l, n)
         finite = bool(np.all(np.isfinite(R)) and np.all(np.isfinite(Ow)))
-        if finite and n:
-            # least-squares initial state of each window: residual of the projection of
-            # R_w onto the complement of the column space of O (one SVD for all windows)
-            Uo, so, _ = np.linalg.svd(Ow, full_matrices=False)
-            keep = so > so[0] * Ow.shape[0] * np.finfo(float).eps if so.size and so[0] > 0 else []
-            Q = Uo[:, keep]
-            Rf = R.reshape(windows, L * l)
-            Rf = Rf - (Rf @ Q) @ Q.T
-            # degrees of freedom: the fitted initial state removes Q.shape[1] of them, so
-            # RSS / (L l - rank) is the unbiased residual variance (without it a model with
-            # more states fits each window's noise better by ~rank/(L l), which made a
-            # spurious slow state "win" on held-out data)
-            dof = (L * l) / (L * l - Q.shape[1])
-        else:
-            Rf, dof = R.reshape(windows, -1), 1.0
+        Rf, dof = _initial_states_removed(R, Ow, windows, finite and n > 0)
         if split > 1:
             # one initial state, its residuals cut into `split` windows (sample-major)
             Rf = Rf.reshape(split, -1)
             yw = yw.reshape(split, -1, l)
         per = np.sum(Rf**2, axis=1) * dof
+    return _scored(per, finite, yw, sw)
+
+
+def _scored(per: Array, finite: bool, yw: Array, sw: Array) -> WindowedError:
+    """The :class:`WindowedError` of the per-window sums ``per``: relative to the weighted
+    output deviations of the windows ``yw``; an infinite error when anything overflowed."""
     if not (finite and np.all(np.isfinite(per))):
         return WindowedError(np.full(per.size, np.inf), np.inf, -np.inf, False)
     dev = (yw - yw.mean(axis=1, keepdims=True)) * sw
     total = float(per.sum() / max(np.sum(dev**2), np.finfo(float).tiny))
     return WindowedError(per, total, 100.0 * (1.0 - np.sqrt(total)), True)
+
+
+def _hold(model: StateSpaceModel) -> str:
+    """The input hold the model was identified with (its report), ``"zoh"`` when unknown."""
+    hold = model.report.hold
+    return hold if hold in ("zoh", "foh") else "zoh"
+
+
+def _drive(
+    uw: Array, yw: Array, G1: Array, G2: Array | None, Gk: Array, D: Array, predict: bool
+) -> Array:
+    """What drives the state in every window, ``(W, L - 1, n)``: the input through the
+    hold's matrices and, for the predictor, the innovations ``y - D u`` through ``Gk``."""
+    drive = uw[:, :-1] @ G1.T
+    if G2 is not None:
+        drive += np.diff(uw, axis=1) @ G2.T
+    if predict:
+        drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
+    return drive
+
+
+def _initial_states_removed(
+    R: Array, Ow: Array, windows: int, fit_state: bool
+) -> tuple[Array, float]:
+    """Each window's weighted residuals ``R (W, L, l)`` less the part its least-squares
+    initial state explains (free responses ``Ow (L l, n)``), ``(W, L l)``, and the factor
+    that makes their sum of squares unbiased; ``R`` as it is with ``fit_state`` False."""
+    if not fit_state:
+        return R.reshape(windows, -1), 1.0
+    # least-squares initial state of each window: residual of the projection of
+    # R_w onto the complement of the column space of O (one SVD for all windows)
+    Uo, so, _ = np.linalg.svd(Ow, full_matrices=False)
+    keep = so > so[0] * Ow.shape[0] * np.finfo(float).eps if so.size and so[0] > 0 else []
+    Q = Uo[:, keep]
+    Ll = Ow.shape[0]
+    Rf = R.reshape(windows, Ll)
+    Rf = Rf - (Rf @ Q) @ Q.T
+    # degrees of freedom: the fitted initial state removes Q.shape[1] of them, so
+    # RSS / (L l - rank) is the unbiased residual variance (without it a model with
+    # more states fits each window's noise better by ~rank/(L l), which made a
+    # spurious slow state "win" on held-out data)
+    return Rf, Ll / (Ll - Q.shape[1])
 
 
 def _windowed_nonuniform(

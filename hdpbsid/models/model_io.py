@@ -416,43 +416,13 @@ def model_from_dict(d: Any) -> StateSpaceModel:
         "K": (n, l, "n x l"),
     }
     mats = [_matrix(d[k], k, *shapes[k]) for k in "ABCDK"]
-    options = d.get("options")
-    if options is None:
-        options = {}
-    if not isinstance(options, dict):
-        raise ValueError(f"key 'options': expected an object, got {_kind(options)}")
-    _check_options(options, "options")
+    options = _options(d)
     nc = d.get("noise_covariance")
-    sv = d.get("singular_values")
-    if "eigenvalues" in d:
-        _eigenvalues(d["eigenvalues"], n)
-    if sv is not None:
-        sv = _vector(sv, "singular_values", None)
-        if np.any(sv < 0):
-            raise ValueError("key 'singular_values': expected non-negative numbers")
+    sv = _singular_values(d, n)
     u0 = d.get("u0")
     y0 = d.get("y0")
-    unit = d.get("time_unit", "s")
-    if not isinstance(unit, str):
-        raise ValueError(f"key 'time_unit': expected a string, got {_kind(unit)}")
-    if version >= 2:
-        inames = _strings(d["input_names"], "input_names", m) if "input_names" in d else None
-        onames = _strings(d["output_names"], "output_names", l) if "output_names" in d else None
-        dt = d.get("sampling_interval")
-    else:
-        inames = _legacy_names(options, "inputs", m)
-        onames = _legacy_names(options, "outputs", l)
-        dt = options.get("sampling_interval")
-        dt = dt if isinstance(dt, int | float) and not isinstance(dt, bool) and dt > 0 else None
-    if dt is not None:
-        dt = _number(dt, "sampling_interval")
-    delay = None
-    if "delay" in d:
-        if version < 3:
-            raise ValueError(f"key 'delay': not part of a version-{version} file (version 3 on)")
-        delay = _vector(d["delay"], "delay", m)
-        if np.any(delay < 0):
-            raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
+    unit, inames, onames, dt = _labels(d, options, version, m, l)
+    delay = _delay(d, version, m)
     cov = _parameter_covariance(d, options, version, n, m, l)
     fields: list[tuple[str, Any]] = [
         ("time_unit", unit),
@@ -476,6 +446,64 @@ def model_from_dict(d: Any) -> StateSpaceModel:
     except (ValueError, TypeError) as exc:  # the labels' own checks name the argument
         raise ValueError(f"key {_culprit(str(exc), fields)!r}: {exc}") from exc
     return model
+
+
+def _options(d: dict[str, Any]) -> dict[str, Any]:
+    """The model description's ``options`` (an empty dict when absent), checked."""
+    options = d.get("options")
+    if options is None:
+        options = {}
+    if not isinstance(options, dict):
+        raise ValueError(f"key 'options': expected an object, got {_kind(options)}")
+    _check_options(options, "options")
+    return options
+
+
+def _singular_values(d: dict[str, Any], n: int) -> Any:
+    """The description's singular values (None when absent), after its eigenvalues are
+    checked against ``n``."""
+    sv = d.get("singular_values")
+    if "eigenvalues" in d:
+        _eigenvalues(d["eigenvalues"], n)
+    if sv is not None:
+        sv = _vector(sv, "singular_values", None)
+        if np.any(sv < 0):
+            raise ValueError("key 'singular_values': expected non-negative numbers")
+    return sv
+
+
+def _labels(
+    d: dict[str, Any], options: dict[str, Any], version: int, m: int, l: int
+) -> tuple[str, Any, Any, float | None]:
+    """``(time_unit, input_names, output_names, sampling_interval)`` of a description:
+    keys of their own from version 2 on, entries of ``options`` before."""
+    unit = d.get("time_unit", "s")
+    if not isinstance(unit, str):
+        raise ValueError(f"key 'time_unit': expected a string, got {_kind(unit)}")
+    if version >= 2:
+        inames = _strings(d["input_names"], "input_names", m) if "input_names" in d else None
+        onames = _strings(d["output_names"], "output_names", l) if "output_names" in d else None
+        dt = d.get("sampling_interval")
+    else:
+        inames = _legacy_names(options, "inputs", m)
+        onames = _legacy_names(options, "outputs", l)
+        dt = options.get("sampling_interval")
+        dt = dt if isinstance(dt, int | float) and not isinstance(dt, bool) and dt > 0 else None
+    if dt is not None:
+        dt = _number(dt, "sampling_interval")
+    return unit, inames, onames, dt
+
+
+def _delay(d: dict[str, Any], version: int, m: int) -> Any:
+    """The description's dead times (None when absent; version 3 on)."""
+    if "delay" not in d:
+        return None
+    if version < 3:
+        raise ValueError(f"key 'delay': not part of a version-{version} file (version 3 on)")
+    delay = _vector(d["delay"], "delay", m)
+    if np.any(delay < 0):
+        raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
+    return delay
 
 
 def _parameter_covariance(
