@@ -40,6 +40,8 @@ from numpy.typing import NDArray
 from hdpbsid.data.checks import scale_exponents
 
 __all__ = [
+    "AssessmentSettings",
+    "ASSESSMENT",
     "Comparison",
     "ResidualReport",
     "fit_percent",
@@ -50,8 +52,25 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: Confidence level of the bands and tests (MATLAB ``resid`` draws 99 % bands).
-CONFIDENCE = 0.99
+
+@dataclass(frozen=True)
+class AssessmentSettings:
+    """The level of the residual tests.
+
+    Attributes
+    ----------
+    confidence : float
+        Confidence level of the bands and tests.
+    """
+
+    #: Confidence level of the bands and tests (MATLAB ``resid`` draws 99 % bands).
+    confidence: float = 0.99
+
+
+#: The settings in force.
+ASSESSMENT = AssessmentSettings()
+#: :attr:`AssessmentSettings.confidence` of :data:`ASSESSMENT`
+CONFIDENCE = ASSESSMENT.confidence
 
 
 def fit_percent(y: Array, y_hat: Array) -> Array:

@@ -55,6 +55,8 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import forced_responses, matrix_powers
 
 __all__ = [
+    "CriteriaSettings",
+    "CRITERIA",
     "WindowedError",
     "windowed_simulation_error",
     "windowed_prediction_error",
@@ -67,20 +69,50 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: the "one standard error" rule: models within this many standard errors of the best
-#: held-out error are indistinguishable from it at the resolution of the held-out data
-SIGNIFICANCE_Z = 1.0
-#: windows per record: enough for a standard error of the paired differences (a t
-#: statistic on fewer than ~8 differences is too noisy to test anything)
-MAX_WINDOWS = 16
-MIN_WINDOWS = 4
-#: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
-#: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
-#: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
-PREDICTOR_STABILITY_TOL = 1e-8
-#: samples per window per fitted initial-state entry: the least-squares initial state of
-#: a window must be determined by many more samples than it has entries
-SAMPLES_PER_STATE = 3
+
+@dataclass(frozen=True)
+class CriteriaSettings:
+    """How held-out records are cut into windows and how their errors are compared.
+
+    Attributes
+    ----------
+    significance_z : float
+        Standard errors within which a model ties with the best.
+    max_windows : int
+        Most windows per record.
+    min_windows : int
+        Fewest windows a held-out score is taken on.
+    predictor_stability_tol : float
+        Spectral radius beyond ``1 + tol`` counts as unstable.
+    samples_per_state : int
+        Samples per window per initial-state entry.
+    """
+
+    #: the "one standard error" rule: models within this many standard errors of the best
+    #: held-out error are indistinguishable from it at the resolution of the held-out data
+    significance_z: float = 1.0
+    #: windows per record: enough for a standard error of the paired differences (a t
+    #: statistic on fewer than ~8 differences is too noisy to test anything)
+    max_windows: int = 16
+    #: fewest windows a held-out score is taken on: below, a record is too short to score
+    min_windows: int = 4
+    #: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
+    #: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
+    #: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
+    predictor_stability_tol: float = 1e-8
+    #: samples per window per fitted initial-state entry: the least-squares initial state of
+    #: a window must be determined by many more samples than it has entries
+    samples_per_state: int = 3
+
+
+#: The settings in force.
+CRITERIA = CriteriaSettings()
+#: :attr:`CriteriaSettings.significance_z` of :data:`CRITERIA`
+SIGNIFICANCE_Z = CRITERIA.significance_z
+#: :attr:`CriteriaSettings.min_windows` of :data:`CRITERIA`
+MIN_WINDOWS = CRITERIA.min_windows
+#: :attr:`CriteriaSettings.samples_per_state` of :data:`CRITERIA`
+SAMPLES_PER_STATE = CRITERIA.samples_per_state
 
 
 @dataclass
@@ -121,11 +153,11 @@ def default_windows(ns: int, max_states: int) -> int:
     Returns
     -------
     int
-        :data:`MAX_WINDOWS` if every window keeps at least ``SAMPLES_PER_STATE *
-        max_states`` samples, fewer otherwise, at least 1: each window's least-squares
-        initial state must be determined by many more samples than it has entries, and the
-        standard error of :func:`choose_smallest_adequate` wants as many windows as that
-        allows.
+        :attr:`CriteriaSettings.max_windows` if every window keeps at least
+        ``SAMPLES_PER_STATE * max_states`` samples, fewer otherwise, at least 1: each
+        window's least-squares initial state must be determined by many more samples than
+        it has entries, and the standard error of :func:`choose_smallest_adequate` wants as
+        many windows as that allows.
 
     Examples
     --------
@@ -133,7 +165,7 @@ def default_windows(ns: int, max_states: int) -> int:
     (16, 2)
     """
     per = SAMPLES_PER_STATE * max(max_states, 1)
-    return int(max(1, min(MAX_WINDOWS, ns // per)))
+    return int(max(1, min(CRITERIA.max_windows, ns // per)))
 
 
 def _sampled(
@@ -290,7 +322,7 @@ def predictor_is_stable(F: Array) -> bool:
     Returns
     -------
     bool
-        Spectral radius at most ``1 + PREDICTOR_STABILITY_TOL`` and every entry finite.
+        Spectral radius at most ``1 + CRITERIA.predictor_stability_tol`` and every entry finite.
 
     Notes
     -----
@@ -316,7 +348,7 @@ def predictor_is_stable(F: Array) -> bool:
         if not np.all(np.isfinite(F)):
             return False
         rho = float(np.max(np.abs(np.linalg.eigvals(F))))
-    return rho <= 1.0 + PREDICTOR_STABILITY_TOL
+    return rho <= 1.0 + CRITERIA.predictor_stability_tol
 
 
 def _windowed_error(

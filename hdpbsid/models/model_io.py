@@ -49,6 +49,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -59,6 +60,8 @@ from hdpbsid.models.model_file import FORMAT, VERSION, describe, write_model
 from hdpbsid.models.uncertainty import ParameterCovariance, parameter_count
 
 __all__ = [
+    "ModelFileLimits",
+    "MODEL_FILE_LIMITS",
     "save_model",
     "load_model",
     "model_to_dict",
@@ -69,17 +72,38 @@ __all__ = [
     "MAX_DEPTH",
 ]
 
-#: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
-#: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
-#: while a runaway or hostile file is refused before it is read into memory.
-MAX_BYTES = 64 * 2**20
 
-#: Deepest nesting of JSON arrays and objects.  The format itself nests 3 levels (the
-#: rows of a matrix in the file object); the options hold tables of dictionaries a few
-#: levels deep.  Python's JSON reader recurses once per level (a ``RecursionError``
-#: near 1000 levels, turned into a ``ValueError``), and so would code that walks the
-#: options; the bound keeps both far from it.
-MAX_DEPTH = 32
+@dataclass(frozen=True)
+class ModelFileLimits:
+    """The limits a model file is read within.
+
+    Attributes
+    ----------
+    max_bytes : int
+        Largest model file read (bytes).
+    max_depth : int
+        Deepest nesting of JSON arrays and objects.
+    """
+
+    #: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
+    #: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
+    #: while a runaway or hostile file is refused before it is read into memory.
+    max_bytes: int = 64 * 2**20
+    #: Deepest nesting of JSON arrays and objects.  The format itself nests 3 levels (the
+    #: rows of a matrix in the file object); the options hold tables of dictionaries a few
+    #: levels deep.  Python's JSON reader recurses once per level (a ``RecursionError``
+    #: near 1000 levels, turned into a ``ValueError``), and so would code that walks the
+    #: options; the bound keeps both far from it.
+    max_depth: int = 32
+
+
+#: The limits in force.
+MODEL_FILE_LIMITS = ModelFileLimits()
+#: :attr:`ModelFileLimits.max_bytes` of :data:`MODEL_FILE_LIMITS`
+MAX_BYTES = MODEL_FILE_LIMITS.max_bytes
+#: :attr:`ModelFileLimits.max_depth` of :data:`MODEL_FILE_LIMITS`
+MAX_DEPTH = MODEL_FILE_LIMITS.max_depth
+
 
 _REQUIRED = ("n", "m", "l", "A", "B", "C", "D", "K")
 _OPTIONAL = (
