@@ -10,12 +10,15 @@ dropped.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "CheckSettings",
+    "CHECKS",
     "as_float_array",
     "check_time",
     "check_signal",
@@ -161,13 +164,64 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
     return arr
 
 
-#: the share of the float64 range a signal channel's energy ``sum x_k^2`` may take.  A
-#: Gram entry of two channels is at most their energies (Cauchy-Schwarz), but the
-#: least-squares steps also take norms of stacks of up to ~10^4 regressors (a factor up to
-#: 10^4) and condition estimates square such norms again (10^8): the energy must stay
-#: 10^12 below overflow (values up to ~1e148 pass for 10^4 samples; no physical record
-#: comes near, and beyond it the squares themselves overflow deep inside a method)
-ENERGY_HEADROOM = 1e-12
+@dataclass(frozen=True)
+class CheckSettings:
+    """The bounds the input checks hold records, orders and labels to.
+
+    Attributes
+    ----------
+    energy_headroom : float
+        Fraction of the float64 range a channel's sum of squares may reach.
+    uniform_rtol : float
+        Relative tolerance of the spacing of a uniform grid.
+    default_max_order : int
+        Default largest order of the order selection.
+    max_label : int
+        Longest time unit or channel name (characters).
+    scale_exponent : int
+        Power-of-two band outside which a channel is rescaled.
+    """
+
+    #: the share of the float64 range a signal channel's energy ``sum x_k^2`` may take.  A
+    #: Gram entry of two channels is at most their energies (Cauchy-Schwarz), but the
+    #: least-squares steps also take norms of stacks of up to ~10^4 regressors (a factor up to
+    #: 10^4) and condition estimates square such norms again (10^8): the energy must stay
+    #: 10^12 below overflow (values up to ~1e148 pass for 10^4 samples; no physical record
+    #: comes near, and beyond it the squares themselves overflow deep inside a method)
+    energy_headroom: float = 1e-12
+    #: relative tolerance of the sample spacing of a uniform grid (:func:`check_uniform`):
+    #: one sampled model then serves every step to ~1e-6 of its exponent, far below the
+    #: statistical resolution of any record these methods identify from (a grid jittered by
+    #: more is treated as non-uniform, with exact steps per interval)
+    uniform_rtol: float = 1e-6
+    #: Default largest order considered by the order selection of every method: a bound on
+    #: the candidates that keeps the selection's work small (pass ``max_order`` for more).
+    default_max_order: int = 10
+    #: Longest time unit or channel name (characters): room for any name a person writes,
+    #: short enough to stay readable in a message, a legend or a model file.
+    max_label: int = 256
+    #: Channels whose largest magnitude lies outside ``[2^-SCALE_EXPONENT, 2^SCALE_EXPONENT]``
+    #: (about 1e-30 to 1e30) are scaled by a power of two before identification
+    #: (:func:`scale_exponents`).  Inside the band the methods' float64 arithmetic -- sums of
+    #: products of up to four samples over up to 10^10 samples, ``(2^100)^4 10^10 < 2^434``
+    #: and ``(2^-100)^4 > 2^-400`` -- stays far from overflow and from the subnormal range,
+    #: so records in any physical unit run unchanged; outside it, squares and their products
+    #: overflow or underflow (at 1e-200 every square rounds to zero).
+    scale_exponent: int = 100
+
+
+#: The settings in force.
+CHECKS = CheckSettings()
+#: :attr:`CheckSettings.energy_headroom` of :data:`CHECKS`
+ENERGY_HEADROOM = CHECKS.energy_headroom
+#: :attr:`CheckSettings.uniform_rtol` of :data:`CHECKS`
+UNIFORM_RTOL = CHECKS.uniform_rtol
+#: :attr:`CheckSettings.default_max_order` of :data:`CHECKS`
+DEFAULT_MAX_ORDER = CHECKS.default_max_order
+#: :attr:`CheckSettings.max_label` of :data:`CHECKS`
+MAX_LABEL = CHECKS.max_label
+#: :attr:`CheckSettings.scale_exponent` of :data:`CHECKS`
+SCALE_EXPONENT = CHECKS.scale_exponent
 
 
 def check_signal(
@@ -324,13 +378,6 @@ def time_resolution(t: NDArray[np.float64]) -> float:
     4.76837158203125e-07
     """
     return 2.0 * float(np.spacing(np.max(np.abs(t)))) if t.size else 0.0
-
-
-#: relative tolerance of the sample spacing of a uniform grid (:func:`check_uniform`):
-#: one sampled model then serves every step to ~1e-6 of its exponent, far below the
-#: statistical resolution of any record these methods identify from (a grid jittered by
-#: more is treated as non-uniform, with exact steps per interval)
-UNIFORM_RTOL = 1e-6
 
 
 def uniform_tolerance(t: NDArray[np.float64], h: float, rtol: float = UNIFORM_RTOL) -> float:
@@ -562,10 +609,6 @@ def check_state_space(
     return A, B, C, D, K
 
 
-#: Default largest order considered by the order selection of every method.
-DEFAULT_MAX_ORDER = 10
-
-
 def check_order(order: int | None) -> int | None:
     """``order``: None (chosen by the method) or a positive int."""
     return None if order is None else check_positive_int(order, "order")
@@ -584,10 +627,6 @@ def check_method_args(
         f = check_positive_int(f, "f")
     mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     return order, p, f, mo
-
-
-#: Longest time unit or channel name (characters).
-MAX_LABEL = 256
 
 
 def check_label(value: Any, name: str) -> str:
@@ -665,16 +704,6 @@ def check_names(names: Any, name: str, size: int, prefix: str) -> list[str]:
     if dup:
         raise ValueError(f"{name} must be distinct, but {dup} occur more than once")
     return out
-
-
-#: Channels whose largest magnitude lies outside ``[2^-SCALE_EXPONENT, 2^SCALE_EXPONENT]``
-#: (about 1e-30 to 1e30) are scaled by a power of two before identification
-#: (:func:`scale_exponents`).  Inside the band the methods' float64 arithmetic -- sums of
-#: products of up to four samples over up to 10^10 samples, ``(2^100)^4 10^10 < 2^434``
-#: and ``(2^-100)^4 > 2^-400`` -- stays far from overflow and from the subnormal range,
-#: so records in any physical unit run unchanged; outside it, squares and their products
-#: overflow or underflow (at 1e-200 every square rounds to zero).
-SCALE_EXPONENT = 100
 
 
 def scale_exponents(x: Any, name: str) -> NDArray[np.int64]:

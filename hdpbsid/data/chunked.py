@@ -18,12 +18,30 @@ from numpy.typing import NDArray
 
 from hdpbsid.data.checks import check_positive_int
 
-__all__ = ["ChunkedRecord", "CHUNK_SAMPLES"]
+__all__ = ["ChunkSettings", "CHUNKS", "ChunkedRecord", "CHUNK_SAMPLES"]
 
 Array = NDArray[np.float64]
 
-#: samples read and projected per batch of windows
-CHUNK_SAMPLES = 2**20
+
+@dataclass(frozen=True)
+class ChunkSettings:
+    """How a chunked record is read.
+
+    Attributes
+    ----------
+    chunk_samples : int
+        Samples read and projected per batch of windows.
+    """
+
+    #: samples read and projected per batch of windows: about 8 MB per channel, so a batch
+    #: of a few channels fits in memory with room while the batches stay few
+    chunk_samples: int = 2**20
+
+
+#: The settings in force.
+CHUNKS = ChunkSettings()
+#: :attr:`ChunkSettings.chunk_samples` of :data:`CHUNKS`
+CHUNK_SAMPLES = CHUNKS.chunk_samples
 
 
 class _ArrayReader:

@@ -32,6 +32,7 @@ ed. (1999), sec. 16.6, as MATLAB's ``resid`` does.  For the one-step prediction 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,6 +40,8 @@ from numpy.typing import NDArray
 from hdpbsid.data.checks import scale_exponents
 
 __all__ = [
+    "AssessmentSettings",
+    "ASSESSMENT",
     "Comparison",
     "ResidualReport",
     "fit_percent",
@@ -49,8 +52,25 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: Confidence level of the bands and tests (MATLAB ``resid`` draws 99 % bands).
-CONFIDENCE = 0.99
+
+@dataclass(frozen=True)
+class AssessmentSettings:
+    """The level of the residual tests.
+
+    Attributes
+    ----------
+    confidence : float
+        Confidence level of the bands and tests.
+    """
+
+    #: Confidence level of the bands and tests (MATLAB ``resid`` draws 99 % bands).
+    confidence: float = 0.99
+
+
+#: The settings in force.
+ASSESSMENT = AssessmentSettings()
+#: :attr:`AssessmentSettings.confidence` of :data:`ASSESSMENT`
+CONFIDENCE = ASSESSMENT.confidence
 
 
 def fit_percent(y: Array, y_hat: Array) -> Array:
@@ -359,21 +379,8 @@ def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualRepo
     >>> residual_tests(e, u).white, residual_tests(np.cumsum(e, axis=0), u).white
     (True, False)
     """
-    e = np.asarray(e, dtype=float)
-    if e.ndim == 1:
-        e = e[:, None]
+    e, u = _residual_inputs(e, u, max_lag)
     n, l = e.shape
-    u = np.zeros((n, 0)) if u is None else np.asarray(u, dtype=float)
-    if u.ndim == 1:
-        u = u[:, None]
-    if u.shape[0] != n:
-        raise ValueError(f"u must have {n} rows like the residuals, got shape {u.shape}")
-    if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer):
-        raise TypeError(f"max_lag must be an integer, got {max_lag!r}")
-    if not 1 <= max_lag < n / 2:
-        raise ValueError(f"max_lag must be between 1 and N/2 = {n / 2:g}, got {max_lag}")
-    if not (np.all(np.isfinite(e)) and np.all(np.isfinite(u))):
-        raise ValueError("residuals and input must be finite (the model's predictions diverged?)")
     from scipy.stats import chi2, norm  # here: scipy.stats is slow to import
 
     M = int(max_lag)
@@ -398,23 +405,7 @@ def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualRepo
         re_full = correlation(e[:, i], e[:, i], sym)
         re = re_full / re_full[M]
         for j in range(m):
-            ru_full = correlation(uc[:, j], uc[:, j], np.arange(-3 * M, 3 * M + 1))
-            ru = ru_full / ru_full[3 * M] if ru_full[3 * M] > 0 else np.zeros_like(ru_full)
-            X[:, i, j] = correlation(e[:, i], uc[:, j], cross_lags) / np.sqrt(
-                re_full[M] * max(ru_full[3 * M], np.finfo(float).tiny)
-            )
-            # P_ab = sum_k r_e(k) r_u(k + tau_a - tau_b), |k| <= M (Ljung eq. 16.59/16.61)
-            d = cross_lags[:, None] - cross_lags[None, :]
-            P = np.zeros((2 * M + 1, 2 * M + 1))
-            for kk, rek in zip(sym, re, strict=True):
-                P += rek * ru[3 * M + kk + d]
-            P = 0.5 * (P + P.T)
-            cband[i, j] = z * np.sqrt(max(float(np.diag(P).mean()), 0.0) / n)
-            w, V = np.linalg.eigh(P)
-            keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
-            proj = V[:, keep].T @ X[:, i, j]
-            zeta[i, j] = n * float(np.sum(proj**2 / w[keep]))
-            dof[i, j] = int(keep.sum())
+            cband[i, j], zeta[i, j], dof[i, j] = _cross_test(X, i, j, e, uc, re_full, re, z)
     cthr = np.where(dof > 0, chi2.ppf(CONFIDENCE, np.maximum(dof, 1)), np.inf)
     return ResidualReport(
         residuals=e,
@@ -432,3 +423,51 @@ def residual_tests(e: Array, u: Array | None, max_lag: int = 25) -> ResidualRepo
         cross_threshold=np.asarray(cthr, dtype=float).reshape(l, m),
         cross_pvalue=np.asarray(chi2.sf(zeta, np.maximum(dof, 1)), dtype=float).reshape(l, m),
     )
+
+
+def _residual_inputs(e: Any, u: Any, max_lag: Any) -> tuple[Array, Array]:
+    """The residuals and input of :func:`residual_tests` as columns, checked."""
+    e = np.asarray(e, dtype=float)
+    if e.ndim == 1:
+        e = e[:, None]
+    n = e.shape[0]
+    u = np.zeros((n, 0)) if u is None else np.asarray(u, dtype=float)
+    if u.ndim == 1:
+        u = u[:, None]
+    if u.shape[0] != n:
+        raise ValueError(f"u must have {n} rows like the residuals, got shape {u.shape}")
+    if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer):
+        raise TypeError(f"max_lag must be an integer, got {max_lag!r}")
+    if not 1 <= max_lag < n / 2:
+        raise ValueError(f"max_lag must be between 1 and N/2 = {n / 2:g}, got {max_lag}")
+    if not (np.all(np.isfinite(e)) and np.all(np.isfinite(u))):
+        raise ValueError("residuals and input must be finite (the model's predictions diverged?)")
+    return e, u
+
+
+def _cross_test(
+    X: Array, i: int, j: int, e: Array, uc: Array, re_full: Array, re: Array, z: float
+) -> tuple[float, float, int]:
+    """The cross-correlation test of residual ``i`` and centred input ``j``: writes the
+    normalised cross-correlation into ``X[:, i, j]`` and returns its band, its statistic
+    and the statistic's degrees of freedom (:func:`residual_tests`, Notes)."""
+    n = e.shape[0]
+    M = (X.shape[0] - 1) // 2
+    cross_lags = np.arange(-M, M + 1)
+    sym = np.arange(-M, M + 1)
+    ru_full = correlation(uc[:, j], uc[:, j], np.arange(-3 * M, 3 * M + 1))
+    ru = ru_full / ru_full[3 * M] if ru_full[3 * M] > 0 else np.zeros_like(ru_full)
+    X[:, i, j] = correlation(e[:, i], uc[:, j], cross_lags) / np.sqrt(
+        re_full[M] * max(ru_full[3 * M], np.finfo(float).tiny)
+    )
+    # P_ab = sum_k r_e(k) r_u(k + tau_a - tau_b), |k| <= M (Ljung eq. 16.59/16.61)
+    d = cross_lags[:, None] - cross_lags[None, :]
+    P = np.zeros((2 * M + 1, 2 * M + 1))
+    for kk, rek in zip(sym, re, strict=True):
+        P += rek * ru[3 * M + kk + d]
+    P = 0.5 * (P + P.T)
+    cband = z * np.sqrt(max(float(np.diag(P).mean()), 0.0) / n)
+    w, V = np.linalg.eigh(P)
+    keep = w > 1e-10 * max(float(w.max()), np.finfo(float).tiny)
+    proj = V[:, keep].T @ X[:, i, j]
+    return cband, n * float(np.sum(proj**2 / w[keep])), int(keep.sum())

@@ -43,6 +43,7 @@ estimates, Al-Mohy & Higham 2012) takes many matrix square roots, and an order s
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +54,8 @@ from hdpbsid.models.recursion import modal_form
 from hdpbsid.runtime import user_stacklevel
 
 __all__ = [
+    "ConversionSettings",
+    "CONVERSION",
     "c2d",
     "d2c",
     "sampled_steps",
@@ -64,39 +67,72 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: largest eigenvector condition number of ``Ad`` for the eigenvalue route of
-#: :func:`d2c` (module docstring): its rounding, about ``cond(V) eps``, then stays below
-#: 1e-12 relative, within a factor 100 of the generic logarithm's
-MAX_LOG_CONDITION = 1e4
-#: up to this ``cond(V)`` the eigenvalue route is still tried, and kept when its result
-#: passes the backward check of :func:`_reproduces` (the exponential of the logarithm
-#: found gives back the augmented matrix to :data:`LOG_BACKWARD_TOL`): an a posteriori
-#: test instead of the a priori bound.  Sampled models of closed-loop records of
-#: moderate order often have ``cond(V)`` of a few times 1e4, where the a priori bound
-#: would send them to the much slower generic logarithm although the eigenvalue route is
-#: exact to rounding; the check keeps what is exact and rejects what is not
-CHECKED_LOG_CONDITION = 1e8
-#: largest relative backward error ``||expm(L) - M||_1 / ||M||_1`` of the checked
-#: eigenvalue route: a hundred times the rounding of the exponential itself
-#: (``~ n eps``, ``n <= 100`` here), so what passes is as exact as the data allow
-LOG_BACKWARD_TOL = 1e-11
-#: ``|x - 1|`` below which ``phi(x) = log(x) / (x - 1)`` is summed as its series
-#: ``1 - d/2 + d^2/3 - d^3/4`` (``d = x - 1``; truncation ``d^4 / 5 < 1e-17``)
-PHI_SERIES_RADIUS = 1e-4
-#: :func:`sampled_steps` takes the eigenvalue route from this many distinct steps on
-#: (below, the batched ``expm`` costs about as little)
-STEPS_MODAL_MIN = 8
-#: ``|z|`` below which ``phi_2(z) = (e^z - 1 - z) / z^2`` is summed as its series (16
-#: terms: truncation below ``0.5^16 / 18! ~ 2e-21``); above, the closed form loses at
-#: most ``eps / |z| <= 2 eps`` to cancellation
-PHI2_SERIES_RADIUS = 0.5
+
+@dataclass(frozen=True)
+class ConversionSettings:
+    """Where the conversions switch between their exact routes, and how closely they check.
+
+    Attributes
+    ----------
+    max_log_condition : float
+        Largest eigenvector condition of ``Ad`` for the a priori eigenvalue route of
+        :func:`d2c`.
+    checked_log_condition : float
+        Largest one for the eigenvalue route with the backward check.
+    log_backward_tol : float
+        Largest relative backward error of the checked eigenvalue route.
+    phi_series_radius : float
+        ``|x - 1|`` below which ``log(x) / (x - 1)`` is summed as its series.
+    steps_modal_min : int
+        Distinct steps from which :func:`sampled_steps` takes the eigenvalue route.
+    phi2_series_radius : float
+        ``|z|`` below which ``phi_2(z)`` is summed as its series.
+    """
+
+    #: largest eigenvector condition number of ``Ad`` for the eigenvalue route of
+    #: :func:`d2c` (module docstring): its rounding, about ``cond(V) eps``, then stays below
+    #: 1e-12 relative, within a factor 100 of the generic logarithm's
+    max_log_condition: float = 1e4
+    #: up to this ``cond(V)`` the eigenvalue route is still tried, and kept when its result
+    #: passes the backward check of :func:`_reproduces` (the exponential of the logarithm
+    #: found gives back the augmented matrix to :data:`LOG_BACKWARD_TOL`): an a posteriori
+    #: test instead of the a priori bound.  Sampled models of closed-loop records of
+    #: moderate order often have ``cond(V)`` of a few times 1e4, where the a priori bound
+    #: would send them to the much slower generic logarithm although the eigenvalue route is
+    #: exact to rounding; the check keeps what is exact and rejects what is not
+    checked_log_condition: float = 1e8
+    #: largest relative backward error ``||expm(L) - M||_1 / ||M||_1`` of the checked
+    #: eigenvalue route: a hundred times the rounding of the exponential itself
+    #: (``~ n eps``, ``n <= 100`` here), so what passes is as exact as the data allow
+    log_backward_tol: float = 1e-11
+    #: ``|x - 1|`` below which ``phi(x) = log(x) / (x - 1)`` is summed as its series
+    #: ``1 - d/2 + d^2/3 - d^3/4`` (``d = x - 1``; truncation ``d^4 / 5 < 1e-17``)
+    phi_series_radius: float = 1e-4
+    #: :func:`sampled_steps` takes the eigenvalue route from this many distinct steps on
+    #: (below, the batched ``expm`` costs about as little)
+    steps_modal_min: int = 8
+    #: ``|z|`` below which ``phi_2(z) = (e^z - 1 - z) / z^2`` is summed as its series (16
+    #: terms: truncation below ``0.5^16 / 18! ~ 2e-21``); above, the closed form loses at
+    #: most ``eps / |z| <= 2 eps`` to cancellation
+    phi2_series_radius: float = 0.5
+
+
+#: The settings in force.
+CONVERSION = ConversionSettings()
+#: :attr:`ConversionSettings.max_log_condition` of :data:`CONVERSION`
+MAX_LOG_CONDITION = CONVERSION.max_log_condition
+#: :attr:`ConversionSettings.checked_log_condition` of :data:`CONVERSION`
+CHECKED_LOG_CONDITION = CONVERSION.checked_log_condition
+#: :attr:`ConversionSettings.log_backward_tol` of :data:`CONVERSION`
+LOG_BACKWARD_TOL = CONVERSION.log_backward_tol
+
 _PHI2_COEFFS = 1.0 / np.array([float(np.prod(np.arange(1, k + 3))) for k in range(16)])
 
 
 def _phi12(z: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
     """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` elementwise
     (``phi_1(0) = 1``, ``phi_2(0) = 1/2``), both accurate to rounding for every ``z``."""
-    small = np.abs(z) < PHI2_SERIES_RADIUS
+    small = np.abs(z) < CONVERSION.phi2_series_radius
     zs = np.where(small, z, 0.0)
     series = np.zeros_like(z)
     for c in _PHI2_COEFFS[::-1]:
@@ -182,7 +218,7 @@ def sampled_steps(
     """
     h = np.asarray(h, dtype=float)
     foh = hold == "foh"
-    modal = modal_form(A, MAX_LOG_CONDITION) if h.size >= STEPS_MODAL_MIN else None
+    modal = modal_form(A, MAX_LOG_CONDITION) if h.size >= CONVERSION.steps_modal_min else None
     if modal is None:
         return _augmented_steps(A, B, K, h, foh)
     lam, V, Vi = modal
@@ -231,7 +267,7 @@ def _log_and_phi(Ad: Array, max_condition: float) -> tuple[Array, Array] | None:
     lam = lam.astype(complex)
     log_lam = np.log(lam)  # principal branch; no eigenvalue on (-inf, 0] (checked)
     d = lam - 1.0
-    near = np.abs(d) < PHI_SERIES_RADIUS
+    near = np.abs(d) < CONVERSION.phi_series_radius
     phi = np.where(near, 1.0 - d / 2 + d**2 / 3 - d**3 / 4, log_lam / np.where(near, 1.0, d))
     return (V * log_lam) @ Vi, (V * phi) @ Vi
 

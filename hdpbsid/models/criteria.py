@@ -55,6 +55,8 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import forced_responses, matrix_powers
 
 __all__ = [
+    "CriteriaSettings",
+    "CRITERIA",
     "WindowedError",
     "windowed_simulation_error",
     "windowed_prediction_error",
@@ -67,20 +69,50 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: the "one standard error" rule: models within this many standard errors of the best
-#: held-out error are indistinguishable from it at the resolution of the held-out data
-SIGNIFICANCE_Z = 1.0
-#: windows per record: enough for a standard error of the paired differences (a t
-#: statistic on fewer than ~8 differences is too noisy to test anything)
-MAX_WINDOWS = 16
-MIN_WINDOWS = 4
-#: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
-#: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
-#: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
-PREDICTOR_STABILITY_TOL = 1e-8
-#: samples per window per fitted initial-state entry: the least-squares initial state of
-#: a window must be determined by many more samples than it has entries
-SAMPLES_PER_STATE = 3
+
+@dataclass(frozen=True)
+class CriteriaSettings:
+    """How held-out records are cut into windows and how their errors are compared.
+
+    Attributes
+    ----------
+    significance_z : float
+        Standard errors within which a model ties with the best.
+    max_windows : int
+        Most windows per record.
+    min_windows : int
+        Fewest windows a held-out score is taken on.
+    predictor_stability_tol : float
+        Spectral radius beyond ``1 + tol`` counts as unstable.
+    samples_per_state : int
+        Samples per window per initial-state entry.
+    """
+
+    #: the "one standard error" rule: models within this many standard errors of the best
+    #: held-out error are indistinguishable from it at the resolution of the held-out data
+    significance_z: float = 1.0
+    #: windows per record: enough for a standard error of the paired differences (a t
+    #: statistic on fewer than ~8 differences is too noisy to test anything)
+    max_windows: int = 16
+    #: fewest windows a held-out score is taken on: below, a record is too short to score
+    min_windows: int = 4
+    #: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
+    #: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
+    #: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)
+    predictor_stability_tol: float = 1e-8
+    #: samples per window per fitted initial-state entry: the least-squares initial state of
+    #: a window must be determined by many more samples than it has entries
+    samples_per_state: int = 3
+
+
+#: The settings in force.
+CRITERIA = CriteriaSettings()
+#: :attr:`CriteriaSettings.significance_z` of :data:`CRITERIA`
+SIGNIFICANCE_Z = CRITERIA.significance_z
+#: :attr:`CriteriaSettings.min_windows` of :data:`CRITERIA`
+MIN_WINDOWS = CRITERIA.min_windows
+#: :attr:`CriteriaSettings.samples_per_state` of :data:`CRITERIA`
+SAMPLES_PER_STATE = CRITERIA.samples_per_state
 
 
 @dataclass
@@ -121,11 +153,11 @@ def default_windows(ns: int, max_states: int) -> int:
     Returns
     -------
     int
-        :data:`MAX_WINDOWS` if every window keeps at least ``SAMPLES_PER_STATE *
-        max_states`` samples, fewer otherwise, at least 1: each window's least-squares
-        initial state must be determined by many more samples than it has entries, and the
-        standard error of :func:`choose_smallest_adequate` wants as many windows as that
-        allows.
+        :attr:`CriteriaSettings.max_windows` if every window keeps at least
+        ``SAMPLES_PER_STATE * max_states`` samples, fewer otherwise, at least 1: each
+        window's least-squares initial state must be determined by many more samples than
+        it has entries, and the standard error of :func:`choose_smallest_adequate` wants as
+        many windows as that allows.
 
     Examples
     --------
@@ -133,7 +165,7 @@ def default_windows(ns: int, max_states: int) -> int:
     (16, 2)
     """
     per = SAMPLES_PER_STATE * max(max_states, 1)
-    return int(max(1, min(MAX_WINDOWS, ns // per)))
+    return int(max(1, min(CRITERIA.max_windows, ns // per)))
 
 
 def _sampled(
@@ -290,7 +322,7 @@ def predictor_is_stable(F: Array) -> bool:
     Returns
     -------
     bool
-        Spectral radius at most ``1 + PREDICTOR_STABILITY_TOL`` and every entry finite.
+        Spectral radius at most ``1 + CRITERIA.predictor_stability_tol`` and every entry finite.
 
     Notes
     -----
@@ -316,7 +348,7 @@ def predictor_is_stable(F: Array) -> bool:
         if not np.all(np.isfinite(F)):
             return False
         rho = float(np.max(np.abs(np.linalg.eigvals(F))))
-    return rho <= 1.0 + PREDICTOR_STABILITY_TOL
+    return rho <= 1.0 + CRITERIA.predictor_stability_tol
 
 
 def _windowed_error(
@@ -340,9 +372,7 @@ def _windowed_error(
             f"windows={windows} leaves {L} samples per window for a model with {model.n} "
             f"states; use fewer windows or a longer record"
         )
-    if hold is None:
-        hold = model.report.hold
-        hold = hold if hold in ("zoh", "foh") else "zoh"
+    hold = _hold(model) if hold is None else hold
     h = float((t[-1] - t[0]) / (ns - 1))
     if not is_uniform(t):
         if predict:
@@ -362,42 +392,71 @@ def _windowed_error(
     # forced response in every window from a zero state, all windows at once, and the
     # free response C F^k of the window's initial state (hdpbsid.models.recursion)
     with np.errstate(over="ignore", invalid="ignore"):
-        drive = uw[:, :-1] @ G1.T
-        if G2 is not None:
-            drive += np.diff(uw, axis=1) @ G2.T
-        if predict:
-            drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
-        X = forced_responses(F, drive)  # (W, L, n)
+        X = forced_responses(F, _drive(uw, yw, G1, G2, Gk, D, predict))  # (W, L, n)
         Yf = X @ C.T + uw @ D.T
         O = C @ matrix_powers(F, L)  # (L, l, n)
         R = (yw - Yf) * sw  # (W, L, l)
         Ow = (O * sw[None, :, None]).reshape(L * l, n)
         finite = bool(np.all(np.isfinite(R)) and np.all(np.isfinite(Ow)))
-        if finite and n:
-            # least-squares initial state of each window: residual of the projection of
-            # R_w onto the complement of the column space of O (one SVD for all windows)
-            Uo, so, _ = np.linalg.svd(Ow, full_matrices=False)
-            keep = so > so[0] * Ow.shape[0] * np.finfo(float).eps if so.size and so[0] > 0 else []
-            Q = Uo[:, keep]
-            Rf = R.reshape(windows, L * l)
-            Rf = Rf - (Rf @ Q) @ Q.T
-            # degrees of freedom: the fitted initial state removes Q.shape[1] of them, so
-            # RSS / (L l - rank) is the unbiased residual variance (without it a model with
-            # more states fits each window's noise better by ~rank/(L l), which made a
-            # spurious slow state "win" on held-out data)
-            dof = (L * l) / (L * l - Q.shape[1])
-        else:
-            Rf, dof = R.reshape(windows, -1), 1.0
+        Rf, dof = _initial_states_removed(R, Ow, windows, finite and n > 0)
         if split > 1:
             # one initial state, its residuals cut into `split` windows (sample-major)
             Rf = Rf.reshape(split, -1)
             yw = yw.reshape(split, -1, l)
         per = np.sum(Rf**2, axis=1) * dof
+    return _scored(per, finite, yw, sw)
+
+
+def _scored(per: Array, finite: bool, yw: Array, sw: Array) -> WindowedError:
+    """The :class:`WindowedError` of the per-window sums ``per``: relative to the weighted
+    output deviations of the windows ``yw``; an infinite error when anything overflowed."""
     if not (finite and np.all(np.isfinite(per))):
         return WindowedError(np.full(per.size, np.inf), np.inf, -np.inf, False)
     dev = (yw - yw.mean(axis=1, keepdims=True)) * sw
     total = float(per.sum() / max(np.sum(dev**2), np.finfo(float).tiny))
     return WindowedError(per, total, 100.0 * (1.0 - np.sqrt(total)), True)
+
+
+def _hold(model: StateSpaceModel) -> str:
+    """The input hold the model was identified with (its report), ``"zoh"`` when unknown."""
+    hold = model.report.hold
+    return hold if hold in ("zoh", "foh") else "zoh"
+
+
+def _drive(
+    uw: Array, yw: Array, G1: Array, G2: Array | None, Gk: Array, D: Array, predict: bool
+) -> Array:
+    """What drives the state in every window, ``(W, L - 1, n)``: the input through the
+    hold's matrices and, for the predictor, the innovations ``y - D u`` through ``Gk``."""
+    drive = uw[:, :-1] @ G1.T
+    if G2 is not None:
+        drive += np.diff(uw, axis=1) @ G2.T
+    if predict:
+        drive += (yw[:, :-1] - uw[:, :-1] @ D.T) @ Gk.T
+    return drive
+
+
+def _initial_states_removed(
+    R: Array, Ow: Array, windows: int, fit_state: bool
+) -> tuple[Array, float]:
+    """Each window's weighted residuals ``R (W, L, l)`` less the part its least-squares
+    initial state explains (free responses ``Ow (L l, n)``), ``(W, L l)``, and the factor
+    that makes their sum of squares unbiased; ``R`` as it is with ``fit_state`` False."""
+    if not fit_state:
+        return R.reshape(windows, -1), 1.0
+    # least-squares initial state of each window: residual of the projection of
+    # R_w onto the complement of the column space of O (one SVD for all windows)
+    Uo, so, _ = np.linalg.svd(Ow, full_matrices=False)
+    keep = so > so[0] * Ow.shape[0] * np.finfo(float).eps if so.size and so[0] > 0 else []
+    Q = Uo[:, keep]
+    Ll = Ow.shape[0]
+    Rf = R.reshape(windows, Ll)
+    Rf = Rf - (Rf @ Q) @ Q.T
+    # degrees of freedom: the fitted initial state removes Q.shape[1] of them, so
+    # RSS / (L l - rank) is the unbiased residual variance (without it a model with
+    # more states fits each window's noise better by ~rank/(L l), which made a
+    # spurious slow state "win" on held-out data)
+    return Rf, Ll / (Ll - Q.shape[1])
 
 
 def _windowed_nonuniform(

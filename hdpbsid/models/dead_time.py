@@ -32,6 +32,7 @@ Estimation is in :mod:`hdpbsid.frequency.delay`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from math import factorial
 from typing import Any
 
@@ -42,6 +43,8 @@ from hdpbsid.data.checks import check_positive_int
 from hdpbsid.models.conversion import sampled_steps
 
 __all__ = [
+    "DeadTimeSettings",
+    "DEAD_TIME",
     "check_delay",
     "pade",
     "pade_order",
@@ -59,10 +62,28 @@ PADE_PHASE_RANGE = (0.0, 0.60, 1.72, 3.07, 4.55, 6.12, 7.73, 9.39, 11.09, 12.80,
 #: Largest Pade order chosen or accepted: the coefficients span ``(2N)!`` and the
 #: companion realisation of higher orders loses digits to rounding.
 MAX_PADE_ORDER = len(PADE_PHASE_RANGE) - 1
-#: A shifted time within this fraction of the smallest step of a sample counts as that
-#: sample: ``t_k - tau`` computed in floating point lands a few ulps off a sample for a
-#: delay of whole steps, and must select that sample's held input, not the previous one.
-SNAP = 1e-9
+
+
+@dataclass(frozen=True)
+class DeadTimeSettings:
+    """How shifted times are matched to samples.
+
+    Attributes
+    ----------
+    snap : float
+        Fraction of the smallest step within which a shifted time is a sample.
+    """
+
+    #: A shifted time within this fraction of the smallest step of a sample counts as that
+    #: sample: ``t_k - tau`` computed in floating point lands a few ulps off a sample for a
+    #: delay of whole steps, and must select that sample's held input, not the previous one.
+    snap: float = 1e-9
+
+
+#: The settings in force.
+DEAD_TIME = DeadTimeSettings()
+#: :attr:`DeadTimeSettings.snap` of :data:`DEAD_TIME`
+SNAP = DEAD_TIME.snap
 
 
 def check_delay(delay: Any, m: int, name: str = "delay") -> Array:
@@ -212,7 +233,7 @@ def _shifted_times(t: Array, tau: float) -> tuple[NDArray[np.intp], Array]:
 
 def _groups(x: Array) -> tuple[Array, NDArray[np.intp]]:
     """Representatives of the values of ``x >= 0`` equal to 1e-12 of the largest, and each
-    entry's group (as :func:`hdpbsid.models.model._step_groups` groups steps)."""
+    entry's group (as :func:`hdpbsid.models.simulation.step_groups` groups steps)."""
     top = float(np.max(x, initial=0.0))
     if top == 0.0:
         return np.zeros(1), np.zeros(x.size, dtype=np.intp)

@@ -10,15 +10,36 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["FORMAT", "VERSION", "describe", "write_model"]
+__all__ = ["FileFormat", "FILE_FORMAT", "FORMAT", "VERSION", "describe", "write_model"]
 
 FORMAT = "hdpbsid.StateSpaceModel"
-VERSION = 4
+
+
+@dataclass(frozen=True)
+class FileFormat:
+    """The model file's format version.
+
+    Attributes
+    ----------
+    version : int
+        The version written; readers refuse newer ones.
+    """
+
+    #: the format's version: raised whenever a key is added or changes meaning, so that a
+    #: reader refuses a file newer than it can read instead of misreading it
+    version: int = 4
+
+
+#: The format written.
+FILE_FORMAT = FileFormat()
+#: :attr:`FileFormat.version` of :data:`FILE_FORMAT`
+VERSION = FILE_FORMAT.version
 
 
 def _jsonable(x: Any) -> Any:

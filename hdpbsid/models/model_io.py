@@ -49,6 +49,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -59,6 +60,8 @@ from hdpbsid.models.model_file import FORMAT, VERSION, describe, write_model
 from hdpbsid.models.uncertainty import ParameterCovariance, parameter_count
 
 __all__ = [
+    "ModelFileLimits",
+    "MODEL_FILE_LIMITS",
     "save_model",
     "load_model",
     "model_to_dict",
@@ -69,17 +72,38 @@ __all__ = [
     "MAX_DEPTH",
 ]
 
-#: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
-#: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
-#: while a runaway or hostile file is refused before it is read into memory.
-MAX_BYTES = 64 * 2**20
 
-#: Deepest nesting of JSON arrays and objects.  The format itself nests 3 levels (the
-#: rows of a matrix in the file object); the options hold tables of dictionaries a few
-#: levels deep.  Python's JSON reader recurses once per level (a ``RecursionError``
-#: near 1000 levels, turned into a ``ValueError``), and so would code that walks the
-#: options; the bound keeps both far from it.
-MAX_DEPTH = 32
+@dataclass(frozen=True)
+class ModelFileLimits:
+    """The limits a model file is read within.
+
+    Attributes
+    ----------
+    max_bytes : int
+        Largest model file read (bytes).
+    max_depth : int
+        Deepest nesting of JSON arrays and objects.
+    """
+
+    #: Largest model file read (bytes).  A model of 300 states with 10 inputs and outputs
+    #: and its selection tables takes about 5 MB; 64 MiB leaves room for far larger ones
+    #: while a runaway or hostile file is refused before it is read into memory.
+    max_bytes: int = 64 * 2**20
+    #: Deepest nesting of JSON arrays and objects.  The format itself nests 3 levels (the
+    #: rows of a matrix in the file object); the options hold tables of dictionaries a few
+    #: levels deep.  Python's JSON reader recurses once per level (a ``RecursionError``
+    #: near 1000 levels, turned into a ``ValueError``), and so would code that walks the
+    #: options; the bound keeps both far from it.
+    max_depth: int = 32
+
+
+#: The limits in force.
+MODEL_FILE_LIMITS = ModelFileLimits()
+#: :attr:`ModelFileLimits.max_bytes` of :data:`MODEL_FILE_LIMITS`
+MAX_BYTES = MODEL_FILE_LIMITS.max_bytes
+#: :attr:`ModelFileLimits.max_depth` of :data:`MODEL_FILE_LIMITS`
+MAX_DEPTH = MODEL_FILE_LIMITS.max_depth
+
 
 _REQUIRED = ("n", "m", "l", "A", "B", "C", "D", "K")
 _OPTIONAL = (
@@ -416,43 +440,13 @@ def model_from_dict(d: Any) -> StateSpaceModel:
         "K": (n, l, "n x l"),
     }
     mats = [_matrix(d[k], k, *shapes[k]) for k in "ABCDK"]
-    options = d.get("options")
-    if options is None:
-        options = {}
-    if not isinstance(options, dict):
-        raise ValueError(f"key 'options': expected an object, got {_kind(options)}")
-    _check_options(options, "options")
+    options = _options(d)
     nc = d.get("noise_covariance")
-    sv = d.get("singular_values")
-    if "eigenvalues" in d:
-        _eigenvalues(d["eigenvalues"], n)
-    if sv is not None:
-        sv = _vector(sv, "singular_values", None)
-        if np.any(sv < 0):
-            raise ValueError("key 'singular_values': expected non-negative numbers")
+    sv = _singular_values(d, n)
     u0 = d.get("u0")
     y0 = d.get("y0")
-    unit = d.get("time_unit", "s")
-    if not isinstance(unit, str):
-        raise ValueError(f"key 'time_unit': expected a string, got {_kind(unit)}")
-    if version >= 2:
-        inames = _strings(d["input_names"], "input_names", m) if "input_names" in d else None
-        onames = _strings(d["output_names"], "output_names", l) if "output_names" in d else None
-        dt = d.get("sampling_interval")
-    else:
-        inames = _legacy_names(options, "inputs", m)
-        onames = _legacy_names(options, "outputs", l)
-        dt = options.get("sampling_interval")
-        dt = dt if isinstance(dt, int | float) and not isinstance(dt, bool) and dt > 0 else None
-    if dt is not None:
-        dt = _number(dt, "sampling_interval")
-    delay = None
-    if "delay" in d:
-        if version < 3:
-            raise ValueError(f"key 'delay': not part of a version-{version} file (version 3 on)")
-        delay = _vector(d["delay"], "delay", m)
-        if np.any(delay < 0):
-            raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
+    unit, inames, onames, dt = _labels(d, options, version, m, l)
+    delay = _delay(d, version, m)
     cov = _parameter_covariance(d, options, version, n, m, l)
     fields: list[tuple[str, Any]] = [
         ("time_unit", unit),
@@ -476,6 +470,64 @@ def model_from_dict(d: Any) -> StateSpaceModel:
     except (ValueError, TypeError) as exc:  # the labels' own checks name the argument
         raise ValueError(f"key {_culprit(str(exc), fields)!r}: {exc}") from exc
     return model
+
+
+def _options(d: dict[str, Any]) -> dict[str, Any]:
+    """The model description's ``options`` (an empty dict when absent), checked."""
+    options = d.get("options")
+    if options is None:
+        options = {}
+    if not isinstance(options, dict):
+        raise ValueError(f"key 'options': expected an object, got {_kind(options)}")
+    _check_options(options, "options")
+    return options
+
+
+def _singular_values(d: dict[str, Any], n: int) -> Any:
+    """The description's singular values (None when absent), after its eigenvalues are
+    checked against ``n``."""
+    sv = d.get("singular_values")
+    if "eigenvalues" in d:
+        _eigenvalues(d["eigenvalues"], n)
+    if sv is not None:
+        sv = _vector(sv, "singular_values", None)
+        if np.any(sv < 0):
+            raise ValueError("key 'singular_values': expected non-negative numbers")
+    return sv
+
+
+def _labels(
+    d: dict[str, Any], options: dict[str, Any], version: int, m: int, l: int
+) -> tuple[str, Any, Any, float | None]:
+    """``(time_unit, input_names, output_names, sampling_interval)`` of a description:
+    keys of their own from version 2 on, entries of ``options`` before."""
+    unit = d.get("time_unit", "s")
+    if not isinstance(unit, str):
+        raise ValueError(f"key 'time_unit': expected a string, got {_kind(unit)}")
+    if version >= 2:
+        inames = _strings(d["input_names"], "input_names", m) if "input_names" in d else None
+        onames = _strings(d["output_names"], "output_names", l) if "output_names" in d else None
+        dt = d.get("sampling_interval")
+    else:
+        inames = _legacy_names(options, "inputs", m)
+        onames = _legacy_names(options, "outputs", l)
+        dt = options.get("sampling_interval")
+        dt = dt if isinstance(dt, int | float) and not isinstance(dt, bool) and dt > 0 else None
+    if dt is not None:
+        dt = _number(dt, "sampling_interval")
+    return unit, inames, onames, dt
+
+
+def _delay(d: dict[str, Any], version: int, m: int) -> Any:
+    """The description's dead times (None when absent; version 3 on)."""
+    if "delay" not in d:
+        return None
+    if version < 3:
+        raise ValueError(f"key 'delay': not part of a version-{version} file (version 3 on)")
+    delay = _vector(d["delay"], "delay", m)
+    if np.any(delay < 0):
+        raise ValueError(f"key 'delay': expected dead times >= 0, got {delay.tolist()}")
+    return delay
 
 
 def _parameter_covariance(

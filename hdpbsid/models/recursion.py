@@ -19,6 +19,7 @@ and without their rounding amplification; the modal filters are then the fallbac
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,8 @@ from slbasis.numeric import jit
 from slbasis.numeric.engine import numba_available
 
 __all__ = [
+    "RecursionSettings",
+    "RECURSION",
     "modal_filter",
     "linear_recursion",
     "forced_responses",
@@ -43,9 +46,26 @@ Array = NDArray[np.float64]
 # compiled ahead of their first use, in the background, by slbasis.numeric.jit
 jit.register("hdpbsid.models.recursion_kernels", "hdpbsid.refine.pem_kernels")
 
-#: largest eigenvector condition number for the modal form: rounding errors of order
-#: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
-MAX_MODAL_CONDITION = 1e6
+
+@dataclass(frozen=True)
+class RecursionSettings:
+    """When the recursion takes the modal route.
+
+    Attributes
+    ----------
+    max_modal_condition : float
+        Largest eigenvector condition number for the modal form.
+    """
+
+    #: largest eigenvector condition number for the modal form: rounding errors of order
+    #: cond(V) * 1e-16 stay below 1e-10 relative, far below any noise the data carry
+    max_modal_condition: float = 1e6
+
+
+#: The settings in force.
+RECURSION = RecursionSettings()
+#: :attr:`RecursionSettings.max_modal_condition` of :data:`RECURSION`
+MAX_MODAL_CONDITION = RECURSION.max_modal_condition
 #: the evaluations of hdpbsid's passes over the samples (these recursions, the
 #: refinement's predictor): ``"numba"`` compiled, ``"numpy"`` without numba (here the
 #: modal filters, or the loop in numpy when ``F`` is nearly defective), ``"auto"`` the

@@ -23,6 +23,8 @@ from hdpbsid.models.metrics import match_eigenvalues
 from hdpbsid.studies.runner import TaskFunc, _plain
 
 __all__ = [
+    "StudySettings",
+    "STUDY",
     "Study",
     "StudyResult",
     "model_record",
@@ -32,11 +34,28 @@ __all__ = [
     "DIVERGENCE",
 ]
 
-#: a run is *divergent* when an identified eigenvalue runs away: its error exceeds ten
-#: times the true eigenvalue's magnitude (the thesis, §5: CT-PBSID "divergent behavior";
-#: a biased but bounded estimate, e.g. a real pole pulled to the wrong side of the
-#: axis, is not counted here but shows in the bias and the median error)
-DIVERGENCE = 10.0
+
+@dataclass(frozen=True)
+class StudySettings:
+    """When a study counts a run as divergent.
+
+    Attributes
+    ----------
+    divergence : float
+        Relative eigenvalue error beyond which a run is divergent.
+    """
+
+    #: a run is *divergent* when an identified eigenvalue runs away: its error exceeds ten
+    #: times the true eigenvalue's magnitude (the thesis, §5: CT-PBSID "divergent behavior";
+    #: a biased but bounded estimate, e.g. a real pole pulled to the wrong side of the
+    #: axis, is not counted here but shows in the bias and the median error)
+    divergence: float = 10.0
+
+
+#: The settings in force.
+STUDY = StudySettings()
+#: :attr:`StudySettings.divergence` of :data:`STUDY`
+DIVERGENCE = STUDY.divergence
 
 
 @dataclass(frozen=True)

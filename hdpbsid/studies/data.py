@@ -25,7 +25,14 @@ from hdpbsid.systems.quadrotor import (
     simulate_pitch_closed_loop,
 )
 
-__all__ = ["Record", "second_order_record", "quadrotor_record", "SECOND_ORDER_TRUE"]
+__all__ = [
+    "RecordCacheSettings",
+    "RECORD_CACHE",
+    "Record",
+    "second_order_record",
+    "quadrotor_record",
+    "SECOND_ORDER_TRUE",
+]
 
 Array = NDArray[np.float64]
 
@@ -33,7 +40,25 @@ Array = NDArray[np.float64]
 SECOND_ORDER_TRUE = np.linalg.eigvals(second_order()[0])
 
 _CACHE: OrderedDict[str, Any] = OrderedDict()
-_CACHE_SIZE = 8
+
+
+@dataclass(frozen=True)
+class RecordCacheSettings:
+    """How many re-simulated records a process keeps.
+
+    Attributes
+    ----------
+    size : int
+        Records kept per process (least recently used dropped first).
+    """
+
+    #: records kept per process: the figures of a run re-draw its identification and
+    #: validation records from the seed, and a few runs' worth bounds the memory
+    size: int = 8
+
+
+#: The settings in force.
+RECORD_CACHE = RecordCacheSettings()
 
 
 def _cache_key(rng: np.random.Generator, kind: str, settings: dict[str, Any]) -> str | None:
@@ -54,7 +79,7 @@ def _cached(rng: np.random.Generator, kind: str, settings: dict[str, Any], make:
     value = make()
     if key is not None:
         _CACHE[key] = value
-        while len(_CACHE) > _CACHE_SIZE:
+        while len(_CACHE) > RECORD_CACHE.size:
             _CACHE.popitem(last=False)
     return value
 

@@ -64,22 +64,9 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
     out = Path(out)
     true = np.linalg.eigvals(pitch_model()[0])
     files: dict[str, Path] = {}
-    snrs: list[Any] = []
-    for r in result.records:
-        s = r["case"]["data"]["snr_db"]
-        if s not in snrs:
-            snrs.append(s)
+    snrs = list(dict.fromkeys(r["case"]["data"]["snr_db"] for r in result.records))
     for snr in snrs:
-        groups: dict[str, Any] = {}
-        failed: dict[str, int] = {}
-        for r in result.records:
-            if r["case"]["data"]["snr_db"] == snr:
-                m = r["case"]["method"]
-                groups.setdefault(m, [])
-                if r["ok"]:
-                    groups[m].append(r["result"])
-                else:
-                    failed[m] = failed.get(m, 0) + 1
+        groups, failed = _runs_by_method(result.records, snr)
         labels = {
             m: LABELS.get(m, m) + (f" [{failed[m]} runs failed]" if failed.get(m) else "")
             for m in groups
@@ -92,12 +79,36 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
         )
         name = f"table1_eig_{snr:g}dB.png"
         files[name] = save_figure(fig, out / name)
+    files["table1_std.png"] = save_figure(_std_figure(result.summary), out / "table1_std.png")
+    return files
+
+
+def _runs_by_method(
+    records: list[dict[str, Any]], snr: Any
+) -> tuple[dict[str, list[Any]], dict[str, int]]:
+    """The results of the successful runs at ``snr`` per method, and the failed runs'
+    count per method."""
+    groups: dict[str, Any] = {}
+    failed: dict[str, int] = {}
+    for r in records:
+        if r["case"]["data"]["snr_db"] == snr:
+            m = r["case"]["method"]
+            groups.setdefault(m, [])
+            if r["ok"]:
+                groups[m].append(r["result"])
+            else:
+                failed[m] = failed.get(m, 0) + 1
+    return groups, failed
+
+
+def _std_figure(summary: list[dict[str, Any]]) -> Any:
+    """The STD of the pair and of the real pole against the SNR, one curve per method."""
     fig = new_figure((10.0, 4.0))
     for k, key in enumerate(("std pair", "std real")):
         ax = fig.add_subplot(1, 2, k + 1)
-        methods = list(dict.fromkeys(row["method"] for row in result.summary))
+        methods = list(dict.fromkeys(row["method"] for row in summary))
         for c, m in enumerate(methods):
-            rows = [row for row in result.summary if row["method"] == m]
+            rows = [row for row in summary if row["method"] == m]
             x = [row["snr_db"] for row in rows]
             y = [np.nan if row[key] is None else row[key] for row in rows]
             ax.plot(x, y, "o-", color=f"C{c}", label=LABELS.get(m, m))
@@ -107,8 +118,7 @@ def table1_figures(result: Any, out: str | Path) -> dict[str, Path]:
         ax.set_title(f"STD of the {'pair -2.92±3.24j' if k == 0 else 'real pole +3.08'}")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize="small")
-    files["table1_std.png"] = save_figure(fig, out / "table1_std.png")
-    return files
+    return fig
 
 
 def curve_figure(
@@ -143,16 +153,7 @@ def curve_figure(
     methods = list(dict.fromkeys(row.get("method", "hermite") for row in result.summary))
     for c, m in enumerate(methods):
         rows = [row for row in result.summary if row.get("method", "hermite") == m]
-        xs = np.array([row[x] for row in rows], dtype=float)
-        med = np.array([np.nan if row["median err"] is None else row["median err"] for row in rows])
-        std = np.array([np.nan if row["rel std"] is None else row["rel std"] for row in rows])
-        fails = sum(row["failed"] for row in rows)
-        label = LABELS.get(m, m) + (f" ({fails} failed runs)" if fails else "")
-        for row in rows:
-            e = np.asarray(row["errors"], dtype=float)
-            ax1.plot(np.full(e.size, float(row[x])), e, ".", color=f"C{c}", alpha=0.3, ms=3)
-        ax1.plot(xs, med, "o-", color=f"C{c}", label=label)
-        ax2.plot(xs, std, "o-", color=f"C{c}", label=label)
+        _method_curves(ax1, ax2, rows, x, f"C{c}", LABELS.get(m, m))
     for ax, lab in ((ax1, "worst relative eigenvalue error"), (ax2, "relative STD of -0.4+1.96j")):
         _log_if_positive(ax)
         if logx:
@@ -165,6 +166,23 @@ def curve_figure(
     ax2.set_title("spread over runs")
     fig.suptitle(result.study.title if result.study else name)
     return {f"{name}.png": save_figure(fig, Path(out) / f"{name}.png")}
+
+
+def _method_curves(
+    ax1: Any, ax2: Any, rows: list[dict[str, Any]], x: str, color: str, name: str
+) -> None:
+    """One method's curves of :func:`curve_figure`: every run's error as a dot and the
+    median on ``ax1``, the relative STD on ``ax2``; the legend counts the failed runs."""
+    xs = np.array([row[x] for row in rows], dtype=float)
+    med = np.array([np.nan if row["median err"] is None else row["median err"] for row in rows])
+    std = np.array([np.nan if row["rel std"] is None else row["rel std"] for row in rows])
+    fails = sum(row["failed"] for row in rows)
+    label = name + (f" ({fails} failed runs)" if fails else "")
+    for row in rows:
+        e = np.asarray(row["errors"], dtype=float)
+        ax1.plot(np.full(e.size, float(row[x])), e, ".", color=color, alpha=0.3, ms=3)
+    ax1.plot(xs, med, "o-", color=color, label=label)
+    ax2.plot(xs, std, "o-", color=color, label=label)
 
 
 def operator_figure(result: Any, out: str | Path) -> dict[str, Path]:
@@ -231,7 +249,6 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
         Name -> PNG path.
     """
     from hdpbsid.models.model import StateSpaceModel
-    from hdpbsid.plots import display_fit
     from hdpbsid.studies.data import quadrotor_record, validation_rng
     from hdpbsid.studies.runner import task_rng
 
@@ -258,37 +275,9 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
         title="Singular values" + ("" if auto is None else f" (order chosen: {auto})"),
     )
     files["singular_values.png"] = save_figure(fig, out / "singular_values.png")
-    fig = new_figure((5.0 * len(models), 4.5))
-    true = data.true_eigenvalues
-    for k, (o, m) in enumerate(models.items()):
-        ax = fig.add_subplot(1, len(models), k + 1)
-        ax.plot(true.real, true.imag, "o", mfc="none", mec="k", ms=11, label="true")
-        ax.plot(m.eigenvalues.real, m.eigenvalues.imag, "x", ms=9, mew=2, label="identified")
-        ax.axvline(0.0, color="0.6", lw=0.8)
-        ax.axhline(0.0, color="0.6", lw=0.8)
-        ax.set_title(f"order {o}")
-        ax.set_xlabel("Re")
-        ax.set_ylabel("Im")
-        ax.grid(True, alpha=0.3)
-        ax.legend()
-    fig.suptitle("Open-loop eigenvalues: identified vs true")
+    fig = _eigenvalue_figure(models, data.true_eigenvalues)
     files["eigenvalues.png"] = save_figure(fig, out / "eigenvalues.png")
-    sims = {}
-    for o, m in models.items():
-        fit = display_fit(m, val.t, val.u, val.y)
-        pct = "/".join(f"{v:.1f}" for v in fit.fit)
-        sims[f"order {o} (fit {pct} %)"] = fit.y_sim
-    T = float(val.t[-1])
-    fig = plot_outputs(
-        val.t,
-        val.y,
-        sims,
-        output_names=names,
-        title="Validation record (new noise), 4 s shown: measured vs simulated "
-        "(unstable model: segments re-initialised by least squares)",
-        window=(0.4 * T, 0.4 * T + 4.0),
-    )
-    files["outputs.png"] = save_figure(fig, out / "outputs.png")
+    files["outputs.png"] = save_figure(_output_figure(models, val, names), out / "outputs.png")
     truth = StateSpaceModel(data.A, data.B, data.C, data.D, np.zeros((3, data.C.shape[0])))
     w = np.logspace(-1, 2.5, 400)
     fig = plot_bode(
@@ -301,3 +290,42 @@ def quadrotor_figures(result: Any, out: str | Path, run: int = 0) -> dict[str, P
     )
     files["bode.png"] = save_figure(fig, out / "bode.png")
     return files
+
+
+def _eigenvalue_figure(models: dict[int, Any], true: np.ndarray) -> Any:
+    """The identified models' eigenvalues against the true ones, one panel per order."""
+    fig = new_figure((5.0 * len(models), 4.5))
+    for k, (o, m) in enumerate(models.items()):
+        ax = fig.add_subplot(1, len(models), k + 1)
+        ax.plot(true.real, true.imag, "o", mfc="none", mec="k", ms=11, label="true")
+        ax.plot(m.eigenvalues.real, m.eigenvalues.imag, "x", ms=9, mew=2, label="identified")
+        ax.axvline(0.0, color="0.6", lw=0.8)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_title(f"order {o}")
+        ax.set_xlabel("Re")
+        ax.set_ylabel("Im")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    fig.suptitle("Open-loop eigenvalues: identified vs true")
+    return fig
+
+
+def _output_figure(models: dict[int, Any], val: Any, names: list[str]) -> Any:
+    """Measured against simulated outputs on the validation record ``val``, 4 s shown."""
+    from hdpbsid.plots import display_fit
+
+    sims = {}
+    for o, m in models.items():
+        fit = display_fit(m, val.t, val.u, val.y)
+        pct = "/".join(f"{v:.1f}" for v in fit.fit)
+        sims[f"order {o} (fit {pct} %)"] = fit.y_sim
+    T = float(val.t[-1])
+    return plot_outputs(
+        val.t,
+        val.y,
+        sims,
+        output_names=names,
+        title="Validation record (new noise), 4 s shown: measured vs simulated "
+        "(unstable model: segments re-initialised by least squares)",
+        window=(0.4 * T, 0.4 * T + 4.0),
+    )

@@ -105,31 +105,38 @@ def rows(
     from hdpbsid.studies.base import _eig_tag
 
     tag = _eig_tag(z)
-    out = []
-    for label, recs in groups.items():
-        ok = [r["result"] for r in recs if r["ok"]]
-        st = eigen_stats(ok, true)
-        times = [r["time"] for r in recs if r["ok"] and r.get("time") is not None]
-        row = dict(zip(keys, label, strict=True))
-        row.update(
-            {
-                "n": len(recs),
-                "failed": sum(not r["ok"] for r in recs),
-                "divergent": st["divergent"],
-                "rel bias": st.get(f"rel_bias {tag}"),
-                "rel std": st.get(f"rel_std {tag}"),
-                "median err": st["median_error"],
-                "time ms": 1e3 * float(np.median(times)) if times else None,
-                "errors": [
-                    r["result"]["max_error"] for r in recs if r["ok"] and "max_error" in r["result"]
-                ],
-                "failures": sorted(
-                    {f"{r['error_type']}: {r['error'][:80]}" for r in recs if not r["ok"]}
-                ),
-            }
-        )
-        out.append(row)
-    return out
+    return [
+        _group_row(dict(zip(keys, label, strict=True)), recs, true, tag)
+        for label, recs in groups.items()
+    ]
+
+
+def _group_row(
+    row: dict[str, Any], recs: list[dict[str, Any]], true: Any, tag: str
+) -> dict[str, Any]:
+    """The summary row of one group of records (:func:`rows`): its labels ``row`` with the
+    counts, the eigenvalue statistics of the pair ``tag``, the times and the errors."""
+    ok = [r["result"] for r in recs if r["ok"]]
+    st = eigen_stats(ok, true)
+    times = [r["time"] for r in recs if r["ok"] and r.get("time") is not None]
+    row.update(
+        {
+            "n": len(recs),
+            "failed": sum(not r["ok"] for r in recs),
+            "divergent": st["divergent"],
+            "rel bias": st.get(f"rel_bias {tag}"),
+            "rel std": st.get(f"rel_std {tag}"),
+            "median err": st["median_error"],
+            "time ms": 1e3 * float(np.median(times)) if times else None,
+            "errors": [
+                r["result"]["max_error"] for r in recs if r["ok"] and "max_error" in r["result"]
+            ],
+            "failures": sorted(
+                {f"{r['error_type']}: {r['error'][:80]}" for r in recs if not r["ok"]}
+            ),
+        }
+    )
+    return row
 
 
 def _label(case: dict[str, Any], key: str) -> Any:

@@ -332,6 +332,17 @@ class PitchData:
         return np.linalg.eigvals(self.A)
 
 
+def _loop_gains(ctrl: dict[str, float]) -> tuple[float, ...]:
+    """``(ts, k_theta, kp_q, ki_q, kp_u, ki_u, saturation, d_gain, d_pole)`` of the
+    controller: the sample time and the gains, the filtered derivative discretised by the
+    backward Euler rule (``d_k = d_pole d_{k-1} + d_gain (e_k - e_{k-1})``)."""
+    ts = 1.0 / ctrl["rate_hz"]
+    k_th, kp, ki, kd, nf = (ctrl[k] for k in ("k_theta", "kp_q", "ki_q", "kd_q", "n_filter"))
+    d_gain = kd * nf / (1.0 + nf * ts)
+    d_pole = 1.0 / (1.0 + nf * ts)
+    return ts, k_th, kp, ki, ctrl["kp_u"], ctrl["ki_u"], ctrl["saturation"], d_gain, d_pole
+
+
 def _run_loop(
     Phi: Array,
     Gam: Array,
@@ -345,11 +356,7 @@ def _run_loop(
 ) -> tuple[Array, Array, Array]:
     """The sampled closed loop; returns states ``x_k``, commands and applied moments."""
     ns = exc.shape[0]
-    ts = 1.0 / ctrl["rate_hz"]
-    k_th, kp, ki, kd, nf = (ctrl[k] for k in ("k_theta", "kp_q", "ki_q", "kd_q", "n_filter"))
-    kp_u, ki_u, sat = ctrl["kp_u"], ctrl["ki_u"], ctrl["saturation"]
-    d_gain = kd * nf / (1.0 + nf * ts)
-    d_pole = 1.0 / (1.0 + nf * ts)
+    ts, k_th, kp, ki, kp_u, ki_u, sat, d_gain, d_pole = _loop_gains(ctrl)
     X = np.empty((ns, 3))
     cmd = np.empty(ns)
     mom = np.empty(ns)
@@ -360,9 +367,7 @@ def _run_loop(
     i_u = 0.0
     d = 0.0
     e_prev = None
-    p00, p01, p02 = (float(v) for v in Phi[0])
-    p10, p11, p12 = (float(v) for v in Phi[1])
-    p20, p21, p22 = (float(v) for v in Phi[2])
+    (p00, p01, p02), (p10, p11, p12), (p20, p21, p22) = Phi.tolist()
     g0, g1, g2 = (float(v) for v in Gam)
     exc_l, nq_l, nth_l = (np.asarray(v, dtype=float).tolist() for v in (exc, noise_q, noise_th))
     for k in range(ns):
@@ -477,14 +482,7 @@ def simulate_pitch_closed_loop(
     """
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    ctrl = dict(CONTROLLER_DEFAULTS)
-    if controller is not None:
-        unknown = set(controller) - set(ctrl)
-        if unknown:
-            raise ValueError(
-                f"controller has unknown key(s) {sorted(unknown)}; known: {sorted(ctrl)}"
-            )
-        ctrl.update({k: float(v) for k, v in controller.items()})
+    ctrl = _controller(controller)
     if not (np.isfinite(duration) and duration > 0):
         raise ValueError(f"duration must be a positive number of seconds, got {duration}")
     if snr_db is not None and not np.isfinite(snr_db):
@@ -493,59 +491,133 @@ def simulate_pitch_closed_loop(
     ts = 1.0 / ctrl["rate_hz"]
     ns = int(round(duration / ts)) + 1
     t = np.arange(ns) * ts
+    shape = {"f0": f0, "f1": f1, "pulse": pulse, "period": period}
     if isinstance(excitation, str):
-        exc = pitch_excitation(excitation, t, amplitude, f0=f0, f1=f1, pulse=pulse, period=period)
+        exc = pitch_excitation(excitation, t, amplitude, **shape)
         exc_name = excitation
     else:
-        exc = np.asarray(excitation, dtype=float).reshape(-1)
-        if exc.shape[0] != ns:
-            raise ValueError(
-                f"excitation array must have Ns = {ns} samples (duration {duration} s at "
-                f"{ctrl['rate_hz']:g} Hz), got {exc.shape[0]}"
-            )
-        if not np.all(np.isfinite(exc)):
-            raise ValueError("excitation must be finite (no NaN/inf)")
+        exc = _excitation_array(excitation, ns, duration, ctrl["rate_hz"])
         exc_name = "array"
+    xinit = _initial_state(x0)
+    A, B, Phi, Gam = _sampled_plant(ts)
+    loop = (ctrl, velocity_loop, u_ref, xinit)
+    noise_std, draws = _sensor_noise(rng, snr_db, names, Phi, Gam, exc, loop)
+    nq = noise_std["q"] * draws["q"]
+    nth = noise_std["theta"] * draws["theta"]
+    X, cmd, mom = _run_loop(Phi, Gam, exc, nq, nth, *loop)
+    meas, clean = _measurements(X, mom, noise_std, draws, nq, nth)
+    options = {
+        "duration": float(duration),
+        "snr_db": snr_db,
+        "snr_definition": "mean-square power of the noise-free run / noise variance",
+        "excitation": exc_name,
+        "amplitude": amplitude if exc_name != "array" else None,
+        **shape,
+        "velocity_loop": velocity_loop,
+        "u_ref": u_ref,
+        "controller": ctrl,
+        "sample_time": ts,
+        "x0": xinit,
+        "plant_discretisation": "exact ZOH (matrix exponential) between controller samples",
+    }
+    plant = (A, B, C, D)
+    return _pitch_data(t, exc, (X, cmd, mom), meas, clean, plant, names, noise_std, options)
+
+
+def _controller(controller: dict[str, float] | None) -> dict[str, float]:
+    """:data:`CONTROLLER_DEFAULTS` with the entries of ``controller`` (floats) in place."""
+    ctrl = dict(CONTROLLER_DEFAULTS)
+    if controller is not None:
+        unknown = set(controller) - set(ctrl)
+        if unknown:
+            raise ValueError(
+                f"controller has unknown key(s) {sorted(unknown)}; known: {sorted(ctrl)}"
+            )
+        ctrl.update({k: float(v) for k, v in controller.items()})
+    return ctrl
+
+
+def _excitation_array(excitation: Any, ns: int, duration: float, rate_hz: float) -> Array:
+    """An excitation given as samples: ``ns`` finite numbers."""
+    exc = np.asarray(excitation, dtype=float).reshape(-1)
+    if exc.shape[0] != ns:
+        raise ValueError(
+            f"excitation array must have Ns = {ns} samples (duration {duration} s at "
+            f"{rate_hz:g} Hz), got {exc.shape[0]}"
+        )
+    if not np.all(np.isfinite(exc)):
+        raise ValueError("excitation must be finite (no NaN/inf)")
+    return exc
+
+
+def _initial_state(x0: Any | None) -> Array:
+    """The initial state ``[u, q, theta]``: zeros (hover) when ``None``."""
     xinit = np.zeros(3) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
     if xinit.shape != (3,):
         raise ValueError(f"x0 must have 3 entries [u, q, theta], got shape {xinit.shape}")
+    return xinit
 
+
+def _sampled_plant(ts: float) -> tuple[Array, Array, Array, Array]:
+    """``(A, B, Phi, Gam)``: the pitch model and its exact zero-order-hold sampling over
+    one controller step ``ts`` (the exponential of the augmented matrix)."""
     A, B, _, _ = pitch_model()
     n, m = 3, 1
     M = np.zeros((n + m, n + m))
     M[:n, :n] = A * ts
     M[:n, n:] = B * ts
     E = expm(M)
-    Phi, Gam = E[:n, :n], E[:n, n]
+    return A, B, E[:n, :n], E[:n, n]
 
-    p = PITCH_PARAMETERS
+
+def _sensor_noise(
+    rng: np.random.Generator,
+    snr_db: float | None,
+    names: tuple[str, ...],
+    Phi: Array,
+    Gam: Array,
+    exc: Array,
+    loop: tuple[dict[str, float], bool, float, Array],
+) -> tuple[dict[str, float], dict[str, Array]]:
+    """Each sensor's noise standard deviation (from the noise-free run at ``snr_db``) and
+    its unit draws; zeros without noise."""
+    ns = exc.shape[0]
     zero = np.zeros(ns)
     sensors = ("u", "q", "theta", "a_x", "q_dot")
     noise_std = {k: 0.0 for k in sensors}
-    nq = nth = zero
-    if snr_db is not None:
-        Xc, _, mc = _run_loop(Phi, Gam, exc, zero, zero, ctrl, velocity_loop, u_ref, xinit)
-        axc = p["Xu"] * Xc[:, 0] + p["Xq"] * Xc[:, 1] + p["Xd"] * mc
-        qdc = p["Mu"] * Xc[:, 0] + p["Mq"] * Xc[:, 1] + p["Md"] * mc
-        scale = 10.0 ** (-snr_db / 20.0)
-        for name, sig in (
-            ("u", Xc[:, 0]),
-            ("q", Xc[:, 1]),
-            ("theta", Xc[:, 2]),
-            ("a_x", axc),
-            ("q_dot", qdc),
-        ):
-            noise_std[name] = float(np.sqrt(np.mean(sig**2)) * scale)
-        # one draw per sensor, in a fixed order, so the same seed gives the same record
-        # (q_dot, added later, is drawn last and only when asked for: the other sensors'
-        # noise is unchanged by it)
-        draws = {k: rng.standard_normal(ns) for k in ("q", "theta", "u", "a_x")}
-        draws["q_dot"] = rng.standard_normal(ns) if "q_dot" in names else zero
-        nq = noise_std["q"] * draws["q"]
-        nth = noise_std["theta"] * draws["theta"]
-    else:
-        draws = {k: zero for k in sensors}
-    X, cmd, mom = _run_loop(Phi, Gam, exc, nq, nth, ctrl, velocity_loop, u_ref, xinit)
+    if snr_db is None:
+        return noise_std, {k: zero for k in sensors}
+    p = PITCH_PARAMETERS
+    Xc, _, mc = _run_loop(Phi, Gam, exc, zero, zero, *loop)
+    axc = p["Xu"] * Xc[:, 0] + p["Xq"] * Xc[:, 1] + p["Xd"] * mc
+    qdc = p["Mu"] * Xc[:, 0] + p["Mq"] * Xc[:, 1] + p["Md"] * mc
+    scale = 10.0 ** (-snr_db / 20.0)
+    for name, sig in (
+        ("u", Xc[:, 0]),
+        ("q", Xc[:, 1]),
+        ("theta", Xc[:, 2]),
+        ("a_x", axc),
+        ("q_dot", qdc),
+    ):
+        noise_std[name] = float(np.sqrt(np.mean(sig**2)) * scale)
+    # one draw per sensor, in a fixed order, so the same seed gives the same record
+    # (q_dot, added later, is drawn last and only when asked for: the other sensors'
+    # noise is unchanged by it)
+    draws = {k: rng.standard_normal(ns) for k in ("q", "theta", "u", "a_x")}
+    draws["q_dot"] = rng.standard_normal(ns) if "q_dot" in names else zero
+    return noise_std, draws
+
+
+def _measurements(
+    X: Array,
+    mom: Array,
+    noise_std: dict[str, float],
+    draws: dict[str, Array],
+    nq: Array,
+    nth: Array,
+) -> tuple[dict[str, Array], dict[str, Array]]:
+    """The measured and the noise-free sensor signals of the closed-loop run."""
+    p = PITCH_PARAMETERS
     ax_clean = p["Xu"] * X[:, 0] + p["Xq"] * X[:, 1] + p["Xd"] * mom
     qd_clean = p["Mu"] * X[:, 0] + p["Mq"] * X[:, 1] + p["Md"] * mom
     meas = {
@@ -556,23 +628,24 @@ def simulate_pitch_closed_loop(
         "q_dot": qd_clean + noise_std["q_dot"] * draws["q_dot"],
     }
     clean = {"u": X[:, 0], "q": X[:, 1], "theta": X[:, 2], "a_x": ax_clean, "q_dot": qd_clean}
-    options = {
-        "duration": float(duration),
-        "snr_db": snr_db,
-        "snr_definition": "mean-square power of the noise-free run / noise variance",
-        "excitation": exc_name,
-        "amplitude": amplitude if exc_name != "array" else None,
-        "f0": f0,
-        "f1": f1,
-        "pulse": pulse,
-        "period": period,
-        "velocity_loop": velocity_loop,
-        "u_ref": u_ref,
-        "controller": ctrl,
-        "sample_time": ts,
-        "x0": xinit,
-        "plant_discretisation": "exact ZOH (matrix exponential) between controller samples",
-    }
+    return meas, clean
+
+
+def _pitch_data(
+    t: Array,
+    exc: Array,
+    run: tuple[Array, Array, Array],
+    meas: dict[str, Array],
+    clean: dict[str, Array],
+    plant: tuple[Array, Array, Array, Array],
+    names: tuple[str, ...],
+    noise_std: dict[str, float],
+    options: dict[str, Any],
+) -> PitchData:
+    """The :class:`PitchData` of a run: its states, commands and moments ``run``, the
+    sensors measured and noise-free, the plant ``(A, B, C, D)`` and the settings."""
+    X, cmd, mom = run
+    A, B, C, D = plant
     return PitchData(
         t=t,
         u=mom[:, None],
@@ -583,11 +656,11 @@ def simulate_pitch_closed_loop(
         a_x=meas["a_x"],
         q_clean=clean["q"],
         theta_clean=clean["theta"],
-        a_x_clean=ax_clean,
+        a_x_clean=clean["a_x"],
         x_clean=X,
         excitation=exc,
         command=cmd,
-        saturated=np.abs(cmd) > ctrl["saturation"],
+        saturated=np.abs(cmd) > options["controller"]["saturation"],
         A=A,
         B=B,
         C=C,

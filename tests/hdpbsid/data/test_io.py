@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from scipy.io import savemat
 
 from hdpbsid.cli import main
-from hdpbsid.data import io as io_module
+from hdpbsid.data import csv_reader
 from hdpbsid.data.io import read_columns, read_record
 from hdpbsid.models.model import StateSpaceModel
 
@@ -219,9 +219,9 @@ def test_fast_csv_reader_agrees_with_the_checked_one(
             lines.append("")
     text = line_end.join(lines) + line_end
     path = Path("plain.csv")
-    fast = io_module._read_csv_fast(path, text, ["u", "y"], None)
+    fast = csv_reader._read_csv_fast(path, text, ["u", "y"], None)
     assert fast is not None  # the fast path is taken: otherwise this test compares nothing
-    checked = io_module._read_csv_checked(path, text, ["u", "y"], None)
+    checked = csv_reader._read_csv_checked(path, text, ["u", "y"], None)
     for c in ("u", "y"):
         np.testing.assert_array_equal(fast[c], checked[c])
     np.testing.assert_array_equal(fast["u"], [float(fmt.format(u)) for u, _ in values])
@@ -241,7 +241,7 @@ def test_fast_csv_reader_agrees_with_the_checked_one(
     ],
 )
 def test_fast_csv_reader_leaves_other_text_to_the_checked_one(body: str) -> None:
-    assert io_module._read_csv_fast(Path("x.csv"), "t,u,y\n" + body, ["u", "y"], None) is None
+    assert csv_reader._read_csv_fast(Path("x.csv"), "t,u,y\n" + body, ["u", "y"], None) is None
 
 
 def test_long_csv_with_notes_before_the_header(tmp_path: Path) -> None:
@@ -250,10 +250,10 @@ def test_long_csv_with_notes_before_the_header(tmp_path: Path) -> None:
     n = 5000
     t = np.arange(n) * 0.01
     rows = "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), np.sin(t).tolist(), strict=True))
-    long_notes = "# note\n" * (io_module._HEAD_CHARS // 7 + 10)
+    long_notes = "# note\n" * (csv_reader.CSV_TEXT.head_chars // 7 + 10)
     for notes, fast in (("# exported\n\n", True), (long_notes, False)):
         text = f"{notes}t,y\n{rows}"
-        got = io_module._read_csv_fast(tmp_path / "a.csv", text, ["t", "y"], None)
+        got = csv_reader._read_csv_fast(tmp_path / "a.csv", text, ["t", "y"], None)
         assert (got is not None) == fast
         path = tmp_path / "a.csv"
         path.write_text(text)
@@ -271,7 +271,7 @@ def test_unknown_column_of_a_long_csv_is_named_before_the_rows_are_read(
     def not_called(*args, **kwargs):
         raise AssertionError("rows read before the header was checked")
 
-    monkeypatch.setattr(io_module, "_read_csv_checked", not_called)
-    monkeypatch.setattr(io_module.np, "loadtxt", not_called)
+    monkeypatch.setattr(csv_reader, "_read_csv_checked", not_called)
+    monkeypatch.setattr(csv_reader.np, "loadtxt", not_called)
     with pytest.raises(ValueError, match=r"unknown column\(s\) \['v'\]"):
         read_columns(path, ["v"])
