@@ -480,6 +480,26 @@ def _future_window(f: int | None, p: int, order: int | None, l: int, max_order: 
     return f_used, mo
 
 
+def _core_options(
+    core: CoreResult, sc: _Scaled, window: PastWindow, f_given: bool, normalize: bool, blocks: int
+) -> dict[str, Any]:
+    """The core's options with the scaling and the window rules of :func:`run_core`."""
+    opts: dict[str, Any] = dict(core.options)
+    opts.update(
+        {
+            "normalize": normalize,
+            "input_scale": sc.su,
+            "output_scale": sc.sy,
+            "p_rule": window.text,
+            "p_criterion_values": window.criterion,
+            "f_rule": "given" if f_given else "f = p",
+            "n_pseudo_inputs": sc.pseudo.count if sc.pseudo is not None else 0,
+            "n_blocks": blocks,
+        }
+    )
+    return opts
+
+
 def _user_units(core: CoreResult, sc: _Scaled, m: int) -> tuple[Array, Array, Array, Array, Array]:
     """``B, C, D, K`` and the innovation covariance of the core scaled back to the user's
     units (the rows were divided by ``su``, ``sy``)."""
@@ -658,17 +678,5 @@ def run_core(
         instruments=instruments,
     )
     B, C, D, K, ncov = _user_units(core, sc, m)
-    opts: dict[str, Any] = dict(core.options)
-    opts.update(
-        {
-            "normalize": normalize,
-            "input_scale": sc.su,
-            "output_scale": sc.sy,
-            "p_rule": window.text,
-            "p_criterion_values": window.criterion,
-            "f_rule": "given" if f is not None else "f = p",
-            "n_pseudo_inputs": sc.pseudo.count if sc.pseudo is not None else 0,
-            "n_blocks": len(lag.sizes),
-        }
-    )
+    opts = _core_options(core, sc, window, f is not None, normalize, len(lag.sizes))
     return CoreOut(core.A, B, C, D, K, np.zeros((core.A.shape[0], 0)), ncov, core, opts)
