@@ -65,19 +65,19 @@ from scipy.linalg.lapack import dgeqrf, dorgqr
 from hdpbsid.core.block_lag import BlockLag, PseudoStore
 from hdpbsid.core.block_steps import (
     VarxStage,
-    _checked_future,
-    _checked_instruments,
-    _fit_varx,
-    _output_equation,
-    _state_equation,
-    _state_rows,
-    _varx_result,
+    checked_future,
+    checked_instruments,
+    fit_varx,
+    output_equation,
+    state_equation,
+    state_rows,
+    varx_result,
 )
 from hdpbsid.core.block_steps import _gamma_l_rows as _gamma_l_rows
 from hdpbsid.core.eliminator import (
     Eliminator,
-    _apply_qt,
-    _eliminator,
+    apply_qt,
+    eliminator_for,
 )
 from hdpbsid.core.pbsid import CoreResult, core_options, resolve_order, thin_svd
 from hdpbsid.core.varx import (
@@ -268,7 +268,7 @@ class BlockPseudo:
             done = refl_all.shape[1]
             C = self.lagged(g, [j + 1])[:, mk].T  # (Nv, q), lag j + 1
             if done:
-                C = _apply_qt(refl_all, tau_all, C)
+                C = apply_qt(refl_all, tau_all, C)
             h, t = _householder(C[done:])
             ext = np.empty((Nv, done + q), order="F")
             ext[:, :done] = refl_all
@@ -473,7 +473,7 @@ def select_past_window_blocks(
         reg = np.vstack(lagged[: (1 if d0 else 0) + p])
         cs = np.sqrt(np.mean(reg[:, valid] ** 2, axis=1))
         cs[cs == 0] = 1.0
-        elim = _eliminator(pseudo, lags_of(p), valid)
+        elim = eliminator_for(pseudo, lags_of(p), valid)
         if elim.ncols <= q + l:
             break
         Rc = elim.compress(np.vstack([reg / cs[:, None], Ys]))
@@ -668,7 +668,7 @@ def varx_stage_blocks(
     cols = np.flatnonzero(valid)
     Phi = np.vstack([Zp_all, U]) if ft else Zp_all
     js = list(range(p, 0, -1)) + ([0] if (feedthrough and pseudo is not None) else [])
-    elim = _eliminator(pseudo, js, valid)
+    elim = eliminator_for(pseudo, js, valid)
     nreg = Phi.shape[0]
     if elim.ncols <= nreg:
         raise ValueError(
@@ -676,18 +676,18 @@ def varx_stage_blocks(
             f"{' + m' if ft else ''}) but only {elim.ncols} usable columns after "
             f"eliminating {elim.rank} pseudo-input directions: reduce p or supply more data"
         )
-    fit = _fit_varx(Phi, Y, valid, elim, regularize, ridge_floor, instruments)
+    fit = fit_varx(Phi, Y, valid, elim, regularize, ridge_floor, instruments)
     res_full = np.zeros((l, ncols))
     res_full[:, cols] = Y[:, cols] - fit.theta @ Phi[:, cols]
     resid, nuis = elim.residual(res_full, fit.lam)
     coef = fit.theta[:, : p * (m + l)]
-    vx = _varx_result(fit, coef, Zp_all[:, cols], cols, resid[:, cols], elim, (p, m, l), ft)
+    vx = varx_result(fit, coef, Zp_all[:, cols], cols, resid[:, cols], elim, (p, m, l), ft)
     # -- 2. Gamma L Z_p (+ each block's pseudo-input part), SVD, state ------------------
-    S = _state_rows(coef, Zp_all, cols, elim, nuis, len(js), (p, f, m + l, l))
+    S = state_rows(coef, Zp_all, cols, elim, nuis, len(js), (p, f, m + l, l))
     Uu, s, Vt = thin_svd(S[:, cols])
     LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
     use = valid & lag.valid_columns(valid, 1) & vu
-    e1 = _eliminator(pseudo, [1], use)
+    e1 = eliminator_for(pseudo, [1], use)
     return VarxStage(cols, valid, vx, elim, Uu, s, Vt, LU, use, e1, fit.extra_iv)
 
 
@@ -796,8 +796,8 @@ def pbsid_core_blocks(
     array([[0.8]])
     """
     m, l = U.shape[0], Y.shape[0]
-    instruments = _checked_instruments(instruments, Y.shape[1], feedthrough)
-    f = _checked_future(p, f, order, l)
+    instruments = checked_instruments(instruments, Y.shape[1], feedthrough)
+    f = checked_future(p, f, order, l)
     if stage is None:
         stage = varx_stage_blocks(
             U, Y, p, lag, pseudo, f, feedthrough, regularize, ridge_floor, instruments
@@ -805,8 +805,8 @@ def pbsid_core_blocks(
     cols, vx, s = stage.cols, stage.varx, stage.s
     n, info = resolve_order(s, order, max_order)
     X = np.sqrt(s[:n])[:, None] * stage.Vt[:n]
-    C, D, E = _output_equation(X, U, Y, stage, pseudo, feedthrough, instruments is not None)
-    A, B, Kg, k_method = _state_equation(X, E, C, lag, stage, stable_k, m)
+    C, D, E = output_equation(X, U, Y, stage, pseudo, feedthrough, instruments is not None)
+    A, B, Kg, k_method = state_equation(X, E, C, lag, stage, stable_k, m)
     noise_cov = E @ E.T / E.shape[1]
     options = core_options(
         p, f, n, order, feedthrough, vx, ridge_floor, stable_k, k_method, lag, info, max_order

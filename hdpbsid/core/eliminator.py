@@ -26,7 +26,7 @@ from hdpbsid.core.varx import parse_regularize, r_factor, ridge_gcv
 if TYPE_CHECKING:
     from hdpbsid.core.blocks import BlockPseudo
 
-__all__ = ["Eliminator"]
+__all__ = ["Eliminator", "eliminator_for", "apply_qt", "lstsq_or_ridge", "fwl_lstsq"]
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
@@ -145,7 +145,7 @@ class Eliminator:
             if k:
                 # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
                 # reflectors applied by LAPACK ormqr in one blocked call
-                C = _apply_qt(s.refl, s.tau, C)
+                C = apply_qt(s.refl, s.tau, C)
             parts.append(C[k:].T.reshape(rows, K * (nv - k)))
             if lam > 0:
                 Wb = W[:, s.cols].reshape(rows * K, nv)
@@ -189,14 +189,48 @@ class Eliminator:
         return out, coefs
 
 
-def _eliminator(pseudo: BlockPseudo | None, js: Sequence[int], mask: Mask) -> Eliminator:
-    """The (shared) :class:`Eliminator` of ``pseudo`` for the lags ``js`` on ``mask``."""
+def eliminator_for(pseudo: BlockPseudo | None, js: Sequence[int], mask: Mask) -> Eliminator:
+    """The (shared) :class:`Eliminator` of ``pseudo`` for the lags ``js`` on ``mask``.
+
+    Parameters
+    ----------
+    pseudo : BlockPseudo or None
+        The pseudo-input rows per block (None: nothing to eliminate).
+    js : sequence of int
+        The lags of the nuisance rows.
+    mask : ndarray of bool, shape (ncols,)
+        The global columns used.
+
+    Returns
+    -------
+    Eliminator
+        The eliminator, built once per ``(pseudo, js, mask)``.
+    """
     return pseudo.eliminator(js, mask) if pseudo is not None else Eliminator(None, js, mask)
 
 
-def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
-    """``Q^T C`` for the full orthogonal ``Q`` of a QR in raw layout (:func:`_householder`)
-    (Householder vectors ``refl``, factors ``tau``), by LAPACK ``ormqr``."""
+def apply_qt(refl: Array, tau: Array, C: Array) -> Array:
+    """``Q^T C`` for the full orthogonal ``Q`` of a QR in LAPACK's raw layout, by ``ormqr``.
+
+    Parameters
+    ----------
+    refl : ndarray, shape (N, k)
+        The Householder vectors (``geqrf`` layout).
+    tau : ndarray, shape (k,)
+        Their factors.
+    C : ndarray, shape (N, c)
+        The matrix mapped.
+
+    Returns
+    -------
+    ndarray, shape (N, c)
+        ``Q^T C``, Fortran-ordered.
+
+    Raises
+    ------
+    ValueError
+        If LAPACK reports an argument error.
+    """
     C = np.asfortranarray(C, dtype=float)
     if C.shape[1] == 0:
         return C
@@ -207,8 +241,33 @@ def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
     return out
 
 
-def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float):
-    """Least squares / ridge ``Y ~ Theta Phi`` as :func:`hdpbsid.core.varx.varx` does."""
+def lstsq_or_ridge(
+    Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float
+) -> tuple[Array, float, float | None, str]:
+    """Least squares / ridge ``Y ~ Theta Phi`` as :func:`hdpbsid.core.varx.varx` does.
+
+    Parameters
+    ----------
+    Phi : ndarray, shape (nreg, N)
+        The regressors.
+    Y : ndarray, shape (l, N)
+        The targets.
+    regularize : bool, str, float or None
+        The regularisation (:func:`hdpbsid.core.varx.parse_regularize`).
+    floor : float
+        Lower bound of the GCV ridge.
+
+    Returns
+    -------
+    theta : ndarray, shape (l, nreg)
+        The coefficients.
+    lam : float
+        The ridge used (0 for least squares).
+    gcv : float or None
+        The GCV value of the ridge choice.
+    kind : str
+        The regularisation kind.
+    """
     kind, lam = parse_regularize(regularize)
     nreg = Phi.shape[0]
     if kind == "none":
@@ -222,10 +281,27 @@ def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: f
     return theta, lam_used, g, kind
 
 
-def _fwl_lstsq(reg: Array, target: Array, elim: Eliminator):
+def fwl_lstsq(reg: Array, target: Array, elim: Eliminator) -> tuple[Array, Array, list]:
     """Plain least squares of ``target`` on ``reg`` with the nuisance eliminated.
 
-    Returns ``(Theta, residual on all columns, nuisance coefficients)``."""
+    Parameters
+    ----------
+    reg : ndarray, shape (d, ncols)
+        The regressors on all columns.
+    target : ndarray, shape (k, ncols)
+        The targets.
+    elim : Eliminator
+        The nuisance eliminator.
+
+    Returns
+    -------
+    theta : ndarray, shape (k, d)
+        The coefficients.
+    residual : ndarray, shape (k, ncols)
+        The residual on all columns, nuisance fit removed.
+    coefficients : list of tuple
+        The nuisance coefficients (:meth:`Eliminator.residual`).
+    """
     Rc = elim.compress(np.vstack([reg, target]))
     d = reg.shape[0]
     theta = np.linalg.lstsq(Rc[:d].T, Rc[d:].T, rcond=None)[0].T
