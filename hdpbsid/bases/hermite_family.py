@@ -22,19 +22,57 @@ from scipy.linalg.lapack import dgttrf, dgttrs
 from hdpbsid.bases.basis_domain import SolveLag, basis_values, clip_basis_size, shared_basis
 from hdpbsid.bases.family import Integrator, IntegratorFamily
 
-__all__ = ["HermiteFamily", "hermite_lag", "default_hermite_N", "HERMITE_BAND", "BAND_MARGIN"]
+__all__ = [
+    "HermiteSettings",
+    "HERMITE",
+    "HermiteFamily",
+    "hermite_lag",
+    "default_hermite_N",
+    "HERMITE_BAND",
+    "BAND_MARGIN",
+]
 
 Array = NDArray[np.float64]
 
-#: highest angular frequency (rad/s) of N Hermite functions filling 90 % of the support
-#: over a record of length T: ``scale * sqrt(2N) = 0.9 * 2 N * 2 / T = 3.6 N / T``
-HERMITE_BAND = 3.6
-#: default N covers this multiple of the data bandwidth
-BAND_MARGIN = 2.0
-#: limits of the default N; the upper one only bounds the cost (evaluation is exact to
-#: rounding at N = 5000, bench/basis.py): it binds on records longer than ~10^3 bandwidth
-#: periods, with a warning
-N_MIN, N_MAX = 100, 4000
+
+@dataclass(frozen=True)
+class HermiteSettings:
+    """The size rule of the Hermite functions, each constant with its reason.
+
+    Parameters
+    ----------
+    band : float, optional
+        Band of ``N`` functions on a record of length ``T``, in units of ``N / T``.
+    band_margin : float, optional
+        Multiple of the data bandwidth the default basis covers.
+    n_min, n_max : int, optional
+        Limits of the default ``N``.
+
+    Examples
+    --------
+    >>> HermiteSettings().band
+    3.6
+    """
+
+    #: highest angular frequency (rad/s) of N Hermite functions filling 90 % of the
+    #: support over a record of length T: ``scale * sqrt(2N) = 0.9 * 2 N * 2 / T = 3.6 N / T``
+    band: float = 3.6
+    #: default N covers this multiple of the data bandwidth
+    band_margin: float = 2.0
+    #: lower limit of the default N: a few functions per mode and boundary term
+    n_min: int = 100
+    #: upper limit of the default N, only a bound on the cost (evaluation is exact to
+    #: rounding at N = 5000, bench/basis.py): it binds on records longer than ~10^3
+    #: bandwidth periods, with a warning
+    n_max: int = 4000
+
+
+#: the settings of the Hermite family
+HERMITE = HermiteSettings()
+#: the fields of :data:`HERMITE` under their former names
+HERMITE_BAND = HERMITE.band
+BAND_MARGIN = HERMITE.band_margin
+N_MIN, N_MAX = HERMITE.n_min, HERMITE.n_max
 
 
 def default_hermite_N(T: float, omega_b: float, ns: int) -> tuple[int, str]:

@@ -50,13 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.bases.basis_domain import bandwidth
-from hdpbsid.bases.operator_scale import (
-    GRID_PER_DECADE,
-    MAX_PASSES,
-    MODE_ENERGY_FRACTION,
-    SETTLED,
-    in_sample_screen,
-)
+from hdpbsid.bases.operator_scale import OPERATOR_SCALE, in_sample_screen
 from hdpbsid.data.checks import is_uniform
 
 __all__ = [
@@ -181,7 +175,7 @@ def minimax_pole(eigenvalues: Any) -> float | None:
         return None
     w = np.abs(lam)
     lo, hi = float(w.min()), float(w.max())
-    k = max(2, int(np.ceil(GRID_PER_DECADE * np.log10(hi / lo))) + 1)
+    k = max(2, int(np.ceil(OPERATOR_SCALE.grid_per_decade * np.log10(hi / lo))) + 1)
     grid = np.geomspace(lo, hi, k)
     worst = np.max(np.abs(lam[None, :] - grid[:, None]) ** 2 / (2 * grid[:, None] * w), axis=1)
     return float(grid[int(np.argmin(worst))])
@@ -226,7 +220,7 @@ def pole_from_dynamics(
         ), model0
     w_lo, w_hi = band
     a, model, passes = a0, model0, [a0]
-    for _ in range(MAX_PASSES):
+    for _ in range(OPERATOR_SCALE.max_passes):
         lam = np.linalg.eigvals(model.A)
         inside = (np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)
         # a model with a mode outside the band the samples resolve is no guide to the
@@ -234,7 +228,7 @@ def pole_from_dynamics(
         # mode the data could show, the data bandwidth 2 a0 at most) stands in for them
         edges = [-w_lo, -min(2.0 * a0, w_hi)]
         new = minimax_pole(lam[inside] if np.all(inside) else edges)
-        if new is None or abs(new - a) <= SETTLED * a:
+        if new is None or abs(new - a) <= OPERATOR_SCALE.settled * a:
             break
         a = new
         passes.append(a)
@@ -286,6 +280,9 @@ def dynamics_band(records: Any) -> tuple[float, float]:
         Upper edge (rad/s).
     """
     longest = max(float(r.t[-1] - r.t[0]) for r in records)
-    w_lo = max(min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in records), 2 * np.pi / longest)
+    w_lo = max(
+        min(bandwidth(r.t, r.y, OPERATOR_SCALE.mode_energy_fraction) for r in records),
+        2 * np.pi / longest,
+    )
     step = max(float(np.median(np.diff(r.t))) for r in records)
     return w_lo, float(np.pi / step)

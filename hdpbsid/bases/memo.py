@@ -38,19 +38,46 @@ __all__ = [
     "memoize",
     "clear_caches",
     "digest",
+    "CacheSettings",
+    "CACHES",
     "CACHE_SIZE",
     "STAGE_CACHE_SIZE",
     "past_window_aic",
     "varx_stage",
 ]
 
-#: results kept per memoised function: one order/method selection touches two records
-#: (the estimation part and the whole record) with up to two input holds
-CACHE_SIZE = 8
-#: results kept of the core's stages: a sweep fits, per order, every method with both
-#: input holds, HD-PBSID at up to three operator scales plus its two held-out fits, so
-#: about 16 stages are made per order; twice that keeps the previous order's
-STAGE_CACHE_SIZE = 32
+
+@dataclasses.dataclass(frozen=True)
+class CacheSettings:
+    """How many results the memoised functions keep.
+
+    Parameters
+    ----------
+    size : int, optional
+        Results kept per memoised function.
+    stage_size : int, optional
+        Results kept of the core's stages.
+
+    Examples
+    --------
+    >>> CacheSettings().stage_size
+    32
+    """
+
+    #: results kept per memoised function: one order/method selection touches two records
+    #: (the estimation part and the whole record) with up to two input holds
+    size: int = 8
+    #: results kept of the core's stages: a sweep fits, per order, every method with both
+    #: input holds, HD-PBSID at up to three operator scales plus its two held-out fits, so
+    #: about 16 stages are made per order; twice that keeps the previous order's
+    stage_size: int = 32
+
+
+#: the cache sizes in use
+CACHES = CacheSettings()
+#: the fields of :data:`CACHES` under their former names
+CACHE_SIZE = CACHES.size
+STAGE_CACHE_SIZE = CACHES.stage_size
 
 
 class _Uncacheable(Exception):

@@ -46,12 +46,19 @@ enters by its mirror image (:func:`minimax_alpha`).  Modes outside the band the 
 resolve (slower than the frequency below which :data:`MODE_ENERGY_FRACTION` of the
 output energy lies, or faster than the basis band) are left out: a spurious slow mode would
 otherwise pull ``alpha`` down to it.
+
+The rule is one policy object, :class:`OperatorScalePolicy` (its thresholds are its
+fields, each with its reason; :data:`OPERATOR_SCALE` is the default): its choice is an
+:class:`AlphaChoice` with a typed :class:`AlphaReason`, its checks :class:`AlphaCheck`
+with a typed :class:`CheckReason`.  The module functions are that default policy's.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -67,12 +74,19 @@ from hdpbsid.models.criteria import (
 )
 
 __all__ = [
+    "AlphaReason",
+    "AlphaChoice",
+    "CheckReason",
+    "AlphaCheck",
+    "OperatorScalePolicy",
+    "OPERATOR_SCALE",
     "contraction_factor",
     "minimax_alpha",
     "alpha_from_dynamics",
     "held_out_check",
     "held_out_comparison",
     "in_sample_screen",
+    "compare",
     "HOLDOUT",
     "GRID_PER_DECADE",
     "TRUNCATION_SLACK",
@@ -81,32 +95,358 @@ __all__ = [
     "SETTLED",
 ]
 
-#: grid points per decade of the ``alpha`` search: neighbouring points differ by 1 %,
-#: far below the flatness of ``max_i rho`` near its minimum
-GRID_PER_DECADE = 240
-#: relative excess of the truncation factor ``max_i rho_i^p`` over its minimum within
-#: which the smallest ``alpha`` is taken.  A judgement, not derived: ``T`` is flat near
-#: its minimum when the modes are spread, so a slack trades a little truncation for a
-#: smaller ``alpha`` (less amplification of the slow modes' errors); 0 keeps the flat
-#: optimum's arbitrary end, and a larger slack lets ``alpha`` fall below the fast modes
-#: (chosen among 0, 2 and 5 % on the systems of bench/identify.py)
-TRUNCATION_SLACK = 0.02
-#: re-identifications after the first pass: the first update carries ``alpha`` from the
-#: basis rule to the modes, the second corrects for the modes having been fitted at the
-#: first pass's ``alpha`` and moves it much less; each pass costs one identification
-MAX_PASSES = 2
-#: modes slower than the frequency below which this fraction of the output energy lies
-#: (above the noise floor) do not set ``alpha``: such a mode carries at most about that
-#: share of the output, so its eigenvalue is poorly determined, and a spurious slow mode
-#: would drag ``alpha`` down to it (spurious modes a decade below the band the output
-#: energy occupies appear at high orders).  The output band shows where the input
-#: excites, not where the modes are: records swept above their modes lose those modes
-#: here and get a too large alpha, which :func:`held_out_check` then rejects
-MODE_ENERGY_FRACTION = 0.01
-#: share of a record held out by :func:`held_out_check` (as ``method="auto"`` does)
-HOLDOUT = 1.0 / 3.0
-#: relative change of ``alpha`` below which the passes stop
-SETTLED = 0.05
+
+class AlphaReason(str, Enum):
+    """Why the passes of :meth:`OperatorScalePolicy.choose` stopped at their ``alpha``."""
+
+    #: the current model's modes ask for an ``alpha`` within ``settled`` of its own
+    SETTLED = "settled"
+    #: no mode in the band has a non-zero real part: the last ``alpha`` is kept
+    NO_MODE = "no informative mode"
+    #: ``max_passes`` re-identifications were made
+    PASSES_USED = "passes used"
+
+
+@dataclass(frozen=True)
+class AlphaChoice:
+    """The operator scale chosen from the identified modes, its inputs and its reason.
+
+    Parameters
+    ----------
+    value : float
+        The operator scale taken (rad/s).
+    reason : AlphaReason
+        Why the passes stopped there (typed).
+    first : float
+        The first pass's ``alpha`` (the basis rule's).
+    band : tuple of float
+        ``(w_lo, w_hi)``: the band of ``|lambda|`` whose modes set ``alpha``.
+    passes : tuple of float
+        The ``alpha`` of every identification made, the first pass's first.
+    rule : str
+        The rule's text (``model.options["alpha_rule"]``).
+
+    Examples
+    --------
+    >>> c = AlphaChoice(2.0, AlphaReason.SETTLED, 2.0, (0.1, 10.0), (2.0,), "rule")
+    >>> c.info()
+    {'alpha_rule': 'rule', 'alpha_passes': [2.0]}
+    """
+
+    value: float
+    reason: AlphaReason
+    first: float
+    band: tuple[float, float]
+    passes: tuple[float, ...]
+    rule: str
+
+    def info(self) -> dict[str, Any]:
+        """The model options of the choice.
+
+        Returns
+        -------
+        dict
+            ``alpha_rule`` (the rule's text) and ``alpha_passes`` (the ``alpha`` of every
+            pass, a list).
+        """
+        return {"alpha_rule": self.rule, "alpha_passes": list(self.passes)}
+
+
+class CheckReason(str, Enum):
+    """How a comparison of two operator scales (:class:`AlphaCheck`) ended."""
+
+    #: the candidate is better by more than one standard error
+    WON = "won"
+    #: the candidate is not better by more than one standard error
+    LOST = "lost"
+    #: too few samples for :data:`~hdpbsid.models.criteria.MIN_WINDOWS` windows
+    TOO_SHORT = "too short"
+    #: neither model could be scored
+    UNSCORED = "unscored"
+    #: the comparison was not made (non-uniform samples: the screen passes)
+    SKIPPED = "skipped"
+
+
+@dataclass(frozen=True)
+class AlphaCheck:
+    """The outcome of a comparison of two operator scales.
+
+    Parameters
+    ----------
+    take_new : bool
+        Whether the candidate ``alpha`` wins (or, for a skipped screen, passes).
+    reason : CheckReason
+        How the comparison ended (typed).
+    how : str
+        The comparison's text, for the model's options.
+
+    Examples
+    --------
+    >>> AlphaCheck(False, CheckReason.TOO_SHORT, "record too short").pair()
+    (False, 'record too short')
+    """
+
+    take_new: bool
+    reason: CheckReason
+    how: str
+
+    def pair(self) -> tuple[bool, str]:
+        """The outcome as ``(take_new, how)``.
+
+        Returns
+        -------
+        tuple of (bool, str)
+            Whether the candidate wins, and the comparison's text.
+        """
+        return self.take_new, self.how
+
+
+@dataclass(frozen=True)
+class OperatorScalePolicy:
+    """How HD-PBSID chooses the operator scale ``alpha`` from the identified modes.
+
+    Inputs: a first pass's model (its modes and past window) and the band of modes the
+    record resolves; the choice: :meth:`choose`, an :class:`AlphaChoice` with a typed
+    reason; the proof a change must give: :meth:`held_out_check` (refits on part of the
+    record, judged on the rest) after the necessary condition :meth:`in_sample_screen`
+    (module docstring; the one-standard-error rule of Hastie, Tibshirani & Friedman,
+    *The Elements of Statistical Learning*, 2nd ed., 2009, sec. 7.10).
+
+    Parameters
+    ----------
+    grid_per_decade : int, optional
+        Grid points per decade of the ``alpha`` search.
+    truncation_slack : float, optional
+        Relative excess of the truncation factor over its minimum within which the
+        smallest ``alpha`` is taken.
+    max_passes : int, optional
+        Re-identifications after the first pass.
+    mode_energy_fraction : float, optional
+        Share of the output energy below the lowest mode frequency that may set ``alpha``.
+    holdout : float, optional
+        Share of a record held out by :meth:`held_out_check`.
+    settled : float, optional
+        Relative change of ``alpha`` below which the passes stop.
+
+    Examples
+    --------
+    >>> OperatorScalePolicy().minimax_alpha([-2.0])
+    2.0
+    """
+
+    #: grid points per decade of the ``alpha`` search: neighbouring points differ by 1 %,
+    #: far below the flatness of ``max_i rho`` near its minimum
+    grid_per_decade: int = 240
+    #: relative excess of the truncation factor ``max_i rho_i^p`` over its minimum within
+    #: which the smallest ``alpha`` is taken.  A judgement, not derived: ``T`` is flat near
+    #: its minimum when the modes are spread, so a slack trades a little truncation for a
+    #: smaller ``alpha`` (less amplification of the slow modes' errors); 0 keeps the flat
+    #: optimum's arbitrary end, and a larger slack lets ``alpha`` fall below the fast
+    #: modes (chosen among 0, 2 and 5 % on the systems of bench/identify.py)
+    truncation_slack: float = 0.02
+    #: re-identifications after the first pass: the first update carries ``alpha`` from
+    #: the basis rule to the modes, the second corrects for the modes having been fitted
+    #: at the first pass's ``alpha`` and moves it much less; each pass costs one
+    #: identification
+    max_passes: int = 2
+    #: modes slower than the frequency below which this fraction of the output energy
+    #: lies (above the noise floor) do not set ``alpha``: such a mode carries at most
+    #: about that share of the output, so its eigenvalue is poorly determined, and a
+    #: spurious slow mode would drag ``alpha`` down to it (spurious modes a decade below
+    #: the band the output energy occupies appear at high orders).  The output band shows
+    #: where the input excites, not where the modes are: records swept above their modes
+    #: lose those modes here and get a too large alpha, which :meth:`held_out_check` then
+    #: rejects
+    mode_energy_fraction: float = 0.01
+    #: share of a record held out by :meth:`held_out_check` (as ``method="auto"`` does)
+    holdout: float = 1.0 / 3.0
+    #: relative change of ``alpha`` below which the passes stop
+    settled: float = 0.05
+
+    def minimax_alpha(self, eigenvalues: Any, p: int = 1) -> float | None:
+        """:func:`minimax_alpha` with this policy's grid and slack.
+
+        Parameters
+        ----------
+        eigenvalues : array_like of complex
+            Continuous-time eigenvalues.
+        p : int, optional
+            The past window (the power of ``rho``).
+
+        Returns
+        -------
+        float or None
+            The operator scale, or None when no eigenvalue has a non-zero real part.
+        """
+        lam = np.asarray(eigenvalues, dtype=complex).ravel()
+        lam = lam[np.isfinite(lam) & (lam.real != 0)]
+        if lam.size == 0:
+            return None
+        lam = -np.abs(lam.real) + 1j * lam.imag  # unstable modes by their predictor mirrors
+        w = np.abs(lam)
+        lo, hi = float(w.min()), float(w.max())
+        k = max(2, int(np.ceil(self.grid_per_decade * np.log10(hi / lo))) + 1)
+        grid = np.geomspace(lo, hi, k)
+        rho = np.abs(grid[:, None] + lam[None, :]) / np.abs(grid[:, None] + 1j * w[None, :])
+        worst = rho.max(axis=1) ** p
+        near = worst <= (1.0 + self.truncation_slack) * worst.min()
+        return float(grid[int(np.flatnonzero(near)[0])])
+
+    def rule_text(self, alpha0: float, band: tuple[float, float]) -> str:
+        """The rule's text for ``model.options["alpha_rule"]``.
+
+        Parameters
+        ----------
+        alpha0 : float
+            The first pass's operator scale.
+        band : tuple of float
+            ``(w_lo, w_hi)``, the band of the modes that set ``alpha``.
+
+        Returns
+        -------
+        str
+            The rule, its slack, band and first pass.
+        """
+        w_lo, w_hi = band
+        return (
+            "minimax contraction of the identified modes: the smallest alpha within "
+            f"{self.truncation_slack:.0%} of min_alpha max_i (|alpha + lambda_i| / "
+            "|alpha + i |lambda_i||)^p over the modes (unstable ones mirrored) with "
+            f"{w_lo:.3g} <= |lambda| <= {w_hi:.3g} rad/s, from a first pass at "
+            f"alpha = {alpha0:.4g}"
+        )
+
+    def asked_by(self, model: Any, band: tuple[float, float]) -> float | None:
+        """The ``alpha`` the modes of ``model`` inside ``band`` ask for.
+
+        Parameters
+        ----------
+        model : object
+            A model with ``eigenvalues`` and ``report.windows`` (its past window ``p``).
+        band : tuple of float
+            ``(w_lo, w_hi)``: modes with ``|lambda|`` outside it are ignored.
+
+        Returns
+        -------
+        float or None
+            :meth:`minimax_alpha` of those modes at the model's past window.
+        """
+        w_lo, w_hi = band
+        lam = np.asarray(model.eigenvalues, dtype=complex)
+        lam = lam[(np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)]
+        return self.minimax_alpha(lam, int(model.report.windows.get("p", 1)))
+
+    def choose(
+        self, fit: Callable[[float], Any], alpha0: float, band: tuple[float, float]
+    ) -> tuple[AlphaChoice, Any]:
+        """:func:`alpha_from_dynamics` as a typed choice.
+
+        Parameters
+        ----------
+        fit : callable
+            ``fit(alpha)`` returns a model with ``eigenvalues`` and ``report.windows``.
+        alpha0 : float
+            The first pass's operator scale (the basis rule's).
+        band : tuple of float
+            ``(w_lo, w_hi)``: modes with ``|lambda|`` outside it are ignored.
+
+        Returns
+        -------
+        choice : AlphaChoice
+            The operator scale, its passes and the reason the passes stopped.
+        model : object
+            The model fitted with it.
+        """
+        alpha = float(alpha0)
+        model = fit(alpha)
+        path = [alpha]
+        reason = AlphaReason.PASSES_USED
+        for _ in range(self.max_passes):
+            new = self.asked_by(model, band)
+            if new is None or abs(new - alpha) <= self.settled * alpha:
+                # settled: the current model's alpha is already within `settled` of the
+                # one its own modes ask for, so it is kept rather than refitted
+                reason = AlphaReason.NO_MODE if new is None else AlphaReason.SETTLED
+                break
+            alpha = new
+            path.append(alpha)
+            model = fit(alpha)
+        rule = self.rule_text(alpha0, band)
+        return AlphaChoice(alpha, reason, float(alpha0), band, tuple(path), rule), model
+
+    def held_out_check(
+        self,
+        identify: Callable[[Any, Any, Any, float], Any],
+        record: tuple,
+        alphas: tuple[float, float],
+        order: int,
+    ) -> AlphaCheck:
+        """:func:`held_out_check` as a typed outcome.
+
+        Parameters
+        ----------
+        identify : callable
+            ``identify(t, u, y, alpha)`` returns a model.
+        record : tuple
+            ``(t, u, y)`` of the record.
+        alphas : tuple of float
+            ``(alpha_old, alpha_new)``, the incumbent and the candidate.
+        order : int
+            The model order.
+
+        Returns
+        -------
+        AlphaCheck
+            Whether ``alpha_new`` wins on the held-out part, and how.
+        """
+        t, u, y = record
+        ns = t.shape[0]
+        split = int(round(ns * (1.0 - self.holdout)))
+        if default_windows(ns - split, order) < MIN_WINDOWS:
+            return AlphaCheck(
+                False, CheckReason.TOO_SHORT, "record too short for the held-out check"
+            )
+        models = [_fit_quietly(identify, (t[:split], u[:split], y[:split]), a) for a in alphas]
+        return compare(models[0], models[1], (t[split:], u[split:], y[split:]), order, alphas)
+
+    def in_sample_screen(
+        self, old: Any, new: Any, record: tuple, alphas: tuple[float, float]
+    ) -> AlphaCheck:
+        """:func:`in_sample_screen` as a typed outcome.
+
+        Parameters
+        ----------
+        old : model
+            The incumbent (operator scale ``alphas[0]``).
+        new : model
+            The candidate (``alphas[1]``).
+        record : tuple
+            ``(t, u, y)`` of the record both were fitted on.
+        alphas : tuple of float
+            The two operator scales, for the text.
+
+        Returns
+        -------
+        AlphaCheck
+            Whether ``new`` passes the screen (skipped, and passed, on non-uniform
+            samples), and how.
+        """
+        if not is_uniform(record[0]):
+            how = "in-sample screen skipped (non-uniform samples)"
+            return AlphaCheck(True, CheckReason.SKIPPED, how)
+        order = int(np.asarray(old.A).shape[0])
+        return compare(old, new, record, order, alphas, label="in-sample")
+
+
+#: the policy of :func:`alpha_from_dynamics` and the checks (its fields' reasons there)
+OPERATOR_SCALE = OperatorScalePolicy()
+#: the fields of :data:`OPERATOR_SCALE` under their former names
+GRID_PER_DECADE = OPERATOR_SCALE.grid_per_decade
+TRUNCATION_SLACK = OPERATOR_SCALE.truncation_slack
+MAX_PASSES = OPERATOR_SCALE.max_passes
+MODE_ENERGY_FRACTION = OPERATOR_SCALE.mode_energy_fraction
+HOLDOUT = OPERATOR_SCALE.holdout
+SETTLED = OPERATOR_SCALE.settled
 
 
 def contraction_factor(alpha: float, eigenvalues: Any) -> NDArray[np.float64]:
@@ -187,18 +527,7 @@ def minimax_alpha(eigenvalues: Any, p: int = 1) -> float | None:
     >>> print(minimax_alpha([1j]))  # undamped: no information
     None
     """
-    lam = np.asarray(eigenvalues, dtype=complex).ravel()
-    lam = lam[np.isfinite(lam) & (lam.real != 0)]
-    if lam.size == 0:
-        return None
-    lam = -np.abs(lam.real) + 1j * lam.imag  # unstable modes by their predictor mirror images
-    w = np.abs(lam)
-    lo, hi = float(w.min()), float(w.max())
-    k = max(2, int(np.ceil(GRID_PER_DECADE * np.log10(hi / lo))) + 1)
-    grid = np.geomspace(lo, hi, k)
-    rho = np.abs(grid[:, None] + lam[None, :]) / np.abs(grid[:, None] + 1j * w[None, :])
-    worst = rho.max(axis=1) ** p
-    return float(grid[int(np.flatnonzero(worst <= (1.0 + TRUNCATION_SLACK) * worst.min())[0])])
+    return OPERATOR_SCALE.minimax_alpha(eigenvalues, p)
 
 
 def alpha_from_dynamics(
@@ -236,32 +565,8 @@ def alpha_from_dynamics(
     info : dict
         ``alpha_rule`` (the rule's text) and ``alpha_passes`` (the ``alpha`` of every pass).
     """
-    w_lo, w_hi = band
-    alpha = float(alpha0)
-    model = fit(alpha)
-    path = [alpha]
-    for _ in range(MAX_PASSES):
-        lam = np.asarray(model.eigenvalues, dtype=complex)
-        lam = lam[(np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)]
-        new = minimax_alpha(lam, int(model.report.windows.get("p", 1)))
-        if new is None or abs(new - alpha) <= SETTLED * alpha:
-            # settled: the current model's alpha is already within SETTLED of the one its
-            # own modes ask for, so it is kept rather than refitted at the new value
-            break
-        alpha = new
-        path.append(alpha)
-        model = fit(alpha)
-    info = {
-        "alpha_rule": (
-            "minimax contraction of the identified modes: the smallest alpha within "
-            f"{TRUNCATION_SLACK:.0%} of min_alpha max_i (|alpha + lambda_i| / "
-            "|alpha + i |lambda_i||)^p over the modes (unstable ones mirrored) with "
-            f"{w_lo:.3g} <= |lambda| <= {w_hi:.3g} rad/s, from a first pass at "
-            f"alpha = {alpha0:.4g}"
-        ),
-        "alpha_passes": path,
-    }
-    return alpha, model, info
+    choice, model = OPERATOR_SCALE.choose(fit, alpha0, band)
+    return choice.value, model, choice.info()
 
 
 def held_out_check(
@@ -306,21 +611,80 @@ def held_out_check(
     how : str
         The comparison, for the model's options.
     """
-    ns = t.shape[0]
-    split = int(round(ns * (1.0 - HOLDOUT)))
-    if default_windows(ns - split, order) < MIN_WINDOWS:
-        return False, "record too short for the held-out check"
-    models = []
-    for a in (alpha_old, alpha_new):
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                models.append(identify(t[:split], u[:split], y[:split], a))
-        except (ValueError, np.linalg.LinAlgError):
-            models.append(None)
-    return held_out_comparison(
-        models[0], models[1], (t[split:], u[split:], y[split:]), order, (alpha_old, alpha_new)
+    check = OPERATOR_SCALE.held_out_check(identify, (t, u, y), (alpha_old, alpha_new), order)
+    return check.pair()
+
+
+def _fit_quietly(identify: Callable[..., Any], record: tuple, alpha: float) -> Any:
+    """``identify(*record, alpha)`` without its warnings; None when the fit fails."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return identify(*record, alpha)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+
+
+def _score_quietly(model: Any, record: tuple, windows: int) -> WindowedError:
+    """The windowed simulation error of ``model`` on ``record``, without its warnings;
+    infinite when ``model`` is None or cannot be simulated."""
+    err = WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
+    if model is not None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                err = windowed_simulation_error(model, *record, windows)
+            except (ValueError, np.linalg.LinAlgError):
+                pass
+    return err
+
+
+def compare(
+    old: Any,
+    new: Any,
+    record: tuple,
+    order: int,
+    alphas: tuple[float, float],
+    label: str = "held-out",
+) -> AlphaCheck:
+    """:func:`held_out_comparison` as a typed outcome.
+
+    Parameters
+    ----------
+    old : model or None
+        The incumbent (operator scale ``alphas[0]``).
+    new : model or None
+        The candidate (``alphas[1]``).
+    record : tuple
+        ``(t, u, y)`` of the record scored on.
+    order : int
+        The model order (sets the number of windows).
+    alphas : tuple of float
+        The two operator scales, for the text.
+    label : str, optional
+        Names the data in the text.
+
+    Returns
+    -------
+    AlphaCheck
+        Whether ``new`` wins, how the comparison ended and its text.
+    """
+    t = record[0]
+    windows = default_windows(t.shape[0], order)
+    if windows < MIN_WINDOWS:
+        return AlphaCheck(False, CheckReason.TOO_SHORT, f"{label} part too short for the check")
+    errs = [_score_quietly(model, record, windows) for model in (old, new)]
+    try:
+        k, stats = choose_smallest_adequate(errs)
+    except ValueError:
+        how = f"neither alpha could be scored on the {label} part"
+        return AlphaCheck(False, CheckReason.UNSCORED, how)
+    fits = ", ".join(f"{e.fit:.4g} %" for e in errs)
+    how = (
+        f"{label} fit ({t.shape[0]} samples, {windows} windows) {fits} for alpha = "
+        f"{alphas[0]:.4g}, {alphas[1]:.4g}; excess over the best {stats[0]:.2f} SE"
     )
+    return AlphaCheck(k == 1, CheckReason.WON if k == 1 else CheckReason.LOST, how)
 
 
 def held_out_comparison(
@@ -366,31 +730,7 @@ def held_out_comparison(
     how : str
         The fits and the excess in standard errors.
     """
-    t, u, y = held_out
-    windows = default_windows(t.shape[0], order)
-    if windows < MIN_WINDOWS:
-        return False, f"{label} part too short for the check"
-    errs = []
-    for model in (old, new):
-        err = WindowedError(np.full(windows, np.inf), np.inf, -np.inf, False)
-        if model is not None:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                try:
-                    err = windowed_simulation_error(model, t, u, y, windows)
-                except (ValueError, np.linalg.LinAlgError):
-                    pass
-        errs.append(err)
-    try:
-        k, stats = choose_smallest_adequate(errs)
-    except ValueError:
-        return False, f"neither alpha could be scored on the {label} part"
-    fits = ", ".join(f"{e.fit:.4g} %" for e in errs)
-    how = (
-        f"{label} fit ({t.shape[0]} samples, {windows} windows) {fits} for alpha = "
-        f"{alphas[0]:.4g}, {alphas[1]:.4g}; excess over the best {stats[0]:.2f} SE"
-    )
-    return k == 1, how
+    return compare(old, new, held_out, order, alphas, label).pair()
 
 
 def in_sample_screen(
@@ -427,7 +767,4 @@ def in_sample_screen(
     how : str
         The comparison.
     """
-    if not is_uniform(record[0]):
-        return True, "in-sample screen skipped (non-uniform samples)"
-    order = int(np.asarray(old.A).shape[0])
-    return held_out_comparison(old, new, record, order, alphas, label="in-sample")
+    return OPERATOR_SCALE.in_sample_screen(old, new, record, alphas).pair()

@@ -17,18 +17,21 @@ their projection is one linear map applied to all of them at once
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.bases.basis_domain import GAUSS_NODES, bandwidth, data_bandwidth, project_record
+from hdpbsid.bases.basis_domain import PROJECTION, bandwidth, data_bandwidth, project_record
 from hdpbsid.bases.memo import memoize
 from hdpbsid.bases.settings import check_window
 from hdpbsid.data.checks import is_uniform
 from hdpbsid.data.records import Record, split_windows
 
 __all__ = [
+    "SegmentSettings",
+    "SEGMENTS",
     "default_window",
     "window_rule",
     "make_segments",
@@ -38,21 +41,69 @@ __all__ = [
     "NUISANCE_SHARE",
     "WINDOW_PERIODS",
     "LOW_FRACTION",
+    "MAP_BYTES",
+    "MAP_CACHE_BYTES",
+    "MAP_CACHE_SIZE",
 ]
 
 Array = NDArray[np.float64]
 
-#: largest share of a window's columns spent on its own pseudo-input (nuisance)
-#: directions by the default window: ``(p_max + 1) q / N_w``.  The information lost
-#: by windowing is that share of the record's equations, whatever the system
-NUISANCE_SHARE = 0.05
-#: the default window holds at least this many periods of the lowest significant
-#: frequency of the outputs (module docstring of :func:`default_window`)
-WINDOW_PERIODS = 10.0
-#: the lowest significant frequency: this fraction of the output energy lies below it
-LOW_FRACTION = 0.05
-#: largest dense projection map (bytes) built for windows sharing a time axis
-MAP_BYTES = 256 * 2**20
+
+@dataclass(frozen=True)
+class SegmentSettings:
+    """The default window's rule and the projection maps' budgets, each with its reason.
+
+    Parameters
+    ----------
+    nuisance_share : float, optional
+        Largest share of a window's columns spent on its pseudo-input directions.
+    window_periods : float, optional
+        Periods of the lowest significant output frequency a default window holds.
+    low_fraction : float, optional
+        Share of the output energy below the lowest significant frequency.
+    map_bytes : int, optional
+        Largest dense projection map built for windows sharing a time axis.
+    map_cache_bytes : int, optional
+        Largest projection map memoised.
+    map_cache_size : int, optional
+        Projection maps kept.
+
+    Examples
+    --------
+    >>> SegmentSettings().window_periods
+    10.0
+    """
+
+    #: largest share of a window's columns spent on its own pseudo-input (nuisance)
+    #: directions by the default window: ``(p_max + 1) q / N_w``.  The information lost
+    #: by windowing is that share of the record's equations, whatever the system
+    nuisance_share: float = 0.05
+    #: the default window holds at least this many periods of the lowest significant
+    #: frequency of the outputs (:func:`default_window`)
+    window_periods: float = 10.0
+    #: the lowest significant frequency: this fraction of the output energy lies below it
+    low_fraction: float = 0.05
+    #: largest dense projection map (bytes) built for windows sharing a time axis: beyond
+    #: it the windows are projected one by one, in bounded memory
+    map_bytes: int = 256 * 2**20
+    #: projection maps at most this large (bytes, all holds) are memoised: an order or
+    #: method selection projects the same windows once per candidate, and the map (a
+    #: basis evaluation at every quadrature node) is most of that cost; the cache keeps
+    #: ``map_cache_size`` of them, so it holds at most 4 x 64 MB
+    map_cache_bytes: int = 64 * 2**20
+    #: projection maps kept (estimation part and whole record, each with both holds' maps)
+    map_cache_size: int = 4
+
+
+#: the settings of this module
+SEGMENTS = SegmentSettings()
+#: the fields of :data:`SEGMENTS` under their former names
+NUISANCE_SHARE = SEGMENTS.nuisance_share
+WINDOW_PERIODS = SEGMENTS.window_periods
+LOW_FRACTION = SEGMENTS.low_fraction
+MAP_BYTES = SEGMENTS.map_bytes
+MAP_CACHE_BYTES = SEGMENTS.map_cache_bytes
+MAP_CACHE_SIZE = SEGMENTS.map_cache_size
 
 
 def records_bandwidth(records: Sequence[Record]) -> float:
@@ -115,7 +166,7 @@ def default_window(
         The rule's report (``window_rule``, ``window_target_N``,
         ``lowest_significant_frequency``).
     """
-    w_low = min(bandwidth(r.t, r.y, LOW_FRACTION) for r in records)
+    w_low = min(bandwidth(r.t, r.y, SEGMENTS.low_fraction) for r in records)
     longest = max(r.duration for r in records)
     return window_rule(w_low, longest, n_per_band, q, p_max)
 
@@ -154,14 +205,14 @@ def window_rule(
     >>> print(window_rule(0.5, 100.0, 10.0, 2, 4)[0])  # too short to split
     None
     """
-    n_w = int(np.ceil((p_max + 1) * q / NUISANCE_SHARE))
+    n_w = int(np.ceil((p_max + 1) * q / SEGMENTS.nuisance_share))
     t_n = n_w / n_per_band
-    t_dyn = WINDOW_PERIODS * 2.0 * np.pi / w_low if w_low > 0 else np.inf
+    t_dyn = SEGMENTS.window_periods * 2.0 * np.pi / w_low if w_low > 0 else np.inf
     t_w = max(t_n, t_dyn)
     info = {
         "window_rule": (
             f"T_w = max(N_w / (N per second) = {t_n:.4g} s with N_w = (p_max+1) q / "
-            f"{NUISANCE_SHARE} = {n_w}, {WINDOW_PERIODS:g} periods of the lowest "
+            f"{SEGMENTS.nuisance_share} = {n_w}, {SEGMENTS.window_periods:g} periods of the lowest "
             f"significant output frequency {w_low:.4g} rad/s = {t_dyn:.4g} s); records "
             f"shorter than 2 T_w are not split"
         ),
@@ -271,12 +322,13 @@ def shared_keys(segs: Sequence[Record]) -> list[int]:
 def _maps(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
     """The linear maps of :func:`~hdpbsid.bases.basis_domain.project_record`: samples
     ``(Ns,)`` -> coefficients ``(N,)`` per input hold, and for the outputs (``foh``)."""
-    x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    g = PROJECTION.gauss_nodes
+    x, w = np.polynomial.legendre.leggauss(g)
     h = np.diff(t)
     tn = (t[:-1, None] + h[:, None] * (1.0 + x[None, :]) / 2.0).ravel()
     wn = (h[:, None] * w[None, :] / 2.0).ravel()
     lam = (1.0 + x) / 2.0
-    PW = (basis.eval(tn) * wn[None, :]).reshape(basis.N, t.size - 1, GAUSS_NODES)
+    PW = (basis.eval(tn) * wn[None, :]).reshape(basis.N, t.size - 1, g)
     a = PW @ (1.0 - lam)
     b = PW @ lam
     foh = np.zeros((basis.N, t.size))
@@ -298,16 +350,7 @@ def _maps(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Ar
     return out, foh
 
 
-#: projection maps at most this large (bytes, all holds) are memoised: an order or method
-#: selection projects the same windows once per candidate, and the map (a basis
-#: evaluation at every quadrature node) is most of that cost; the cache keeps
-#: :data:`MAP_CACHE_SIZE` of them, so it holds at most 4 x 64 MB
-MAP_CACHE_BYTES = 64 * 2**20
-#: projection maps kept (estimation part and whole record, each with both holds' maps)
-MAP_CACHE_SIZE = 4
-
-
-@memoize(size=MAP_CACHE_SIZE)
+@memoize(size=SEGMENTS.map_cache_size)
 def _maps_memoised(basis: Any, t: Array, holds: tuple[str, ...]) -> tuple[list[Array], Array]:
     """:func:`_maps`, memoised by the basis and the contents of ``t``
     (:mod:`hdpbsid.bases.memo`; the arrays returned are read-only)."""
@@ -356,52 +399,99 @@ def project_blocks(
     groups: dict[int, list[int]] = {}
     for i, b in enumerate(bases):
         groups.setdefault(id(b), []).append(i)
-    Us: list[list[Array | None]] = [[None] * len(segs) for _ in holds]
-    Ys: list[Array | None] = [None] * len(segs)
-    ex: list[Array | None] = [None] * len(segs)
+    rows = _Rows([[None] * len(segs) for _ in holds], [None] * len(segs), [None] * len(segs))
     single: list[int] = []
     for idx in groups.values():
-        b = bases[idx[0]]
-        t0 = segs[idx[0]].t
-        same = [i for i in idx if segs[i].t is t0 or np.array_equal(segs[i].t, t0)]
-        if len(same) < 2 or b.N * t0.size * 8 * (len(holds) + 1) > MAP_BYTES:
-            single.extend(idx)
-            continue
+        same = _sharing(bases[idx[0]], segs, idx, len(holds))
         single.extend(i for i in idx if i not in same)
-        small = b.N * t0.size * 8 * (len(holds) + 1) <= MAP_CACHE_BYTES
-        Gu, Gy = (_maps_memoised if small else _maps)(b, t0, tuple(holds))
-        if m:
-            u_all = np.hstack([segs[i].u for i in same])  # (Ns, K m)
-            for h, G in enumerate(Gu):
-                C = G @ u_all
-                for k, i in enumerate(same):
-                    Us[h][i] = C[:, k * m : (k + 1) * m].T
-        y_all = np.hstack([segs[i].y for i in same])
-        C = Gy @ y_all
-        e = Gy @ y_extra(t0) if y_extra is not None else None
-        for k, i in enumerate(same):
-            Ys[i] = C[:, k * l : (k + 1) * l].T
-            if m == 0:
-                for h in range(len(holds)):
-                    Us[h][i] = np.zeros((0, b.N))
-            ex[i] = e
+        if same:
+            _project_shared(rows, bases[idx[0]], segs, same, holds, y_extra, (m, l))
     if single:
+        _project_single(rows, bases, segs, single, holds, y_extra, n_jobs)
+    U_out = [np.hstack(u) for u in rows.Us]
+    return U_out, np.hstack(rows.Ys), rows.ex
 
-        def one(i: int) -> tuple[list[Array], Array]:
-            s = segs[i]
-            yy = s.y if y_extra is None else np.hstack([s.y, y_extra(s.t)[:, None]])
-            return project_record(bases[i], s.t, s.u, yy, holds)
 
-        if n_jobs is not None and len(single) > 1:
-            from joblib import Parallel, delayed
+@dataclass
+class _Rows:
+    """The coefficient rows of every segment, filled group by group: ``Us[h][i]`` the
+    input rows of hold ``h``, ``Ys[i]`` the output rows, ``ex[i]`` the extra function's."""
 
-            res = Parallel(n_jobs=n_jobs)(delayed(one)(i) for i in single)
-        else:
-            res = [one(i) for i in single]
-        for i, (u_i, y_i) in zip(single, res, strict=True):
+    Us: list[list[Array | None]]
+    Ys: list[Array | None]
+    ex: list[Array | None]
+
+
+def _map_bytes(b: Any, t0: Array, n_holds: int) -> int:
+    """Bytes of the projection maps of one basis on one time axis, all holds and ``y``."""
+    return b.N * t0.size * 8 * (n_holds + 1)
+
+
+def _sharing(b: Any, segs: Sequence[Record], idx: list[int], n_holds: int) -> list[int]:
+    """The segments of ``idx`` (all on basis ``b``) whose time axis is the first one's,
+    when at least two share it and their map is within ``map_bytes``; else none."""
+    t0 = segs[idx[0]].t
+    same = [i for i in idx if segs[i].t is t0 or np.array_equal(segs[i].t, t0)]
+    if len(same) < 2 or _map_bytes(b, t0, n_holds) > SEGMENTS.map_bytes:
+        return []
+    return same
+
+
+def _project_shared(
+    rows: _Rows,
+    b: Any,
+    segs: Sequence[Record],
+    same: list[int],
+    holds: tuple[str, ...],
+    y_extra: Callable | None,
+    sizes: tuple[int, int],
+) -> None:
+    """Project the segments ``same`` (one basis, one time axis) by one map product."""
+    m, l = sizes
+    t0 = segs[same[0]].t
+    small = _map_bytes(b, t0, len(holds)) <= SEGMENTS.map_cache_bytes
+    Gu, Gy = (_maps_memoised if small else _maps)(b, t0, tuple(holds))
+    if m:
+        u_all = np.hstack([segs[i].u for i in same])  # (Ns, K m)
+        for h, G in enumerate(Gu):
+            C = G @ u_all
+            for k, i in enumerate(same):
+                rows.Us[h][i] = C[:, k * m : (k + 1) * m].T
+    C = Gy @ np.hstack([segs[i].y for i in same])
+    e = Gy @ y_extra(t0) if y_extra is not None else None
+    for k, i in enumerate(same):
+        rows.Ys[i] = C[:, k * l : (k + 1) * l].T
+        if m == 0:
             for h in range(len(holds)):
-                Us[h][i] = u_i[h]
-            Ys[i] = y_i[:l]
-            ex[i] = y_i[l] if y_extra is not None else None
-    U_out = [np.hstack(u) for u in Us]
-    return U_out, np.hstack(Ys), ex
+                rows.Us[h][i] = np.zeros((0, b.N))
+        rows.ex[i] = e
+
+
+def _project_single(
+    rows: _Rows,
+    bases: Sequence[Any],
+    segs: Sequence[Record],
+    single: list[int],
+    holds: tuple[str, ...],
+    y_extra: Callable | None,
+    n_jobs: int | None,
+) -> None:
+    """Project the segments ``single`` one by one (in parallel with ``n_jobs``)."""
+    l = segs[0].y.shape[1]
+
+    def one(i: int) -> tuple[list[Array], Array]:
+        s = segs[i]
+        yy = s.y if y_extra is None else np.hstack([s.y, y_extra(s.t)[:, None]])
+        return project_record(bases[i], s.t, s.u, yy, holds)
+
+    if n_jobs is not None and len(single) > 1:
+        from joblib import Parallel, delayed
+
+        res = Parallel(n_jobs=n_jobs)(delayed(one)(i) for i in single)
+    else:
+        res = [one(i) for i in single]
+    for i, (u_i, y_i) in zip(single, res, strict=True):
+        for h in range(len(holds)):
+            rows.Us[h][i] = u_i[h]
+        rows.Ys[i] = y_i[:l]
+        rows.ex[i] = y_i[l] if y_extra is not None else None

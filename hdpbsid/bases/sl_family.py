@@ -29,22 +29,62 @@ from hdpbsid.bases.family import Integrator, IntegratorFamily
 from hdpbsid.bases.memo import memoize
 from slbasis.numeric import operators
 
-__all__ = ["SturmLiouvilleFamily", "integration_matrix"]
+__all__ = ["SLSettings", "SL", "SturmLiouvilleFamily", "integration_matrix"]
 
 Array = NDArray[np.float64]
 
-#: band (rad/s) resolved by N functions on a window of length T: ``2 N / T`` (degree N
-#: polynomials resolve x-frequencies up to ~N; ``dx/dt = 2/T``)
-N_MIN, N_MAX = 50, 2000  # dense N x N integration matrix: the upper limit bounds the cost
-BAND_MARGIN = 1.5
-#: relative padding of the basis window for families singular at the interval ends
-PAD = 1e-3
-#: one-step lag results kept by the (memoised) integrator lag: the data and pseudo-input
-#: rows of both input holds at up to 8 powers, plus the order-dependent states
-LAG_STEPS_KEPT = 64
-#: an integration matrix with at most this many off-diagonals is solved in band form (the
-#: Legendre closed form from the window start has 2); a wider one is factored densely
-MAX_BANDS = 8
+
+@dataclass(frozen=True)
+class SLSettings:
+    """The size rule and the numerical limits of the finite-interval families.
+
+    Parameters
+    ----------
+    n_min, n_max : int, optional
+        Limits of the default basis size.
+    band_margin : float, optional
+        Multiple of the data bandwidth the default basis covers.
+    pad : float, optional
+        Relative padding of the window for families singular at the interval ends.
+    lag_steps_kept : int, optional
+        One-step lag results kept by the integrator lag.
+    max_bands : int, optional
+        Off-diagonals up to which an integration matrix is solved in band form.
+
+    Examples
+    --------
+    >>> SLSettings().band_margin
+    1.5
+    """
+
+    #: smallest default basis size (a handful of functions per mode and boundary term)
+    n_min: int = 50
+    #: largest default basis size: a dense N x N integration matrix, so it bounds the cost
+    n_max: int = 2000
+    #: the default N covers this multiple of the data bandwidth; N functions on a window of
+    #: length T resolve ``2 N / T`` rad/s (degree N polynomials resolve x-frequencies up
+    #: to ~N; ``dx/dt = 2/T``)
+    band_margin: float = 1.5
+    #: relative padding of the basis window for families singular at the interval ends
+    pad: float = 1e-3
+    #: one-step lag results kept by the (memoised) integrator lag: the data and
+    #: pseudo-input rows of both input holds at up to 8 powers, plus the order-dependent
+    #: states
+    lag_steps_kept: int = 64
+    #: an integration matrix with at most this many off-diagonals is solved in band form
+    #: (the Legendre closed form from the window start has 2); a wider one is factored
+    #: densely
+    max_bands: int = 8
+
+
+#: the settings of the finite-interval families
+SL = SLSettings()
+#: the fields of :data:`SL` under their former names
+N_MIN, N_MAX = SL.n_min, SL.n_max
+BAND_MARGIN = SL.band_margin
+PAD = SL.pad
+LAG_STEPS_KEPT = SL.lag_steps_kept
+MAX_BANDS = SL.max_bands
 
 
 def _legendre_integration(basis: Any, N: int, t0: float) -> sp.csr_matrix | None:

@@ -55,184 +55,81 @@ reshaped to one ``(rows * K, N)`` array, so each step is one BLAS call, not ``K`
 
 from __future__ import annotations
 
-import functools
-from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dgeqrf, dorgqr, dormqr
+from scipy.linalg.lapack import dgeqrf, dorgqr
 
-from hdpbsid.core.pbsid import (
-    CoreResult,
-    core_options,
-    estimate_cd,
-    resolve_order,
-    stable_gain,
-    thin_svd,
+from hdpbsid.core.block_lag import BlockLag, PseudoStore
+from hdpbsid.core.block_steps import (
+    VarxStage,
+    checked_future,
+    checked_instruments,
+    fit_varx,
+    output_equation,
+    state_equation,
+    state_rows,
+    varx_result,
 )
+from hdpbsid.core.block_steps import _gamma_l_rows as _gamma_l_rows
+from hdpbsid.core.eliminator import (
+    Eliminator,
+    apply_qt,
+    eliminator_for,
+)
+from hdpbsid.core.pbsid import CoreResult, core_options, resolve_order, thin_svd
 from hdpbsid.core.varx import (
-    CachedPowers,
     LagOperator,
-    VarxResult,
-    parse_regularize,
     past_blocks,
     r_factor,
-    ridge_gcv,
-    two_stage_ls,
 )
 from hdpbsid.runtime import large_work
 
 __all__ = [
+    "BlockSettings",
+    "BLOCKS",
     "BlockLag",
     "BlockPseudo",
+    "Eliminator",
     "VarxStage",
     "pbsid_core_blocks",
     "select_past_window_blocks",
     "varx_stage_blocks",
+    "window_aic",
+    "best_window",
+    "PSEUDO_ROW_FLOOR",
 ]
 
 Array = NDArray[np.float64]
 Mask = NDArray[np.bool_]
 
-#: pseudo-input rows below this fraction of the block's largest row RMS carry no term
-#: (the Laguerre boundary row at tN, ~e^{-aT}); normalising them would inject rounding
-PSEUDO_ROW_FLOOR = 1e-8
 
-
-class BlockLag(CachedPowers):
-    """Block-diagonal lag: each block of columns is lagged by its own operator.
-
-    Several records (or windows of one record) stacked side by side must not be lagged
-    across their edges: the sample before a record's first one is not the last sample of
-    the previous record.  ``apply(W, j)`` therefore lags the columns of block ``b`` with
-    ``lags[b]`` only.  Blocks with the same lag object and size form a group that is
-    lagged in one call (columns reshaped to rows).  Powers of the last argument are cached
-    (:class:`~hdpbsid.core.varx.CachedPowers`).
+@dataclass(frozen=True)
+class BlockSettings:
+    """The tolerance of the pseudo-input rows of the block core.
 
     Parameters
     ----------
-    lags : sequence of LagOperator
-        One lag operator per block.
-    sizes : sequence of int
-        The number of consecutive columns of each block.
-
-    Attributes
-    ----------
-    lags : list of LagOperator
-        The block lags.
-    sizes : list of int
-        The block sizes.
-    offsets : ndarray of int
-        The first column of each block, and the total at the end.
-    ncols : int
-        The total number of columns.
-    groups : list of tuple
-        ``(lag, size, blocks, columns)`` of the blocks lagged together.
-
-    Raises
-    ------
-    ValueError
-        If ``lags`` and ``sizes`` are empty or of different lengths.
+    pseudo_row_floor : float, optional
+        Relative RMS below which a pseudo-input row is dropped.
 
     Examples
     --------
-    >>> from hdpbsid.core.varx import SampleShift
-    >>> shift = SampleShift()
-    >>> lag = BlockLag([shift, shift], [3, 3])
-    >>> lag.apply(np.arange(6.0)[None], 1)
-    array([[0., 0., 1., 0., 3., 4.]])
-    >>> lag.valid_columns(np.ones(6, dtype=bool), 1)
-    array([False,  True,  True, False,  True,  True])
+    >>> BlockSettings().pseudo_row_floor
+    1e-08
     """
 
-    def __init__(self, lags: Sequence[LagOperator], sizes: Sequence[int]) -> None:
-        super().__init__()
-        if len(lags) != len(sizes) or not lags:
-            raise ValueError("lags and sizes must be non-empty and of equal length")
-        self.lags = list(lags)
-        self.sizes = [int(s) for s in sizes]
-        self.offsets = np.concatenate([[0], np.cumsum(self.sizes)]).astype(int)
-        self.ncols = int(self.offsets[-1])
-        groups: dict[tuple[int, int], list[int]] = {}
-        for b, (lag, n) in enumerate(zip(self.lags, self.sizes, strict=True)):
-            groups.setdefault((id(lag), n), []).append(b)
-        self.groups = [
-            (self.lags[bs[0]], self.sizes[bs[0]], bs, self.columns(bs)) for bs in groups.values()
-        ]
-        # pseudo-row work shared by the BlockPseudo objects built on this lag (BlockPseudo)
-        self.pseudo_stores: OrderedDict[tuple[int, ...], _PseudoStore] = OrderedDict()
+    #: pseudo-input rows below this fraction of the block's largest row RMS carry no term
+    #: (the Laguerre boundary row at tN, ~e^{-aT}); normalising them would inject rounding
+    pseudo_row_floor: float = 1e-8
 
-    def columns(self, blocks: Sequence[int]) -> NDArray[np.intp]:
-        """Column indices of blocks of equal size.
 
-        Parameters
-        ----------
-        blocks : sequence of int
-            Block indices, all of one size ``N``.
-
-        Returns
-        -------
-        ndarray of int, shape (len(blocks), N)
-            Row ``i`` holds the columns of block ``blocks[i]``.
-        """
-        return np.array(
-            [np.arange(self.offsets[b], self.offsets[b + 1]) for b in blocks], dtype=np.intp
-        )
-
-    def _once(self, W: Array) -> Array:
-        if len(self.groups) == 1 and len(self.groups[0][2]) == 1:
-            return self.groups[0][0].apply(W, 1)  # one block: no gather / scatter of columns
-        out = np.empty_like(W)
-        rows = W.shape[0]
-        for lag, n, bs, idx in self.groups:
-            Wg = W[:, idx].reshape(rows * len(bs), n)
-            out[:, idx] = lag.apply(Wg, 1).reshape(rows, len(bs), n)
-        return out
-
-    def cache_key(self) -> tuple | None:
-        """Exact key of the operator for memoisation.
-
-        Returns
-        -------
-        tuple or None
-            The block sizes and every block lag's ``cache_key()``; ``None`` when a block lag
-            has none (the operator then cannot be memoised).
-        """
-        keys = []
-        for lag in self.lags:
-            k = getattr(lag, "cache_key", None)
-            k = k() if callable(k) else None
-            if k is None:
-                return None
-            keys.append((type(lag).__qualname__, k))
-        return (tuple(self.sizes), tuple(keys))
-
-    def valid_columns(self, valid: Mask, j: int) -> Mask:
-        """Which columns of ``apply(., j)`` the known columns determine, block by block.
-
-        Parameters
-        ----------
-        valid : ndarray of bool, shape (ncols,)
-            The known input columns.
-        j : int
-            Number of lags.
-
-        Returns
-        -------
-        ndarray of bool, shape (ncols,)
-            Each block's ``valid_columns`` of its own part of ``valid``.
-        """
-        out = np.empty_like(valid)
-        for b, lag in enumerate(self.lags):
-            sl = slice(self.offsets[b], self.offsets[b + 1])
-            out[sl] = lag.valid_columns(valid[sl], j)
-        return out
-
-    def __repr__(self) -> str:
-        kinds = sorted({repr(g[0]) for g in self.groups})
-        return f"BlockLag({len(self.lags)} blocks: {', '.join(kinds)})"
+#: the settings of the block core
+BLOCKS = BlockSettings()
+#: the field of :data:`BLOCKS` under its former name
+PSEUDO_ROW_FLOOR = BLOCKS.pseudo_row_floor
 
 
 class BlockPseudo:
@@ -276,7 +173,7 @@ class BlockPseudo:
         if len(rows) != len(lag.lags):
             raise ValueError(f"rows: one entry per block expected ({len(lag.lags)})")
         self.lag = lag
-        store = _PseudoStore.lookup(lag, rows)
+        store = PseudoStore.lookup(lag, rows)
         if store is None:
             normed: dict[int, Array] = {}
             groups: dict[tuple[int, int, int], list[int]] = {}
@@ -287,7 +184,7 @@ class BlockPseudo:
                 if id(rows[b]) not in normed:
                     normed[id(rows[b])] = _normalise_rows(P)
                 groups.setdefault((id(lag.lags[b]), lag.sizes[b], id(rows[b])), []).append(b)
-            store = _PseudoStore.add(
+            store = PseudoStore.add(
                 lag,
                 rows,
                 [
@@ -371,7 +268,7 @@ class BlockPseudo:
             done = refl_all.shape[1]
             C = self.lagged(g, [j + 1])[:, mk].T  # (Nv, q), lag j + 1
             if done:
-                C = _apply_qt(refl_all, tau_all, C)
+                C = apply_qt(refl_all, tau_all, C)
             h, t = _householder(C[done:])
             ext = np.empty((Nv, done + q), order="F")
             ext[:, :done] = refl_all
@@ -427,80 +324,14 @@ def _eager(Q: Array, s: Array, Vt: Array, refl: Array, tau: Array) -> tuple:
     return (lambda: Q), s, Vt, refl, tau
 
 
-class _PseudoStore:
-    """What :class:`BlockPseudo` shares between objects on one lag and one set of rows."""
-
-    #: stores kept per lag (rows sets in use at once: the data's and a reference's)
-    PER_LAG = 4
-
-    def __init__(self, rows: Sequence[Array], groups: list) -> None:
-        self.rows = list(rows)  # keeps the ids in the key valid
-        self.copies = {id(r): np.array(r, dtype=float, copy=True) for r in rows}
-        self.groups = groups
-        self.powers: list[list[Array]] = [[P] for *_, P in groups]
-        self.qr: dict[tuple, tuple[int, Array, Array]] = {}
-        self.eliminators: dict[tuple, Eliminator] = {}
-
-    @staticmethod
-    def lookup(lag: BlockLag, rows: Sequence[Array]) -> _PseudoStore | None:
-        stores = getattr(lag, "pseudo_stores", None)
-        if stores is None:
-            return None
-        store = stores.get(tuple(id(r) for r in rows))
-        if store is None:
-            return None
-        for r in rows:  # same objects; unchanged contents
-            c = store.copies[id(r)]
-            a = np.asarray(r)
-            if a.shape != c.shape or not np.array_equal(a, c):
-                del stores[tuple(id(r) for r in rows)]
-                return None
-        return store
-
-    @staticmethod
-    def add(lag: BlockLag, rows: Sequence[Array], groups: list) -> _PseudoStore:
-        store = _PseudoStore(rows, groups)
-        stores = getattr(lag, "pseudo_stores", None)
-        if stores is not None:
-            stores[tuple(id(r) for r in rows)] = store
-            while len(stores) > _PseudoStore.PER_LAG:
-                stores.popitem(last=False)
-        return store
-
-
 def _normalise_rows(P: Array) -> Array:
     if P.shape[0] == 0:
         return P
     r = np.sqrt(np.mean(P**2, axis=1))
     if r.max() <= 0:
         return P[:0]
-    keep = r > PSEUDO_ROW_FLOOR * r.max()
+    keep = r > BLOCKS.pseudo_row_floor * r.max()
     return P[keep] / r[keep, None]
-
-
-@dataclass
-class _Sub:
-    """Blocks with one nuisance row space: orthonormal basis and Householder reflectors."""
-
-    blocks: list[int]
-    cols: NDArray[np.intp]  # (K, Nv) global column indices used
-    S: Array  # nuisance rows on the used columns (r_raw x Nv)
-    basis: Callable[[], Array]  # computes Q, the orthonormal basis of their span (Nv x k)
-    sv: Array  # singular values of S (k)
-    Vt: Array  # right singular vectors (k x r_raw)
-    refl: Array  # Householder vectors (Nv x k, LAPACK raw layout)
-    tau: Array
-
-    @property
-    def k(self) -> int:
-        """Rank of the nuisance rows."""
-        return int(self.sv.size)
-
-    @functools.cached_property
-    def Q(self) -> Array:
-        """Orthonormal basis of the span (``Nv x k``), formed on first use: the plain
-        compression needs only the reflectors."""
-        return self.basis()
 
 
 def _householder(A: Array) -> tuple[Array, Array]:
@@ -550,138 +381,6 @@ def _row_space(S: Array) -> tuple[Array, Array, Array, Array, Array]:
     else:
         refl, tau = refl[:, :r], tau[:r]
     return Q, s[:k], Vt[:k], refl, tau
-
-
-class Eliminator:
-    """Compression onto the complement of every block's nuisance rows (module docstring).
-
-    ``nuisance`` are the pseudo rows lagged by ``js``; ``mask`` the global columns used.
-    """
-
-    def __init__(self, pseudo: BlockPseudo | None, js: Sequence[int], mask: Mask) -> None:
-        self.subs: list[_Sub] = []
-        self.plain = np.flatnonzero(mask)  # columns of blocks without nuisance rows
-        self.rank = 0
-        if pseudo is None or not js:
-            return
-        has = np.zeros(mask.size, dtype=bool)
-        for g, (_lag, _n, bs, idx, P) in enumerate(pseudo.groups):
-            if P.shape[0] == 0:
-                continue
-            S_full = pseudo.lagged(g, js)
-            masks = mask[idx]  # (K, N)
-            # blocks of a group normally share the usable pattern; split where not
-            patterns: dict[bytes, list[int]] = {}
-            for i, row in enumerate(masks):
-                patterns.setdefault(row.tobytes(), []).append(i)
-            for rows_i in patterns.values():
-                mk = masks[rows_i[0]]
-                S = S_full[:, mk]
-                basis, s, Vt, refl, tau = pseudo.row_space(g, js, mk, S)
-                k = s.size
-                cols = idx[rows_i][:, mk]
-                has[idx[rows_i]] = True
-                self.subs.append(_Sub([bs[i] for i in rows_i], cols, S, basis, s, Vt, refl, tau))
-                self.rank += k * len(rows_i)
-        self.plain = np.flatnonzero(mask & ~has)
-
-    @property
-    def ncols(self) -> int:
-        """Columns of the compressed problem."""
-        return int(self.plain.size + sum(s.cols.size - s.k * len(s.blocks) for s in self.subs))
-
-    def compress(self, W: Array, lam: float = 0.0) -> Array:
-        """``W`` (rows x all columns) -> its coordinates in the complement (rows x ncols).
-
-        With ``lam > 0`` the nuisance coefficients are ridge-penalised like the main
-        ones (``+ lam^2 ||Gamma_b||^2``): minimising over them leaves the weight
-        ``I - S^T (S S^T + lam^2)^{-1} S = H H^T + Q diag(lam^2 / (s^2 + lam^2)) Q^T``,
-        so the coordinates ``diag(lam / sqrt(s^2 + lam^2)) Q^T W`` are appended.
-        """
-        rows = W.shape[0]
-        parts = [W[:, self.plain]]
-        for s in self.subs:
-            K, nv = s.cols.shape
-            k = s.k
-            if K == 1 and nv and s.cols[0, -1] - s.cols[0, 0] == nv - 1:
-                # one block on consecutive columns (a sorted range): a slice, no gather
-                C = np.asfortranarray(W[:, s.cols[0, 0] : s.cols[0, -1] + 1].T)
-            else:
-                C = np.asfortranarray(W[:, s.cols].reshape(rows * K, nv).T)  # (Nv, rows K)
-            if k:
-                # C <- [Q, H]^T C = H_k ... H_1 C, H_i = I - tau_i v_i v_i^T: the k
-                # reflectors applied by LAPACK ormqr in one blocked call
-                C = _apply_qt(s.refl, s.tau, C)
-            parts.append(C[k:].T.reshape(rows, K * (nv - k)))
-            if lam > 0:
-                Wb = W[:, s.cols].reshape(rows * K, nv)
-                soft = (Wb @ s.Q) * (lam / np.sqrt(s.sv**2 + lam**2))[None, :]
-                parts.append(soft.reshape(rows, K * k))
-        return np.hstack(parts)
-
-    def residual(self, R: Array, lam: float = 0.0) -> tuple[Array, list[tuple[list[int], Array]]]:
-        """Residual ``R`` (rows x all columns, zero off the mask) with each block's
-        nuisance fit removed, and the nuisance coefficients per group of blocks
-        (``(K, rows, r_raw)``: minimum-norm ``Gamma_b = R_b S_b^+``, or with ``lam > 0``
-        the ridge ``R_b S_b^T (S_b S_b^T + lam^2)^{-1}``)."""
-        out = np.zeros_like(R)
-        out[:, self.plain] = R[:, self.plain]
-        coefs = []
-        rows = R.shape[0]
-        for s in self.subs:
-            K, nv = s.cols.shape
-            Rb = R[:, s.cols].reshape(rows * K, nv)  # (rows K, Nv)
-            RQ = Rb @ s.Q  # (rows K, k)
-            filt = s.sv / (s.sv**2 + lam**2)
-            G = (RQ * filt[None, :]) @ s.Vt  # (rows K, r_raw): R S^T (S S^T + lam^2)^-1
-            fit = (RQ * (s.sv * filt)[None, :]) @ s.Q.T
-            out[:, s.cols] = (Rb - fit).reshape(rows, K, nv)
-            coefs.append((s.blocks, G.reshape(rows, K, -1).transpose(1, 0, 2)))
-        return out, coefs
-
-
-def _eliminator(pseudo: BlockPseudo | None, js: Sequence[int], mask: Mask) -> Eliminator:
-    """The (shared) :class:`Eliminator` of ``pseudo`` for the lags ``js`` on ``mask``."""
-    return pseudo.eliminator(js, mask) if pseudo is not None else Eliminator(None, js, mask)
-
-
-def _apply_qt(refl: Array, tau: Array, C: Array) -> Array:
-    """``Q^T C`` for the full orthogonal ``Q`` of a QR in raw layout (:func:`_householder`)
-    (Householder vectors ``refl``, factors ``tau``), by LAPACK ``ormqr``."""
-    C = np.asfortranarray(C, dtype=float)
-    if C.shape[1] == 0:
-        return C
-    lwork = max(1, C.shape[1]) * 64  # the blocked ormqr's work space (nb = 64 columns)
-    out, _, info = dormqr("L", "T", refl, tau, C, lwork, overwrite_c=False)
-    if info != 0:  # pragma: no cover - argument errors only
-        raise ValueError(f"LAPACK ormqr failed (info = {info})")
-    return out
-
-
-def _solve(Phi: Array, Y: Array, regularize: bool | str | float | None, floor: float):
-    """Least squares / ridge ``Y ~ Theta Phi`` as :func:`hdpbsid.core.varx.varx` does."""
-    kind, lam = parse_regularize(regularize)
-    nreg = Phi.shape[0]
-    if kind == "none":
-        R = r_factor(Phi, Y)
-        rcond = np.finfo(float).eps * max(Phi.shape)
-        theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
-        return theta, 0.0, None, kind
-    theta, lam_used, g = ridge_gcv(
-        Phi, Y, lam if kind == "fixed" else None, floor=floor if kind == "gcv" else 0.0
-    )
-    return theta, lam_used, g, kind
-
-
-def _fwl_lstsq(reg: Array, target: Array, elim: Eliminator):
-    """Plain least squares of ``target`` on ``reg`` with the nuisance eliminated.
-
-    Returns ``(Theta, residual on all columns, nuisance coefficients)``."""
-    Rc = elim.compress(np.vstack([reg, target]))
-    d = reg.shape[0]
-    theta = np.linalg.lstsq(Rc[:d].T, Rc[d:].T, rcond=None)[0].T
-    res, coefs = elim.residual(target - theta @ reg)
-    return theta, res, coefs
 
 
 def select_past_window_blocks(
@@ -774,7 +473,7 @@ def select_past_window_blocks(
         reg = np.vstack(lagged[: (1 if d0 else 0) + p])
         cs = np.sqrt(np.mean(reg[:, valid] ** 2, axis=1))
         cs[cs == 0] = 1.0
-        elim = _eliminator(pseudo, lags_of(p), valid)
+        elim = eliminator_for(pseudo, lags_of(p), valid)
         if elim.ncols <= q + l:
             break
         Rc = elim.compress(np.vstack([reg / cs[:, None], Ys]))
@@ -907,63 +606,6 @@ def _nested_window_residuals(
     return at
 
 
-def _gamma_l_rows(coef: Array, p: int, f: int, d: int, l: int) -> Array:
-    """``Gamma_f L_p`` row blocks from coefficients ``[Xi_p, ..., Xi_1]`` of ``d`` rows each
-    (:func:`hdpbsid.core.pbsid.gamma_l` for any block width ``d``)."""
-    LK = np.zeros((f * l, p * d))
-    for i in range(f):
-        LK[i * l : (i + 1) * l, i * d :] = coef[:, : (p - i) * d]
-    return LK
-
-
-@dataclass
-class VarxStage:
-    """The order-independent part of :func:`pbsid_core_blocks`.
-
-    The VARX fit, the SVD ``Gamma_f L_p Z_p = Uu diag(s) Vt`` and the eliminator and
-    lagged inputs of the ``A, B, K`` step.  Every order of one ``(data, lag, p, f)``
-    truncates the same decomposition (the state is ``diag(s_1..n)^{1/2} Vt_{1..n}``), so a
-    sweep over orders computes it once (:func:`varx_stage_blocks`).
-
-    Attributes
-    ----------
-    cols : ndarray of int
-        The columns on which the VARX is defined.
-    valid : ndarray of bool
-        The same as a mask over all columns.
-    varx : VarxResult
-        The VARX fit.
-    elim : Eliminator
-        The VARX's nuisance eliminator.
-    Uu : ndarray
-        Left singular vectors of ``Gamma_f L_p Z_p``.
-    s : ndarray
-        Its singular values, descending.
-    Vt : ndarray
-        Its right singular vectors.
-    LU : ndarray, shape (m, N)
-        The inputs lagged once.
-    use : ndarray of bool
-        The columns of the ``A, B, K`` regression.
-    e1 : Eliminator
-        The eliminator of the pseudo rows lagged once, on ``use``.
-    extra_iv : dict
-        The IV estimator's record (empty for least squares).
-    """
-
-    cols: NDArray[np.intp]
-    valid: Mask
-    varx: VarxResult
-    elim: Eliminator
-    Uu: Array
-    s: Array
-    Vt: Array
-    LU: Array
-    use: Mask
-    e1: Eliminator
-    extra_iv: dict
-
-
 def varx_stage_blocks(
     U: Array,
     Y: Array,
@@ -1026,7 +668,7 @@ def varx_stage_blocks(
     cols = np.flatnonzero(valid)
     Phi = np.vstack([Zp_all, U]) if ft else Zp_all
     js = list(range(p, 0, -1)) + ([0] if (feedthrough and pseudo is not None) else [])
-    elim = _eliminator(pseudo, js, valid)
+    elim = eliminator_for(pseudo, js, valid)
     nreg = Phi.shape[0]
     if elim.ncols <= nreg:
         raise ValueError(
@@ -1034,64 +676,19 @@ def varx_stage_blocks(
             f"{' + m' if ft else ''}) but only {elim.ncols} usable columns after "
             f"eliminating {elim.rank} pseudo-input directions: reduce p or supply more data"
         )
-    extra_iv: dict = {}
-    if instruments is None:
-        Cz = elim.compress(np.vstack([Phi, Y]))
-        theta, lam_used, gcv_val, kind = _solve(Cz[:nreg], Cz[nreg:], regularize, ridge_floor)
-    else:
-        Cz = elim.compress(np.vstack([Phi, Y, np.where(valid, instruments, 0.0)]))
-        kind, lam = parse_regularize(regularize)
-        theta, lam_used, gcv_val, extra_iv = two_stage_ls(
-            Cz[:nreg],
-            Cz[nreg : nreg + l],
-            Cz[nreg + l :],
-            lam if kind == "fixed" else (None if kind == "gcv" else 0.0),
-            floor=ridge_floor if kind == "gcv" else 0.0,
-        )
-        # the nuisance coefficients are fitted unpenalised to the IV residual below
-        ridge_iv, lam_used = lam_used, 0.0
-    if lam_used > 0 and elim.rank:
-        # the ridge penalises the pseudo-inputs' coefficients as well (as if they were
-        # inputs): same lam, nuisance minimised out exactly (Eliminator.compress)
-        Cs = elim.compress(np.vstack([Phi, Y]), lam_used)
-        theta = ridge_gcv(Cs[:nreg], Cs[nreg:], lam_used)[0]
+    fit = fit_varx(Phi, Y, valid, elim, regularize, ridge_floor, instruments)
     res_full = np.zeros((l, ncols))
-    res_full[:, cols] = Y[:, cols] - theta @ Phi[:, cols]
-    resid, nuis = elim.residual(res_full, lam_used)
-    coef = theta[:, : p * (m + l)]
-    Xi = np.stack([coef[:, (p - j) * (m + l) : (p - j + 1) * (m + l)] for j in range(1, p + 1)])
-    vx = VarxResult(
-        Xi=Xi,
-        coef=coef,
-        D=theta[:, p * (m + l) :] if ft else np.zeros((l, m)),
-        Zp=Zp_all[:, cols],
-        columns=cols,
-        residuals=resid[:, cols],
-        ridge=lam_used if instruments is None else ridge_iv,
-        regularize=kind,
-        gcv=gcv_val,
-        extra={
-            "eliminated_pseudo_directions": elim.rank,
-            "compressed_columns": elim.ncols,
-            **extra_iv,
-        },
-    )
+    res_full[:, cols] = Y[:, cols] - fit.theta @ Phi[:, cols]
+    resid, nuis = elim.residual(res_full, fit.lam)
+    coef = fit.theta[:, : p * (m + l)]
+    vx = varx_result(fit, coef, Zp_all[:, cols], cols, resid[:, cols], elim, (p, m, l), ft)
     # -- 2. Gamma L Z_p (+ each block's pseudo-input part), SVD, state ------------------
-    LK = _gamma_l_rows(coef, p, f, m + l, l)
-    S = np.zeros((f * l, ncols))
-    S[:, cols] = LK @ Zp_all[:, cols]
-    for sub, (blocks, G) in zip(elim.subs, nuis, strict=True):
-        # G: (K, l, r_raw) coefficients of [P M^p; ...; P M^1 (; P)]; q rows per lag
-        q = sub.S.shape[0] // len(js)
-        Pp = sub.S[: p * q]  # lags p..1 on the used columns
-        K = len(blocks)
-        LKb = np.stack([_gamma_l_rows(G[k][:, : p * q], p, f, q, l) for k in range(K)])
-        S[:, sub.cols] += np.einsum("kfr,rn->fkn", LKb, Pp)
+    S = state_rows(coef, Zp_all, cols, elim, nuis, len(js), (p, f, m + l, l))
     Uu, s, Vt = thin_svd(S[:, cols])
     LU, vu = lag.apply(U, 1), lag.valid_columns(np.ones(ncols, dtype=bool), 1)
     use = valid & lag.valid_columns(valid, 1) & vu
-    e1 = _eliminator(pseudo, [1], use)
-    return VarxStage(cols, valid, vx, elim, Uu, s, Vt, LU, use, e1, extra_iv)
+    e1 = eliminator_for(pseudo, [1], use)
+    return VarxStage(cols, valid, vx, elim, Uu, s, Vt, LU, use, e1, fit.extra_iv)
 
 
 def pbsid_core_blocks(
@@ -1199,72 +796,17 @@ def pbsid_core_blocks(
     array([[0.8]])
     """
     m, l = U.shape[0], Y.shape[0]
-    if instruments is not None:
-        instruments = np.asarray(instruments, dtype=float)
-        if instruments.ndim != 2 or instruments.shape[1] != Y.shape[1]:
-            raise ValueError(
-                f"instruments must be a 2-D array with {Y.shape[1]} columns (one per data "
-                f"column), got shape {instruments.shape}"
-            )
-        if feedthrough:
-            raise ValueError("instruments: feedthrough=True is not supported with IV")
-    f = p if f is None else f
-    if f > p:
-        raise ValueError(f"the future window f must satisfy f <= p, got f={f} > p={p}")
-    if order is not None and order > f * l:
-        raise ValueError(
-            f"order={order} exceeds f*l = {f}*{l} = {f * l}, the number of rows of Gamma L; "
-            f"increase f (and p) or reduce the order"
-        )
+    instruments = checked_instruments(instruments, Y.shape[1], feedthrough)
+    f = checked_future(p, f, order, l)
     if stage is None:
         stage = varx_stage_blocks(
             U, Y, p, lag, pseudo, f, feedthrough, regularize, ridge_floor, instruments
         )
-    ncols, cols, valid, vx = Y.shape[1], stage.cols, stage.valid, stage.varx
-    ft = feedthrough and m > 0
-    Uu, s, Vt = stage.Uu, stage.s, stage.Vt
-    extra_iv = stage.extra_iv
+    cols, vx, s = stage.cols, stage.varx, stage.s
     n, info = resolve_order(s, order, max_order)
-    X = np.sqrt(s[:n])[:, None] * Vt[:n]
-    # -- 3a. C, D (pseudo-inputs enter the output equation only with feedthrough) -------
-    if instruments is not None:
-        C = Uu[:l, :n] * np.sqrt(s[:n])[None, :]
-        D = np.zeros((l, m))
-        E = Y[:, cols] - C @ X
-    elif feedthrough and pseudo is not None:
-        e0 = _eliminator(pseudo, [0], valid)
-        Xf = np.zeros((n, ncols))
-        Xf[:, cols] = X
-        reg = np.vstack([Xf, U]) if ft else Xf
-        th, Ef, _ = _fwl_lstsq(reg, np.where(valid, Y, 0.0), e0)
-        C = th[:, :n]
-        D = th[:, n:] if ft else np.zeros((l, m))
-        E = Ef[:, cols]
-    else:
-        C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
-    # -- 3b. A, B, K -------------------------------------------------------------------
-    Xf = np.zeros((n, ncols))
-    Xf[:, cols] = X
-    Ef = np.zeros((l, ncols))
-    Ef[:, cols] = E
-    LX = lag.apply(Xf, 1)
-    LE = lag.apply(Ef, 1)
-    LU, use, e1 = stage.LU, stage.use, stage.e1
-    if e1.ncols <= n + m + l:
-        raise ValueError(
-            f"too few usable columns ({e1.ncols}) to estimate A, B, K with "
-            f"{n + m + l} regressors per state; supply more data or reduce p/order"
-        )
-    reg = np.vstack([LX, LU, LE])
-    reg_u = np.where(use, reg, 0.0)
-    th, resid_abk, coefs1 = _fwl_lstsq(reg_u, np.where(use, Xf, 0.0), e1)
-    A, B, Kg = th[:, :n], th[:, n : n + m], th[:, n + m :]
-    k_method = "least squares"
-    if stable_k:
-        ui = np.flatnonzero(use)
-        # W = x - A lag(x) - B lag(u) - (pseudo part) = K lag(e) + residual
-        W = (resid_abk + Kg @ reg_u[n + m :])[:, ui]
-        Kg, k_method = stable_gain(A, C, W, LE[:, ui], Kg)
+    X = np.sqrt(s[:n])[:, None] * stage.Vt[:n]
+    C, D, E = output_equation(X, U, Y, stage, pseudo, feedthrough, instruments is not None)
+    A, B, Kg, k_method = state_equation(X, E, C, lag, stage, stable_k, m)
     noise_cov = E @ E.T / E.shape[1]
     options = core_options(
         p, f, n, order, feedthrough, vx, ridge_floor, stable_k, k_method, lag, info, max_order
@@ -1273,7 +815,7 @@ def pbsid_core_blocks(
     options["eliminated_pseudo_directions"] = stage.elim.rank
     options["estimator"] = "ls" if instruments is None else "iv"
     if instruments is not None:
-        options["instruments"] = extra_iv.get("instruments")
+        options["instruments"] = stage.extra_iv.get("instruments")
         options["c_method"] = "first block row of Gamma"
     return CoreResult(
         A=A,

@@ -33,13 +33,61 @@ def test_minimax_alpha_single_mode_is_its_magnitude() -> None:
     assert opscale.minimax_alpha(lam, 4) == pytest.approx(abs(lam[0]), rel=1e-12)
 
 
-def test_minimax_alpha_two_real_poles_is_their_geometric_mean(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    monkeypatch.setattr(opscale, "TRUNCATION_SLACK", 0.0)
+def test_minimax_alpha_two_real_poles_is_their_geometric_mean() -> None:
+    policy = opscale.OperatorScalePolicy(truncation_slack=0.0)
     # for real poles -a, -b: rho_a(alpha) = rho_b(alpha) at alpha = sqrt(a b) (the factor
     # |alpha - a| / sqrt(alpha^2 + a^2) is symmetric under a -> alpha^2 / a); 1 % = grid
-    assert opscale.minimax_alpha([-1.0, -100.0]) == pytest.approx(10.0, rel=0.01)
+    assert policy.minimax_alpha([-1.0, -100.0]) == pytest.approx(10.0, rel=0.01)
+
+
+def test_policy_fields_are_the_former_constants() -> None:
+    policy = opscale.OPERATOR_SCALE
+    assert policy == opscale.OperatorScalePolicy()
+    assert (opscale.GRID_PER_DECADE, opscale.TRUNCATION_SLACK, opscale.MAX_PASSES) == (
+        policy.grid_per_decade,
+        policy.truncation_slack,
+        policy.max_passes,
+    )
+    assert (opscale.MODE_ENERGY_FRACTION, opscale.HOLDOUT, opscale.SETTLED) == (
+        policy.mode_energy_fraction,
+        policy.holdout,
+        policy.settled,
+    )
+    with pytest.raises(AttributeError):
+        policy.settled = 0.1  # type: ignore[misc]
+
+
+class _Model:
+    """A stand-in with the attributes the passes read: modes and the past window."""
+
+    def __init__(self, eigenvalues: list[complex]) -> None:
+        self.eigenvalues = np.asarray(eigenvalues, dtype=complex)
+
+        class _Report:
+            windows = {"p": 1}
+
+        self.report = _Report()
+
+
+def test_choice_settles_on_the_modes_alpha_with_a_typed_reason() -> None:
+    fits: list[float] = []
+
+    def fit(alpha: float) -> _Model:
+        fits.append(alpha)
+        return _Model([-2.0])  # one real mode at |lambda| = 2 whatever alpha
+
+    choice, _ = opscale.OPERATOR_SCALE.choose(fit, 8.0, (0.1, 100.0))
+    assert choice.value == 2.0 and choice.reason is opscale.AlphaReason.SETTLED
+    assert choice.passes == (8.0, 2.0) and fits == [8.0, 2.0]
+    assert choice.info()["alpha_passes"] == [8.0, 2.0]
+    # the module function is the default policy's
+    alpha, _, info = opscale.alpha_from_dynamics(fit, 8.0, (0.1, 100.0))
+    assert alpha == choice.value and info == choice.info()
+
+
+def test_choice_without_an_informative_mode_keeps_the_first_alpha() -> None:
+    choice, _ = opscale.OPERATOR_SCALE.choose(lambda a: _Model([2j, -2j]), 3.0, (0.1, 100.0))
+    assert choice.value == 3.0 and choice.reason is opscale.AlphaReason.NO_MODE
 
 
 def test_minimax_alpha_slack_moves_alpha_down_not_up() -> None:
