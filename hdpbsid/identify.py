@@ -422,6 +422,7 @@ def identify(
             input_names=input_names, output_names=output_names, time_unit=time_unit,
             **options,
         )  # fmt: skip
+    # 1. check the inputs: identify's own settings, the labels, the path
     req = _request(method, order, refine, detrend, options)
     in_memory = isinstance(t, np.ndarray | list | tuple)
     labels = _Labels(input_names, output_names, time_unit, t, u, y) if in_memory else None
@@ -431,12 +432,14 @@ def identify(
     require_joblib(options.get("n_jobs"))
     assert labels is not None  # only the bounded path takes a chunked record
     _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
+    # 2. the record(s) scaled and detrended, the method run (several: as one Dataset)
     several = _is_several(t)
     signal_scale = _Scaling(t, u, y, several)
     t, u, y = signal_scale.apply(t, u, y)
     t_method = time.perf_counter()
     first_pass = _first_pass_records if several else _first_pass_record
     first = first_pass(func, t, u, y, req, options)
+    # 3. refine; 4. report: the operating point, the units, the labels, the settings
     model = _refine_step(first, req, several, t_method)
     records = t if several else [(t, u, y)]
     return _finished(model, first, signal_scale, labels, records, req, options)

@@ -73,8 +73,8 @@ def _weighted_levels(levels: list[Levels]) -> tuple[Any, Any]:
 
 
 class _Labels:
-    """The channel names and time unit given to :func:`identify`, checked before any
-    computation against the channel counts of the first record."""
+    """The channel names and time unit given to :func:`~hdpbsid.identify.identify`,
+    checked before any computation against the channel counts of the first record."""
 
     def __init__(self, inputs: Any, outputs: Any, time_unit: Any, t: Any, u: Any, y: Any) -> None:
         if isinstance(t, list | tuple) and len(t) and isinstance(t[0], list | tuple):
