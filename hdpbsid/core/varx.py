@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.core.ridge import parse_regularize, r_factor, ridge_gcv, ridge_gcv_r, two_stage_ls
+from hdpbsid.models.report import Choice
 
 __all__ = [
     "LagOperator",
@@ -777,8 +778,10 @@ class PastWindowChoice:
     --------
     >>> crit = np.array([3.0, 1.0, 2.0, 2.5, 2.6, 2.7, np.inf])
     >>> choice = PastWindowChoice(2, crit, 1, 7, PastWindowPolicy())
-    >>> choice.searched, choice.reason()
-    (6, 'min AIC of the VARX fit over p in [1, 7], searched up to p = 6 (3 x the best window)')
+    >>> choice.searched, choice.choice().value
+    (6, 2)
+    >>> choice.reason()
+    'min AIC of the VARX fit over p in [1, 7], searched up to p = 6 (3 x the best window)'
     """
 
     p: int
@@ -813,6 +816,21 @@ class PastWindowChoice:
             f"searched up to p = {searched}"
             + ("" if searched == self.p_max else f" ({self.policy.growth:g} x the best window)")
         )
+
+    def choice(self, bounds: str = "") -> Choice[int]:
+        """The window and its reason as a :class:`~hdpbsid.models.report.Choice`.
+
+        Parameters
+        ----------
+        bounds : str, optional
+            The rule of ``p_min`` and ``p_max`` (:meth:`reason`).
+
+        Returns
+        -------
+        Choice of int
+            ``Choice(p, reason(bounds))``.
+        """
+        return Choice(self.p, self.reason(bounds))
 
 
 def windows_searched(crit: Array) -> int:

@@ -371,7 +371,7 @@ def _options(
     options.update(
         {
             **settings,
-            "p_rule": "given" if window is None else window.reason(WINDOW_BOUNDS.rule),
+            "p_rule": "given" if window is None else window.choice(WINDOW_BOUNDS.rule).reason,
             "p_criterion_values": None if window is None else window.criterion_values,
             "f_rule": f_rule,
             "dt": dt,
