@@ -2,9 +2,12 @@
 
 ``m = hdpbsid.identify(t, u, y, order=4, method="hermite")`` with ``method`` one of
 ``"hermite"``, ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (docs/user-guide.md): the
-record is checked, scaled and detrended here, the method is taken from the registry
+record is checked, scaled and detrended here (the mechanics of the inputs in
+:mod:`hdpbsid.identify_inputs`), the method is taken from the registry
 (:mod:`hdpbsid.methods.registry`, which imports each method on first use), and the
-model refined and given its operating point.
+model refined and given its operating point.  :func:`identify` is the pipeline
+``check inputs -> run the method (one record, or several as one Dataset) -> refine ->
+report``, each step a function of its own below it.
 """
 
 from __future__ import annotations
