@@ -33,6 +33,8 @@ choice of the smallest exact window.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
@@ -246,10 +248,30 @@ def criterion_error_bounds(
     return -l * np.log1p(-eta)
 
 
+@dataclass(frozen=True)
+class GramCertificate:
+    """When :func:`regression_factor` keeps the factor from the Gram matrix.
+
+    Attributes
+    ----------
+    coefficient_resolution : float
+        The largest move of a least-squares coefficient by the Gram matrix's rounding,
+        relative to the coefficient's standard error.
+
+    Examples
+    --------
+    >>> GramCertificate().coefficient_resolution
+    0.001
+    """
+
+    #: a change the data cannot resolve, by three orders of magnitude
+    coefficient_resolution: float = 1e-3
+
+
 #: :func:`regression_factor` keeps the factor from the Gram matrix when its rounding moves
 #: every least-squares coefficient by at most this fraction of the coefficient's standard
-#: error: a change the data cannot resolve, by three orders of magnitude
-COEFFICIENT_RESOLUTION = 1e-3
+#: error (:class:`GramCertificate`)
+COEFFICIENT_RESOLUTION = GramCertificate().coefficient_resolution
 
 
 def regression_factor(Z: Array, p: int, m: int, feedthrough: bool) -> Array | None:

@@ -707,6 +707,22 @@ def subspace_stage(
 
 
 @library_call
+def _output_equation(
+    stage: SubspaceStage, X: Array, U: Array, Y: Array, n: int, feedthrough: bool, iv: bool
+) -> tuple[Array, Array, Array]:
+    """``C``, ``D`` and the innovations ``E = Y - C X - D U`` on the stage's columns: by
+    least squares on the states (:func:`estimate_cd`), or with instruments (``iv``) from
+    the first block row of ``Gamma`` and the VARX's ``D``, both estimated consistently by
+    the two-stage least squares (:mod:`hdpbsid.methods.hermite_iv`)."""
+    vx, s, cols = stage.varx, stage.singular_values, stage.varx.columns
+    if not iv:
+        return estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
+    l = Y.shape[0]
+    C = stage.left[:l, :n] * np.sqrt(s[:n])[None, :]
+    D = vx.D
+    return C, D, Y[:, cols] - C @ X - D @ U[:, cols]
+
+
 def pbsid_core(
     U: Array,
     Y: Array,
@@ -837,16 +853,11 @@ def pbsid_core(
         stage = subspace_stage(
             U, Y, p, f, lag, feedthrough, regularize, ridge_floor, instruments, exogenous
         )
-    vx, s, Ug = stage.varx, stage.singular_values, stage.left
+    vx, s = stage.varx, stage.singular_values
     n, info = resolve_order(s, order, max_order, s.size)
     X = stage.state_rows(n)
     cols = vx.columns
-    if instruments is None:
-        C, D, E = estimate_cd(X, U[:, cols], Y[:, cols], feedthrough)
-    else:
-        C = Ug[:l, :n] * np.sqrt(s[:n])[None, :]
-        D = vx.D
-        E = Y[:, cols] - C @ X - D @ U[:, cols]
+    C, D, E = _output_equation(stage, X, U, Y, n, feedthrough, iv=instruments is not None)
     A, B, K, W, V = estimate_abk(X, U, E, cols, Y.shape[1], lag)
     K, k_method = stable_gain(A, C, W, V, K) if stable_k else (K, "least squares")
     noise_cov = E @ E.T / E.shape[1]

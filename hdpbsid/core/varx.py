@@ -16,8 +16,10 @@ the same code serves both.
 
 Regularisation follows the toolbox's ``regress(..., 'tikh', 'gcv')``: Tikhonov (ridge)
 least squares whose parameter minimises the generalised cross-validation function
-(Golub, Heath & Wahba 1979; Hansen, *Rank-deficient and discrete ill-posed problems*,
-sec. 7.4).
+(:mod:`hdpbsid.core.ridge`; Golub, Heath & Wahba 1979; Hansen, *Rank-deficient and
+discrete ill-posed problems*, sec. 7.4).  The past window is a policy
+(:class:`PastWindowPolicy`: the criterion and its growing search) whose choice
+(:class:`PastWindowChoice`) carries its inputs and reason.
 """
 
 from __future__ import annotations
@@ -27,8 +29,10 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
+
+from hdpbsid.core.ridge import parse_regularize, r_factor, ridge_gcv, ridge_gcv_r, two_stage_ls
+from hdpbsid.models.report import Choice
 
 __all__ = [
     "LagOperator",
@@ -36,12 +40,18 @@ __all__ = [
     "SampleShift",
     "MatrixLag",
     "past_blocks",
+    "r_factor",
+    "parse_regularize",
     "VarxResult",
     "ridge_gcv",
     "ridge_gcv_r",
     "varx",
     "two_stage_ls",
     "select_past_window",
+    "choose_past_window",
+    "PastWindowPolicy",
+    "PastWindowChoice",
+    "DEFAULT_PAST_WINDOW",
     "search_is_complete",
     "windows_searched",
     "WINDOW_SEARCH_GROWTH",
@@ -380,34 +390,6 @@ def past_blocks(Z: Array, p: int, lag: LagOperator) -> tuple[Array, Mask]:
     return Zp, valid
 
 
-def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
-    """Triangular factor ``R`` of ``[Phi^T, Y^T] = Q R``, computed over column chunks.
-
-    Tall-skinny QR: ``R`` is updated with ``qr([R; next chunk])``, so memory stays at
-    ``O((d + l)(d + l + chunk))`` beyond the data.  ``R`` is ``(d + l) x (d + l)``
-    (zero-padded when there are fewer columns than unknowns); ``R[:d, :d]`` has the
-    singular values of ``Phi``, ``R[:d, d:] = Q_1^T Y^T`` and ``||R[d:, d:]||_F^2`` is the
-    least-squares residual.
-    """
-    d, N = Phi.shape
-    w = d + Y.shape[0]
-    R = np.zeros((0, w))
-    for a in range(0, N, chunk):
-        b = min(N, a + chunk)
-        # [R; Phi^T; Y^T] of this chunk, written once in the column-major order LAPACK's
-        # Householder QR works in (numpy.linalg.qr copies a row-major input first: the
-        # same factorisation, slower)
-        blk = np.empty((R.shape[0] + b - a, w), order="F")
-        blk[: R.shape[0]] = R
-        blk[R.shape[0] :, :d] = Phi[:, a:b].T
-        blk[R.shape[0] :, d:] = Y[:, a:b].T
-        R = scipy.linalg.qr(blk, mode="r", overwrite_a=True, check_finite=False)[0]
-        R = R[: min(R.shape)]  # the (full-shape) zero rows below the triangle dropped
-    if R.shape[0] < w:
-        R = np.vstack([R, np.zeros((w - R.shape[0], w))])
-    return R
-
-
 @dataclass
 class VarxResult:
     """Output of :func:`varx`.
@@ -452,295 +434,6 @@ class VarxResult:
     gcv: float | None = None
     extra: dict = field(default_factory=dict)
     zp_factor: Array | None = None
-
-
-def _ridge_from_svd(Ur: Array, s: Array, Vt: Array, QtY: Array, lam: float) -> Array:
-    """Tikhonov solution ``Theta^T = V diag(s / (s^2 + lam^2)) (Q Ur)^T Y^T``."""
-    filt = s / (s**2 + lam**2)
-    return Vt.T @ (filt[:, None] * (Ur.T @ QtY))
-
-
-def ridge_gcv(
-    Phi: Array, Y: Array, lam: float | None = None, floor: float = 0.0
-) -> tuple[Array, float, float | None]:
-    r"""Tikhonov least squares ``min ||Y - Theta Phi||_F^2 + lam^2 ||Theta||_F^2``.
-
-    With ``lam=None`` the parameter minimises the generalised cross-validation function,
-    which estimates the prediction error of the regularised fit without a hold-out and
-    needs no noise level (Golub, Heath & Wahba 1979): a log-grid search over ``[s_min /
-    1e3, s_max]`` refined by a bounded scalar minimisation on ``log lam``; ``lam = 0``
-    (least squares on the numerical range) is a candidate too, since on exact data GCV
-    decreases to 0 and any ``lam > 0`` would only add bias.
-
-    Parameters
-    ----------
-    Phi : ndarray, shape (d, N)
-        Regressors.
-    Y : ndarray, shape (l, N)
-        Targets.
-    lam : float, optional
-        The ridge parameter, ``>= 0``; ``None`` chooses it by GCV.
-    floor : float, optional
-        Lower bound of the GCV choice, relative to the largest singular value of ``Phi``:
-        data known only to a relative precision (quadrature of projected data) make the
-        exact-fit solution meaningless along the near-null directions of ``Phi``.
-
-    Returns
-    -------
-    Theta : ndarray, shape (l, d)
-        The solution.
-    lam : float
-        The parameter used.
-    G : float or None
-        The GCV function at ``lam`` (``None`` for a given ``lam``).
-
-    Raises
-    ------
-    ValueError
-        If ``lam`` is negative or not finite (from :func:`ridge_gcv_r`).
-
-    Notes
-    -----
-    With the SVD :math:`\Phi^\top = U S V^\top` and filter factors
-    :math:`f_i = s_i^2 / (s_i^2 + \lambda^2)`,
-
-    .. math::
-
-        G(\lambda) = \frac{\lVert Y - \Theta_\lambda \Phi \rVert_F^2}
-                          {\bigl(N - \sum_i f_i\bigr)^2} .
-
-    The SVD is taken of the triangular factor of ``[Phi^T, Y^T]`` (:func:`ridge_gcv_r`),
-    so the long dimension ``N`` meets one QR only.
-
-    References
-    ----------
-    .. [1] G. H. Golub, M. Heath and G. Wahba, "Generalized cross-validation as a method
-       for choosing a good ridge parameter", *Technometrics* 21(2), 215-223, 1979.
-    .. [2] P. C. Hansen, *Rank-Deficient and Discrete Ill-Posed Problems*, SIAM, 1998,
-       sec. 7.4.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> Phi = rng.standard_normal((3, 200))
-    >>> Y = np.array([[1.0, -2.0, 0.5]]) @ Phi + 0.1 * rng.standard_normal((1, 200))
-    >>> Theta, lam, G = ridge_gcv(Phi, Y)
-    >>> Theta.round(1)
-    array([[ 1. , -2. ,  0.5]])
-    """
-    d, N = Phi.shape
-    return ridge_gcv_r(r_factor(Phi, Y), d, N, lam, floor)
-
-
-def _gcv_grid(grid: Array, s: Array, beta2: Array, out_of_range: float, N: int) -> Array:
-    """The GCV function of :func:`ridge_gcv_r` at every ``log lam`` of ``grid`` in one
-    array operation (60 Python-level evaluations cost more than the arithmetic): the
-    same elementwise operations and, per grid point, the same reduction over the
-    singular values (numpy reduces each row of a C-ordered array along its last axis as
-    it reduces a 1-D array); the square of the degrees of freedom is Python's float
-    power, as in the scalar function (``numpy.square`` may differ from it in the last
-    bit), so each value equals the scalar evaluation's bit for bit."""
-    lam2 = np.exp(2.0 * grid)[:, None]
-    f = s[None, :] ** 2 / (s[None, :] ** 2 + lam2)
-    rss = out_of_range + np.sum((1.0 - f) ** 2 * beta2[None, :], axis=1)
-    dof = N - np.sum(f, axis=1)
-    return rss / np.array([v**2 for v in dof.tolist()])
-
-
-def ridge_gcv_r(
-    R: Array, d: int, N: int, lam: float | None = None, floor: float = 0.0
-) -> tuple[Array, float, float | None]:
-    """:func:`ridge_gcv` from the triangular factor ``R`` of ``[Phi^T, Y^T]``.
-
-    The GCV function and the Tikhonov solution need ``R`` and ``N`` only: ``Phi^T = Q
-    R11`` and ``R11 = Ur S V^T`` give the SVD ``Phi^T = (Q Ur) S V^T`` without forming
-    ``Q``, ``R12 = Q^T Y^T`` and the residual outside the range of ``Phi^T`` is
-    ``||R22||_F^2``.  So ``R`` may be accumulated over batches of columns
-    (:mod:`hdpbsid.core.streamed`).
-
-    Parameters
-    ----------
-    R : ndarray, shape (d + l, d + l)
-        Upper-triangular factor of ``[Phi^T, Y^T]`` (``r_factor``), zero-padded.
-    d : int
-        Number of regressors (rows of ``Phi``).
-    N : int
-        Number of columns of ``Phi`` (the GCV's degrees of freedom).
-    lam : float, optional
-        The ridge parameter, ``>= 0``; ``None`` chooses it by GCV.
-    floor : float, optional
-        Lower bound of the GCV choice, relative to the largest singular value.
-
-    Returns
-    -------
-    Theta : ndarray, shape (l, d)
-        The solution.
-    lam : float
-        The parameter used.
-    G : float or None
-        The GCV function at ``lam`` (``None`` for a given ``lam``).
-
-    Raises
-    ------
-    ValueError
-        If ``lam`` is negative or not finite.
-    """
-    # Phi^T = Q R11 and R11 = Ur S V^T give the SVD Phi^T = (Q Ur) S V^T without forming Q
-    Ur, s, Vt = np.linalg.svd(R[:d, :d])
-    QtY = R[:d, d:]  # Q^T Y^T (d x l)
-    beta = Ur.T @ QtY  # (Q Ur)^T Y^T
-    beta2 = np.sum(beta**2, axis=1)
-    out_of_range = float(np.sum(R[d:, d:] ** 2))
-
-    def gcv(loglam: float) -> float:
-        lam2 = np.exp(2.0 * loglam)
-        f = s**2 / (s**2 + lam2)
-        rss = out_of_range + float(np.sum((1.0 - f) ** 2 * beta2))
-        dof = N - float(np.sum(f))
-        return rss / dof**2
-
-    if lam is not None:
-        if not np.isfinite(lam) or lam < 0:
-            raise ValueError(f"regularize (the ridge parameter) must be >= 0, got {lam}")
-        return _ridge_from_svd(Ur, s, Vt, QtY, float(lam)).T, float(lam), None
-    smax = float(s[0]) if s.size else 1.0
-    smin = float(s[s > 0][-1]) if np.any(s > 0) else smax
-    lo, hi = np.log(max(smin * 1e-3, smax * 1e-14)), np.log(smax)
-    grid = np.linspace(lo, hi, 60)
-    vals = _gcv_grid(grid, s, beta2, out_of_range, N)
-    i = int(np.argmin(vals))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    if b > a:
-        from scipy.optimize import minimize_scalar  # here: scipy.optimize is slow to import
-
-        res = minimize_scalar(gcv, bounds=(a, b), method="bounded", options={"xatol": 1e-4})
-        best = float(res.x) if res.fun <= vals[i] else float(grid[i])
-    else:
-        best = float(grid[i])
-    g_best = gcv(best)
-    # lam = 0 (plain least squares on the numerical range) is a candidate as well: on
-    # exact data GCV decreases all the way to 0 and any lam > 0 would only add bias
-    rank_tol = smax * max(d, N) * np.finfo(float).eps
-    r = int(np.sum(s > rank_tol))
-    rss0 = out_of_range + float(np.sum(beta2[r:]))
-    g0 = rss0 / (N - r) ** 2 if N > r else np.inf
-    lam_floor = floor * smax
-    if g0 <= g_best and lam_floor == 0:
-        return _ridge_from_svd(Ur[:, :r], s[:r], Vt[:r], QtY, 0.0).T, 0.0, g0
-    lam_opt = max(float(np.exp(best)), lam_floor)
-    if lam_opt == lam_floor:
-        g_best = gcv(np.log(lam_floor))
-    return _ridge_from_svd(Ur, s, Vt, QtY, lam_opt).T, lam_opt, g_best
-
-
-def two_stage_ls(
-    Phi: Array,
-    Y: Array,
-    Psi: Array,
-    lam: float | None = None,
-    floor: float = 0.0,
-) -> tuple[Array, float, float | None, dict]:
-    r"""Instrumental-variable estimate of ``Y = Theta Phi + E`` (two-stage least squares).
-
-    Least squares is biased when a regressor is correlated with ``E``; instruments
-    uncorrelated with ``E`` and correlated with ``Phi`` restore consistency.  With ``Q``
-    (``N x r``) an orthonormal basis of the row space of ``Psi`` (``r`` its numerical rank),
-    the regressors are replaced by their projection ``Phi Q Q^T`` on the instruments:
-    ``Y Q = Theta Phi Q + E Q`` and ``E Q -> 0`` relative to ``Phi Q`` when ``Psi`` is
-    uncorrelated with ``E``.  The projected regression (``r`` columns) goes through
-    :func:`ridge_gcv`.
-
-    Parameters
-    ----------
-    Phi : ndarray, shape (d, N)
-        Regressors.
-    Y : ndarray, shape (l, N)
-        Targets.
-    Psi : ndarray, shape (k, N)
-        Instruments, ``k >= d`` independent rows (rows of zeros are dropped, the others
-        scaled to unit RMS).
-    lam : float, optional
-        The ridge parameter (``0`` plain IV); ``None`` chooses it by GCV.
-    floor : float, optional
-        Lower bound of the GCV choice (:func:`ridge_gcv`).
-
-    Returns
-    -------
-    Theta : ndarray, shape (l, d)
-        The estimate.
-    lam : float
-        The ridge parameter used.
-    G : float or None
-        The GCV function at ``lam``.
-    info : dict
-        ``{"estimator": "iv", "instruments": r}``.
-
-    Raises
-    ------
-    ValueError
-        If the instruments' numerical rank ``r`` is below the number of regressors ``d``.
-
-    Notes
-    -----
-    The estimate is the generalised IV estimator with weighting
-    :math:`(\Psi \Psi^\top)^{-1}`:
-
-    .. math::
-
-        \Theta = (Y Q)(\Phi Q)^\top \bigl[(\Phi Q)(\Phi Q)^\top\bigr]^{-1} .
-
-    References
-    ----------
-    .. [1] T. Soderstrom and P. Stoica, *Instrumental Variable Methods for System
-       Identification*, Springer, 1983, ch. 3, eq. (3.9).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> Phi = rng.standard_normal((3, 200))
-    >>> Y = np.array([[1.0, -2.0, 0.5]]) @ Phi + 0.1 * rng.standard_normal((1, 200))
-    >>> Psi = np.vstack([Phi, rng.standard_normal((2, 200))])
-    >>> Theta, lam, G, info = two_stage_ls(Phi, Y, Psi, lam=0.0)
-    >>> Theta.round(1), info["instruments"]
-    (array([[ 1. , -2. ,  0.5]]), 5)
-    """
-    d = Phi.shape[0]
-    scale = np.sqrt(np.mean(Psi**2, axis=1))
-    Psi = Psi[scale > 0] / scale[scale > 0, None]
-    Uq, sq, _ = np.linalg.svd(Psi.T, full_matrices=False)
-    r = int(np.sum(sq > sq[0] * max(Psi.shape) * np.finfo(float).eps)) if sq.size else 0
-    if r < d:
-        raise ValueError(
-            f"instrumental variables need at least as many independent instruments as "
-            f"regressors: {r} instruments (numerical rank) for {d} regressors; supply more "
-            f"instrument rows (e.g. more lags of the reference)"
-        )
-    Q = Uq[:, :r]
-    theta, lam_used, g = ridge_gcv(Phi @ Q, Y @ Q, lam, floor=floor)
-    return theta, lam_used, g, {"estimator": "iv", "instruments": r}
-
-
-def parse_regularize(regularize: bool | str | float | None) -> tuple[str, float | None]:
-    """Map the user option to ``(kind, lam)``: kind in {"none", "gcv", "fixed"}."""
-    if regularize is None or regularize is False:
-        return "none", None
-    if regularize is True or (isinstance(regularize, str) and regularize.lower() == "gcv"):
-        return "gcv", None
-    if isinstance(regularize, str):
-        if regularize.lower() == "none":
-            return "none", None
-        raise ValueError(
-            f"regularize must be False/'none', True/'gcv' or a ridge parameter >= 0, "
-            f"got {regularize!r}"
-        )
-    if isinstance(regularize, int | float | np.floating | np.integer):
-        lam = float(regularize)
-        if not np.isfinite(lam) or lam < 0:
-            raise ValueError(f"regularize (the ridge parameter) must be >= 0, got {regularize}")
-        return "fixed", lam
-    raise TypeError(
-        f"regularize must be a bool, 'none', 'gcv' or a float, got {type(regularize).__name__}"
-    )
 
 
 def _regression_factor(
@@ -863,21 +556,8 @@ def varx(
             f"reduce p (past window) or supply more data"
         )
     kind, lam = parse_regularize(regularize)
-    gcv_val = None
-    extra: dict = {}
-    R = None
     if instruments is not None:
-        Psi = np.asarray(instruments, dtype=float)
-        if Psi.ndim != 2 or Psi.shape[1] != Z.shape[1]:
-            raise ValueError(
-                f"instruments must be a 2-D array with {Z.shape[1]} columns (one per data "
-                f"column), got shape {Psi.shape}"
-            )
-        exo = [int(i) for i in exogenous]
-        if any(i < 0 or i >= m + l for i in exo):
-            raise ValueError(f"exogenous must index rows of [U; Y] (0..{m + l - 1}), got {exo}")
-        exo_rows = [b * (m + l) + i for b in range(p) for i in exo]
-        Psi = np.vstack([Psi[:, cols], Zp[exo_rows]])
+        Psi = _instrument_rows(instruments, exogenous, Z, Zp, cols, p, m + l)
         theta, lam_used, gcv_val, extra = two_stage_ls(
             Phi,
             Yc,
@@ -885,21 +565,11 @@ def varx(
             lam if kind == "fixed" else (None if kind == "gcv" else 0.0),
             floor=ridge_floor if kind == "gcv" else 0.0,
         )
-    elif kind == "none":
-        # minimum-norm least squares from the R factor (same rcond as numpy.linalg.lstsq)
-        R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)
-        rcond = np.finfo(float).eps * max(Phi.shape)
-        theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
-        lam_used = 0.0
+        R = None
     else:
         R = _regression_factor(Z, Phi, Yc, p, m, lag, feedthrough)  # kept for the states
-        theta, lam_used, gcv_val = ridge_gcv_r(
-            R,
-            nreg,
-            cols.size,
-            lam if kind == "fixed" else None,
-            floor=ridge_floor if kind == "gcv" else 0.0,
-        )
+        theta, lam_used, gcv_val = _least_squares(R, Phi, nreg, cols.size, kind, lam, ridge_floor)
+        extra = {}
     coef = theta[:, : p * (m + l)]
     D = theta[:, p * (m + l) :] if (feedthrough and m > 0) else np.zeros((l, m))
     # coef = [Xi_p, ..., Xi_1]  ->  Xi[j-1] = Xi_j
@@ -921,20 +591,246 @@ def varx(
     )
 
 
-#: the past-window search (:func:`select_past_window`) factors the lags up to
-#: ``p_max / WINDOW_SEARCH_GROWTH`` first and grows the window searched until it is
-#: ``WINDOW_SEARCH_GROWTH`` times the best window found so far (or ``p_max``).  Why it may
-#: stop there: AIC trades the fit a longer past adds -- the predictor's Markov parameters
-#: ``C At^{j-1} Bt`` beyond lag ``p``, which decay with the predictor's poles -- against a
-#: penalty linear in ``p``; once the lags up to three times the best window have not paid
-#: for themselves, the ones beyond carry what is left of a decaying tail.  A dead time
-#: or a long-period disturbance is no decaying tail, which is why the first block is a
-#: third of the cap (a dead time up to ``p_max / 3`` samples is seen).  It is a rule of
-#: thumb, not a bound (the AIC of a noisy record has local minima): the factor 3 leaves a
-#: margin over the largest factor the records of ``bench/regression.py`` need to find the
-#: full search's window.  A record whose best window is short needs a fraction of the
-#: factorisation, whose cost grows with the square of the window searched.
-WINDOW_SEARCH_GROWTH = 3.0
+def _instrument_rows(
+    instruments: Array, exogenous: Sequence[int], Z: Array, Zp: Array, cols: Array, p: int, d: int
+) -> Array:
+    """The instruments of :func:`varx` on its columns ``cols``, followed by the lagged
+    blocks of the ``exogenous`` rows of ``Z`` (``d = m + l`` rows), which are their own
+    instruments."""
+    Psi = np.asarray(instruments, dtype=float)
+    if Psi.ndim != 2 or Psi.shape[1] != Z.shape[1]:
+        raise ValueError(
+            f"instruments must be a 2-D array with {Z.shape[1]} columns (one per data "
+            f"column), got shape {Psi.shape}"
+        )
+    exo = [int(i) for i in exogenous]
+    if any(i < 0 or i >= d for i in exo):
+        raise ValueError(f"exogenous must index rows of [U; Y] (0..{d - 1}), got {exo}")
+    exo_rows = [b * d + i for b in range(p) for i in exo]
+    return np.vstack([Psi[:, cols], Zp[exo_rows]])
+
+
+def _least_squares(
+    R: Array, Phi: Array, nreg: int, ncols: int, kind: str, lam: float | None, ridge_floor: float
+) -> tuple[Array, float, float | None]:
+    """The VARX coefficients ``theta`` from the triangular factor ``R`` of
+    ``[Phi^T, Yc^T]``: minimum-norm least squares (``kind == "none"``, the ``rcond`` of
+    :func:`numpy.linalg.lstsq`) or ridge (:func:`ridge_gcv_r`); with the ridge parameter
+    used and the GCV value (None when not computed)."""
+    if kind == "none":
+        rcond = np.finfo(float).eps * max(Phi.shape)
+        theta = np.linalg.lstsq(R[:nreg, :nreg], R[:nreg, nreg:], rcond=rcond)[0].T
+        return theta, 0.0, None
+    return ridge_gcv_r(
+        R,
+        nreg,
+        ncols,
+        lam if kind == "fixed" else None,
+        floor=ridge_floor if kind == "gcv" else 0.0,
+    )
+
+
+@dataclass(frozen=True)
+class PastWindowPolicy:
+    """How the past window ``p`` of the VARX is chosen (:func:`select_past_window`).
+
+    An information criterion of the nested VARX fits ``p = p_min..p_max``, searched on a
+    growing factorisation: the lags up to ``p_max / growth`` first, then more until the
+    lags factored reach ``growth`` times the best window so far (or ``p_max``).
+
+    Attributes
+    ----------
+    criterion : {"aic", "bic"}
+        Akaike's or Schwarz's criterion.
+    growth : float or None
+        The growth factor of the search (the reason at the field); None searches every
+        ``p``.
+    rel_floor : float
+        Floor added to the residual covariance of outputs scaled to unit RMS.
+    gram : bool
+        With the sample shift, search on the Gram matrix of the lagged samples first
+        (:mod:`hdpbsid.core.lag_gram`), keeping its choice only when certified.
+
+    Raises
+    ------
+    ValueError
+        If ``criterion`` is not ``"aic"``/``"bic"`` or ``growth`` is not ``> 1`` or None.
+
+    Examples
+    --------
+    >>> policy = PastWindowPolicy()
+    >>> policy.first_target(1, 30), policy.next_target(10, 2, 30)
+    (10, None)
+    """
+
+    #: Akaike's criterion: the predictor's Markov parameters decay, so the window is a
+    #: bias-variance trade-off, which AIC weighs (BIC aims at a true finite order)
+    criterion: str = "aic"
+    #: AIC trades the fit a longer past adds -- the Markov parameters ``C At^{j-1} Bt``
+    #: beyond lag ``p``, which decay with the predictor's poles -- against a penalty
+    #: linear in ``p``; once the lags up to three times the best window have not paid for
+    #: themselves, the ones beyond carry what is left of a decaying tail.  A dead time or
+    #: a long-period disturbance is no decaying tail, which is why the first block is a
+    #: third of the cap (a dead time up to ``p_max / 3`` samples is seen).  A rule of
+    #: thumb, not a bound (the AIC of a noisy record has local minima): the factor 3
+    #: leaves a margin over the largest factor the regression records need to find the
+    #: full search's window, and a record whose best window is short needs a fraction of
+    #: the factorisation, whose cost grows with the square of the window searched.
+    growth: float | None = 3.0
+    #: a noise-free record fits to rounding level for every ``p >= n``: the floor (far
+    #: above the round-off of unit-RMS outputs, far below any noise) stops round-off from
+    #: choosing among exact fits, so the smallest exact ``p`` wins
+    rel_floor: float = 1e-12
+    #: the Gram matrix costs ``O(N d^2 p)`` instead of the QR's ``O(N d^2 p^2)``
+    gram: bool = True
+
+    def __post_init__(self) -> None:
+        if self.criterion not in ("aic", "bic"):
+            raise ValueError(f"criterion must be 'aic' or 'bic', got {self.criterion!r}")
+        if self.growth is not None and not self.growth > 1.0:
+            raise ValueError(
+                f"growth must be a number > 1 or None (search every p), got {self.growth!r}"
+            )
+
+    def penalty(self, n: int) -> float:
+        """The criterion's penalty per parameter on ``n`` columns.
+
+        Parameters
+        ----------
+        n : int
+            Columns of the regression.
+
+        Returns
+        -------
+        float
+            2 (AIC) or ``log n`` (BIC).
+        """
+        return {"aic": 2.0, "bic": np.log(n)}[self.criterion]
+
+    def first_target(self, p_min: int, p_max: int) -> int:
+        """The lags factored by the first step of the search.
+
+        Parameters
+        ----------
+        p_min : int
+            Smallest window considered.
+        p_max : int
+            Largest window considered.
+
+        Returns
+        -------
+        int
+            ``p_max / growth`` rounded up (``p_max`` without growth), at least ``p_min``.
+        """
+        lo = max(p_min, 1)
+        step = p_max if self.growth is None else max(1, int(np.ceil(p_max / self.growth)))
+        return min(p_max, max(step, lo))
+
+    def next_target(self, done: int, best: int, p_max: int) -> int | None:
+        """The lags the search factors next, or None when the ``done`` lags settle it.
+
+        Parameters
+        ----------
+        done : int
+            Lags factored so far.
+        best : int
+            The best window among them.
+        p_max : int
+            Largest window considered.
+
+        Returns
+        -------
+        int or None
+            ``growth * best`` rounded up (at least one more lag, at most ``p_max``);
+            None once ``p_max`` or ``growth * best`` lags are factored.
+        """
+        if done >= p_max or self.growth is None or done >= self.growth * best:
+            return None
+        return min(p_max, max(int(np.ceil(self.growth * best)), done + 1))
+
+
+#: the default policy of :func:`select_past_window`
+DEFAULT_PAST_WINDOW = PastWindowPolicy()
+#: the growth factor of the default past-window search (the reason at
+#: :attr:`PastWindowPolicy.growth`)
+WINDOW_SEARCH_GROWTH = DEFAULT_PAST_WINDOW.growth
+
+
+@dataclass(frozen=True)
+class PastWindowChoice:
+    """The past window chosen by a :class:`PastWindowPolicy`, with its inputs.
+
+    Attributes
+    ----------
+    p : int
+        The window chosen.
+    criterion_values : ndarray, shape (p_max,)
+        ``criterion_values[p - 1]`` the criterion value; ``inf`` for ``p < p_min`` and
+        for the windows not searched.
+    p_min : int
+        Smallest window considered.
+    p_max : int
+        Largest window considered.
+    policy : PastWindowPolicy
+        The rule that chose it.
+
+    Examples
+    --------
+    >>> crit = np.array([3.0, 1.0, 2.0, 2.5, 2.6, 2.7, np.inf])
+    >>> choice = PastWindowChoice(2, crit, 1, 7, PastWindowPolicy())
+    >>> choice.searched, choice.choice().value
+    (6, 2)
+    >>> choice.reason()
+    'min AIC of the VARX fit over p in [1, 7], searched up to p = 6 (3 x the best window)'
+    """
+
+    p: int
+    criterion_values: Array
+    p_min: int
+    p_max: int
+    policy: PastWindowPolicy
+
+    @property
+    def searched(self) -> int:
+        """The largest window whose criterion was evaluated (:func:`windows_searched`)."""
+        return windows_searched(self.criterion_values)
+
+    def reason(self, bounds: str = "") -> str:
+        """Why ``p``: the criterion, the range and how far the search went.
+
+        Parameters
+        ----------
+        bounds : str, optional
+            The rule of ``p_min`` and ``p_max``, shown in parentheses after the range.
+
+        Returns
+        -------
+        str
+            E.g. ``"min AIC of the VARX fit over p in [1, 30], searched up to p = 12
+            (3 x the best window)"``.
+        """
+        searched = self.searched
+        return (
+            f"min {self.policy.criterion.upper()} of the VARX fit over p in "
+            f"[{self.p_min}, {self.p_max}]{f' ({bounds})' if bounds else ''}, "
+            f"searched up to p = {searched}"
+            + ("" if searched == self.p_max else f" ({self.policy.growth:g} x the best window)")
+        )
+
+    def choice(self, bounds: str = "") -> Choice[int]:
+        """The window and its reason as a :class:`~hdpbsid.models.report.Choice`.
+
+        Parameters
+        ----------
+        bounds : str, optional
+            The rule of ``p_min`` and ``p_max`` (:meth:`reason`).
+
+        Returns
+        -------
+        Choice of int
+            ``Choice(p, reason(bounds))``.
+        """
+        return Choice(self.p, self.reason(bounds))
 
 
 def windows_searched(crit: Array) -> int:
@@ -965,7 +861,7 @@ def search_is_complete(
     """Whether the evaluated criterion values settle the past window.
 
     The search has settled it when it reached ``p_max`` or ``growth`` times the best window
-    (:data:`WINDOW_SEARCH_GROWTH`, the reason there).
+    (:attr:`PastWindowPolicy.growth`, the reason there).
 
     Parameters
     ----------
@@ -1039,7 +935,7 @@ def select_past_window(
     lag: LagOperator | None = None,
     feedthrough: bool = False,
     criterion: str = "aic",
-    rel_floor: float = 1e-12,
+    rel_floor: float = DEFAULT_PAST_WINDOW.rel_floor,
     growth: float | None = WINDOW_SEARCH_GROWTH,
     gram: bool = True,
 ) -> tuple[int, Array]:
@@ -1126,64 +1022,141 @@ def select_past_window(
     >>> p
     1
     """
+    policy = PastWindowPolicy(criterion, growth, rel_floor, gram)
+    choice = choose_past_window(U, Y, p_max, p_min, lag, feedthrough, policy)
+    return choice.p, choice.criterion_values
+
+
+def choose_past_window(
+    U: Array,
+    Y: Array,
+    p_max: int,
+    p_min: int = 1,
+    lag: LagOperator | None = None,
+    feedthrough: bool = False,
+    policy: PastWindowPolicy = DEFAULT_PAST_WINDOW,
+) -> PastWindowChoice:
+    """The past window chosen by ``policy`` (:func:`select_past_window`, its Notes).
+
+    Parameters
+    ----------
+    U : ndarray, shape (m, N)
+        Inputs.
+    Y : ndarray, shape (l, N)
+        Outputs.
+    p_max : int
+        Largest window considered.
+    p_min : int, optional
+        Smallest window considered.
+    lag : LagOperator, optional
+        The "one step back" operator (default :class:`SampleShift`).
+    feedthrough : bool, optional
+        Include ``D u_k`` in every VARX.
+    policy : PastWindowPolicy, optional
+        The criterion and the search.
+
+    Returns
+    -------
+    PastWindowChoice
+        The window, the criterion values and the policy.
+
+    Raises
+    ------
+    ValueError
+        If the usable columns are not more than the regressors of ``p_max``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((1, 300))
+    >>> y = np.zeros((1, 300))
+    >>> for k in range(1, 300):
+    ...     y[0, k] = 0.8 * y[0, k - 1] + u[0, k - 1]
+    >>> choose_past_window(u, y, p_max=6).p
+    1
+    """
     lag = SampleShift() if lag is None else lag
-    if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
-    if growth is not None and not growth > 1.0:
-        raise ValueError(f"growth must be a number > 1 or None (search every p), got {growth!r}")
     m, l = U.shape[0], Y.shape[0]
     Z = np.vstack([U, Y])
-    ncols = Z.shape[1]
-    all_valid = np.ones(ncols, dtype=bool)
-    valid = all_valid.copy()
-    for j in range(1, p_max + 1):
-        valid &= lag.valid_columns(all_valid, j)
-    cols = np.flatnonzero(valid)
+    cols = _columns_valid_for(lag, Z.shape[1], p_max)
     N = cols.size
     d0 = m if (feedthrough and m > 0) else 0
     dtot = d0 + p_max * (m + l)
     if N <= dtot + l:
         raise ValueError(f"p_max={p_max} needs {dtot} VARX regressors but only {N} usable columns")
-    if gram and type(lag) is SampleShift:
-        got = _window_search_by_gram(U, Y, p_max, p_min, d0, criterion, rel_floor, growth)
-        if got is not None:
-            return got
+    got = None
+    if policy.gram and type(lag) is SampleShift:
+        got = _window_search_by_gram(
+            U, Y, p_max, p_min, d0, policy.criterion, policy.rel_floor, policy.growth
+        )
+    if got is None:
+        got = _window_search_by_qr(U, Y, Z, cols, lag, p_max, p_min, d0, policy)
+    return PastWindowChoice(got[0], got[1], p_min, p_max, policy)
+
+
+def _columns_valid_for(lag: LagOperator, ncols: int, p_max: int) -> NDArray[np.intp]:
+    """The columns on which every lag ``1..p_max`` of ``lag`` is determined."""
+    all_valid = np.ones(ncols, dtype=bool)
+    valid = all_valid.copy()
+    for j in range(1, p_max + 1):
+        valid &= lag.valid_columns(all_valid, j)
+    return np.flatnonzero(valid)
+
+
+def _lag_block(
+    U: Array, Z: Array, cols: Array, lag: LagOperator, first: int, last: int, d0: int
+) -> Array:
+    """The regressor columns of the lags ``first..last`` on ``cols`` (one row per
+    column), with ``u_k`` ahead of them when ``first == 1`` and ``d0`` (feedthrough): the
+    models for ``p = 1..p_max`` are nested; each column scaled to unit RMS (keeps the QR
+    well conditioned, does not change the fit)."""
+    d = Z.shape[0]
+    lead = d0 if first == 1 else 0
+    block = np.empty((cols.size, lead + (last - first + 1) * d), order="F")
+    if lead:
+        block[:, :lead] = U[:, cols].T
+    for i, j in enumerate(range(first, last + 1)):
+        a = lead + i * d
+        block[:, a : a + d] = lag.apply(Z, j)[:, cols].T
+    cs = np.sqrt(np.mean(block**2, axis=0))
+    cs[cs == 0] = 1.0
+    block /= cs[None, :]
+    return block
+
+
+def _window_search_by_qr(
+    U: Array,
+    Y: Array,
+    Z: Array,
+    cols: Array,
+    lag: LagOperator,
+    p_max: int,
+    p_min: int,
+    d0: int,
+    policy: PastWindowPolicy,
+) -> tuple[int, Array]:
+    """:func:`select_past_window` by the growing QR (:class:`_GrowingQR`) of the lagged
+    regressors on the columns ``cols`` valid for ``p_max``; ``Sigma_p`` of the outputs
+    scaled to unit RMS."""
+    m, l = U.shape[0], Y.shape[0]
+    N = cols.size
     scale = np.sqrt(np.mean(Y[:, cols] ** 2, axis=1))
     scale[scale == 0] = 1.0
     qr = _GrowingQR((Y[:, cols] / scale[:, None]).T)
-
-    def regressors(first: int, last: int) -> Array:
-        # u_k (first block, with feedthrough), then z_{k-first} ... z_{k-last}: the models
-        # for p = 1..p_max are nested; each column scaled to unit RMS (keeps the QR well
-        # conditioned, does not change the fit)
-        lead = m if (d0 and first == 1) else 0
-        block = np.empty((N, lead + (last - first + 1) * (m + l)), order="F")
-        if lead:
-            block[:, :lead] = U[:, cols].T
-        for i, j in enumerate(range(first, last + 1)):
-            a = lead + i * (m + l)
-            block[:, a : a + m + l] = lag.apply(Z, j)[:, cols].T
-        cs = np.sqrt(np.mean(block**2, axis=0))
-        cs[cs == 0] = 1.0
-        block /= cs[None, :]
-        return block
-
     crit = np.full(p_max, np.inf)
-    pen = {"aic": 2.0, "bic": np.log(N)}
+    pen = policy.penalty(N)
     lo = max(p_min, 1)
-    step = p_max if growth is None else max(1, int(np.ceil(p_max / growth)))
-    done, target = 0, min(p_max, max(step, lo))
-    while True:
-        qr.add(regressors(done + 1, target))
+    done, target = 0, policy.first_target(p_min, p_max)
+    while target is not None:
+        qr.add(_lag_block(U, Z, cols, lag, done + 1, target, d0))
         for p in range(max(lo, done + 1), target + 1):
             q = d0 + p * (m + l)
-            sigma = qr.residual_gram(q) / N + rel_floor * np.eye(l)
-            crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + pen[criterion] * l * q
+            sigma = qr.residual_gram(q) / N + policy.rel_floor * np.eye(l)
+            crit[p - 1] = N * np.linalg.slogdet(sigma)[1] + pen * l * q
         done = target
         best = int(np.argmin(crit)) + 1
-        if done >= p_max or growth is None or done >= growth * best:
-            return best, crit
-        target = min(p_max, max(int(np.ceil(growth * best)), done + 1))
+        target = policy.next_target(done, best, p_max)
+    return best, crit
 
 
 def _window_search_by_gram(
@@ -1214,13 +1187,13 @@ def _window_search_by_gram(
     energy = np.sum(Z * Z, axis=1)
     lead = list(range(m)) if d0 else []  # u_k, with feedthrough
     outputs = [m + c for c in range(l)]  # y_k
-    pen = {"aic": 2.0, "bic": np.log(n)}[criterion]
+    policy = PastWindowPolicy(criterion, growth, rel_floor)
+    pen = policy.penalty(n)
     crit = np.full(p_max, np.inf)
     lo = max(p_min, 1)
-    step = p_max if growth is None else max(1, int(np.ceil(p_max / growth)))
-    done, target = 0, min(p_max, max(step, lo))
+    done, target = 0, policy.first_target(p_min, p_max)
     floor = rel_floor * np.eye(l)
-    while True:
+    while target is not None:
         # the lags searched so far only: a record the Gram cannot serve (its Cholesky
         # fails) costs a fraction of the QR's first step
         idx = lead + list(range(d, (target + 1) * d)) + outputs
@@ -1249,6 +1222,5 @@ def _window_search_by_gram(
         if np.any((margin <= slack) & (ps != best)):
             return None
         done = target
-        if done >= p_max or growth is None or done >= growth * best:
-            return best, crit
-        target = min(p_max, max(int(np.ceil(growth * best)), done + 1))
+        target = policy.next_target(done, best, p_max)
+    return best, crit

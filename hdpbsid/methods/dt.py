@@ -14,7 +14,7 @@ Defaults (all reported in ``model.options``):
   (:func:`hdpbsid.core.varx.select_past_window`), where ``p_max`` keeps
   ``p (m + l) <= Ns / 10`` and ``p <= 200``, and ``p_min`` makes ``f l`` exceed the order
   (or ``max_order`` when the order is to be selected); the search stops once it covers
-  three times the best window (:data:`hdpbsid.core.varx.WINDOW_SEARCH_GROWTH`);
+  three times the best window (:attr:`hdpbsid.core.varx.PastWindowPolicy.growth`);
 * ``f=None``: ``f = p`` (as in the toolbox examples);
 * ``order=None``: the largest log-gap of the singular values
   (:func:`hdpbsid.core.pbsid.select_order`) among orders ``1..max_order`` (default 10);
@@ -32,6 +32,7 @@ Defaults (all reported in ``model.options``):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,14 +40,15 @@ from numpy.typing import NDArray
 
 from hdpbsid.bases.memo import memoize
 from hdpbsid.core.blocks import BlockLag
-from hdpbsid.core.pbsid import SubspaceStage, pbsid_core, subspace_stage
+from hdpbsid.core.pbsid import CoreResult, SubspaceStage, pbsid_core, subspace_stage
 from hdpbsid.core.varx import (
-    WINDOW_SEARCH_GROWTH,
     LagOperator,
+    PastWindowChoice,
+    PastWindowPolicy,
     SampleShift,
+    choose_past_window,
     search_is_complete,
     select_past_window,
-    windows_searched,
 )
 from hdpbsid.data.checks import (
     check_method_args,
@@ -57,14 +59,49 @@ from hdpbsid.data.records import as_records
 from hdpbsid.models.model import DiscreteModel, StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_dt", "identify_discrete", "default_windows"]
+__all__ = ["identify_dt", "identify_discrete", "default_windows", "WindowBounds"]
 
 Array = NDArray[np.float64]
 
-#: ratio of samples to VARX regressors per output kept by the default ``p`` rule
-SAMPLES_PER_REGRESSOR = 10
-#: upper limit of the default past window
-P_CAP = 200
+
+@dataclass(frozen=True)
+class WindowBounds:
+    """The range of the default past window of method ``"dt"`` (:func:`default_windows`).
+
+    Attributes
+    ----------
+    samples_per_regressor : int
+        Samples per VARX regressor per output: ``p (m + l) <= Ns / samples_per_regressor``.
+    p_cap : int
+        The largest default past window.
+
+    Examples
+    --------
+    >>> WindowBounds().rule
+    'p*(m+l) <= Ns/10, p <= 200, f*l >= required rows'
+    """
+
+    #: the VARX variance grows like ``1 / (Ns - p (m + l))``: ten samples per regressor
+    #: keep it within about a tenth of the asymptotic variance ``1 / Ns``
+    samples_per_regressor: int = 10
+    #: the cost: the past-window criterion factors up to ``p_cap`` lags, the costliest
+    #: step of a fit, and windows this long are met only on slowly sampled dead times
+    p_cap: int = 200
+
+    @property
+    def rule(self) -> str:
+        """The bounds as the past-window rule reports them (``options["p_rule"]``)."""
+        return (
+            f"p*(m+l) <= Ns/{self.samples_per_regressor}, p <= {self.p_cap}, f*l >= required rows"
+        )
+
+
+#: the bounds :func:`default_windows` applies
+WINDOW_BOUNDS = WindowBounds()
+#: samples per VARX regressor per output of the default ``p`` rule (:class:`WindowBounds`)
+SAMPLES_PER_REGRESSOR = WINDOW_BOUNDS.samples_per_regressor
+#: upper limit of the default past window (:class:`WindowBounds`)
+P_CAP = WINDOW_BOUNDS.p_cap
 #: the data-driven settings a refit of this method on a longer record keeps from the
 #: candidate it reproduces (:func:`hdpbsid.selection.auto.refit_keeps`): the past and future
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
@@ -87,8 +124,8 @@ def default_windows(
     ``f l`` must be at least the order (``max_order + 1`` when the order is selected, so
     that a gap after every candidate exists), ``f <= p``, and the VARX needs ``p (m + l) <
     Ns - p`` (more equations than unknowns).  The default rule keeps ``p (m + l) <= Ns /
-    10`` (:data:`SAMPLES_PER_REGRESSOR`: the VARX variance grows like ``1 / (Ns - p (m +
-    l))``) and ``p <= 200`` (:data:`P_CAP`, the cost).
+    10`` (:attr:`WindowBounds.samples_per_regressor`: the VARX variance grows like
+    ``1 / (Ns - p (m + l))``) and ``p <= 200`` (:attr:`WindowBounds.p_cap`, the cost).
 
     Parameters
     ----------
@@ -145,12 +182,13 @@ def default_windows(
             )
         return p, p
     p_min = max(f_min, f or 1)
-    p_max = min(P_CAP, ns // (SAMPLES_PER_REGRESSOR * (m + l)))
+    bounds = WINDOW_BOUNDS
+    p_max = min(bounds.p_cap, ns // (bounds.samples_per_regressor * (m + l)))
     if p_max < p_min:
         raise ValueError(
             f"the record is too short for {what}: it needs a past window p >= {p_min}, but "
             f"with Ns={ns} samples and m+l={m + l} signals the default rule "
-            f"p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR} allows only p <= {p_max}; supply more "
+            f"p*(m+l) <= Ns/{bounds.samples_per_regressor} allows only p <= {p_max}; supply more "
             f"data, ask for a smaller order, or pass p explicitly"
         )
     return p_min, p_max
@@ -279,60 +317,23 @@ def identify_discrete(
     >>> np.sort_complex(np.linalg.eigvals(dmodel.A)).round(4)  # exp(lambda dt)
     array([0.9755-0.0959j, 0.9755+0.0959j])
     """
-    y = check_signal(y, "y")
-    ns, l = y.shape
-    if l == 0:
-        raise ValueError("y must have at least one output channel, got shape (Ns, 0)")
-    u = np.zeros((ns, 0)) if u is None else check_signal(u, "u", ns)
-    m = u.shape[1]
+    u, y = _signals(u, y)
+    (ns, l), m = y.shape, u.shape[1]
     order, p, f, mo = check_method_args(order, p, f, max_order)
     if p_criterion not in ("aic", "bic"):
         raise ValueError(f"p_criterion must be 'aic' or 'bic', got {p_criterion!r}")
-    if isinstance(dt, bool) or not isinstance(dt, int | float | np.floating | np.integer):
-        raise TypeError(f"dt must be a positive real number, got {type(dt).__name__}")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive finite sampling interval, got {dt}")
-    fw = f if f is not None else p
-    if order is None and max_order is None and fw is not None:
-        # explicit windows: consider every order the f*l singular values allow
-        mo = min(mo, fw * l - 1)
-        if mo < 1:
-            raise ValueError(
-                f"order selection needs f*l >= 2 singular values, got f*l = {fw * l}; "
-                f"increase f/p or pass an order"
-            )
+    _check_interval(dt)
+    if order is None and max_order is None:
+        mo = _orders_the_windows_allow(mo, f if f is not None else p, l)
     p_min, p_max = default_windows(ns, m, l, order, mo, p, f)
-
-    su = _rms(u, "u") if (normalize and m) else np.ones(m)
-    sy = _rms(y, "y") if normalize else np.ones(l)
+    su, sy = _channel_scales(u, y, normalize)
     U = (u / su).T
     Y = (y / sy).T
-
-    crit = None
-    p_rule = "given"
+    window = None
     if p is None:
-        if lag is None or type(lag) is SampleShift:
-            # every order of an order selection asks the same question of the same data
-            crit = _past_window_criteria(U, Y, p_max, feedthrough, p_criterion).copy()
-            crit[: p_min - 1] = np.inf
-            if search_is_complete(crit, p_max):
-                p = int(np.argmin(crit)) + 1
-            else:
-                # the shared search stopped before it could settle windows >= p_min
-                p, crit = select_past_window(
-                    U, Y, p_max, p_min=p_min, feedthrough=feedthrough, criterion=p_criterion
-                )
-        else:
-            p, crit = select_past_window(
-                U, Y, p_max, p_min=p_min, lag=lag, feedthrough=feedthrough, criterion=p_criterion
-            )
-        searched = windows_searched(crit)
-        p_rule = (
-            f"min {p_criterion.upper()} of the VARX fit over p in [{p_min}, {p_max}] "
-            f"(p*(m+l) <= Ns/{SAMPLES_PER_REGRESSOR}, p <= {P_CAP}, f*l >= required rows), "
-            f"searched up to p = {searched}"
-            + ("" if searched == p_max else f" ({WINDOW_SEARCH_GROWTH:g} x the best window)")
-        )
+        policy = PastWindowPolicy(criterion=p_criterion)
+        window = _past_window(U, Y, p_min, p_max, lag, feedthrough, policy)
+        p = window.p
     f_rule = "given" if f is not None else "f = p"
     f = p if f is None else f
     shared = lag is None or type(lag) is SampleShift
@@ -349,32 +350,116 @@ def identify_discrete(
         max_order=mo if order is None else None,
         stage=_shared_subspace_stage(U, Y, p, f, feedthrough, regularize) if shared else None,
     )
-    # undo the normalisation: u = su * us, y = sy * ys
-    A = core.A
+    settings = {"method": "dt", "normalize": normalize, "input_scale": su, "output_scale": sy}
+    options = _options(core, settings, window, f_rule, float(dt), ns)
+    if order is None:
+        options["max_order"] = mo
+    return _scaled_back(core, su, sy, options, float(dt))
+
+
+def _options(
+    core: CoreResult,
+    settings: dict[str, Any],
+    window: PastWindowChoice | None,
+    f_rule: str,
+    dt: float,
+    ns: int,
+) -> dict[str, Any]:
+    """``model.options`` of :func:`identify_discrete`: the core's, the method's
+    ``settings``, the windows and their rules (``window`` None: ``p`` was given)."""
+    options = dict(core.options)
+    options.update(
+        {
+            **settings,
+            "p_rule": "given" if window is None else window.choice(WINDOW_BOUNDS.rule).reason,
+            "p_criterion_values": None if window is None else window.criterion_values,
+            "f_rule": f_rule,
+            "dt": dt,
+            "n_samples": ns,
+            "n_columns_used": int(core.columns.size),
+        }
+    )
+    return options
+
+
+def _signals(u: Any, y: Any) -> tuple[Array, Array]:
+    """``u`` (``(Ns, 0)`` for a time series) and ``y`` checked as ``(Ns, k)`` arrays."""
+    y = check_signal(y, "y")
+    ns, l = y.shape
+    if l == 0:
+        raise ValueError("y must have at least one output channel, got shape (Ns, 0)")
+    u = np.zeros((ns, 0)) if u is None else check_signal(u, "u", ns)
+    return u, y
+
+
+def _channel_scales(u: Array, y: Array, normalize: bool) -> tuple[Array, Array]:
+    """The RMS of every channel when ``normalize`` (ones otherwise): the identification
+    runs on ``u / su``, ``y / sy``."""
+    m, l = u.shape[1], y.shape[1]
+    su = _rms(u, "u") if (normalize and m) else np.ones(m)
+    sy = _rms(y, "y") if normalize else np.ones(l)
+    return su, sy
+
+
+def _check_interval(dt: Any) -> None:
+    """``dt`` a positive finite real number (TypeError, ValueError)."""
+    if isinstance(dt, bool) or not isinstance(dt, int | float | np.floating | np.integer):
+        raise TypeError(f"dt must be a positive real number, got {type(dt).__name__}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive finite sampling interval, got {dt}")
+
+
+def _orders_the_windows_allow(mo: int, fw: int | None, l: int) -> int:
+    """The largest order of a selection with explicit windows: every order the ``f l``
+    singular values allow (``mo`` when no window is given)."""
+    if fw is None:
+        return mo
+    mo = min(mo, fw * l - 1)
+    if mo < 1:
+        raise ValueError(
+            f"order selection needs f*l >= 2 singular values, got f*l = {fw * l}; "
+            f"increase f/p or pass an order"
+        )
+    return mo
+
+
+def _past_window(
+    U: Array,
+    Y: Array,
+    p_min: int,
+    p_max: int,
+    lag: LagOperator | None,
+    feedthrough: bool,
+    policy: PastWindowPolicy,
+) -> PastWindowChoice:
+    """The past window by ``policy`` in ``[p_min, p_max]``.  With the sample shift the
+    criterion of every window from 1 on is shared by the orders of an order selection
+    (:func:`_past_window_criteria`, memoised) and used when it settles the windows
+    ``>= p_min``; otherwise the search runs from ``p_min``."""
+    if lag is None or type(lag) is SampleShift:
+        # every order of an order selection asks the same question of the same data
+        crit = _past_window_criteria(U, Y, p_max, feedthrough, policy.criterion).copy()
+        crit[: p_min - 1] = np.inf
+        if search_is_complete(crit, p_max, policy.growth):
+            return PastWindowChoice(int(np.argmin(crit)) + 1, crit, p_min, p_max, policy)
+        # the shared search stopped before it could settle windows >= p_min
+        return choose_past_window(U, Y, p_max, p_min, feedthrough=feedthrough, policy=policy)
+    return choose_past_window(U, Y, p_max, p_min, lag, feedthrough, policy)
+
+
+def _scaled_back(
+    core: CoreResult, su: Array, sy: Array, options: dict[str, Any], dt: float
+) -> DiscreteModel:
+    """The sampled model of the core's result on channels scaled to unit RMS, in the
+    record's units: ``u = su * us``, ``y = sy * ys``."""
+    m = su.size
     B = core.B / su[None, :] if m else core.B
     C = core.C * sy[:, None]
     D = (sy[:, None] * core.D / su[None, :]) if m else core.D
     K = core.K / sy[None, :]
     noise_cov = sy[:, None] * core.noise_covariance * sy[None, :]
-    options = dict(core.options)
-    options.update(
-        {
-            "method": "dt",
-            "normalize": normalize,
-            "input_scale": su,
-            "output_scale": sy,
-            "p_rule": p_rule,
-            "p_criterion_values": crit,
-            "f_rule": f_rule,
-            "dt": float(dt),
-            "n_samples": ns,
-            "n_columns_used": int(core.columns.size),
-        }
-    )
-    if order is None:
-        options["max_order"] = mo
     return DiscreteModel(
-        A,
+        core.A,
         B,
         C,
         D,
@@ -382,7 +467,7 @@ def identify_discrete(
         singular_values=core.singular_values,
         options=options,
         noise_covariance=noise_cov,
-        dt=float(dt),
+        dt=dt,
     )
 
 

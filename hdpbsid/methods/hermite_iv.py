@@ -28,7 +28,7 @@ same operator,
 is uncorrelated with ``E`` for every ``L`` and correlated with the regressors (their
 noise-free parts are filtered ``r``).  The pseudo-input rows (boundary and truncation
 terms) are deterministic and are their own instruments.  Two-stage least squares on
-``Psi`` (:func:`hdpbsid.core.varx.two_stage_ls`) gives a consistent VARX, and ``C`` is read
+``Psi`` (:func:`hdpbsid.core.ridge.two_stage_ls`) gives a consistent VARX, and ``C`` is read
 from ``Gamma`` (:func:`hdpbsid.core.blocks.pbsid_core_blocks`).  The derivation is in
 docs/theory.md ("Closed loop in the basis domain").
 
@@ -59,6 +59,7 @@ Jaeger & Baker 1995).  :data:`INSTRUMENT_FACTOR` sets ``L m_r >= factor * p_max 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -79,11 +80,33 @@ Array = NDArray[np.float64]
 
 #: accepted values of ``estimator`` of :func:`hdpbsid.methods.hermite.identify_hermite`
 ESTIMATORS = ("ls", "iv")
-#: instruments per non-exogenous regressor (module docstring): with as many instruments
-#: as regressors 2SLS is weakly identified (large spread); a few times more make the
-#: first stage strong, and beyond that the gain is nil while the finite-sample bias of
-#: 2SLS grows with their number (Wooldridge, *Econometric Analysis*, sec. 5.2)
-INSTRUMENT_FACTOR = 4.0
+
+
+@dataclass(frozen=True)
+class InstrumentRule:
+    """How many instruments the IV estimator builds (:func:`reference_instruments`).
+
+    Attributes
+    ----------
+    factor : float
+        Instruments per non-exogenous regressor.
+
+    Examples
+    --------
+    >>> InstrumentRule().factor
+    4.0
+    """
+
+    #: instruments per non-exogenous regressor (module docstring): with as many
+    #: instruments as regressors 2SLS is weakly identified (large spread); a few times
+    #: more make the first stage strong, and beyond that the gain is nil while the
+    #: finite-sample bias of 2SLS grows with their number (Wooldridge, *Econometric
+    #: Analysis*, sec. 5.2)
+    factor: float = 4.0
+
+
+#: instruments per non-exogenous regressor (:attr:`InstrumentRule.factor`)
+INSTRUMENT_FACTOR = InstrumentRule().factor
 
 
 def check_reference(reference: Any, ns: int, name: str = "reference") -> Array:

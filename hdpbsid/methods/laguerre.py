@@ -72,8 +72,40 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
+
+@dataclass(frozen=True)
+class LaguerreSupport:
+    """The part of the Laguerre functions' support a record fills (the default basis size
+    ``N = 2 a T / support``).
+
+    Attributes
+    ----------
+    nodes_per_function : float
+        The largest node of the first ``N`` Laguerre functions is about this times ``N``.
+    fill : float
+        The fraction of ``[0, x_N]`` the record fills.
+
+    Examples
+    --------
+    >>> LaguerreSupport().support
+    3.6
+    """
+
+    #: the largest zero of the Laguerre polynomial ``L_N`` grows like ``4 N`` (Szego,
+    #: *Orthogonal Polynomials*, sec. 6.32): beyond it the functions decay
+    nodes_per_function: float = 4.0
+    #: a margin: the record ends inside the support, so that its end is still resolved by
+    #: the highest functions, not left to their decaying tails
+    fill: float = 0.9
+
+    @property
+    def support(self) -> float:
+        """``nodes_per_function * fill``, in units of ``2 a T / N``."""
+        return self.nodes_per_function * self.fill
+
+
 #: Laguerre functions: largest node ``x_N ~ 4 N``; record fills 90 % of ``[0, x_N]``
-LAGUERRE_SUPPORT = 4.0 * 0.9
+LAGUERRE_SUPPORT = LaguerreSupport().support
 N_MIN, N_MAX = 100, 4000  # the upper limit bounds the cost (clip_basis_size warns)
 
 
@@ -571,22 +603,15 @@ def identify_laguerre(
     1.649
     """
     records = as_records(t, u, y)
-    if variant not in ("projection", "filter"):
-        raise ValueError(f"variant must be 'projection' or 'filter', got {variant!r}")
-    if variant == "filter" and len(records) > 1:
-        raise ValueError("variant='filter' takes one record; use variant='projection'")
+    _check_variant(variant, records)
     # the shared ``feedthrough`` setting does not apply: the Laguerre-domain ``Dd`` is
     # always estimated (module docstring) and reported in options["feedthrough"]
     st = resolve_settings(settings, shared, "identify_laguerre")
     order = check_order(order)
     N = None if N is None else check_positive_int(N, "N", 2)
     wb = records_bandwidth(records)
-    if a is None or isinstance(a, str):
-        if wb <= 0:
-            raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
+    _check_pole_request(a, wb)
     if isinstance(a, str):
-        if a != "dynamics":
-            raise ValueError(f"a must be a positive number, None or 'dynamics', got {a!r}")
         one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
         pole, model = pole_from_dynamics(
             lambda a_: identify_laguerre(t, u, y, order, a=a_, N=N, variant=variant,
@@ -597,11 +622,7 @@ def identify_laguerre(
         )  # fmt: skip
         model.options.update(a_rule=pole.reason, a_source=pole.source.value)
         return model
-    if a is None:
-        a, a_rule = 0.5 * wb, "half the data bandwidth"
-    else:
-        a = _real(a, "a")
-        a_rule = "given"
+    a, a_rule = (0.5 * wb, "half the data bandwidth") if a is None else (_real(a, "a"), "given")
     options: dict[str, Any] = {
         "method": "laguerre",
         "variant": variant,
@@ -626,6 +647,23 @@ def identify_laguerre(
     proj = project(blocks, resolve_holds(st.input_hold, records[0].u.shape[1]), st.n_jobs)
     options.update({**blocks.options(), "boundary": st.boundary})
     return solve(proj, None, st, order, options).model
+
+
+def _check_variant(variant: str, records: list[Record]) -> None:
+    """``variant`` one of ``"projection"``, ``"filter"`` (the latter on one record)."""
+    if variant not in ("projection", "filter"):
+        raise ValueError(f"variant must be 'projection' or 'filter', got {variant!r}")
+    if variant == "filter" and len(records) > 1:
+        raise ValueError("variant='filter' takes one record; use variant='projection'")
+
+
+def _check_pole_request(a: Any, wb: float) -> None:
+    """A pole to be chosen (None, ``"dynamics"``) needs a data bandwidth ``wb > 0``; a
+    string other than ``"dynamics"`` is no pole."""
+    if (a is None or isinstance(a, str)) and wb <= 0:
+        raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
+    if isinstance(a, str) and a != "dynamics":
+        raise ValueError(f"a must be a positive number, None or 'dynamics', got {a!r}")
 
 
 def _filter_variant(

@@ -45,6 +45,7 @@ above the bandwidth).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -78,9 +79,39 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
+
+@dataclass(frozen=True)
+class AlphaRule:
+    """The default pole of the integrator (:func:`default_alpha`): ``alpha = factor *
+    omega_y``, ``omega_y`` the largest bandwidth holding ``output_fraction`` of an
+    output's energy.
+
+    Attributes
+    ----------
+    factor : float
+        ``alpha`` relative to the output bandwidth.
+    output_fraction : float
+        The fraction of an output's energy the bandwidth holds.
+
+    Examples
+    --------
+    >>> AlphaRule()
+    AlphaRule(factor=0.5, output_fraction=0.95)
+    """
+
+    #: the map's disc ``|lambda + alpha| < alpha`` holds real eigenvalues in
+    #: ``(-2 alpha, 0)`` (module docstring): half the bandwidth puts the modes within it
+    factor: float = 0.5
+    #: the band of the dynamics, not of the noise floor: the band holding all of a noisy
+    #: output's energy is the whole band the noise covers
+    output_fraction: float = 0.95
+
+
+#: the rule of :func:`default_alpha`
+ALPHA_RULE = AlphaRule()
 #: default alpha = ALPHA_FACTOR * (bandwidth holding OUTPUT_FRACTION of the output energy)
-ALPHA_FACTOR = 0.5
-OUTPUT_FRACTION = 0.95
+ALPHA_FACTOR = ALPHA_RULE.factor
+OUTPUT_FRACTION = ALPHA_RULE.output_fraction
 
 
 @library_call

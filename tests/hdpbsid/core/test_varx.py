@@ -191,3 +191,32 @@ def test_ridge_gcv_keeps_exact_data_exact():
     # GCV -> 0 as lam -> 0 on consistent data, so lam = 0 (plain LS) must win
     assert lam == 0.0
     np.testing.assert_allclose(theta, theta_true, atol=1e-12)  # well-conditioned 4x4 LS
+
+
+def test_past_window_policy_is_the_function_and_says_why():
+    """select_past_window is the default PastWindowPolicy's choice, which carries its
+    range and the reason it reports."""
+    from hdpbsid.core.varx import PastWindowChoice, PastWindowPolicy, choose_past_window
+
+    U, Y = _long_memory_record(3, False)
+    p, crit = select_past_window(U, Y, 60, p_min=2, criterion="bic")
+    choice = choose_past_window(U, Y, 60, p_min=2, policy=PastWindowPolicy(criterion="bic"))
+    assert isinstance(choice, PastWindowChoice)
+    assert choice.p == p and np.array_equal(choice.criterion_values, crit)
+    assert (choice.p_min, choice.p_max) == (2, 60)
+    assert choice.reason("bounds").startswith("min BIC of the VARX fit over p in [2, 60] (bounds)")
+    assert f"searched up to p = {choice.searched}" in choice.reason()
+
+
+def test_past_window_policy_schedule_and_checks():
+    from hdpbsid.core.varx import PastWindowPolicy
+
+    policy = PastWindowPolicy()
+    assert policy.first_target(1, 120) == 40 and policy.first_target(50, 120) == 50
+    assert policy.next_target(40, 30, 120) == 90  # three times the best window
+    assert policy.next_target(90, 30, 120) is None  # settled
+    assert PastWindowPolicy(growth=None).first_target(1, 120) == 120
+    with pytest.raises(ValueError, match="criterion"):
+        PastWindowPolicy(criterion="hqc")
+    with pytest.raises(ValueError, match="growth"):
+        PastWindowPolicy(growth=1.0)

@@ -173,3 +173,13 @@ def test_fast_sampled_chirp_benchmark():
     # SNR 40 dB: measured 0.02 % with the GCV ridge default (plain LS: > 1000 %);
     # 1 % separates "works" from the unregularised failure mode by orders of magnitude
     assert eigenvalue_errors(m40.eigenvalues, TRUE).max() < 0.01
+
+
+def test_window_bounds_are_the_default_rule():
+    """default_windows applies WindowBounds, and p_rule names them."""
+    from hdpbsid.methods.dt import P_CAP, SAMPLES_PER_REGRESSOR, WindowBounds, default_windows
+
+    bounds = WindowBounds()
+    assert (bounds.samples_per_regressor, bounds.p_cap) == (SAMPLES_PER_REGRESSOR, P_CAP)
+    assert default_windows(100_000, 1, 1, 2, 10, None, None) == (2, bounds.p_cap)
+    assert default_windows(1200, 1, 1, 2, 10, None, None)[1] == 1200 // (10 * 2)
