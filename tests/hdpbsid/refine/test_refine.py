@@ -233,10 +233,10 @@ def test_start_screen_reaches_the_best_minimum_of_all_starts(case: str) -> None:
     full = {}
     original = R._fit_starts
 
-    def every_start(starts, lay, residuals, kw, budget, n_r):
-        fits, c0, pred, extra = original(starts, lay, residuals, kw, budget, n_r)
+    def every_start(starts, lay, residuals, kw, budget, n_r, settings):
+        fits, c0, pred, extra = original(starts, lay, residuals, kw, budget, n_r, settings)
         for name, th in starts.items():
-            full[name] = R._lm_fit(th, lay, residuals, kw, budget)[1]
+            full[name] = R._lm_fit(th, lay, residuals, kw, budget, settings).cost
         return fits, c0, pred, extra
 
     R._fit_starts = every_start
