@@ -73,7 +73,7 @@ import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -181,10 +181,11 @@ class _Search:
 
 
 class _Kept(NamedTuple):
-    """Why the start model is returned unrefined: ``reason`` is ``"no stable start"`` or
-    ``"cost not lowered"``, ``message`` the warning's text."""
+    """Why the start model is returned unrefined: no start has a stable sampled
+    predictor, or the fit did not lower the cost of the best start; ``message`` is the
+    warning's text."""
 
-    reason: str
+    reason: Literal["no stable start", "cost not lowered"]
     message: str
 
 
