@@ -2,7 +2,7 @@
 
 Two loops over the ``Ns`` samples of a record replace the modal filters
 (:func:`scipy.signal.lfilter`) and the ``(q n_modes) x Ns`` complex products of the
-numpy evaluation in :mod:`hdpbsid.refine.pem`; the refinement calls them through
+numpy evaluation in :mod:`hdpbsid.refine.pem_residuals`; the refinement calls them through
 ``_residuals`` when numba is installed (the extra ``fast``) and not switched off by
 ``SLBASIS_NO_NUMBA``, and the numpy evaluation is the fallback and the oracle of the tests.
 
@@ -311,7 +311,7 @@ def sensitivity_regressors(
 
 _F8, _B1 = numba.types.float64, numba.types.boolean
 _M, _V = _array(_F8, 2), _array(_F8, 1)
-#: the argument types :mod:`hdpbsid.refine.pem` passes, compiled ahead of the first
+#: the argument types :mod:`hdpbsid.refine.pem_residuals` passes, compiled ahead of the first
 #: call by :mod:`slbasis.numeric.jit` (``lam_im`` is read-only when every mode is real:
 #: numpy's ``.imag`` of a real array)
 WARM_SIGNATURES = {
