@@ -1,7 +1,12 @@
-"""The prediction errors of the refinement and their Jacobian (:mod:`hdpbsid.refine.pem`).
+"""The parametrisation of the refinement and its prediction errors with their Jacobian.
 
-For the parameters ``theta`` (``A, B, C, [D], K`` packed by :class:`_Layout`) and a
-uniformly sampled record, the sampled innovation predictor of
+Parametrisation (:mod:`hdpbsid.refine.pem`).  ``theta`` packs ``A, B, C, [D], K``
+(:class:`_Layout`) of the model for inputs and outputs scaled to unit RMS
+(:func:`_scale`, so that the parameters are comparable); the search moves in the local
+coordinates ``theta_c + Q beta`` that change the predictor (:func:`_ddlc_basis`).
+
+Prediction errors.  For the parameters ``theta`` and a uniformly sampled record, the
+sampled innovation predictor of
 :mod:`hdpbsid.refine.pem_predictor`,
 
     xi_{k+1} = F xi_k + G u_k + Kd y_k,   yhat_k = C xi_k + Du u_k,
