@@ -233,10 +233,10 @@ def test_start_screen_reaches_the_best_minimum_of_all_starts(case: str) -> None:
     full = {}
     original = R._fit_starts
 
-    def every_start(starts, lay, residuals, kw, budget, n_r):
-        fits, c0, pred, extra = original(starts, lay, residuals, kw, budget, n_r)
+    def every_start(starts, lay, residuals, kw, budget, n_r, settings):
+        fits, c0, pred, extra = original(starts, lay, residuals, kw, budget, n_r, settings)
         for name, th in starts.items():
-            full[name] = R._lm_fit(th, lay, residuals, kw, budget)[1]
+            full[name] = R._lm_fit(th, lay, residuals, kw, budget, settings).cost
         return fits, c0, pred, extra
 
     R._fit_starts = every_start
@@ -321,3 +321,28 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     bad = WarmStart(np.eye(3), np.ones((3, 1)), np.ones((1, 3)), np.zeros((1, 1)), np.zeros((3, 1)))
     out = refine_pem(model, t, u, y, warm_start=bad)
     assert WARM_START_NAME not in out.options["refine_start_predicted"]
+
+
+def test_settings_carry_the_budget_and_the_stopping_rule() -> None:
+    """``settings.max_nfev`` is the budget ``max_nfev`` overrides, and the default
+    settings are the behaviour without ``settings``; a budget too small to converge is
+    reported unconverged in the options and in the report's ``Refinement``."""
+    from dataclasses import replace
+
+    from hdpbsid.refine.pem import DEFAULT_SETTINGS, RefinementSettings
+
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 20.0, 0.01)
+    u = random_steps(rng, t, hold=0.3)
+    y, _ = add_noise(simulate_zoh(A2, B2, C2, D2, t, u), 30.0, rng)
+    start = _perturbed(rng)
+    plain = refine_pem(start, t, u, y, hold="zoh")
+    same = refine_pem(start, t, u, y, hold="zoh", settings=RefinementSettings())
+    np.testing.assert_array_equal(plain.A, same.A)
+    short = refine_pem(start, t, u, y, hold="zoh", settings=replace(DEFAULT_SETTINGS, max_nfev=2))
+    capped = refine_pem(start, t, u, y, hold="zoh", max_nfev=2)
+    np.testing.assert_array_equal(short.A, capped.A)
+    assert not short.options["refine_converged"] and not short.report.refinement.converged
+    assert plain.options["refine_converged"] and plain.report.refinement.converged
+    with pytest.raises(AttributeError):
+        DEFAULT_SETTINGS.max_nfev = 3  # type: ignore[misc]  # frozen

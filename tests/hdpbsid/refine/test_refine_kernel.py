@@ -1,5 +1,5 @@
 """The compiled evaluation of the prediction-error refinement (hdpbsid.refine.pem_kernels
-through hdpbsid.refine.pem._residuals) against the numpy evaluation and against
+through hdpbsid.refine.pem_residuals._residuals) against the numpy evaluation and against
 finite differences.
 
 Oracles: the numpy evaluation (modal coordinates, scipy.signal.lfilter: an independent
@@ -18,16 +18,10 @@ from hypothesis import strategies as st
 
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.refine import pem_kernels  # noqa: F401  (numba is part of `make test`)
-from hdpbsid.refine.pem import (
-    STALL_SD,
-    _kernels,
-    _Layout,
-    _Record,
-    _residuals,
-    _Workspace,
-    refine_pem,
-)
+from hdpbsid.refine.pem import refine_pem
 from hdpbsid.refine.pem_predictor import sampled_predictor
+from hdpbsid.refine.pem_residuals import _kernels, _Layout, _Record, _residuals, _Workspace
+from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS
 from hdpbsid.systems import add_noise, random_steps, second_order, simulate_zoh
 
 EPS = np.finfo(float).eps
@@ -223,5 +217,7 @@ def test_refined_model_is_the_numpy_one_within_the_statistical_resolution(
     monkeypatch.setenv("SLBASIS_NO_NUMBA", "1")
     numpy = refine_pem(start, t, u, y)
     std = numpy.options["eigenvalue_std"]
-    assert np.all(np.abs(compiled.eigenvalues - numpy.eigenvalues) <= 2 * STALL_SD * std)
+    assert np.all(
+        np.abs(compiled.eigenvalues - numpy.eigenvalues) <= 2 * DEFAULT_SETTINGS.stall_sd * std
+    )
     assert compiled.options["refine_hold"] == numpy.options["refine_hold"]

@@ -184,8 +184,9 @@ def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge(
     """A budget too small to converge (the fit needs ~30 evaluations here): the iterate
     cut off on its way is dropped and the subspace model returned unchanged."""
     import hdpbsid.refine.pem as refine_module
+    from hdpbsid.refine.pem_settings import RefinementSettings
 
-    monkeypatch.setattr(refine_module, "DEFAULT_MAX_NFEV", 4)
+    monkeypatch.setattr(refine_module, "DEFAULT_SETTINGS", RefinementSettings(max_nfev=4))
     d = quadrotor_record(
         np.random.default_rng([7, 0]), snr_db=20.0, excitation="hermite-sweep", n_max_u=300
     )
