@@ -19,7 +19,8 @@ times and, for a model fitted to sampled data, the input's behaviour between sam
 half a sample of phase, ``w h / 2``, which a record whose modes are slow against the
 sampling cannot resolve; the band is then honest only for the hold the input really had
 (the refinement keeps its first hold, zero order, unless the data reject it,
-:data:`hdpbsid.refine.pem.HOLD_EVIDENCE`; pass ``input_hold`` when you know it).
+:attr:`~hdpbsid.refine.pem_settings.RefinementSettings.hold_evidence`; pass
+``input_hold`` when you know it).
 
 **Validity.**  The covariance is first-order asymptotic in the record's length (Ljung,
 sec. 9.3): it neglects the curvature of the fit's cost, whose share of the estimates'
