@@ -1,0 +1,374 @@
+"""The model the held-out selection returns (:mod:`hdpbsid.selection.auto`): the ranked
+candidates (:func:`_ranked`), each past the floor and refitted on the whole record until a
+refit holds (:func:`_first_that_holds`), and the fallbacks when none does (:func:`_choose`),
+never a rejected model quietly (:func:`_warn_if_much_worse`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from hdpbsid.models.criteria import SIGNIFICANCE_Z, choose_smallest_adequate
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import DirectTerm
+from hdpbsid.runtime import user_stacklevel
+from hdpbsid.selection.candidates import (
+    _among,
+    _given,
+    _index,
+    _refit_settings,
+    refit_keeps,
+    settle_candidate,
+)
+from hdpbsid.selection.feedthrough import honours_feedthrough, structure_key, with_d
+from hdpbsid.selection.policy import NoCandidate, SelectionWarning
+from hdpbsid.selection.scoring import (
+    _worst_eigenvalue,
+    beats_the_mean,
+    break_tie,
+    grows,
+    instability_problem,
+    much_worse,
+    refit_holds,
+    stationarity_problem,
+    whole_held_out_error,
+)
+
+__all__: list[str] = []
+
+
+def _ranked(
+    pool: list[dict[str, Any]], k: int, stats: list[float], val: tuple
+) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` (sorted by order, then error) that the
+    one-standard-error rule admits, in the order they are tried: the chosen order's
+    (``pool[k]``'s) tied candidates by :func:`break_tie`, then the larger adequate
+    orders.  Candidates more than one standard error worse than the best are not
+    listed: the held-out data reject them against the best (:func:`_choose`)."""
+    adequate = [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+    queue = adequate[_index(adequate, pool[k]) :]
+    # ties of one structure: one order, with or without D as pool[k] (the
+    # whole-simulation tie-break does not trade the preference for no D)
+    tied = break_tie([r for r in queue if structure_key(r)[:2] == structure_key(pool[k])[:2]], val)
+    return tied + [r for r in queue if not _among(r, tied)]
+
+
+def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` the one-standard-error rule admits: held-out error
+    within :data:`~hdpbsid.models.criteria.SIGNIFICANCE_Z` standard errors of the best's
+    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`); the rivals of
+    :func:`instability_problem`."""
+    _, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
+
+
+def _first_that_holds(
+    get_method: Any,
+    candidates: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    floor: bool = True,
+    pool: Sequence[dict[str, Any]] = (),
+) -> tuple[StateSpaceModel | None, list[tuple[str, str, dict[str, Any]]], dict[str, Any] | None]:
+    """The first of ``candidates`` that, with its held-out-judged settings settled
+    (:func:`settle_candidate`, fitted on ``est``), passes the floor (unless ``floor`` is
+    False): :func:`beats_the_mean`, and :func:`instability_problem` against the scored
+    candidates ``pool``; and whose refit on the ``whole`` record passes
+    :func:`refit_holds` and :func:`beats_the_mean`, refitted, and grows no mode the
+    candidate did not have (the held-out part judged a stable model; the growth of the
+    refit was never judged); or None.  Returns ``(model, failures, row)``, ``row`` the
+    candidate whose refit is returned.  The floor for the refit:
+    the windowed score of :func:`refit_holds` fits an initial state per window, so a
+    refit with a spurious growing mode can pass it and still diverge over the held-out
+    part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
+    had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
+    every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
+    passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
+    a sound answer when no refit holds: :func:`select_model`)."""
+    failures: list[tuple[str, str, dict[str, Any]]] = []
+    for chosen in candidates:
+        settle_candidate(get_method, chosen, est, val, windows, opts)
+        name = f"{chosen['method']} order {chosen['order']}"
+        if floor:
+            useful, how = beats_the_mean(chosen["model"], val)
+            how = how or instability_problem(chosen, pool)
+            if how:
+                failures.append(("floor", f"{name}: {how}", chosen))
+                continue
+            chosen["passed_floor"] = True
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                func = get_method(chosen["method"])
+                given = _given(chosen, opts)
+                kept = refit_keeps(func, chosen["model"], given)
+                settings = {**given, **kept, **_refit_settings(chosen["model"])}
+                model = func(*whole, order=chosen["order"], **settings)
+                if with_d(chosen) and not honours_feedthrough(model) and model.m:
+                    # judged as a structure with D: D is a parameter of the refinement
+                    # (hdpbsid.refine.pem), whatever the method says of its own D
+                    _with_d_asked(model)
+                if "p_rule" in chosen:
+                    model.options["p_rule"] = chosen["p_rule"]
+                holds, how = refit_holds(model, chosen["criterion"], val, windows)
+                if holds and floor:
+                    # the floor the candidate passed, for the model returned: a refit
+                    # whose windowed score holds can still diverge over the whole part
+                    holds, how = beats_the_mean(model, val)
+                    if not how and grows(model) and not grows(chosen["model"]):
+                        how = (
+                            f"it has a growing mode (eigenvalue {_worst_eigenvalue(model):.3g}) "
+                            f"that the candidate judged on the held-out part did not have"
+                        )
+                    holds = not how
+                    how = f"the refit on the whole record: {how}" if how else how
+                why = stationarity_problem(model) if holds else ""
+                if why:
+                    holds, how = False, f"the refit on the whole record: {why}"
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            holds, how = False, str(exc)
+        if holds:
+            warm = chosen.get("refined_model")
+            if warm is not None:
+                from hdpbsid.refine.pem import warm_start_option
+
+                # the candidate refined on the estimation part: a starting point of the
+                # refinement of the refit (hdpbsid.refine.pem.refine_pem)
+                model.report = model.report.but(warm_start=warm_start_option(warm))
+            _carry_refit_settings(model, chosen["model"])
+            if kept:
+                model.options["refit_kept"] = kept
+                model.options["refit_kept_rule"] = (
+                    "the candidate's own values, judged with it on the held-out part "
+                    "(hdpbsid.selection.auto.refit_keeps)"
+                )
+            return model, failures, chosen
+        failures.append(("refit", f"{name}: {how}", chosen))
+    return None, failures, None
+
+
+def _with_d_asked(model: StateSpaceModel) -> None:
+    """Mark the refit ``model`` of a candidate judged as a structure with ``D`` as asked
+    for ``D``: a parameter of the refinement (:mod:`hdpbsid.refine.pem`), whatever the
+    method says of its own ``D`` (kept in ``options["feedthrough_method"]``)."""
+    own = model.report.feedthrough
+    model.options["feedthrough_method"] = None if own is None else own.reason
+    model.options["feedthrough"] = True
+    model.report = model.report.but(feedthrough=DirectTerm(True, False))
+
+
+def _carry_refit_settings(model: StateSpaceModel, candidate: StateSpaceModel) -> None:
+    """Report on the refit ``model`` the settings its ``candidate`` chose on the held-out
+    part and the refit was given (``report.refit_settings``)."""
+    carried = candidate.report.refit_settings
+    if carried is None or not carried.value:
+        return
+    model.options["refit_settings"] = carried.value
+    model.options["refit_settings_rule"] = (
+        "chosen with the candidate on the held-out part (its options "
+        f"{sorted(carried.value)}: {carried.reason}); given to the refit on the whole record"
+    )
+    model.report = model.report.but(refit_settings=carried)
+
+
+def _warn_if_much_worse(
+    row: dict[str, Any],
+    model: StateSpaceModel,
+    failures: list[tuple[str, str, dict[str, Any]]],
+) -> None:
+    """A :class:`SelectionWarning` when the candidate ``row`` returned (as ``model``) is
+    much worse on the held-out part than the best candidate the checks rejected
+    (:func:`much_worse`): what was rejected and why, the ratio, and what to pass to get
+    it.  The text is kept in ``model.options["selection_warning"]``."""
+    crit = row.get("criterion")
+    rejected = [
+        (r, text)
+        for _, text, r in failures
+        if r is not row and r.get("criterion") is not None and r["criterion"].finite
+    ]
+    if crit is None or not rejected:
+        return
+    best, why = min(rejected, key=lambda p: p[0]["criterion"].total)
+    worse, ratio = much_worse(crit, best["criterion"])
+    if not worse:
+        return
+    text = (
+        f"{row['method']} order {row['order']} is returned, but its held-out error is "
+        f"{ratio:.3g} times that of {why} (rejected for that reason). If that model is "
+        f"what the record should give (e.g. an unstable plant inside a feedback loop), "
+        f"pass method={best['method']!r}, order={best['order']}; "
+        f"model.options['selection_rule'] lists every candidate that was rejected"
+    )
+    model.options["selection_warning"] = text
+    model.report = model.report.warned(text)
+    warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
+
+
+def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
+    """The candidate ``row``'s own model (fitted on the estimation part), returned when
+    no refit on the whole record holds (:func:`_choose`, step 2), with a
+    :class:`SelectionWarning`
+    (if ``warn``) saying so and what would help; the text is also kept in
+    ``options["selection_fallback"]``."""
+    model = row["model"]
+    text = (
+        f"{row['method']} order {row['order']}: the model fitted on the estimation part "
+        f"(all but {where}) is returned, as judged on the held-out part; its refit on the "
+        f"whole record did not hold (model.options['selection_rule'] says why): the "
+        f"method's data-driven settings change with the record length. A longer record, "
+        f"or giving those settings explicitly, lets the whole record be used"
+    )
+    model.options["selection_fallback"] = text
+    model.report = model.report.but(selection_fallback=text)
+    if warn:
+        warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
+    return model
+
+
+def _stand_ins(
+    pool: list[dict[str, Any]], queue: list[dict[str, Any]], row: dict[str, Any], val: tuple
+) -> list[dict[str, Any]]:
+    """The candidates of ``pool`` outside the ranking ``queue`` whose refit on the whole
+    record may be returned instead of candidate ``row`` as fitted on the estimation part
+    (:func:`_choose`, step 2): those not much worse than ``row`` (:func:`much_worse`) on
+    the held-out part ``val``, by the windowed score that ranks the candidates and by the
+    simulation over the whole held-out part (:func:`whole_held_out_error`, which sees
+    the slow errors the windows hide: :func:`break_tie`), best held-out score first.
+
+    Why these.  ``row`` heads the candidates that passed the floor but whose refit did
+    not hold; returning it means returning a model that never saw the held-out part of
+    the record, a decision the user is warned of.  A candidate the one-standard-error
+    rule did not admit, but whose held-out error is within
+    :data:`~hdpbsid.selection.policy.MUCH_WORSE_RATIO` of ``row``'s, is one the selection
+    would return without a warning in ``row``'s place
+    (:func:`_warn_if_much_worse` warns only beyond that ratio), and its refit, once it
+    holds (:func:`refit_holds`: as good on the held-out part as the candidate was
+    without seeing it) and passes the floor, uses the whole record.  A candidate much
+    worse than ``row`` is no stand-in: the held-out part resolves the difference on any
+    record (:func:`much_worse`), and the better model of part of the record is
+    returned, with the warning (an order the data reject does not replace the order
+    they choose because its refit happens to hold).  Both measures: a candidate close by
+    the windowed score can simulate the held-out part many times worse (a wrong slow
+    mode or static gain, which each window's fitted initial state absorbs), and the
+    selection's tie-break already defers to the whole simulation where the windows
+    cannot tell."""
+    crit, whole = row["criterion"], whole_held_out_error(row["model"], val)
+    near = [
+        r
+        for r in pool
+        if not _among(r, queue) and r is not row and not much_worse(r["criterion"], crit)[0]
+    ]
+    near = [r for r in near if not much_worse(whole_held_out_error(r["model"], val), whole)[0]]
+    return sorted(near, key=lambda r: r["criterion"].total)
+
+
+def _choose(
+    get_method: Any,
+    ok: list[dict[str, Any]],
+    queue: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    where: str,
+    refined: bool = False,
+) -> tuple[StateSpaceModel, list[tuple[str, str, dict[str, Any]]], str]:
+    """The model returned by :func:`select_model` from the scored candidates ``ok`` and
+    the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
+    rule.  Never a model the checks rejected, quietly:
+
+    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
+       :func:`instability_problem`) and whose refit on the whole record holds
+       (:func:`_first_that_holds`);
+    2. else, if a candidate of ``queue`` passed the floor, the first candidate outside
+       ``queue`` that is not much worse than it on the held-out part (:func:`_stand_ins`),
+       passes the floor and whose refit holds: a refit that fails its checks yields to
+       the next candidate whose refit holds before any part-record model is returned;
+       only when none holds, the first candidate's own model, fitted on the estimation
+       part (:func:`_candidate_itself`; with ``refined`` the start of the refinement on
+       the whole record, the front end warns only if that does not happen), with a
+       :class:`SelectionWarning`: the held-out part judged exactly that model, while the
+       refit is a different one (the method's data-driven settings, chosen again on the
+       whole record, changed it), so the candidate is the model the evidence supports;
+    3. else every candidate of ``queue`` failed the floor: they are no models of the
+       held-out data, so they leave the ranking and the one-standard-error rule is applied
+       again to the rest (a candidate the rule rejected against a better one is never
+       returned while that better one stands);
+    4. no candidate passes the floor (an unstable plant sampled non-uniformly has no stable
+       predictor to run over the whole held-out part): the first ranking stands without
+       the floor, with a :class:`SelectionWarning`;
+    5. nothing holds: ``ValueError`` naming every failure and what would help.
+
+    Whatever the step, when the model returned is much worse on the held-out part than
+    the best candidate a check rejected (:func:`much_worse`), a :class:`SelectionWarning`
+    says what was rejected, why, and how to ask for it (:func:`_warn_if_much_worse`).
+    """
+    failures: list[tuple[str, str, dict[str, Any]]] = []
+    pool, first = list(ok), queue
+    while queue:
+        model, more, row = _first_that_holds(
+            get_method, queue, est, whole, val, windows, opts, pool=_admitted(pool)
+        )
+        failures += more
+        if model is not None:
+            _warn_if_much_worse(row, model, failures)
+            return model, failures, ""
+        sound = [r for r in queue if r.get("passed_floor")]
+        if sound:
+            stand_ins = _stand_ins(pool, queue, sound[0], val)
+            model, more, row = _first_that_holds(
+                get_method, stand_ins, est, whole, val, windows, opts, pool=_admitted(pool)
+            )
+            failures += more
+            if model is not None:
+                _warn_if_much_worse(row, model, failures)
+                return model, failures, ""
+            model = _candidate_itself(sound[0], where, warn=not refined)
+            _warn_if_much_worse(sound[0], model, failures)
+            return (
+                model,
+                failures,
+                (
+                    f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
+                    f"estimation part (no refit on the whole record held)"
+                ),
+            )
+        pool = [r for r in pool if not _among(r, queue)]
+        if not pool:
+            break
+        k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+        queue = _ranked(pool, k, stats, val)
+    # no candidate passes the floor: the floor cannot judge these models, the windowed
+    # ranking stands
+    model, more, row = _first_that_holds(
+        get_method, first, est, whole, val, windows, opts, floor=False
+    )
+    failures += more
+    if model is None:
+        raise NoCandidate(
+            "no scored candidate could be identified on the whole record: "
+            + "; ".join(why[1] for why in failures)
+            + "; a longer record, a smaller max_order, or giving order= and method= "
+            "explicitly may help"
+        )
+    text = (
+        f"no candidate model passes the checks on {where} (model.options['selection_rule'] "
+        f"lists the failures); the best by the windowed held-out score is returned "
+        f"({model.report.method or '?'} order {model.n}), check it on other data "
+        f"before use"
+    )
+    model.report = model.report.warned(text)
+    warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
+    return (
+        model,
+        failures,
+        "; no candidate passes the floor: floor not applied",
+    )
