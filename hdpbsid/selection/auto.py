@@ -212,8 +212,41 @@ def select_model(
     candidates stay in the table with their reason (``status``).  Not before: the
     default window's precision rule stands wherever some method answers with it.
 
-    Raises ``ValueError`` when the record is too short to hold out enough scoring windows
-    (the message says what would work) or when no candidate can be identified.
+    Parameters
+    ----------
+    t, u, y : array_like or list
+        One record (a list of records: the last one is held out, the others identify the
+        candidates).
+    methods : sequence of str
+        The registered methods of the candidates.
+    orders : sequence of int
+        Their orders.
+    holdout : float
+        The held-out share at the end of a single record, ``0 < holdout < 1``.
+    n_jobs : int or None
+        Sweep the methods in parallel (joblib); the result is the serial run's.
+    method_options : dict or None
+        Settings per method.
+    refined : bool
+        Whether the model will be refined by the prediction-error method.
+    judge_feedthrough : bool
+        Whether candidates with ``D`` join the ranking.
+    order_given : bool
+        Whether the user asked for the one order of ``orders``.
+
+    Returns
+    -------
+    tuple of (StateSpaceModel, list of dict, str)
+        The model identified on the whole record, the table of every candidate, and the
+        rule with what was not kept and why.
+
+    Raises
+    ------
+    ValueError
+        When ``holdout`` is not in ``(0, 1)``, when the record is too short to hold out
+        the scoring windows, or when a time series is not uniformly sampled
+        (:class:`~hdpbsid.selection.policy.NoCandidate`, a ``ValueError``, when no
+        candidate can be identified).
     """
     from hdpbsid.data.records import as_records, is_record_list
     from hdpbsid.methods.registry import get_method
@@ -283,16 +316,7 @@ def _select(
     (:func:`_fit_at_order`)."""
     time_series = val[1].shape[1] == 0
     rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs, relax)
-    ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
-    if not ok:
-        detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
-        hint = (
-            "; a time series needs a stationary model with a stable one-step predictor: "
-            "detrend or difference a drifting record, or try another method"
-            if time_series
-            else ""
-        )
-        raise NoCandidate(f"no candidate model could be identified and scored ({detail}){hint}")
+    ok = _scored(rows, time_series)
     ok.sort(key=structure_key)
     k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
     ft_rule = ""
@@ -308,20 +332,63 @@ def _select(
     queue = _ranked(ok, k, stats, val)
     rejudged = ""
     if refined:
-        # the order decided again among candidates of the chosen structure (with or
-        # without D): the preference for no D is not traded for a refined error
-        same = [i for i, r in enumerate(ok) if with_d(r) == with_d(ok[k])]
-        k2, rejudged = rejudge_refined(
-            [ok[i] for i in same], [stats[i] for i in same], same.index(k), est, val,
-            windows, n_jobs,
-        )  # fmt: skip
-        k2 = same[k2]
-        if k2 != k:
-            queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
+        queue, rejudged = _rejudged_queue(ok, k, stats, queue, est, val, windows, n_jobs)
     model, failures, note = _choose(
         get_method, ok, queue, est, whole, val, windows, opts, where, refined
     )
-    rule = (
+    rule = _rule_text(where, windows, time_series) + rejudged
+    if failures:
+        rule += "; not kept: " + "; ".join(why[1] for why in failures)
+    if judge_feedthrough:
+        model.options["feedthrough_rule"] = _feedthrough_report(model, ok, ft_rule)
+    return model, _rows_table(rows), rule + note
+
+
+def _scored(rows: list[dict[str, Any]], time_series: bool) -> list[dict[str, Any]]:
+    """The candidates of ``rows`` with a finite held-out score; raises
+    :class:`NoCandidate` naming every failure when there is none."""
+    ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
+    if ok:
+        return ok
+    detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
+    hint = (
+        "; a time series needs a stationary model with a stable one-step predictor: "
+        "detrend or difference a drifting record, or try another method"
+        if time_series
+        else ""
+    )
+    raise NoCandidate(f"no candidate model could be identified and scored ({detail}){hint}")
+
+
+def _rejudged_queue(
+    ok: list[dict[str, Any]],
+    k: int,
+    stats: list[float],
+    queue: list[dict[str, Any]],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    n_jobs: int | None,
+) -> tuple[list[dict[str, Any]], str]:
+    """The ranking ``queue`` with the order decided again between refined candidates
+    (:func:`rejudge_refined`) at its head, and the rule's text.  Only candidates of the
+    chosen structure (with or without ``D``, as ``ok[k]``) take part: the preference for
+    no ``D`` is not traded for a refined error."""
+    same = [i for i, r in enumerate(ok) if with_d(r) == with_d(ok[k])]
+    k2, rejudged = rejudge_refined(
+        [ok[i] for i in same], [stats[i] for i in same], same.index(k), est, val,
+        windows, n_jobs,
+    )  # fmt: skip
+    k2 = same[k2]
+    if k2 != k:
+        queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
+    return queue, rejudged
+
+
+def _rule_text(where: str, windows: int, time_series: bool) -> str:
+    """The selection rule's text (``options["selection_rule"]``), before what the
+    re-judgement and the checks add."""
+    return (
         f"held-out windowed one-step prediction error on {where} ({windows} windows; "
         + (
             "one-step predictor with K: a time series, no input to simulate"
@@ -332,12 +399,6 @@ def _select(
         f"error (one-standard-error rule); among that order's candidates within it, the "
         f"smallest simulation error over the whole held-out part"
     )
-    rule += rejudged
-    if failures:
-        rule += "; not kept: " + "; ".join(why[1] for why in failures)
-    if judge_feedthrough:
-        model.options["feedthrough_rule"] = _feedthrough_report(model, ok, ft_rule)
-    return model, _rows_table(rows), rule + note
 
 
 @library_call
@@ -373,22 +434,44 @@ def identify_auto(
     ``model.options["selection"]`` lists every candidate (its ``feedthrough`` column:
     fitted with ``D`` by the judgement), ``options["order_selection"]`` the chosen
     method's.
+
+    Parameters
+    ----------
+    t, u, y : array_like or list
+        The record, or a list of records (the last one held out).
+    order : int or None
+        The order of every candidate, or None for ``1..max_order``.
+    methods : sequence of str or None
+        The methods compared.
+    max_order : int or None
+        The largest order (default :data:`AUTO_MAX_ORDER`).
+    holdout : float
+        The held-out share at the end of a single record.
+    n_jobs : int or None
+        Sweep the methods in parallel (joblib).
+    method_options : dict or None
+        Settings per method.
+    refined : bool
+        Whether the model will be refined (:func:`rejudge_refined`).
+    feedthrough : bool or str or None
+        ``True``/``False`` for every method, ``"auto"`` to decide ``D`` from the data.
+    **shared
+        Settings every method is given.
+
+    Returns
+    -------
+    StateSpaceModel
+        The chosen candidate identified on the whole record, with the comparison in
+        ``options["selection"]`` and ``report.candidates``.
     """
     from hdpbsid.data.records import as_records
-    from hdpbsid.methods.registry import get_method, is_available
 
     recs = as_records(t, u, y)
     if len(recs) == 1:
         t, u, y = recs[0].t, recs[0].u, recs[0].y
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
-    if methods is None:
-        uniform = all(is_uniform(r.t) for r in recs)
-        methods = [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
-    else:
-        methods = list(methods)
-        for m in methods:
-            get_method(m)  # raises for unknown names
+    methods = _auto_methods(methods, recs)
     feedthrough = None if feedthrough is None else check_feedthrough(feedthrough)
     if feedthrough is not None and feedthrough != "auto":
         shared["feedthrough"] = feedthrough
@@ -417,6 +500,22 @@ def identify_auto(
     return model
 
 
+def _auto_methods(methods: Sequence[str] | None, recs: Sequence[Any]) -> list[str]:
+    """The methods of ``method="auto"``: ``methods`` when given (each name checked by the
+    registry, which raises for unknown ones), else the available ones of
+    :data:`AUTO_METHODS`, without ``dt`` when a record of ``recs`` is not uniformly
+    sampled."""
+    from hdpbsid.methods.registry import get_method, is_available
+
+    if methods is None:
+        uniform = all(is_uniform(r.t) for r in recs)
+        return [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
+    methods = list(methods)
+    for m in methods:
+        get_method(m)  # raises for unknown names
+    return methods
+
+
 @library_call
 def select_order(
     method: str,
@@ -438,6 +537,27 @@ def select_order(
     ``feedthrough="auto"`` (not the default: without it ``D = 0``) judges the direct term
     with the order (:mod:`hdpbsid.selection.feedthrough`); a record too short to score
     keeps ``D = 0``.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+    t, u, y : array_like
+        The record.
+    max_order : int or None
+        The largest order (default :data:`AUTO_MAX_ORDER`).
+    holdout : float
+        The held-out share at the end of the record.
+    refined : bool
+        Whether the model will be refined (:func:`rejudge_refined`).
+    **options
+        The method's settings (``feedthrough="auto"`` judges ``D``).
+
+    Returns
+    -------
+    StateSpaceModel
+        The model of the chosen order identified on the whole record, with every order's
+        score in ``options["order_selection"]``.
     """
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     from hdpbsid.methods.registry import get_method

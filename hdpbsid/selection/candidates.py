@@ -40,7 +40,18 @@ def accepts_held_out(func: Any) -> bool:
     reporting what it chose in ``options["refit_settings"]``.  The candidates of
     :func:`select_model` get the held-out part, and the refit of the chosen one gets
     its ``refit_settings``: one judge for the order, the method and those settings, and
-    no second split of the estimation part inside a method."""
+    no second split of the estimation part inside a method.
+
+    Parameters
+    ----------
+    func : callable
+        A method function of the registry.
+
+    Returns
+    -------
+    bool
+        Whether its signature has a ``held_out`` parameter (False when it has none to read).
+    """
     try:
         return "held_out" in inspect.signature(func).parameters
     except (TypeError, ValueError):
@@ -59,6 +70,18 @@ def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
     it is judged for that candidate by :func:`settle_candidate`.  Measured on 80 records
     of random stable systems (orders 1-4, open and closed loop, 20 dB): the true order
     picked on 58 against 57 with the judgement in every candidate, in 14 % less CPU time.
+
+    Parameters
+    ----------
+    func : callable
+        A method function of the registry.
+    given : dict
+        The settings the user gave the method.
+
+    Returns
+    -------
+    dict
+        The settings of its candidates in the sweep.
     """
     first = getattr(func, "sweep_settings", None) if accepts_held_out(func) else None
     return {**(first or {}), **given}
@@ -77,6 +100,20 @@ def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dic
     past-window criterion: a QR over up to 200 lags, most of a refit's time); the
     settings that can be kept are the core's windows ``"p"`` and ``"f"``, which the
     model reports (``model.report.windows``).
+
+    Parameters
+    ----------
+    func : callable
+        The candidate's method function.
+    model : StateSpaceModel
+        The candidate, fitted on the estimation part.
+    given : dict
+        The settings the user gave the method.
+
+    Returns
+    -------
+    dict
+        The settings the refit keeps, with the candidate's values.
     """
     keys = getattr(func, "refit_keeps", ())
     used = model.report.windows
@@ -99,7 +136,28 @@ def settle_candidate(
     model and score (``row["settled"] = True``; the sweep's first-pass fit is kept in
     ``row["first_pass"]``).  A candidate whose method declares no such settings, whose
     settings the user gave, or whose second fit fails or cannot be scored is returned as
-    it is, its refit then given the first-pass settings it was fitted with.  Idempotent."""
+    it is, its refit then given the first-pass settings it was fitted with.  Idempotent.
+
+    Parameters
+    ----------
+    get_method : callable
+        The registry's ``get_method``.
+    row : dict
+        The candidate (``method``, ``order``, ``model``, ``criterion``), updated in place.
+    est : tuple
+        The estimation part ``(t, u, y)``.
+    val : tuple
+        The held-out part ``(t, u, y)``.
+    windows : int
+        The number of scoring windows.
+    options : dict
+        The user's settings per method.
+
+    Returns
+    -------
+    dict
+        ``row``.
+    """
     func = get_method(row["method"])
     given = _given(row, options)
     first = sweep_settings(func, given)
@@ -110,9 +168,9 @@ def settle_candidate(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = func(*est, order=row["order"], **given, held_out=val)
-            if stationarity_problem(model):
-                raise ValueError(stationarity_problem(model))
-            err, use_k = score_model(model, val, windows)
+            # a time series' model that is not stationary is no candidate
+            bad = bool(stationarity_problem(model))
+            err, use_k = (None, False) if bad else score_model(model, val, windows)
     except (ValueError, np.linalg.LinAlgError):
         err = None
     if err is None or not err.finite:

@@ -191,44 +191,63 @@ def decide_feedthrough(
     windows = default_windows(t.size - split, order)
     if windows < MIN_WINDOWS:
         return False, "auto: not judged (too short to hold out the scoring windows); D = 0"
-    opts = {method: dict(options)}
-    without = _fit_one(get_method, method, order, est, val, windows, opts)
-    fitted = without["criterion"] is not None and without["criterion"].finite
-    if fitted and not honours_feedthrough(without["model"]):
-        return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
-    if fitted:
-        # the test needs one candidate: tested first, a record where D is not offered
-        # costs no fit with D
-        offered, why, bound = feedthrough_offered(without["model"], est)
+    return _judge_two(get_method, method, order, options, est, val, windows)
+
+
+def _judge_two(
+    get_method: Any,
+    method: str,
+    order: int,
+    options: dict[str, Any],
+    est: tuple,
+    val: tuple,
+    windows: int,
+) -> tuple[bool, str]:
+    """:func:`decide_feedthrough` on the split record: the candidates without and with
+    ``D`` fitted on ``est`` and scored on ``val`` over ``windows`` windows, ``D`` offered
+    (tested on the candidate without ``D`` first: a record where ``D`` is not offered
+    costs no fit with ``D``) and judged."""
+    fit = _fit_one(get_method, method, order, est, val, windows, {method: dict(options)})
+    with_opts = {method: {**options, "feedthrough": True}}
+    own = f"auto: {method} does not take feedthrough= (its own D is kept)"
+    if _scores(fit) and not honours_feedthrough(fit["model"]):
+        return False, own
+    if _scores(fit):
+        offered, why, bound = feedthrough_offered(fit["model"], est)
         if not offered:
             return False, f"auto: {why}; D = 0"
-    with_row = _fit_one(
-        get_method, method, order, est, val, windows, {method: {**options, "feedthrough": True}}
-    )
-    fitted_d = with_row["criterion"] is not None and with_row["criterion"].finite
-    if fitted_d and not honours_feedthrough(with_row["model"]):
-        return False, f"auto: {method} does not take feedthrough= (its own D is kept)"
-    if not (fitted or fitted_d):
-        return False, f"auto: not judged (no candidate: {without['status']}); D = 0"
-    if not fitted:
-        offered, why, bound = feedthrough_offered(with_row["model"], est)
-        if not offered:
-            return False, f"auto: {why}; D = 0"
-    if not fitted_d:
-        return False, f"auto: {why}; the candidate with D: {with_row['status']}; D = 0"
-    if not fitted:
-        return True, (
-            f"auto: {why}; the candidate without D: {without['status']}; the one with D "
-            f"scores: D estimated"
-        )
+    fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
+    if _scores(fit_d) and not honours_feedthrough(fit_d["model"]):
+        return False, own
+    if not _scores(fit):
+        return _judge_without_rival(fit, fit_d, est)
+    if not _scores(fit_d):
+        return False, f"auto: {why}; the candidate with D: {fit_d['status']}; D = 0"
     choice = judge_direct_term(
-        without["model"],
-        with_row["model"],
-        (without["criterion"], with_row["criterion"]),
-        val,
-        windows,
+        fit["model"], fit_d["model"], (fit["criterion"], fit_d["criterion"]), val, windows,
         bound=bound,
-    )
+    )  # fmt: skip
     return choice.value, (
         f"auto: {why}; at order {order} on the held-out part ({windows} windows): {choice.text()}"
+    )
+
+
+def _scores(row: dict[str, Any]) -> bool:
+    """Whether the candidate ``row`` was fitted and has a finite held-out score."""
+    return row["criterion"] is not None and row["criterion"].finite
+
+
+def _judge_without_rival(
+    fit: dict[str, Any], fit_d: dict[str, Any], est: tuple
+) -> tuple[bool, str]:
+    """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score:
+    ``D`` is estimated when it is offered (tested on the candidate with ``D``, ``fit_d``)
+    and that candidate scores."""
+    if not _scores(fit_d):
+        return False, f"auto: not judged (no candidate: {fit['status']}); D = 0"
+    offered, why, _ = feedthrough_offered(fit_d["model"], est)
+    if not offered:
+        return False, f"auto: {why}; D = 0"
+    return True, (
+        f"auto: {why}; the candidate without D: {fit['status']}; the one with D scores: D estimated"
     )

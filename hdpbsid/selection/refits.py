@@ -97,8 +97,7 @@ def _first_that_holds(
         settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen['method']} order {chosen['order']}"
         if floor:
-            useful, how = beats_the_mean(chosen["model"], val)
-            how = how or instability_problem(chosen, pool)
+            how = _floor_problem(chosen, val, pool)
             if how:
                 failures.append(("floor", f"{name}: {how}", chosen))
                 continue
@@ -106,52 +105,95 @@ def _first_that_holds(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                func = get_method(chosen["method"])
-                given = _given(chosen, opts)
-                kept = refit_keeps(func, chosen["model"], given)
-                settings = {**given, **kept, **_refit_settings(chosen["model"])}
-                model = func(*whole, order=chosen["order"], **settings)
-                if with_d(chosen) and not honours_feedthrough(model) and model.m:
-                    # judged as a structure with D: D is a parameter of the refinement
-                    # (hdpbsid.refine.pem), whatever the method says of its own D
-                    _with_d_asked(model)
-                if "p_rule" in chosen:
-                    model.options["p_rule"] = chosen["p_rule"]
-                holds, how = refit_holds(model, chosen["criterion"], val, windows)
-                if holds and floor:
-                    # the floor the candidate passed, for the model returned: a refit
-                    # whose windowed score holds can still diverge over the whole part
-                    holds, how = beats_the_mean(model, val)
-                    if not how and grows(model) and not grows(chosen["model"]):
-                        how = (
-                            f"it has a growing mode (eigenvalue {_worst_eigenvalue(model):.3g}) "
-                            f"that the candidate judged on the held-out part did not have"
-                        )
-                    holds = not how
-                    how = f"the refit on the whole record: {how}" if how else how
-                why = stationarity_problem(model) if holds else ""
-                if why:
-                    holds, how = False, f"the refit on the whole record: {why}"
+                model, kept = _refit(get_method, chosen, whole, opts)
+                how = _refit_problem(model, chosen, val, windows, floor)
+                holds = not how
         except (ValueError, np.linalg.LinAlgError) as exc:
             holds, how = False, str(exc)
         if holds:
-            warm = chosen.get("refined_model")
-            if warm is not None:
-                from hdpbsid.refine.pem import warm_start_option
-
-                # the candidate refined on the estimation part: a starting point of the
-                # refinement of the refit (hdpbsid.refine.pem.refine_pem)
-                model.report = model.report.but(warm_start=warm_start_option(warm))
-            _carry_refit_settings(model, chosen["model"])
-            if kept:
-                model.options["refit_kept"] = kept
-                model.options["refit_kept_rule"] = (
-                    "the candidate's own values, judged with it on the held-out part "
-                    "(hdpbsid.selection.auto.refit_keeps)"
-                )
+            _accept_refit(model, chosen, kept)
             return model, failures, chosen
         failures.append(("refit", f"{name}: {how}", chosen))
     return None, failures, None
+
+
+def _floor_problem(row: dict[str, Any], val: tuple, pool: Sequence[dict[str, Any]]) -> str:
+    """Why candidate ``row`` fails the floor of :func:`_first_that_holds`, or ``""``: it
+    does not predict the held-out part ``val`` better than its mean
+    (:func:`beats_the_mean`), or the record does not need its growth against the
+    admitted candidates ``pool`` (:func:`instability_problem`)."""
+    _, how = beats_the_mean(row["model"], val)
+    return how or instability_problem(row, pool)
+
+
+def _refit(
+    get_method: Any, chosen: dict[str, Any], whole: tuple, opts: dict
+) -> tuple[StateSpaceModel, dict[str, Any]]:
+    """Candidate ``chosen`` identified again on the ``whole`` record, with the user's
+    settings, those it keeps from the candidate (:func:`refit_keeps`) and those its
+    method chose on held-out data, and those kept settings.  A candidate judged as a
+    structure with ``D`` is marked as asked for it (:func:`_with_d_asked`)."""
+    func = get_method(chosen["method"])
+    given = _given(chosen, opts)
+    kept = refit_keeps(func, chosen["model"], given)
+    settings = {**given, **kept, **_refit_settings(chosen["model"])}
+    model = func(*whole, order=chosen["order"], **settings)
+    if with_d(chosen) and not honours_feedthrough(model) and model.m:
+        # judged as a structure with D: D is a parameter of the refinement
+        # (hdpbsid.refine.pem), whatever the method says of its own D
+        _with_d_asked(model)
+    if "p_rule" in chosen:
+        model.options["p_rule"] = chosen["p_rule"]
+    return model, kept
+
+
+def _refit_problem(
+    model: StateSpaceModel, chosen: dict[str, Any], val: tuple, windows: int, floor: bool
+) -> str:
+    """Why the refit ``model`` of candidate ``chosen`` is not returned, or ``""``: it does
+    not hold on the held-out part ``val`` (:func:`refit_holds`); with the ``floor``, it
+    predicts the whole held-out part worse than its mean (:func:`beats_the_mean`: a
+    refit whose windowed score holds can still diverge over the whole part) or grows a
+    mode the candidate did not have; a time series' refit is not stationary."""
+    holds, how = refit_holds(model, chosen["criterion"], val, windows)
+    if holds and floor:
+        # the floor the candidate passed, for the model returned
+        how = beats_the_mean(model, val)[1] or _new_growth(model, chosen["model"])
+        how = f"the refit on the whole record: {how}" if how else how
+    if not how:
+        why = stationarity_problem(model)
+        how = f"the refit on the whole record: {why}" if why else ""
+    return how
+
+
+def _new_growth(model: StateSpaceModel, candidate: StateSpaceModel) -> str:
+    """The growing mode of the refit ``model`` that the ``candidate`` judged on the
+    held-out part did not have (its growth was never judged), or ``""``."""
+    if grows(model) and not grows(candidate):
+        return (
+            f"it has a growing mode (eigenvalue {_worst_eigenvalue(model):.3g}) "
+            f"that the candidate judged on the held-out part did not have"
+        )
+    return ""
+
+
+def _accept_refit(model: StateSpaceModel, chosen: dict[str, Any], kept: dict[str, Any]) -> None:
+    """Record on the refit ``model`` returned what it takes from candidate ``chosen``: the
+    candidate refined on the estimation part as a warm start of the refinement
+    (:func:`hdpbsid.refine.pem.refine_pem`), the settings chosen on held-out data, and
+    the settings ``kept`` (:func:`refit_keeps`)."""
+    warm = chosen.get("refined_model")
+    if warm is not None:
+        from hdpbsid.refine.pem import warm_start_option
+
+        model.report = model.report.but(warm_start=warm_start_option(warm))
+    _carry_refit_settings(model, chosen["model"])
+    if kept:
+        model.options["refit_kept"] = kept
+        model.options["refit_kept_rule"] = (
+            "the candidate's own values, judged with it on the held-out part "
+            "(hdpbsid.selection.auto.refit_keeps)"
+        )
 
 
 def _with_d_asked(model: StateSpaceModel) -> None:
@@ -323,24 +365,11 @@ def _choose(
             return model, failures, ""
         sound = [r for r in queue if r.get("passed_floor")]
         if sound:
-            stand_ins = _stand_ins(pool, queue, sound[0], val)
-            model, more, row = _first_that_holds(
-                get_method, stand_ins, est, whole, val, windows, opts, pool=_admitted(pool)
+            split = (est, whole, val, windows)
+            model, note = _sound_fallback(
+                get_method, pool, queue, sound[0], split, opts, where, refined, failures
             )
-            failures += more
-            if model is not None:
-                _warn_if_much_worse(row, model, failures)
-                return model, failures, ""
-            model = _candidate_itself(sound[0], where, warn=not refined)
-            _warn_if_much_worse(sound[0], model, failures)
-            return (
-                model,
-                failures,
-                (
-                    f"; returned: {sound[0]['method']} order {sound[0]['order']} as fitted on the "
-                    f"estimation part (no refit on the whole record held)"
-                ),
-            )
+            return model, failures, note
         pool = [r for r in pool if not _among(r, queue)]
         if not pool:
             break
@@ -348,10 +377,61 @@ def _choose(
         queue = _ranked(pool, k, stats, val)
     # no candidate passes the floor: the floor cannot judge these models, the windowed
     # ranking stands
-    model, more, row = _first_that_holds(
+    model = _without_floor(get_method, first, est, whole, val, windows, opts, where, failures)
+    return model, failures, "; no candidate passes the floor: floor not applied"
+
+
+def _sound_fallback(
+    get_method: Any,
+    pool: list[dict[str, Any]],
+    queue: list[dict[str, Any]],
+    row: dict[str, Any],
+    split: tuple,
+    opts: dict,
+    where: str,
+    refined: bool,
+    failures: list[tuple[str, str, dict[str, Any]]],
+) -> tuple[StateSpaceModel, str]:
+    """Step 2 of :func:`_choose`: ``row``, the first candidate of ``queue`` that passed the
+    floor, had no refit that held; the refit of the first stand-in that holds
+    (:func:`_stand_ins`), else ``row``'s own model (:func:`_candidate_itself`), and the
+    note for the rule.  ``split``: ``(est, whole, val, windows)``; the failures are added
+    to ``failures``."""
+    est, whole, val, windows = split
+    stand_ins = _stand_ins(pool, queue, row, val)
+    model, more, held = _first_that_holds(
+        get_method, stand_ins, est, whole, val, windows, opts, pool=_admitted(pool)
+    )
+    failures.extend(more)
+    if model is not None:
+        _warn_if_much_worse(held, model, failures)
+        return model, ""
+    model = _candidate_itself(row, where, warn=not refined)
+    _warn_if_much_worse(row, model, failures)
+    return model, (
+        f"; returned: {row['method']} order {row['order']} as fitted on the "
+        f"estimation part (no refit on the whole record held)"
+    )
+
+
+def _without_floor(
+    get_method: Any,
+    first: list[dict[str, Any]],
+    est: tuple,
+    whole: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    where: str,
+    failures: list[tuple[str, str, dict[str, Any]]],
+) -> StateSpaceModel:
+    """Step 4 of :func:`_choose`: no candidate passes the floor, so the first ranking
+    ``first`` stands without it, with a :class:`SelectionWarning`; the failures are added
+    to ``failures``.  Raises :class:`NoCandidate` (step 5) when no refit holds either."""
+    model, more, _ = _first_that_holds(
         get_method, first, est, whole, val, windows, opts, floor=False
     )
-    failures += more
+    failures.extend(more)
     if model is None:
         raise NoCandidate(
             "no scored candidate could be identified on the whole record: "
@@ -367,8 +447,4 @@ def _choose(
     )
     model.report = model.report.warned(text)
     warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
-    return (
-        model,
-        failures,
-        "; no candidate passes the floor: floor not applied",
-    )
+    return model

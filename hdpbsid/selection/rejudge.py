@@ -128,52 +128,114 @@ def rejudge_refined(
     ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the
     orders down, and the chosen order in closed loop) run in parallel (joblib); the
     decision is that of the serial run.
+
+    Parameters
+    ----------
+    ok : list of dict
+        The scored candidates of one structure, sorted by order (rows with ``method``,
+        ``order``, ``model`` and ``criterion``).
+    stats : list of float
+        Their distances to the best held-out error, in standard errors.
+    k : int
+        The index of the candidate the one-standard-error rule chose.
+    est : tuple
+        The estimation part ``(t, u, y)`` (a list of records: nothing to decide).
+    val : tuple
+        The held-out part ``(t, u, y)``.
+    windows : int
+        The number of scoring windows.
+    n_jobs : int or None
+        Parallel refinements (joblib), or None for a serial run.
+
+    Returns
+    -------
+    tuple of (int, str)
+        The index into ``ok`` of the candidate chosen, and the text the rule adds.
     """
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return k, ""
     n_star = ok[k]["order"]
+    best_of = _best_of_orders(ok, stats)
+    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
+    lower = lower if len(lower) >= 2 else []
+    upward = n_star + 1 in best_of and looks_closed_loop(ok[k]["model"], est)
+    _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
+    upward = upward and _bias_symptom(ok[k], est, val, windows)
+    chosen, rule = ok[k], ""
+    if lower:
+        chosen, rule = _smallest_refined(lower, chosen, est, val, windows)
+    if upward:
+        chosen, more = _larger_refined(chosen, best_of, n_star + 1, est, val, windows)
+        rule += more
+    return _index(ok, chosen), rule
+
+
+def _best_of_orders(ok: list[dict[str, Any]], stats: list[float]) -> dict[int, dict[str, Any]]:
+    """The best candidate (smallest held-out error) of every order among the candidates
+    ``ok`` within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` standard
+    errors (``stats``) of the best: those :func:`rejudge_refined` may refine."""
     best_of: dict[int, dict[str, Any]] = {}
     for r, z in zip(ok, stats, strict=True):
         n = r["order"]
-        if z <= SELECTION_POLICY.rejudge_z:
-            if n not in best_of or r["criterion"].total < best_of[n]["criterion"].total:
-                best_of[n] = r
-    chosen, rule = ok[k], ""
-    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
-    n_up = n_star + 1
-    upward = n_up in best_of and looks_closed_loop(ok[k]["model"], est)
-    needed = (lower if len(lower) >= 2 else []) + ([ok[k]] if upward else [])
-    _refine_rows(needed, est, val, windows, n_jobs)
-    if upward:
-        # the symptom of a choice the bias made: refined, the chosen candidate predicts
-        # the held-out part worse than its subspace estimate did, by more than one SE
-        e_ref, e_sub = _refined_error(ok[k], est, val, windows), ok[k]["criterion"]
-        upward = e_ref.finite and choose_smallest_adequate([e_ref, e_sub])[1][0] > SIGNIFICANCE_Z
-    if len(lower) >= 2:
-        errors = [_refined_error(r, est, val, windows) for r in lower]
-        finite = [i for i, e in enumerate(errors) if e.finite]
-        if finite:
-            j = min(finite, key=lambda i: (errors[i].total, i))
-            chosen = lower[j]
-            names = ", ".join(f"{r['method']} {r['order']}" for r in lower)
-            rule = (
-                f"; order decided again between refined candidates ({names}; within "
-                f"{SELECTION_POLICY.rejudge_z:g} SE of the best), the smallest refined error: "
-                f"{chosen['method']} order {chosen['order']}"
-            )
-    if upward:
-        while n_up in best_of:
-            e_now = _refined_error(chosen, est, val, windows)
-            e_up = _refined_error(best_of[n_up], est, val, windows)
-            if not (e_now.finite and e_up.finite):
-                break
-            step, z = choose_smallest_adequate([e_now, e_up])
-            if step != 1:
-                break
-            chosen = best_of[n_up]
-            rule += (
-                f"; closed loop (feedback test): refined, {chosen['method']} order "
-                f"{chosen['order']} beats order {chosen['order'] - 1} by {z[0]:.1f} SE"
-            )
-            n_up += 1
-    return _index(ok, chosen), rule
+        if z <= SELECTION_POLICY.rejudge_z and (
+            n not in best_of or r["criterion"].total < best_of[n]["criterion"].total
+        ):
+            best_of[n] = r
+    return best_of
+
+
+def _bias_symptom(row: dict[str, Any], est: tuple, val: tuple, windows: int) -> bool:
+    """The symptom of a choice the bias made: refined, the chosen candidate ``row``
+    predicts the held-out part worse than its subspace estimate did, by more than one
+    standard error (:func:`rejudge_refined`, *Up*)."""
+    e_ref, e_sub = _refined_error(row, est, val, windows), row["criterion"]
+    return e_ref.finite and choose_smallest_adequate([e_ref, e_sub])[1][0] > SIGNIFICANCE_Z
+
+
+def _smallest_refined(
+    lower: list[dict[str, Any]], chosen: dict[str, Any], est: tuple, val: tuple, windows: int
+) -> tuple[dict[str, Any], str]:
+    """*Down* (:func:`rejudge_refined`): of the candidates ``lower`` (the best of every
+    order up to the chosen one), the one with the smallest refined held-out error, and
+    the rule's text; ``chosen`` and ``""`` when none of them can be scored refined."""
+    errors = [_refined_error(r, est, val, windows) for r in lower]
+    finite = [i for i, e in enumerate(errors) if e.finite]
+    if not finite:
+        return chosen, ""
+    chosen = lower[min(finite, key=lambda i: (errors[i].total, i))]
+    names = ", ".join(f"{r['method']} {r['order']}" for r in lower)
+    return chosen, (
+        f"; order decided again between refined candidates ({names}; within "
+        f"{SELECTION_POLICY.rejudge_z:g} SE of the best), the smallest refined error: "
+        f"{chosen['method']} order {chosen['order']}"
+    )
+
+
+def _larger_refined(
+    chosen: dict[str, Any],
+    best_of: dict[int, dict[str, Any]],
+    n_up: int,
+    est: tuple,
+    val: tuple,
+    windows: int,
+) -> tuple[dict[str, Any], str]:
+    """*Up* (:func:`rejudge_refined`): from order ``n_up`` (the one after the order the
+    one-standard-error rule chose) upwards, each order's best candidate of ``best_of``
+    replaces ``chosen`` while, refined, it beats it by more than one standard error (the
+    smaller order listed first); the candidate kept and the rule's text."""
+    rule = ""
+    while n_up in best_of:
+        e_now = _refined_error(chosen, est, val, windows)
+        e_up = _refined_error(best_of[n_up], est, val, windows)
+        if not (e_now.finite and e_up.finite):
+            break
+        step, z = choose_smallest_adequate([e_now, e_up])
+        if step != 1:
+            break
+        chosen = best_of[n_up]
+        rule += (
+            f"; closed loop (feedback test): refined, {chosen['method']} order "
+            f"{chosen['order']} beats order {chosen['order'] - 1} by {z[0]:.1f} SE"
+        )
+        n_up += 1
+    return chosen, rule

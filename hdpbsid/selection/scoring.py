@@ -59,6 +59,20 @@ def score_model(model: StateSpaceModel, rec: tuple, windows: int) -> tuple[Windo
     with one initial state for the whole held-out part (``carry_state``): fitted per
     window, the initial state of a slow predictor fits the window's own later outputs.
     A non-uniformly sampled time series has no such score here (``finite=False``).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The candidate, fitted on the estimation part.
+    rec : tuple
+        The held-out record ``(t, u, y)``.
+    windows : int
+        The number of scoring windows.
+
+    Returns
+    -------
+    tuple of (WindowedError, bool)
+        The score, and whether it is the one-step prediction error with ``K``.
     """
     t, u, y = check_data(*rec)
     if u.shape[1] == 0:
@@ -78,7 +92,20 @@ def whole_held_out_error(model: StateSpaceModel, val: tuple) -> WindowedError:
     """The simulation error of ``model`` over the whole held-out record ``val`` from one
     fitted initial state (one window; :func:`break_tie`): the validation a user runs on
     it.  A time series has no simulation to run (:func:`score_model`): its one-step
-    prediction over the whole held-out part from one initial state."""
+    prediction over the whole held-out part from one initial state.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The candidate, fitted on the estimation part.
+    val : tuple
+        The held-out record ``(t, u, y)``.
+
+    Returns
+    -------
+    WindowedError
+        The error over one window, relative to the output variance.
+    """
     t, u, y = check_data(*val)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -106,6 +133,19 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
     method, not the order.  On the ball-and-beam record (DaISy) the windowed scores of
     ``laguerre`` and ``legendre`` at order 4 were 0.12 standard errors apart and their
     one-window simulation errors 5x apart, the order of their validation fits.
+
+    Parameters
+    ----------
+    tied : list of dict
+        The candidate rows of one order (``model`` each); each gets ``"whole_simulation"``
+        when there are two or more.
+    val : tuple
+        The held-out record ``(t, u, y)``.
+
+    Returns
+    -------
+    list of dict
+        ``tied``, best whole-simulation error first (as given when fewer than two).
     """
     if len(tied) < 2:
         return tied
@@ -132,6 +172,18 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
     the windowed score with a 96.5 % fit and simulated the held-out part with a relative
     error of 1e174.  An unstable plant in closed loop passes through its stable
     innovation predictor.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The candidate or its refit.
+    val : tuple
+        The held-out record ``(t, u, y)``.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        Whether it does, and why not (``""`` when it does).
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -159,6 +211,22 @@ def refit_holds(
     method's data-driven settings (operator scale, past window, basis size, input hold)
     are chosen again on the whole record and can change with it.  Such a refit is not
     returned; the next candidate is tried, as when the refit raises.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The refit on the whole record.
+    held_out : WindowedError
+        The candidate's held-out score.
+    val : tuple
+        The held-out record ``(t, u, y)``.
+    windows : int
+        The number of scoring windows of ``held_out``.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        Whether the refit holds, and why not (``""`` when it does).
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -188,6 +256,19 @@ def much_worse(returned: WindowedError, rejected: WindowedError) -> tuple[bool, 
     their sum ``T`` (equality when one window holds all of it), so a total above ``2 T``
     is more than one standard error worse on any record; a smaller ratio can be within
     the spread of the windows, a difference the record does not show.
+
+    Parameters
+    ----------
+    returned : WindowedError
+        The held-out score of the model returned.
+    rejected : WindowedError
+        The held-out score of the rejected candidate.
+
+    Returns
+    -------
+    tuple of (bool, float)
+        Whether ``returned`` is much worse, and the ratio of the held-out errors (``inf``
+        when ``returned`` is not finite or ``rejected`` has no finite positive error).
     """
     if not rejected.finite or rejected.total <= 0.0:
         return False, np.inf
@@ -197,7 +278,18 @@ def much_worse(returned: WindowedError, rejected: WindowedError) -> tuple[bool, 
 
 def grows(model: StateSpaceModel) -> bool:
     """Whether ``model`` has a growing mode: an eigenvalue of ``A`` with ``Re > 0``
-    (compared with 0 exactly; a mode at ``Re = +1e-12`` is one, and is judged as one)."""
+    (compared with 0 exactly; a mode at ``Re = +1e-12`` is one, and is judged as one).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+
+    Returns
+    -------
+    bool
+        Whether ``A`` has an eigenvalue with a positive real part.
+    """
     return model.n > 0 and bool(np.any(np.linalg.eigvals(model.A).real > 0.0))
 
 
@@ -219,6 +311,16 @@ def stationarity_problem(model: StateSpaceModel) -> str:
     describes a process the record, bounded and stationary, is not.  Such a model is not
     a candidate (:func:`select_model`); a non-stationary record (a trend, a random walk)
     should be differenced or detrended first.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model (a model with inputs, or of order 0, has no problem here).
+
+    Returns
+    -------
+    str
+        The reason, naming the eigenvalues with ``Re >= 0``, or ``""``.
     """
     if model.m > 0 or model.n == 0:
         return ""
@@ -270,6 +372,18 @@ def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> 
     its size predicts worse than, beyond the spread of the held-out windows, is.  Larger
     stable candidates are not rivals: the order is chosen first, by the same rule, and
     stability is not bought with states the data do not ask for.
+
+    Parameters
+    ----------
+    row : dict
+        The candidate: ``model``, ``order``, ``criterion``.
+    pool : sequence of dict
+        The admitted candidates, its possible stable rivals.
+
+    Returns
+    -------
+    str
+        The reason, naming the eigenvalue and the stable rival, or ``""``.
     """
     model = row["model"]
     if model.m == 0:
@@ -307,6 +421,20 @@ def refinement_instability(start: StateSpaceModel, refined: StateSpaceModel, rec
     response whose growth is in question; the refinement did not fit it) of the refined
     model must beat the start's by more than one standard error.  A
     time series' refined model must be stationary (:func:`stationarity_problem`).
+
+    Parameters
+    ----------
+    start : StateSpaceModel
+        The model the refinement started from.
+    refined : StateSpaceModel
+        The refined model.
+    rec : tuple
+        The record ``(t, u, y)`` the refinement ran on.
+
+    Returns
+    -------
+    str
+        The reason, or ``""`` (also when the simulations cannot be computed).
     """
     if not grows(refined) or grows(start):
         return ""
@@ -336,7 +464,20 @@ def looks_closed_loop(model: StateSpaceModel, rec: tuple) -> bool:
     """Whether the feedback test (:func:`hdpbsid.selection.feedback.feedback_statistics`: the
     one-step prediction errors of ``model`` on ``rec = (t, u, y)`` correlated with the
     prewhitened input at positive lags) declares the record closed loop; False when it
-    cannot be computed (the predictor diverges on the record)."""
+    cannot be computed (the predictor diverges on the record).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The candidate whose one-step prediction errors are tested.
+    rec : tuple
+        The record ``(t, u, y)``.
+
+    Returns
+    -------
+    bool
+        Whether the test declares feedback.
+    """
     from hdpbsid.refine.pem import one_step_errors
     from hdpbsid.selection.feedback import feedback_statistics
 
