@@ -103,7 +103,6 @@ from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
     SIGNIFICANCE_Z,
-    choose_smallest_adequate,
     default_windows,
 )
 from hdpbsid.models.model import StateSpaceModel
@@ -124,6 +123,14 @@ from hdpbsid.selection.direct_term import (
     decide_feedthrough,
 )
 from hdpbsid.selection.feedthrough import check_feedthrough, structure_key, with_d
+from hdpbsid.selection.order_rule import (
+    MethodChoice,
+    MethodReason,
+    OrderChoice,
+    OrderReason,
+    choose_order,
+    rank_candidates,
+)
 from hdpbsid.selection.policy import (
     AUTO_MAX_ORDER,
     AUTO_METHODS,
@@ -133,8 +140,8 @@ from hdpbsid.selection.policy import (
     NoCandidate,
     SelectionWarning,
 )
-from hdpbsid.selection.refits import _choose, _ranked, _warn_if_much_worse
-from hdpbsid.selection.rejudge import rejudge_refined
+from hdpbsid.selection.refits import _choose, _warn_if_much_worse
+from hdpbsid.selection.rejudge import rejudge_order, rejudge_refined
 from hdpbsid.selection.scoring import (
     beats_the_mean,
     break_tie,
@@ -177,6 +184,13 @@ __all__ = [
     "HOLDOUT",
     "AUTO_MAX_ORDER",
     "break_tie",
+    "OrderChoice",
+    "OrderReason",
+    "MethodChoice",
+    "MethodReason",
+    "choose_order",
+    "rank_candidates",
+    "rejudge_order",
     "_warn_if_much_worse",
 ]
 
@@ -318,25 +332,25 @@ def _select(
     rows = _sweep(get_method, methods, orders, est, val, windows, opts, n_jobs, relax)
     ok = _scored(rows, time_series)
     ok.sort(key=structure_key)
-    k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
+    order = choose_order(ok)
     ft_rule = ""
     if judge_feedthrough:
         extra, ft_rule, bound = _feedthrough_candidates(
-            get_method, ok, ok[k], methods, orders, est, val, windows, opts, n_jobs, relax
-        )
+            get_method, ok, ok[order.index], methods, orders, est, val, windows, opts,
+            n_jobs, relax,
+        )  # fmt: skip
         rows = rows + extra
-        ok, ft_rule = _choose_structure(ok, k, extra, val, windows, ft_rule, bound)
-        k, stats = choose_smallest_adequate([r["criterion"] for r in ok])
-    for r, z in zip(ok, stats, strict=True):
+        ok, ft_rule = _choose_structure(ok, order.index, extra, val, windows, ft_rule, bound)
+        order = choose_order(ok)
+    for r, z in zip(ok, order.stats, strict=True):
         r["z"] = z
-    queue = _ranked(ok, k, stats, val)
-    rejudged = ""
+    queue = list(rank_candidates(ok, order, val).queue)
     if refined:
-        queue, rejudged = _rejudged_queue(ok, k, stats, queue, est, val, windows, n_jobs)
+        queue, order = _rejudged_queue(ok, order, queue, est, val, windows, n_jobs)
     model, failures, note = _choose(
         get_method, ok, queue, est, whole, val, windows, opts, where, refined
     )
-    rule = _rule_text(where, windows, time_series) + rejudged
+    rule = _rule_text(where, windows, time_series) + order.rule
     if failures:
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
     if judge_feedthrough:
@@ -362,27 +376,26 @@ def _scored(rows: list[dict[str, Any]], time_series: bool) -> list[dict[str, Any
 
 def _rejudged_queue(
     ok: list[dict[str, Any]],
-    k: int,
-    stats: list[float],
+    order: OrderChoice,
     queue: list[dict[str, Any]],
     est: tuple,
     val: tuple,
     windows: int,
     n_jobs: int | None,
-) -> tuple[list[dict[str, Any]], str]:
+) -> tuple[list[dict[str, Any]], OrderChoice]:
     """The ranking ``queue`` with the order decided again between refined candidates
-    (:func:`rejudge_refined`) at its head, and the rule's text.  Only candidates of the
-    chosen structure (with or without ``D``, as ``ok[k]``) take part: the preference for
-    no ``D`` is not traded for a refined error."""
+    (:func:`~hdpbsid.selection.rejudge.rejudge_order`) at its head, and that decision.
+    Only candidates of the chosen structure (with or without ``D``, as the candidate of
+    ``order``) take part: the preference for no ``D`` is not traded for a refined
+    error."""
+    k = order.index
     same = [i for i, r in enumerate(ok) if with_d(r) == with_d(ok[k])]
-    k2, rejudged = rejudge_refined(
-        [ok[i] for i in same], [stats[i] for i in same], same.index(k), est, val,
-        windows, n_jobs,
-    )  # fmt: skip
-    k2 = same[k2]
+    within = OrderChoice(same.index(k), tuple(order.stats[i] for i in same))
+    again = rejudge_order([ok[i] for i in same], within, est, val, windows, n_jobs)
+    k2 = same[again.index]
     if k2 != k:
         queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
-    return queue, rejudged
+    return queue, OrderChoice(k2, order.stats, again.reason, again.rule)
 
 
 def _rule_text(where: str, windows: int, time_series: bool) -> str:

@@ -1,7 +1,8 @@
 """The model the held-out selection returns (:mod:`hdpbsid.selection.auto`): the ranked
-candidates (:func:`_ranked`), each past the floor and refitted on the whole record until a
-refit holds (:func:`_first_that_holds`), and the fallbacks when none does (:func:`_choose`),
-never a rejected model quietly (:func:`_warn_if_much_worse`).
+candidates (:func:`~hdpbsid.selection.order_rule.rank_candidates`), each past the floor
+and refitted on the whole record until a refit holds (:func:`_first_that_holds`), and the
+fallbacks when none does (:func:`_choose`), never a rejected model quietly
+(:func:`_warn_if_much_worse`).
 """
 
 from __future__ import annotations
@@ -12,24 +13,23 @@ from typing import Any
 
 import numpy as np
 
-from hdpbsid.models.criteria import SIGNIFICANCE_Z, choose_smallest_adequate
+from hdpbsid.models.criteria import choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import DirectTerm
 from hdpbsid.runtime import user_stacklevel
 from hdpbsid.selection.candidates import (
     _among,
     _given,
-    _index,
     _refit_settings,
     refit_keeps,
     settle_candidate,
 )
-from hdpbsid.selection.feedthrough import honours_feedthrough, structure_key, with_d
+from hdpbsid.selection.feedthrough import honours_feedthrough, with_d
+from hdpbsid.selection.order_rule import _admitted, _ranked
 from hdpbsid.selection.policy import NoCandidate, SelectionWarning
 from hdpbsid.selection.scoring import (
     _worst_eigenvalue,
     beats_the_mean,
-    break_tie,
     grows,
     instability_problem,
     much_worse,
@@ -39,31 +39,6 @@ from hdpbsid.selection.scoring import (
 )
 
 __all__: list[str] = []
-
-
-def _ranked(
-    pool: list[dict[str, Any]], k: int, stats: list[float], val: tuple
-) -> list[dict[str, Any]]:
-    """The candidates of ``pool`` (sorted by order, then error) that the
-    one-standard-error rule admits, in the order they are tried: the chosen order's
-    (``pool[k]``'s) tied candidates by :func:`break_tie`, then the larger adequate
-    orders.  Candidates more than one standard error worse than the best are not
-    listed: the held-out data reject them against the best (:func:`_choose`)."""
-    adequate = [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
-    queue = adequate[_index(adequate, pool[k]) :]
-    # ties of one structure: one order, with or without D as pool[k] (the
-    # whole-simulation tie-break does not trade the preference for no D)
-    tied = break_tie([r for r in queue if structure_key(r)[:2] == structure_key(pool[k])[:2]], val)
-    return tied + [r for r in queue if not _among(r, tied)]
-
-
-def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The candidates of ``pool`` the one-standard-error rule admits: held-out error
-    within :data:`~hdpbsid.models.criteria.SIGNIFICANCE_Z` standard errors of the best's
-    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`); the rivals of
-    :func:`instability_problem`."""
-    _, stats = choose_smallest_adequate([r["criterion"] for r in pool])
-    return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]
 
 
 def _first_that_holds(
@@ -323,9 +298,10 @@ def _choose(
     where: str,
     refined: bool = False,
 ) -> tuple[StateSpaceModel, list[tuple[str, str, dict[str, Any]]], str]:
-    """The model returned by :func:`select_model` from the scored candidates ``ok`` and
-    the first ranking ``queue`` (:func:`_ranked`); also every failure and a note for the
-    rule.  Never a model the checks rejected, quietly:
+    """The model returned by :func:`~hdpbsid.selection.auto.select_model` from the scored
+    candidates ``ok`` and the first ranking ``queue``
+    (:func:`~hdpbsid.selection.order_rule.rank_candidates`); also every failure and a note
+    for the rule.  Never a model the checks rejected, quietly:
 
     1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
        :func:`instability_problem`) and whose refit on the whole record holds

@@ -6,6 +6,7 @@ the prediction-error method (``refine="auto"``).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -14,10 +15,11 @@ from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import SIGNIFICANCE_Z, WindowedError, choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import _index
+from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
 from hdpbsid.selection.scoring import looks_closed_loop, score_model
 
-__all__ = ["rejudge_refined"]
+__all__ = ["rejudge_refined", "rejudge_order"]
 
 
 def _refine_and_score(
@@ -152,25 +154,68 @@ def rejudge_refined(
     tuple of (int, str)
         The index into ``ok`` of the candidate chosen, and the text the rule adds.
     """
+    choice = rejudge_order(ok, OrderChoice(k, tuple(stats)), est, val, windows, n_jobs)
+    return choice.index, choice.rule
+
+
+def rejudge_order(
+    ok: list[dict[str, Any]],
+    order: OrderChoice,
+    est: tuple,
+    val: tuple,
+    windows: int,
+    n_jobs: int | None = None,
+) -> OrderChoice:
+    """:func:`rejudge_refined` as a choice: the order decision ``order`` on the
+    candidates ``ok`` decided again between refined candidates.
+
+    Parameters
+    ----------
+    ok : list of dict
+        The scored candidates of one structure, sorted by order.
+    order : OrderChoice
+        The one-standard-error rule's decision on ``ok``.
+    est : tuple
+        The estimation part ``(t, u, y)`` (a list of records: nothing to decide).
+    val : tuple
+        The held-out part ``(t, u, y)``.
+    windows : int
+        The number of scoring windows.
+    n_jobs : int or None
+        Parallel refinements (joblib), or None for a serial run.
+
+    Returns
+    -------
+    OrderChoice
+        ``order`` itself when there is nothing to decide; else the candidate chosen,
+        with the reason :attr:`~hdpbsid.selection.order_rule.OrderReason.REFINED_LARGER`
+        when a larger order replaced it, :attr:`~hdpbsid.selection.order_rule.
+        OrderReason.REFINED` when the orders up to it were decided again, and the text
+        the rule adds.
+    """
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
-        return k, ""
+        return order
+    k = order.index
     n_star = ok[k]["order"]
-    best_of = _best_of_orders(ok, stats)
+    best_of = _best_of_orders(ok, order.stats)
     lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
     upward = n_star + 1 in best_of and looks_closed_loop(ok[k]["model"], est)
     _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
     upward = upward and _bias_symptom(ok[k], est, val, windows)
-    chosen, rule = ok[k], ""
+    chosen, rule, reason = ok[k], "", order.reason
     if lower:
         chosen, rule = _smallest_refined(lower, chosen, est, val, windows)
+        reason = OrderReason.REFINED if rule else reason
     if upward:
+        before = chosen
         chosen, more = _larger_refined(chosen, best_of, n_star + 1, est, val, windows)
         rule += more
-    return _index(ok, chosen), rule
+        reason = OrderReason.REFINED_LARGER if chosen is not before else reason
+    return OrderChoice(_index(ok, chosen), order.stats, reason, rule)
 
 
-def _best_of_orders(ok: list[dict[str, Any]], stats: list[float]) -> dict[int, dict[str, Any]]:
+def _best_of_orders(ok: list[dict[str, Any]], stats: Sequence[float]) -> dict[int, dict[str, Any]]:
     """The best candidate (smallest held-out error) of every order among the candidates
     ``ok`` within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` standard
     errors (``stats``) of the best: those :func:`rejudge_refined` may refine."""
