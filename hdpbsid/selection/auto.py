@@ -91,6 +91,16 @@ variance), ``fit`` (percent), ``z`` (statistic against the best), ``whole_simula
 candidate whose held-out-judged settings were settled, :func:`settle_candidate`, the
 error of its sweep fit; ``error`` is then the settled fit's), ``time`` (seconds of the
 sweep fit) and ``status`` (``"ok"`` or the error message).
+
+Where each step lives: this module splits the record and runs the steps
+(:func:`select_model`); the candidates and their settings are
+:mod:`hdpbsid.selection.candidates`, the scores and checks
+:mod:`hdpbsid.selection.scoring`, the order and method choices
+:mod:`hdpbsid.selection.order_rule`, the re-judgement between refined candidates
+:mod:`hdpbsid.selection.rejudge`, the refit and the fallbacks
+:mod:`hdpbsid.selection.refits`, the direct term :mod:`hdpbsid.selection.direct_term`,
+and the numbers :mod:`hdpbsid.selection.policy`.  Every name listed in ``__all__`` is
+importable from here.
 """
 
 from __future__ import annotations
