@@ -51,6 +51,8 @@ eigenvalue error); the report then says "closed loop" where "misfit" would be ac
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -63,6 +65,11 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WarmStart
 
 __all__ = [
+    "FeedbackTest",
+    "FEEDBACK_TEST",
+    "RefineReason",
+    "RefineChoice",
+    "decide_refine",
     "AR_ORDER",
     "CLOSED_LOOP_START_METHOD",
     "FEEDBACK_LAGS",
@@ -75,20 +82,53 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: order of the input's prewhitening AR model: the normal equations make ``w_k``
-#: orthogonal to ``u_{k-1..k-AR_ORDER}`` in the sample, so a causal model error of that
-#: memory cannot leak into the positive-lag correlations
-AR_ORDER = 40
-#: positive lags ``tau = 1..M`` tested: feedback shows from the first sample after the
-#: noise entered the controller; more lags add degrees of freedom and dilute the test
-FEEDBACK_LAGS = 20
-#: false-alarm probability of the chi-square test in open loop
-FEEDBACK_LEVEL = 1e-3
-#: smallest squared Cholesky pivot of the prewhitening Gram matrix, relative to its largest
-#: diagonal entry, at which the normal equations are solved (:func:`_prewhiten`): about
-#: ``1 / cond(X^T X)``; at ``1e-8`` the normal-equation coefficients keep ~8 of the 16
-#: digits, far more than a residual used in a correlation test needs
-GRAM_RCOND = 1e-8
+
+@dataclass(frozen=True)
+class FeedbackTest:
+    """The settings of the closed-loop test (module docstring), each with its reason.
+
+    Attributes
+    ----------
+    ar_order : int
+        Order of the input's prewhitening AR model.
+    lags : int
+        Positive lags ``tau = 1..M`` tested.
+    level : float
+        False-alarm probability of the chi-square test in open loop.
+    gram_rcond : float
+        Smallest squared Cholesky pivot of the prewhitening Gram matrix, relative to its
+        largest diagonal entry, at which the normal equations are solved
+        (:func:`_prewhiten`; about ``1 / cond(X^T X)``).
+
+    Examples
+    --------
+    >>> FeedbackTest().lags
+    20
+    """
+
+    #: the normal equations make ``w_k`` orthogonal to ``u_{k-1..k-40}`` in the sample,
+    #: so a causal model error of that memory cannot leak into the positive-lag correlations
+    ar_order: int = 40
+    #: feedback shows from the first sample after the noise entered the controller; more
+    #: lags add degrees of freedom and dilute the test
+    lags: int = 20
+    #: one false alarm in a thousand open-loop records
+    level: float = 1e-3
+    #: the normal-equation coefficients then keep ~8 of the 16 digits, far more than a
+    #: residual used in a correlation test needs
+    gram_rcond: float = 1e-8
+
+
+#: the settings :func:`feedback_statistics` applies
+FEEDBACK_TEST = FeedbackTest()
+#: :attr:`FeedbackTest.ar_order`
+AR_ORDER = FEEDBACK_TEST.ar_order
+#: :attr:`FeedbackTest.lags`
+FEEDBACK_LAGS = FEEDBACK_TEST.lags
+#: :attr:`FeedbackTest.level`
+FEEDBACK_LEVEL = FEEDBACK_TEST.level
+#: :attr:`FeedbackTest.gram_rcond`
+GRAM_RCOND = FEEDBACK_TEST.gram_rcond
 
 
 def _prewhiten(u: Array, order: int) -> Array:
@@ -98,7 +138,7 @@ def _prewhiten(u: Array, order: int) -> Array:
     The coefficients solve the normal equations ``X^T X a = X^T x`` by Cholesky (one
     ``order x order`` Gram matrix: 10^4 samples, order 40, 1.5 ms against 7 ms for the
     SVD-based ``lstsq``); when the Gram matrix is too ill-conditioned for that
-    (:data:`GRAM_RCOND`: squaring the condition number of ``X`` then costs more digits
+    (:attr:`FeedbackTest.gram_rcond`: squaring the condition number of ``X`` then costs more digits
     than the residuals need, e.g. a smooth input whose lags are nearly collinear) the
     SVD solution is used.  Both are the least-squares AR fit the module docstring needs
     (``w`` orthogonal to the ``order`` lags in the sample)."""
@@ -118,7 +158,7 @@ def _prewhiten(u: Array, order: int) -> Array:
         if np.all(d > 0):
             try:
                 c = cho_factor(G, check_finite=False)
-                if np.min(np.abs(np.diag(c[0]))) ** 2 > GRAM_RCOND * np.max(d):
+                if np.min(np.abs(np.diag(c[0]))) ** 2 > FEEDBACK_TEST.gram_rcond * np.max(d):
                     a = cho_solve(c, X.T @ target, check_finite=False)
             except np.linalg.LinAlgError:
                 a = None
@@ -149,6 +189,31 @@ def feedback_statistics(
     "feedback": S > threshold, "residual_ratio": rho, "residual_ratio_x_samples":
     rho Ns}`` (module docstring).  Without inputs there is no feedback to test
     (``feedback=False``).  The one-step predictions use the model's detected input hold.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model whose one-step prediction errors are tested.
+    t, u, y : array_like
+        The record (``u`` None: a time series, nothing to test).
+    lags : int
+        The positive lags tested (:attr:`FeedbackTest.lags`).
+    ar_order : int
+        The order of the input's prewhitening (:attr:`FeedbackTest.ar_order`).
+    errors : array_like, optional
+        The model's one-step prediction errors on the record.
+
+    Returns
+    -------
+    dict
+        The statistic, threshold, degrees of freedom, decision and residual ratios.
+
+    Raises
+    ------
+    TypeError
+        When ``model`` is not a :class:`~hdpbsid.models.model.StateSpaceModel`.
+    ValueError
+        When ``lags`` or ``ar_order`` is not a positive integer.
     """
     if not isinstance(model, StateSpaceModel):
         raise TypeError(f"model must be a StateSpaceModel, got {type(model).__name__}")
@@ -191,35 +256,132 @@ def feedback_statistics(
     dof = lags * m * l
     from scipy.stats import chi2  # here: scipy.stats is slow to import
 
-    thr = float(chi2.ppf(1.0 - FEEDBACK_LEVEL, dof))
+    thr = float(chi2.ppf(1.0 - FEEDBACK_TEST.level, dof))
     out.update(statistic=stat, threshold=thr, dof=dof, feedback=bool(stat > thr))
     return out
 
 
-def refine_decision(
+class RefineReason(str, Enum):
+    """Why ``refine="auto"`` decided as it did (:class:`RefineChoice`)."""
+
+    #: one uniformly sampled record whose first-pass predictor runs: refined
+    SINGLE_UNIFORM_RECORD = "single uniformly sampled record"
+    #: the sampled predictor has one step only on uniformly sampled times
+    NOT_UNIFORM = "t is not uniformly sampled"
+    #: the first-pass one-step predictor diverges: no prediction-error start
+    PREDICTOR_DIVERGES = "the model's one-step predictor diverges on the record"
+
+
+@dataclass(frozen=True)
+class RefineChoice:
+    """The ``refine="auto"`` decision for one record: whether the first-pass model is
+    refined, the typed reason, and the feedback test it reports.
+
+    Attributes
+    ----------
+    value : bool
+        Whether the model is refined.
+    reason : RefineReason
+        Why.
+    statistics : dict or None
+        :func:`feedback_statistics` of the first-pass model on the record (None: not
+        computed).
+
+    Examples
+    --------
+    >>> RefineChoice(False, RefineReason.NOT_UNIFORM).text()
+    'auto: t is not uniformly sampled, no refinement'
+    """
+
+    value: bool
+    reason: RefineReason
+    statistics: dict[str, Any] | None = None
+
+    def text(self) -> str:
+        """The rule's text (``options["refine_rule"]``).
+
+        Returns
+        -------
+        str
+            The decision, its reason and, when refined, the feedback test.
+        """
+        if self.reason is RefineReason.NOT_UNIFORM:
+            return f"auto: {self.reason.value}, no refinement"
+        if self.reason is RefineReason.PREDICTOR_DIVERGES or self.statistics is None:
+            return f"auto: {self.reason.value}"
+        st = self.statistics
+        loop = "closed" if st["feedback"] else "open"
+        return (
+            f"auto: refine every single uniformly sampled record (the prediction-error "
+            f"estimate is efficient, and consistent in closed loop); feedback test "
+            f"(chi2 of the residuals against the prewhitened input at lags 1..{st['lags']}): "
+            f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop: refined"
+        )
+
+
+def decide_refine(
     model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool, errors: Any = None
-) -> tuple[bool, str, dict[str, Any] | None]:
-    """Whether ``refine="auto"`` refines ``model`` identified from the single record
-    ``t, u, y`` (module docstring; ``uniform``: whether ``t`` is uniformly sampled;
-    ``errors``: its one-step prediction errors, as in :func:`feedback_statistics`):
-    ``(refine, rule text, statistics or None)``."""
+) -> RefineChoice:
+    """The ``refine="auto"`` rule (module docstring) for ``model`` identified from the
+    single record ``t, u, y``.
+
+    Refined when ``t`` is uniformly sampled (the sampled predictor has one step) and the
+    model's one-step predictor does not diverge on the record (a start whose prediction
+    errors overflow is not a prediction-error start); the feedback test does not change
+    the decision, it says whether the refinement also removes a closed-loop bias.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model.
+    t, u, y : array_like
+        The record it was identified from.
+    uniform : bool
+        Whether ``t`` is uniformly sampled.
+    errors : array_like, optional
+        ``model``'s one-step prediction errors, as in :func:`feedback_statistics`.
+
+    Returns
+    -------
+    RefineChoice
+        The decision, its typed reason and the feedback test.
+    """
     if not uniform:
-        return False, "auto: t is not uniformly sampled, no refinement", None
+        return RefineChoice(False, RefineReason.NOT_UNIFORM)
     try:
         with np.errstate(over="ignore", invalid="ignore"):
             st = feedback_statistics(model, t, u, y, errors=errors)
     except np.linalg.LinAlgError:
         # the model's one-step predictor diverges on the record (its residuals overflow):
         # the test cannot be computed, and a refinement started there is not a PEM start
-        return False, "auto: the model's one-step predictor diverges on the record", None
-    loop = "closed" if st["feedback"] else "open"
-    text = (
-        f"auto: refine every single uniformly sampled record (the prediction-error "
-        f"estimate is efficient, and consistent in closed loop); feedback test "
-        f"(chi2 of the residuals against the prewhitened input at lags 1..{st['lags']}): "
-        f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop: refined"
-    )
-    return True, text, st
+        return RefineChoice(False, RefineReason.PREDICTOR_DIVERGES)
+    return RefineChoice(True, RefineReason.SINGLE_UNIFORM_RECORD, st)
+
+
+def refine_decision(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, uniform: bool, errors: Any = None
+) -> tuple[bool, str, dict[str, Any] | None]:
+    """Whether ``refine="auto"`` refines ``model`` identified from the single record
+    ``t, u, y`` (:func:`decide_refine`), as a tuple.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model.
+    t, u, y : array_like
+        The record it was identified from.
+    uniform : bool
+        Whether ``t`` is uniformly sampled.
+    errors : array_like, optional
+        ``model``'s one-step prediction errors, as in :func:`feedback_statistics`.
+
+    Returns
+    -------
+    tuple
+        ``(refine, rule text, statistics or None)``.
+    """
+    choice = decide_refine(model, t, u, y, uniform, errors=errors)
+    return choice.value, choice.text(), choice.statistics
 
 
 #: the method whose model is offered as a further starting point in closed loop

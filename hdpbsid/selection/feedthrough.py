@@ -84,6 +84,8 @@ from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "FEEDTHROUGH_CHOICES",
+    "FeedthroughPolicy",
+    "FEEDTHROUGH_POLICY",
     "FEEDTHROUGH_Z",
     "SIMULATION_Z",
     "FeedthroughReason",
@@ -102,20 +104,49 @@ __all__ = [
 
 #: the values of ``feedthrough=``: estimate ``D``, keep ``D = 0``, or decide from the data
 FEEDTHROUGH_CHOICES = (True, False, "auto")
-#: standard errors of the paired held-out difference by which the candidate with ``D``
-#: must beat the one without on the one-step prediction error, the criterion that
-#: decides (module docstring): three, a one-sided false-alarm probability of about
-#: 0.13 % for nearly normal batch means.  Not two: the rule runs on every record a user
-#: identifies, nearly all without a direct term, and a spurious ``D`` makes a closed-loop
-#: model worse (the refinement then frees it); a direct term that is there wins by far
-#: more (its log ratios are large in every window)
-FEEDTHROUGH_Z = 3.0
-#: the same for the simulation error, which confirms: the conventional two standard
-#: errors (about 2.3 %).  The simulation criterion is biased in closed loop
-#: (:mod:`hdpbsid.selection.auto`) and, with its initial state fitted per window, blind
-#: to slow errors, so it is asked to agree beyond its noise, not to decide; the whole
-#: held-out simulation and, in closed loop, the controller bound check it further
-SIMULATION_Z = 2.0
+
+
+@dataclass(frozen=True)
+class FeedthroughPolicy:
+    """The margins by which the candidate with ``D`` must beat the one without
+    (:func:`judge_direct_term`), in standard errors of the paired held-out difference.
+
+    The one-step prediction error decides: three standard errors, a one-sided
+    false-alarm probability of about 0.13 % for nearly normal batch means.  Not two: the
+    rule runs on every record a user identifies, nearly all without a direct term, and a
+    spurious ``D`` makes a closed-loop model worse (the refinement then frees it); a
+    direct term that is there wins by far more (its log ratios are large in every
+    window).  The simulation error confirms, at the conventional two standard errors
+    (about 2.3 %): it is biased in closed loop (:mod:`hdpbsid.selection.auto`) and, with
+    its initial state fitted per window, blind to slow errors, so it is asked to agree
+    beyond its noise, not to decide; the whole held-out simulation and, in closed loop,
+    the controller bound check it further.
+
+    Attributes
+    ----------
+    z_prediction : float
+        The margin on the windowed one-step prediction error.
+    z_simulation : float
+        The margin on the windowed simulation error.
+
+    Examples
+    --------
+    >>> FeedthroughPolicy().z_prediction
+    3.0
+    """
+
+    #: the criterion that decides: a one-sided false alarm of about 0.13 %
+    z_prediction: float = 3.0
+    #: the criterion that confirms: the conventional two standard errors (about 2.3 %)
+    z_simulation: float = 2.0
+
+
+#: the policy ``feedthrough="auto"`` applies
+FEEDTHROUGH_POLICY = FeedthroughPolicy()
+#: the margin on the one-step prediction error (:attr:`FeedthroughPolicy.z_prediction`)
+FEEDTHROUGH_Z = FEEDTHROUGH_POLICY.z_prediction
+#: the margin on the simulation error (:attr:`FeedthroughPolicy.z_simulation`)
+SIMULATION_Z = FEEDTHROUGH_POLICY.z_simulation
 
 
 class FeedthroughReason(str, Enum):
@@ -169,7 +200,13 @@ class FeedthroughChoice:
     bound: float | None = None
 
     def text(self) -> str:
-        """One line for the report: the decision, the reason and the statistics."""
+        """One line for the report: the decision, the reason and the statistics.
+
+        Returns
+        -------
+        str
+            The line, e.g. ``"D = 0 (lost on the one-step prediction error; ...)"``.
+        """
         out = f"{'D estimated' if self.value else 'D = 0'} ({self.reason.value}"
         if self.z_prediction is not None and self.z_simulation is not None:
             out += (
@@ -201,6 +238,18 @@ def paired_z(without: WindowedError, with_: WindowedError) -> float:
     b_w)`` is the per-window F statistic on the log scale).  ``-inf`` when ``with_`` is
     not finite, ``inf`` when only ``without`` is not; with one window or no spread the
     sign of the mean times ``inf`` (or 0).
+
+    Parameters
+    ----------
+    without : WindowedError
+        The held-out score of the candidate without ``D``.
+    with_ : WindowedError
+        The held-out score of the candidate with ``D``, on the same windows.
+
+    Returns
+    -------
+    float
+        The paired statistic (positive: ``with_`` better).
 
     Examples
     --------
@@ -315,6 +364,20 @@ def controller_share(u: Any, y: Any, lags: int) -> float:
     ``1..lags``; the largest over the input channels, at most 1.  ``1`` for a channel the
     AR already predicts exactly (nothing is left to tell the paths apart).
 
+    Parameters
+    ----------
+    u : array_like
+        The inputs, ``(Ns, m)``.
+    y : array_like
+        The outputs, ``(Ns, l)``.
+    lags : int
+        The lags of the two regressions.
+
+    Returns
+    -------
+    float
+        The share, in ``(0, 1]``.
+
     Examples
     --------
     >>> import numpy as np
@@ -339,6 +402,16 @@ def controller_share(u: Any, y: Any, lags: int) -> float:
 def check_feedthrough(value: Any) -> bool | str:
     """``value`` as one of :data:`FEEDTHROUGH_CHOICES` (``numpy.bool_`` accepted).
 
+    Parameters
+    ----------
+    value : bool or str
+        The user's ``feedthrough=``.
+
+    Returns
+    -------
+    bool or str
+        ``True``, ``False`` or ``"auto"``.
+
     Raises
     ------
     ValueError
@@ -356,7 +429,18 @@ def honours_feedthrough(model: StateSpaceModel) -> bool:
     ``D``: it reports the boolean ``feedthrough`` option (the PBSID core does), typed in
     ``model.report.feedthrough``.  A method that estimates ``D`` as part of its own
     algebra whatever it is asked (the Laguerre-domain ``D_d``, reported as a text:
-    ``by_method``) has no candidate with ``D`` to add."""
+    ``by_method``) has no candidate with ``D`` to add.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        A model fitted by a method.
+
+    Returns
+    -------
+    bool
+        Whether ``D`` was the method's choice by ``feedthrough=`` (False without inputs).
+    """
     fd = model.report.feedthrough
     return fd is not None and not fd.by_method and model.m > 0
 
@@ -365,7 +449,18 @@ def takes_feedthrough(method: str) -> bool:
     """Whether the registered method ``method`` is a built-in one of the library
     (:data:`~hdpbsid.methods.registry.LAZY_METHODS`, not replaced by the user), whose
     ``feedthrough=`` setting is known.  A user's own method is never called with a
-    setting it did not ask for: ``feedthrough="auto"`` keeps ``D = 0`` for it."""
+    setting it did not ask for: ``feedthrough="auto"`` keeps ``D = 0`` for it.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+
+    Returns
+    -------
+    bool
+        Whether it is the library's own function for that name.
+    """
     from hdpbsid.methods.registry import LAZY_METHODS, get_method
 
     func = get_method(method)
@@ -377,13 +472,35 @@ def takes_feedthrough(method: str) -> bool:
 
 def with_d(row: dict[str, Any]) -> bool:
     """Whether the selection candidate ``row`` was fitted with ``D`` asked for by the
-    judgement (its ``settings``)."""
+    judgement (its ``settings``).
+
+    Parameters
+    ----------
+    row : dict
+        A candidate of the selection.
+
+    Returns
+    -------
+    bool
+        Whether ``row["settings"]`` asks for ``feedthrough=True``.
+    """
     return bool(row.get("settings", {}).get("feedthrough", False))
 
 
 def structure_key(row: dict[str, Any]) -> tuple[int, bool, float]:
     """The ranking of scored candidates for the one-standard-error rule: order first,
-    then without ``D`` before with ``D`` (module docstring), then held-out error."""
+    then without ``D`` before with ``D`` (module docstring), then held-out error.
+
+    Parameters
+    ----------
+    row : dict
+        A scored candidate (``order``, ``criterion``, ``settings``).
+
+    Returns
+    -------
+    tuple of (int, bool, float)
+        The order, whether it has ``D``, and its held-out error.
+    """
     return (row["order"], with_d(row), row["criterion"].total)
 
 
@@ -393,7 +510,22 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
     ``lags`` rows are zero.  A causal predictor's errors depend on ``u_j, j <= k`` and
     the noise only, which is all the feedback test needs in open loop, and they do not
     depend on any candidate model being sound (a candidate without ``D`` fitted to a
-    loop that reacts within the sample can diverge, and its errors then test nothing)."""
+    loop that reacts within the sample can diverge, and its errors then test nothing).
+
+    Parameters
+    ----------
+    u : array_like
+        The inputs, ``(Ns, m)``.
+    y : array_like
+        The outputs, ``(Ns, l)``.
+    lags : int
+        The number of past samples of each signal.
+
+    Returns
+    -------
+    numpy.ndarray
+        The residuals, ``(Ns, l)``.
+    """
     ns = u.shape[0]
     z = np.hstack([y, u])
     X = np.hstack([z[lags - i : ns - i] for i in range(1, lags + 1)])
@@ -415,7 +547,21 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, 
     residuals of a strictly causal least-squares ARX predictor (:func:`arx_residuals`,
     lags up to :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per
     regressor) with the prewhitened input.  ``model``: a candidate of the record (its
-    input hold)."""
+    input hold).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        A candidate of the record.
+    rec : tuple
+        The estimation record ``(t, u, y)`` (a list of records: not judged).
+
+    Returns
+    -------
+    tuple of (bool, str, float)
+        Whether ``D`` is offered, why, and the share ``D`` must lower the simulation error
+        by.
+    """
     from hdpbsid.selection.feedback import AR_ORDER, feedback_statistics
 
     t, u, y = rec

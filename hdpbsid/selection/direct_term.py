@@ -1,0 +1,253 @@
+"""``feedthrough="auto"`` inside the held-out selection (:mod:`hdpbsid.selection.auto`): the
+candidates with a direct term ``D`` (:func:`_feedthrough_candidates`), the structure chosen
+(:func:`_choose_structure`), and the decision for one method and order
+(:func:`decide_feedthrough`).  The rule itself is :mod:`hdpbsid.selection.feedthrough`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from hdpbsid.data.checks import check_data
+from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, default_windows
+from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.selection.candidates import _fit_one, _sweep
+from hdpbsid.selection.feedthrough import (
+    feedthrough_offered,
+    honours_feedthrough,
+    judge_direct_term,
+    structure_key,
+    takes_feedthrough,
+)
+from hdpbsid.selection.policy import HOLDOUT
+
+__all__ = ["decide_feedthrough"]
+
+
+def _feedthrough_candidates(
+    get_method: Any,
+    ok: list[dict[str, Any]],
+    chosen: dict[str, Any],
+    swept: Sequence[str],
+    orders: list[int],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    opts: dict,
+    n_jobs: int | None,
+    order_given: bool = False,
+) -> tuple[list[dict[str, Any]], str, float]:
+    """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
+    the reason they are or are not offered and the closed-loop bound on the simulation
+    gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
+    ``chosen``, the candidate without ``D`` the one-standard-error rule takes, on the
+    estimation part): every built-in method of
+    ``swept`` (:func:`~hdpbsid.selection.feedthrough.takes_feedthrough`) whose candidates
+    do not estimate ``D`` of their own (:func:`~hdpbsid.selection.feedthrough.
+    honours_feedthrough`) is fitted with ``feedthrough=True`` at every order of the
+    sweep.  Every order: without ``D`` a direct term can cost states (a fast mode
+    imitates it) or remove them (a plant whose output is dominated by ``D u`` looks
+    static), so the order without ``D`` bounds nothing."""
+    offered, why, bound = feedthrough_offered(chosen["model"], est)
+    if not offered:
+        return [], why, bound
+    # every built-in method of the sweep but those whose candidates showed they estimate
+    # D whatever they are asked; a method with no candidate without D (dt with no
+    # continuous-time model at an order) may have one with D
+    own = {r["method"] for r in ok if not honours_feedthrough(r["model"])}
+    methods = [m for m in swept if takes_feedthrough(m) and m not in own]
+    if not methods:
+        return [], why + "; no method here takes feedthrough=, so no candidate with D", bound
+    d_opts = {m: {**opts.get(m, {}), "feedthrough": True} for m in methods}
+    extra = _sweep(get_method, methods, orders, est, val, windows, d_opts, n_jobs, order_given)
+    for r in extra:
+        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+    return extra, why + f"; candidates with D of {', '.join(methods)} at every order", bound
+
+
+def _choose_structure(
+    ok: list[dict[str, Any]],
+    k: int,
+    extra: list[dict[str, Any]],
+    val: tuple,
+    windows: int,
+    why: str,
+    bound: float = 0.0,
+) -> tuple[list[dict[str, Any]], str]:
+    """The pool the selection goes on with: the candidates without ``D`` (``ok``, where
+    the one-standard-error rule takes ``ok[k]``) or those with ``D`` (the scored rows of
+    ``extra``), and the rule's text.  Each structure is represented by the candidate the
+    one-standard-error rule takes among its own orders and methods -- the model a user
+    would get with ``feedthrough=False`` and with ``feedthrough=True`` -- and the
+    candidates with ``D`` are kept only when :func:`~hdpbsid.selection.feedthrough.
+    judge_direct_term` says so (better on the held-out one-step and simulation errors
+    by more than :data:`~hdpbsid.selection.feedthrough.FEEDTHROUGH_Z` and
+    :data:`~hdpbsid.selection.feedthrough.SIMULATION_Z` standard errors, paired, not
+    worse over the whole held-out simulation, and in closed loop
+    a larger simulation gain than ``bound``, the most a controller's instantaneous path
+    could give).
+
+    A method that estimates ``D`` whatever it is asked (Laguerre's ``D_d``) has no
+    structure to choose: the structures are compared between the methods that take
+    ``feedthrough=`` (a method with its own ``D`` would otherwise stand for "without
+    ``D``"), and its candidates then compete in the pool of the structure chosen, as
+    candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
+    others with ``D``)."""
+    scored = [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
+    if not scored:
+        return ok, why + ("; no candidate with D could be scored" if extra else "")
+    own = [r for r in ok if not honours_feedthrough(r["model"])]
+    plain = [r for r in ok if honours_feedthrough(r["model"])]
+    scored.sort(key=structure_key)
+    b = scored[choose_smallest_adequate([r["criterion"] for r in scored])[0]]
+    a = plain[choose_smallest_adequate([r["criterion"] for r in plain])[0]] if plain else ok[k]
+    choice = judge_direct_term(
+        a["model"],
+        b["model"],
+        (a["criterion"], b["criterion"]),
+        check_data(*val),
+        windows,
+        bound=bound,
+    )
+    text = (
+        f"{why}; without D {a['method']} order {a['order']}, with D {b['method']} order "
+        f"{b['order']}: {choice.text()}"
+    )
+    if not choice.value:
+        return ok, text
+    for r in own:
+        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+    return sorted(scored + own, key=structure_key), text
+
+
+def _feedthrough_report(model: StateSpaceModel, ok: list[dict[str, Any]], why: str) -> str:
+    """The text of ``options["feedthrough_rule"]``: whether the returned ``model`` has a
+    direct term, and why (:func:`_feedthrough_candidates`, :func:`_choose_structure`)."""
+    has_d = honours_feedthrough(model) and model.report.feedthrough.estimated
+    return f"auto: {why}; returned: {'D estimated' if has_d else 'D = 0'}"
+
+
+def decide_feedthrough(
+    method: str,
+    t: Any,
+    u: Any,
+    y: Any,
+    order: int,
+    options: dict[str, Any],
+    *,
+    holdout: float = HOLDOUT,
+) -> tuple[bool, str]:
+    """Whether ``method`` with the given ``order`` estimates a direct term on the record
+    ``(t, u, y)`` (``feedthrough="auto"`` with the method and the order given), and why.
+
+    The rule of :mod:`hdpbsid.selection.feedthrough` for two candidates: the method at
+    ``order`` with ``D = 0`` and with ``D`` estimated, fitted on the first ``1 -
+    holdout`` of the record and scored on the rest; ``D`` is offered by
+    :func:`~hdpbsid.selection.feedthrough.feedthrough_offered` (with, in closed loop, the
+    share of the simulation error a controller's instantaneous path could explain) and
+    estimated when its candidate wins on the held-out one-step and simulation errors
+    beyond that (:func:`~hdpbsid.selection.feedthrough.judge_direct_term`).  ``False`` when the
+    record is too short to hold out the windows the rule needs, when the method does not
+    take ``feedthrough=`` (:func:`~hdpbsid.selection.feedthrough.honours_feedthrough`),
+    when the method is not a built-in one (:func:`~hdpbsid.selection.feedthrough.
+    takes_feedthrough`), or when a candidate cannot be fitted or scored.
+
+    Parameters
+    ----------
+    method : str
+        A registered method name.
+    t, u, y : array_like
+        One record, as :func:`hdpbsid.identify` takes it (detrended).
+    order : int
+        The model order.
+    options : dict
+        The method's settings (without ``feedthrough``).
+    holdout : float
+        The held-out share at the end of the record.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        The decision and its reason (for ``options["feedthrough_rule"]``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid.selection.auto import decide_feedthrough
+    >>> t = np.arange(300) * 0.1
+    >>> decide_feedthrough("dt", t, None, np.sin(t), 2, {})
+    (False, 'auto: no input, no direct term; D = 0')
+    """
+    from hdpbsid.methods.registry import get_method
+
+    t, u, y = check_data(t, u, y)
+    if u.shape[1] == 0:
+        return False, "auto: no input, no direct term; D = 0"
+    if not takes_feedthrough(method):
+        return False, f"auto: not judged ({method!r} is not a built-in method); D = 0"
+    split = int(round(t.size * (1.0 - float(holdout))))
+    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    windows = default_windows(t.size - split, order)
+    if windows < MIN_WINDOWS:
+        return False, "auto: not judged (too short to hold out the scoring windows); D = 0"
+    return _judge_two(get_method, method, order, options, est, val, windows)
+
+
+def _judge_two(
+    get_method: Any,
+    method: str,
+    order: int,
+    options: dict[str, Any],
+    est: tuple,
+    val: tuple,
+    windows: int,
+) -> tuple[bool, str]:
+    """:func:`decide_feedthrough` on the split record: the candidates without and with
+    ``D`` fitted on ``est`` and scored on ``val`` over ``windows`` windows, ``D`` offered
+    (tested on the candidate without ``D`` first: a record where ``D`` is not offered
+    costs no fit with ``D``) and judged."""
+    fit = _fit_one(get_method, method, order, est, val, windows, {method: dict(options)})
+    with_opts = {method: {**options, "feedthrough": True}}
+    own = f"auto: {method} does not take feedthrough= (its own D is kept)"
+    if _scores(fit) and not honours_feedthrough(fit["model"]):
+        return False, own
+    if _scores(fit):
+        offered, why, bound = feedthrough_offered(fit["model"], est)
+        if not offered:
+            return False, f"auto: {why}; D = 0"
+    fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
+    if _scores(fit_d) and not honours_feedthrough(fit_d["model"]):
+        return False, own
+    if not _scores(fit):
+        return _judge_without_rival(fit, fit_d, est)
+    if not _scores(fit_d):
+        return False, f"auto: {why}; the candidate with D: {fit_d['status']}; D = 0"
+    choice = judge_direct_term(
+        fit["model"], fit_d["model"], (fit["criterion"], fit_d["criterion"]), val, windows,
+        bound=bound,
+    )  # fmt: skip
+    return choice.value, (
+        f"auto: {why}; at order {order} on the held-out part ({windows} windows): {choice.text()}"
+    )
+
+
+def _scores(row: dict[str, Any]) -> bool:
+    """Whether the candidate ``row`` was fitted and has a finite held-out score."""
+    return row["criterion"] is not None and row["criterion"].finite
+
+
+def _judge_without_rival(
+    fit: dict[str, Any], fit_d: dict[str, Any], est: tuple
+) -> tuple[bool, str]:
+    """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score:
+    ``D`` is estimated when it is offered (tested on the candidate with ``D``, ``fit_d``)
+    and that candidate scores."""
+    if not _scores(fit_d):
+        return False, f"auto: not judged (no candidate: {fit['status']}); D = 0"
+    offered, why, _ = feedthrough_offered(fit_d["model"], est)
+    if not offered:
+        return False, f"auto: {why}; D = 0"
+    return True, (
+        f"auto: {why}; the candidate without D: {fit['status']}; the one with D scores: D estimated"
+    )
