@@ -1,8 +1,7 @@
 """The numpydoc sections of the public API, and the examples in its docstrings.
 
-Packages join :data:`COMPLETE` as their docstrings are completed (the rest of
-``hdpbsid`` is counted by ``bench/complexity.py``, whose page lists what each object
-lacks).  For every public function, class and method of a complete package the static
+:data:`COMPLETE` names both packages (``bench/complexity.py`` counts the same rule).
+For every public function, class and method of a complete package the static
 rule of ``bench/docstrings.py`` holds: a summary; ``Parameters`` naming every parameter
 of the signature and nothing else; ``Returns`` when a value is returned; ``Raises``
 naming the ``ValueError``/``TypeError`` the body raises; a class's constructor
@@ -27,29 +26,13 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 import docstrings  # noqa: E402
 
-#: packages and modules whose public objects all have their numpydoc sections (the others
-#: join as their docstrings are completed: selection, refine, identify)
-COMPLETE = [
-    "hdpbsid/models",
-    "hdpbsid/data",
-    "hdpbsid/frequency",
-    "hdpbsid/design",
-    "hdpbsid/systems",
-    "hdpbsid/plots.py",
-    "hdpbsid/frequency_cli.py",
-    "hdpbsid/studies",
-    "hdpbsid/core",
-    "hdpbsid/bases",
-    "hdpbsid/methods",
-    "hdpbsid/cli.py",
-    "hdpbsid/runtime.py",
-    "hdpbsid/__init__.py",
-    "slbasis",
-]
+#: the packages whose public objects all have their numpydoc sections: both, whole
+COMPLETE = ["hdpbsid", "slbasis"]
 
 #: user-facing names (exported by ``hdpbsid`` or shown on the user pages) of the complete
 #: packages: each has a runnable ``Examples`` section
 WITH_EXAMPLES = {
+    "hdpbsid.identify": ["identify"],
     "hdpbsid.models.model": [
         "StateSpaceModel",
         "StateSpaceModel.simulate",
