@@ -176,7 +176,7 @@ def run_identify(args: argparse.Namespace, out: TextIO) -> int:
         :data:`~hdpbsid.commands.common.EXIT` ``ok``, or ``failed`` when the identification
         failed.
     """
-    from hdpbsid.models.model_io import save_model
+    from hdpbsid.models.model_io import RecordColumns, save_model
 
     req = _identify_request(args)
     columns = {"time": args.time, "inputs": req.inputs, "outputs": req.outputs}
@@ -185,9 +185,9 @@ def run_identify(args: argparse.Namespace, out: TextIO) -> int:
     if model is None:
         return EXIT.failed
     first = records[0]
-    model.options["columns"] = {"time": first.time, "inputs": req.inputs, "outputs": req.outputs}
-    model.options["sampling_interval"] = first.dt
-    model.options["source"] = req.files[0] if len(req.files) == 1 else req.files
+    source = req.files[0] if len(req.files) == 1 else req.files
+    columns = RecordColumns(first.time, req.inputs, req.outputs, first.dt, source)
+    model.options.update(columns.to_options())
     _print_identification(args, req, records, model, out)
     print(f"wrote {save_model(model, req.outdir / 'model.json')}", file=out)
     if not args.no_plot:
@@ -207,21 +207,23 @@ def run_identify(args: argparse.Namespace, out: TextIO) -> int:
 
 # -- validate -----------------------------------------------------------------------------
 def _saved_columns(model: StateSpaceModel, path: str) -> dict[str, Any]:
-    """The column names a model was identified from: ``options["columns"]`` (written by
-    ``hdpbsid identify``), else the model's channel names (a model saved from Python)."""
-    cols = model.options.get("columns")
-    if cols is None:
+    """The column names a model was identified from (:class:`RecordColumns`, written by
+    ``hdpbsid identify``), else the model's channel names (a model saved from Python);
+    ``dt``: the sampling interval it was identified with, when known."""
+    from hdpbsid.models.model_io import RecordColumns
+
+    try:
+        saved = RecordColumns.from_options(model.options)
+    except ValueError as exc:
+        raise CLIError(f"{path}: {exc}") from None
+    if saved is None:
         return {"time": None, "inputs": model.input_names, "outputs": model.output_names}
-    ok = isinstance(cols, dict) and isinstance(cols.get("time"), str | None)
-    for key in ("inputs", "outputs"):
-        names = cols.get(key) if isinstance(cols, dict) else None
-        ok = ok and isinstance(names, list) and all(isinstance(c, str) for c in names)
-    if not ok:
-        raise CLIError(
-            f"{path}: key 'options.columns' must be an object with 'time' (a name or null), "
-            f"'inputs' and 'outputs' (lists of names), got {cols!r:.200}"
-        )
-    return {"time": cols["time"], "inputs": list(cols["inputs"]), "outputs": list(cols["outputs"])}
+    return {
+        "time": saved.time,
+        "inputs": saved.inputs,
+        "outputs": saved.outputs,
+        "dt": saved.sampling_interval,
+    }
 
 
 def _validate_channels(
@@ -247,9 +249,9 @@ def _validate_time(
     ``args.dt`` to its sampling interval, else the column it was identified from (or ``t``)."""
     if args.time is not None or args.dt is not None or args.fs is not None:
         return args.time
-    dt = model.options.get("sampling_interval")
-    if saved["time"] is None and isinstance(dt, int | float) and dt > 0:
-        args.dt = float(dt)  # identified with --dt
+    dt = saved.get("dt")
+    if saved["time"] is None and dt is not None:
+        args.dt = dt  # identified with --dt
         return None
     return saved["time"] or "t"
 

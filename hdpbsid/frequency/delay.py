@@ -66,7 +66,7 @@ from numpy.typing import NDArray
 
 from hdpbsid.data.checks import as_columns, check_positive_int, check_step
 from hdpbsid.frequency.estimate import FrequencyResponse, frf_welch
-from hdpbsid.frequency.fit import _frequency_data, identify_frequency
+from hdpbsid.frequency.fit import _frequency_data, fit_cost
 from hdpbsid.models.dead_time import SNAP, check_delay
 
 __all__ = [
@@ -169,12 +169,10 @@ def _cost(w: Array, H: Any, W: Array, tau: float, order: int, frame: Any = None)
     ``frame = (dt, hold)`` the discrete-time fit of a sampled-data response."""
     Hd = H * np.exp(1j * w * tau)[None, None, :]
     if frame is None:
-        model = identify_frequency(w, Hd, order=order, weight=W)
-    else:
-        dt, hold = frame
-        wp, Hp, Wp = _sampled_frame(w, Hd, W, dt, hold)
-        model = identify_frequency(wp, Hp, order=order, weight=Wp, feedthrough=hold == "foh")
-    return float(model.options["cost"])
+        return fit_cost(w, Hd, order, weight=W)
+    dt, hold = frame
+    wp, Hp, Wp = _sampled_frame(w, Hd, W, dt, hold)
+    return fit_cost(wp, Hp, order, weight=Wp, feedthrough=hold == "foh")
 
 
 def _parabola_min(x: Array, c: Array, i: int) -> float:
@@ -215,7 +213,7 @@ def delay_from_frf(
         Response (not with a ``FrequencyResponse``).
     step : float or None, optional
         Spacing of the candidate delays.  With ``hold`` it is the sampling interval of the
-        record (default a ``FrequencyResponse``'s ``options["dt"]``); without, default that or
+        record (default a ``FrequencyResponse``'s ``dt``); without, default that or
         else ``pi / max(w)``.
     max_delay : float or None, optional
         The largest delay tried; default 100 steps.
@@ -292,9 +290,9 @@ def delay_from_frf(
 
 def _delay_step(step: Any, hold: str | None, frf: Any, w: Array) -> float:
     """The spacing of the candidate delays: ``step``; else the record's sampling interval
-    (a ``FrequencyResponse``'s ``options["dt"]``), which a ``hold`` requires; else
+    (a ``FrequencyResponse``'s ``dt``), which a ``hold`` requires; else
     ``pi / max(w)``, the interval whose Nyquist frequency is the highest line."""
-    dt = frf.options.get("dt") if frf is not None else None
+    dt = frf.dt if frf is not None else None
     if step is None:
         if hold is not None and not dt:
             raise ValueError(f"hold={hold!r} needs step (the sampling interval of the record)")

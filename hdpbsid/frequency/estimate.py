@@ -96,7 +96,10 @@ class FrequencyResponse:
     method : {"welch", "welch-reference", "periodic", "given"}, optional
         How the estimate was made (``"given"``: built by hand).
     options : dict, optional
-        Settings used.
+        Settings used (for display; nothing reads them back).
+    dt : float or None, optional
+        Sampling interval of the record the estimate was made from (the estimators set it),
+        or ``None`` (built by hand from a model or continuous-time data).
     """
 
     w: Array
@@ -106,6 +109,7 @@ class FrequencyResponse:
     dof: float | None = None
     method: str = "given"
     options: dict[str, Any] = field(default_factory=dict)
+    dt: float | None = None
 
     @property
     def magnitude_db(self) -> Array:
@@ -315,7 +319,7 @@ def frf_welch(
         reference=R is not None,
     )
     method = "welch" if R is None else "welch-reference"
-    return FrequencyResponse(2 * np.pi * f, H, coh, var, 2.0 * n_eff - 2.0, method, opts)
+    return FrequencyResponse(2 * np.pi * f, H, coh, var, 2.0 * n_eff - 2.0, method, opts, dt)
 
 
 def _welch_signals(u: Any, y: Any, r: Any | None) -> tuple[Array, Array, Array | None]:
@@ -491,7 +495,7 @@ def frf_periodic(
     w = 2 * np.pi * all_lines / (n * dt)
     opts = dict(dt=dt, period=n, periods=P, skip=skip, lines=tuple(per_input))
     dof = 2.0 * P - 2.0 if P > 1 else None
-    return FrequencyResponse(w, H, coh, var, dof, "periodic", opts)
+    return FrequencyResponse(w, H, coh, var, dof, "periodic", opts, dt)
 
 
 def _line_owners(per_input: list[NDArray[np.intp]], n: int) -> NDArray[np.intp]:

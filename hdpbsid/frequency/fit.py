@@ -34,6 +34,7 @@ __all__ = [
     "FitSettings",
     "FIT",
     "identify_frequency",
+    "fit_cost",
     "plot_frf",
 ]
 
@@ -161,14 +162,12 @@ def identify_frequency(
     """
     from hdpbsid.data.checks import DEFAULT_MAX_ORDER
 
-    w_arr, Hc, W, source = _frequency_data(w, H, weight)
+    w_arr, Hc, W, source, wc = _prepared(w, H, weight, order, feedthrough)
     l, m, nf = Hc.shape
     n_real = 2 * nf * m * l  # real equations
     if order is not None:
         order = check_positive_int(order, "order")
-        _check_enough_lines(order, l, m, nf, feedthrough, "order")
     mo = DEFAULT_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    wc = float(np.sqrt(w_arr.min() * w_arr.max()))
     selection = None
     if order is None:
         order, selection = _select_order(w_arr, Hc, W, wc, mo, feedthrough, refine)
@@ -194,6 +193,61 @@ def identify_frequency(
     return StateSpaceModel(
         A, B, C, D, np.zeros((A.shape[0], l)), options=options, parameter_covariance=cov
     )
+
+
+def _prepared(
+    w: Any, H: Any, weight: Any, order: int | None, feedthrough: bool
+) -> tuple[Array, CArray, Array, str, float]:
+    """The checked lines, response and weights, the weights' source, and the centre
+    ``w_c`` of the bilinear map (the band's geometric mean); refuses an order the lines
+    cannot determine."""
+    w_arr, Hc, W, source = _frequency_data(w, H, weight)
+    l, m, nf = Hc.shape
+    if order is not None:
+        _check_enough_lines(check_positive_int(order, "order"), l, m, nf, feedthrough, "order")
+    return w_arr, Hc, W, source, float(np.sqrt(w_arr.min() * w_arr.max()))
+
+
+def fit_cost(
+    w: Any, H: Any, order: int, weight: Any = "auto", *, feedthrough: bool = False
+) -> float:
+    """The weighted cost ``sum_k |W_k (G(j w_k) - H_k)|^2`` of the refined fit of order
+    ``order`` that :func:`identify_frequency` returns, without building the model.
+
+    Parameters
+    ----------
+    w : array_like, shape (nf,), or FrequencyResponse
+        Angular frequencies (rad/s), or an estimate (then ``H`` is None).
+    H : array_like of complex or None
+        Response, shape ``(nf,)`` or ``(l, m, nf)``.
+    order : int
+        Model order.
+    weight : str, array_like or None, optional
+        As :func:`identify_frequency`'s ``weight``.
+    feedthrough : bool, optional
+        Fit a direct term ``D``.
+
+    Returns
+    -------
+    float
+        The cost of the fit (the start's, when the refinement did not lower it).
+
+    Raises
+    ------
+    ValueError
+        When the lines cannot determine a model of ``order`` (as
+        :func:`identify_frequency`).
+
+    Examples
+    --------
+    >>> w = np.logspace(-1, 1, 40)
+    >>> H = 1.0 / (1j * w + 2.0)
+    >>> bool(fit_cost(w, H, 1) < 1e-12)
+    True
+    """
+    w_arr, Hc, W, _, wc = _prepared(w, H, weight, order, feedthrough)
+    _, info = _fit_order(w_arr, Hc, W, int(order), wc, feedthrough, True)
+    return float(info["cost"])
 
 
 def _full_factor(info: dict[str, Any], l: int, m: int, feedthrough: bool) -> Array:

@@ -49,6 +49,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,7 @@ from hdpbsid.models.model_file import FORMAT, VERSION, describe, write_model
 from hdpbsid.models.uncertainty import ParameterCovariance, parameter_count
 
 __all__ = [
+    "RecordColumns",
     "ModelFileLimits",
     "MODEL_FILE_LIMITS",
     "save_model",
@@ -328,6 +330,97 @@ def _check_options(x: Any, key: str) -> None:
             stack.extend((w, f"{where}[{i}]") for i, w in enumerate(v))
         elif isinstance(v, float) and not math.isfinite(v):
             raise ValueError(f"key {where!r}: expected a finite number, got {v!r}")
+
+
+@dataclass(frozen=True)
+class RecordColumns:
+    """Where a model's data came from: the columns of the file it was identified from.
+
+    ``hdpbsid identify`` writes them into the model's ``options`` (keys ``columns``,
+    ``sampling_interval``, ``source``; :meth:`to_options`), so that ``hdpbsid validate``
+    reads another record of the same layout without being told the columns again
+    (:meth:`from_options`).  This class is the one definition of those keys.
+
+    Attributes
+    ----------
+    time : str or None
+        The time column, or ``None`` when the record was given a sampling interval
+        (``--dt``/``--fs``).
+    inputs : list of str
+        The input columns.
+    outputs : list of str
+        The output columns.
+    sampling_interval : float or None, optional
+        The sampling interval of the (first) identification record, or ``None``.
+    source : str, list of str or None, optional
+        The file(s) identified from.
+
+    Examples
+    --------
+    >>> rc = RecordColumns(None, ["u"], ["y"], 0.1, "bb.csv")
+    >>> RecordColumns.from_options(rc.to_options()) == rc
+    True
+    """
+
+    time: str | None
+    inputs: list[str]
+    outputs: list[str]
+    sampling_interval: float | None = None
+    source: str | list[str] | None = None
+
+    def to_options(self) -> dict[str, Any]:
+        """The entries of a model's ``options`` that hold these columns.
+
+        Returns
+        -------
+        dict
+            ``columns`` (``time``, ``inputs``, ``outputs``), ``sampling_interval``,
+            ``source``.
+        """
+        columns = {"time": self.time, "inputs": self.inputs, "outputs": self.outputs}
+        return {
+            "columns": columns,
+            "sampling_interval": self.sampling_interval,
+            "source": self.source,
+        }
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any]) -> RecordColumns | None:
+        """The columns stored in a model's ``options``, ``None`` when it has none (a model
+        identified from Python).
+
+        Parameters
+        ----------
+        options : mapping
+            A model's ``options``.
+
+        Returns
+        -------
+        RecordColumns or None
+            The columns; ``sampling_interval`` only when it is a positive number.
+
+        Raises
+        ------
+        ValueError
+            When ``options["columns"]`` is not an object with ``time`` (a name or null),
+            ``inputs`` and ``outputs`` (lists of names).
+        """
+        cols = options.get("columns")
+        if cols is None:
+            return None
+        ok = isinstance(cols, dict) and isinstance(cols.get("time"), str | None)
+        for key in ("inputs", "outputs"):
+            names = cols.get(key) if isinstance(cols, dict) else None
+            ok = ok and isinstance(names, list) and all(isinstance(c, str) for c in names)
+        if not ok:
+            raise ValueError(
+                "key 'options.columns' must be an object with 'time' (a name or null), "
+                f"'inputs' and 'outputs' (lists of names), got {cols!r:.200}"
+            )
+        dt = options.get("sampling_interval")
+        dt = float(dt) if isinstance(dt, int | float) and dt > 0 else None
+        src = options.get("source")
+        return cls(cols["time"], list(cols["inputs"]), list(cols["outputs"]), dt, src)
 
 
 def _legacy_names(options: dict[str, Any], which: str, size: int) -> list[str] | None:

@@ -356,3 +356,18 @@ def test_cli_frf_with_reference_uses_the_instrument(tmp_path, capsys) -> None:
     argv = ["frf", str(tmp_path / "rec.csv"), "--inputs", "u", "--outputs", "y"]
     assert main([*argv, "--reference", "r", "--no-plot", "--out", str(tmp_path / "o")]) == 0
     assert capsys.readouterr().out.startswith("welch-reference")
+
+
+def test_estimates_carry_the_sampling_interval_and_fit_cost_is_the_fits() -> None:
+    d, y, dm, noise = _periodic_record(8, None, 0)
+    est = frequency.frf_periodic(d.u, y, DT, d.period, skip=6)
+    assert est.dt == DT and frequency.FrequencyResponse(est.w, est.H).dt is None
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal(4000)
+    assert frequency.frf_welch(u, u, DT).dt == DT
+    # the cost of the fit that identify_frequency returns, computed by the same steps
+    w = np.logspace(-1, 1.5, 50)
+    H = dm.frequency_response(w)[0, 0] * (1 + 0.01 * rng.standard_normal(w.size))
+    model = frequency.identify_frequency(w, H, order=2)
+    # same operations; 1e-12 leaves room for a threaded BLAS's summation order only
+    assert frequency.fit_cost(w, H, 2) == pytest.approx(model.options["cost"], rel=1e-12)

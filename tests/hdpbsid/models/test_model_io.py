@@ -364,3 +364,23 @@ def test_version3_covariance_in_options_is_migrated(tmp_path: Path) -> None:
     (tmp_path / "v3bad.json").write_text(json.dumps(d))
     with pytest.raises(ValueError, match="options.parameter_covariance"):
         load_model(tmp_path / "v3bad.json")
+
+
+def test_record_columns_round_trip_and_refusals() -> None:
+    from hdpbsid.models.model_io import RecordColumns
+
+    rc = RecordColumns("t", ["u1", "u2"], ["y"], 0.01, ["a.csv", "b.csv"])
+    opts = rc.to_options()
+    # the keys hdpbsid identify writes, in its order, as JSON values
+    assert list(opts) == ["columns", "sampling_interval", "source"]
+    assert json.loads(json.dumps(opts)) == opts
+    assert RecordColumns.from_options(opts) == rc
+    assert RecordColumns.from_options({"method": "dt"}) is None  # identified from Python
+    # a non-positive or non-numeric interval is not a sampling interval
+    for dt in (0.0, -1.0, "0.1", None):
+        assert (
+            RecordColumns.from_options({**opts, "sampling_interval": dt}).sampling_interval is None
+        )
+    for bad in ({"time": 3, "inputs": [], "outputs": []}, {"time": None, "inputs": "u"}, [1]):
+        with pytest.raises(ValueError, match="'options.columns' must be an object"):
+            RecordColumns.from_options({"columns": bad})
