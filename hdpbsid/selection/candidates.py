@@ -74,7 +74,8 @@ class CandidateRow:
         The model fitted on the estimation part (None when the fit failed).
     criterion : WindowedError or None
         Its held-out score (:func:`~hdpbsid.selection.scoring.score_model`; None when
-        the fit failed or was rejected, not finite when it could not be scored).
+        the fit failed or is no candidate, e.g. a time series' model that is not
+        stationary; not finite when it could not be scored).
     predictor : str or None
         The predictor that score is of: with its ``K`` or with ``K = 0`` (None when the
         fit failed).
