@@ -119,7 +119,7 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Candidate
 from hdpbsid.runtime import library_call
 from hdpbsid.selection.candidates import (
-    _rows_table,
+    CandidateRow,
     _sweep,
     accepts_held_out,
     refit_keeps,
@@ -353,7 +353,7 @@ def _select(
         ok, ft_rule = _choose_structure(ok, order.index, extra, val, windows, ft_rule, bound)
         order = choose_order(ok)
     for r, z in zip(ok, order.stats, strict=True):
-        r["z"] = z
+        r.z = z
     queue = list(rank_candidates(ok, order, val).queue)
     if refined:
         queue, order = _rejudged_queue(ok, order, queue, est, val, windows, n_jobs)
@@ -365,16 +365,16 @@ def _select(
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
     if judge_feedthrough:
         model.options["feedthrough_rule"] = _feedthrough_report(model, ok, ft_rule)
-    return model, _rows_table(rows), rule + note
+    return model, [r.as_row() for r in rows], rule + note
 
 
-def _scored(rows: list[dict[str, Any]], time_series: bool) -> list[dict[str, Any]]:
+def _scored(rows: list[CandidateRow], time_series: bool) -> list[CandidateRow]:
     """The candidates of ``rows`` with a finite held-out score; raises
     :class:`NoCandidate` naming every failure when there is none."""
-    ok = [r for r in rows if r["criterion"] is not None and r["criterion"].finite]
+    ok = [r for r in rows if r.criterion is not None and r.criterion.finite]
     if ok:
         return ok
-    detail = "; ".join(f"{r['method']} order {r['order']}: {r['status']}" for r in rows)
+    detail = "; ".join(f"{r.method} order {r.order}: {r.status}" for r in rows)
     hint = (
         "; a time series needs a stationary model with a stable one-step predictor: "
         "detrend or difference a drifting record, or try another method"
@@ -385,14 +385,14 @@ def _scored(rows: list[dict[str, Any]], time_series: bool) -> list[dict[str, Any
 
 
 def _rejudged_queue(
-    ok: list[dict[str, Any]],
+    ok: list[CandidateRow],
     order: OrderChoice,
-    queue: list[dict[str, Any]],
+    queue: list[CandidateRow],
     est: tuple,
     val: tuple,
     windows: int,
     n_jobs: int | None,
-) -> tuple[list[dict[str, Any]], OrderChoice]:
+) -> tuple[list[CandidateRow], OrderChoice]:
     """The ranking ``queue`` with the order decided again between refined candidates
     (:func:`~hdpbsid.selection.rejudge.rejudge_order`) at its head, and that decision.
     Only candidates of the chosen structure (with or without ``D``, as the candidate of

@@ -2,12 +2,10 @@
 ``(method, order)`` fitted on the estimation part and scored on the held-out part
 (:func:`_sweep`), the settings a candidate is fitted with (:func:`sweep_settings`), judged
 with (:func:`settle_candidate`) and refitted with (:func:`refit_keeps`), and the table of
-the candidates (``options["selection"]``).
+the candidates (``options["selection"]``, :meth:`CandidateRow.as_row`).
 
-A candidate is a row, ``dict[str, Any]``: ``method``, ``order``, ``model``, ``criterion``
-(its held-out :class:`~hdpbsid.models.criteria.WindowedError`, None when it failed),
-``predictor``, ``status``, ``time``, and what the later steps add (``settings``,
-``z``, ``whole_simulation``, ``refined_criterion``, ``first_pass``, ``passed_floor``).
+A candidate is a :class:`CandidateRow`: what the sweep found (method, order, model,
+held-out score) and what the later steps of the selection learn of it.
 """
 
 from __future__ import annotations
@@ -16,22 +14,159 @@ import inspect
 import time
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from hdpbsid.bases.basis_domain import BasisTooSmall
+from hdpbsid.models.criteria import WindowedError
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
 from hdpbsid.selection.feedthrough import with_d
 from hdpbsid.selection.scoring import score_model, stationarity_problem
 
 __all__ = [
+    "CandidateRow",
+    "FirstPass",
     "accepts_held_out",
     "sweep_settings",
     "settle_candidate",
     "refit_keeps",
 ]
+
+
+class FirstPass(NamedTuple):
+    """The sweep's fit of a candidate whose held-out-judged settings were settled
+    (:func:`settle_candidate`): kept for the table, replaced in the candidate by the
+    settled fit.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+        The model fitted with the first-pass settings (:func:`sweep_settings`).
+    criterion : WindowedError
+        Its held-out score.
+    """
+
+    model: StateSpaceModel
+    criterion: WindowedError
+
+
+@dataclass(eq=False, slots=True)
+class CandidateRow:
+    """One candidate of the held-out selection: a ``(method, order)`` fitted on the
+    estimation part and scored on the held-out part (:func:`_fit_one`), and what the
+    later steps of the selection learn of it, each step filling in its own fields.
+
+    Mutable, and compared by identity (``eq=False``): the steps mark the candidate they
+    judge in place, and two candidates of one method and order (with and without ``D``)
+    are different candidates (:func:`_among`, :func:`_index`).  The table of the
+    selection (``options["selection"]``) is :meth:`as_row` of every candidate.
+
+    Attributes
+    ----------
+    method : str
+        The registered method that fitted it.
+    order : int
+        Its order.
+    model : StateSpaceModel or None
+        The model fitted on the estimation part (None when the fit failed).
+    criterion : WindowedError or None
+        Its held-out score (:func:`~hdpbsid.selection.scoring.score_model`; None when
+        the fit failed or is no candidate, e.g. a time series' model that is not
+        stationary; not finite when it could not be scored).
+    predictor : str or None
+        The predictor that score is of: with its ``K`` or with ``K = 0`` (None when the
+        fit failed).
+    status : str
+        ``"ok"``, or why it has no finite score.
+    time : float
+        The seconds its fit and score took in the sweep.
+    settings : dict
+        Its own settings beyond the user's: ``feedthrough=True`` for a candidate with
+        ``D`` (:mod:`~hdpbsid.selection.direct_term`), the past window ``p`` that
+        reaches an order the user gave (:func:`_fit_at_order`).
+    p_rule : str or None
+        The reason for that past window (None when the default one was used).
+    z : float or None
+        Its distance to the best held-out error in standard errors, set on the scored
+        candidates (the one-standard-error rule).
+    whole_simulation : float or None
+        Its simulation error over the whole held-out part, set when it was tied with
+        others of its order (:func:`~hdpbsid.selection.scoring.break_tie`).
+    refined_model : StateSpaceModel or None
+        Its model refined on the estimation part, set when the refinement converged
+        (:mod:`~hdpbsid.selection.rejudge`).
+    refined_criterion : WindowedError or None
+        The held-out score of the refined model (of its own model when the refinement
+        failed), set when it was refined.
+    first_pass : FirstPass or None
+        The sweep's fit, set when the settings its method judges on held-out data
+        were settled (:func:`settle_candidate`).
+    settled : bool
+        Whether :func:`settle_candidate` judged it (it is idempotent by this mark).
+    passed_floor : bool
+        Whether it passed the floor of the refits
+        (:func:`~hdpbsid.selection.refits._first_that_holds`).
+
+    Examples
+    --------
+    >>> row = CandidateRow("dt", 2, status="not scored")
+    >>> row.as_row()["status"], row.as_row()["feedthrough"]
+    ('not scored', False)
+    """
+
+    method: str
+    order: int
+    model: StateSpaceModel | None = None
+    criterion: WindowedError | None = None
+    predictor: str | None = None
+    status: str = ""
+    time: float = 0.0
+    settings: dict[str, Any] = field(default_factory=dict)
+    p_rule: str | None = None
+    z: float | None = None
+    whole_simulation: float | None = None
+    refined_model: StateSpaceModel | None = None
+    refined_criterion: WindowedError | None = None
+    first_pass: FirstPass | None = None
+    settled: bool = False
+    passed_floor: bool = False
+
+    def as_row(self) -> dict[str, Any]:
+        """The candidate's entry in the table of the selection (``options["selection"]``,
+        read by :meth:`hdpbsid.models.report.Candidate.from_dict`).
+
+        Returns
+        -------
+        dict
+            ``method``, ``order``, ``feedthrough`` (fitted with ``D`` by the judgement),
+            ``error`` and ``fit`` (held-out), ``z``, ``whole_simulation``,
+            ``refined_error``, ``refined_fit``, ``predictor``, ``first_pass_error``,
+            ``time``, ``status``; None where a step did not reach it.
+        """
+        c, refined, first = self.criterion, self.refined_criterion, self.first_pass
+        return {
+            "method": self.method,
+            "order": self.order,
+            "feedthrough": with_d(self),
+            "error": None if c is None else c.total,
+            "fit": None if c is None else c.fit,
+            "z": self.z,
+            "whole_simulation": self.whole_simulation,
+            "refined_error": None if refined is None else refined.total,
+            "refined_fit": None if refined is None else refined.fit,
+            "predictor": self.predictor,
+            "first_pass_error": None if first is None else first.criterion.total,
+            "time": self.time,
+            "status": self.status,
+        }
+
+
+def _predictor_name(use_k: bool) -> str:
+    """The name of the predictor a score is of (:attr:`CandidateRow.predictor`)."""
+    return "innovation (K)" if use_k else "output error (K = 0)"
 
 
 def accepts_held_out(func: Any) -> bool:
@@ -128,13 +263,13 @@ def _refit_settings(model: StateSpaceModel) -> dict[str, Any]:
 
 
 def settle_candidate(
-    get_method: Any, row: dict[str, Any], est: tuple, val: tuple, windows: int, options: dict
-) -> dict[str, Any]:
+    get_method: Any, row: CandidateRow, est: tuple, val: tuple, windows: int, options: dict
+) -> CandidateRow:
     """The candidate ``row`` with the settings its method judges on held-out data
     (:func:`sweep_settings`) judged: fitted again on ``est`` with the user's settings
     and ``held_out=val``, scored (:func:`score_model`), and that fit replaces the row's
-    model and score (``row["settled"] = True``; the sweep's first-pass fit is kept in
-    ``row["first_pass"]``).  A candidate whose method declares no such settings, whose
+    model and score (``row.settled``; the sweep's first-pass fit is kept in
+    ``row.first_pass``).  A candidate whose method declares no such settings, whose
     settings the user gave, or whose second fit fails or cannot be scored is returned as
     it is, its refit then given the first-pass settings it was fitted with.  Idempotent.
 
@@ -142,8 +277,8 @@ def settle_candidate(
     ----------
     get_method : callable
         The registry's ``get_method``.
-    row : dict
-        The candidate (``method``, ``order``, ``model``, ``criterion``), updated in place.
+    row : CandidateRow
+        The candidate (scored: ``model`` and ``criterion``), updated in place.
     est : tuple
         The estimation part ``(t, u, y)``.
     val : tuple
@@ -155,19 +290,19 @@ def settle_candidate(
 
     Returns
     -------
-    dict
+    CandidateRow
         ``row``.
     """
-    func = get_method(row["method"])
+    func = get_method(row.method)
     given = _given(row, options)
     first = sweep_settings(func, given)
-    if row.get("settled") or first == given:
+    if row.settled or first == given:
         return row
-    row["settled"] = True
+    row.settled = True
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = func(*est, order=row["order"], **given, held_out=val)
+            model = func(*est, order=row.order, **given, held_out=val)
             # a time series' model that is not stationary is no candidate
             bad = bool(stationarity_problem(model))
             err, use_k = (None, False) if bad else score_model(model, val, windows)
@@ -176,40 +311,36 @@ def settle_candidate(
     if err is None or not err.finite:
         # the first-pass fit stands; its refit on the whole record gets its settings
         carried = {k: v for k, v in first.items() if k not in given}
-        row["model"].options["refit_settings"] = carried
-        row["model"].report = row["model"].report.but(
+        row.model.options["refit_settings"] = carried
+        row.model.report = row.model.report.but(
             refit_settings=Choice(
                 carried, "the first pass's (its fit judged on held-out data failed)"
             )
         )
         return row
-    row["first_pass"] = {"model": row["model"], "criterion": row["criterion"]}
-    if "p_rule" in row:
-        model.options["p_rule"] = row["p_rule"]
-    row.update(
-        model=model,
-        criterion=err,
-        predictor="innovation (K)" if use_k else "output error (K = 0)",
-    )
+    row.first_pass = FirstPass(row.model, row.criterion)
+    if row.p_rule is not None:
+        model.options["p_rule"] = row.p_rule
+    row.model, row.criterion, row.predictor = model, err, _predictor_name(use_k)
     return row
 
 
-def _among(row: dict[str, Any], rows: Sequence[dict[str, Any]]) -> bool:
+def _among(row: CandidateRow, rows: Sequence[CandidateRow]) -> bool:
     """Whether the candidate ``row`` is one of ``rows`` (by identity: two candidates of
     one method and order, with and without ``D``, are different rows)."""
     return any(r is row for r in rows)
 
 
-def _index(rows: Sequence[dict[str, Any]], row: dict[str, Any]) -> int:
+def _index(rows: Sequence[CandidateRow], row: CandidateRow) -> int:
     """The position of the candidate ``row`` in ``rows``, by identity (:func:`_among`)."""
     return next(i for i, r in enumerate(rows) if r is row)
 
 
-def _given(row: dict[str, Any], options: dict) -> dict[str, Any]:
+def _given(row: CandidateRow, options: dict) -> dict[str, Any]:
     """The settings candidate ``row`` of a sweep is fitted with: its method's in
-    ``options`` (the user's), and the row's own (``row["settings"]``: ``feedthrough``
+    ``options`` (the user's), and the row's own (``row.settings``: ``feedthrough``
     for a candidate with ``D`` of :mod:`hdpbsid.selection.feedthrough`)."""
-    return {**options.get(row["method"], {}), **row.get("settings", {})}
+    return {**options.get(row.method, {}), **row.settings}
 
 
 def _fit_at_order(
@@ -249,9 +380,13 @@ def _fit_one(
     windows: int,
     options: dict,
     order_given: bool = False,
-) -> dict[str, Any]:
+) -> CandidateRow:
+    """The candidate ``(method, order)``: fitted on ``est`` with its sweep settings
+    (:func:`sweep_settings`, :func:`_fit_at_order`) and scored on ``val`` over
+    ``windows`` windows (:func:`score_model`); a fit that fails, or a time series' model
+    that is not stationary, is a candidate with no score and the reason in ``status``."""
     t0 = time.perf_counter()
-    row: dict[str, Any] = {"method": method, "order": order}
+    row = CandidateRow(method, order)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -259,8 +394,7 @@ def _fit_one(
             settings = sweep_settings(func, options.get(method, {}))
             model, extra, p_rule = _fit_at_order(func, est, order, settings, order_given)
             if extra:
-                row["settings"] = extra
-                row["p_rule"] = p_rule
+                row.settings, row.p_rule = extra, p_rule
             if not isinstance(model, StateSpaceModel):
                 raise TypeError(
                     f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
@@ -269,17 +403,15 @@ def _fit_one(
             if why:
                 raise ValueError(why)
             err, use_k = score_model(model, val, windows)
-        row.update(
-            status="ok"
+        row.status = (
+            "ok"
             if err.finite
-            else "not scored: its one-step predictor is unstable or its simulation overflows",
-            criterion=err,
-            predictor="innovation (K)" if use_k else "output error (K = 0)",
-            model=model,
+            else "not scored: its one-step predictor is unstable or its simulation overflows"
         )
+        row.criterion, row.predictor, row.model = err, _predictor_name(use_k), model
     except (ValueError, np.linalg.LinAlgError) as exc:
-        row.update(status=f"{type(exc).__name__}: {exc}", criterion=None, predictor=None)
-    row["time"] = time.perf_counter() - t0
+        row.status, row.criterion, row.predictor = f"{type(exc).__name__}: {exc}", None, None
+    row.time = time.perf_counter() - t0
     return row
 
 
@@ -292,7 +424,7 @@ def _sweep_method(
     windows: int,
     options: dict,
     order_given: bool = False,
-) -> list[dict[str, Any]]:
+) -> list[CandidateRow]:
     """Every order of one method, upwards (the orders share the method's memoised
     order-independent steps, :mod:`hdpbsid.bases.memo`)."""
     return [
@@ -310,7 +442,7 @@ def _sweep(
     options: dict,
     n_jobs: int | None,
     order_given: bool = False,
-) -> list[dict[str, Any]]:
+) -> list[CandidateRow]:
     """Every ``(method, order)`` candidate, listed orders upwards and, within an order, in
     the order of ``methods`` (``order_given``: the user asked for the one order, see
     :func:`_fit_at_order`).  With ``n_jobs`` the methods are swept in parallel
@@ -337,33 +469,3 @@ def _sweep(
     else:
         per_method = [_sweep_method(get_method, m, *args) for m in methods]
     return [rows[i] for i in range(len(orders)) for rows in per_method]
-
-
-def _rows_table(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    table = []
-    for r in rows:
-        c = r["criterion"]
-        table.append(
-            {
-                "method": r["method"],
-                "order": r["order"],
-                "feedthrough": with_d(r),
-                "error": c.total if c is not None else None,
-                "fit": c.fit if c is not None else None,
-                "z": r.get("z"),
-                "whole_simulation": r.get("whole_simulation"),
-                "refined_error": r["refined_criterion"].total
-                if r.get("refined_criterion") is not None
-                else None,
-                "refined_fit": r["refined_criterion"].fit
-                if r.get("refined_criterion") is not None
-                else None,
-                "predictor": r.get("predictor"),
-                "first_pass_error": r["first_pass"]["criterion"].total
-                if r.get("first_pass") is not None
-                else None,
-                "time": r["time"],
-                "status": r["status"],
-            }
-        )
-    return table

@@ -12,7 +12,7 @@ from typing import Any
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, default_windows
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.selection.candidates import _fit_one, _sweep
+from hdpbsid.selection.candidates import CandidateRow, _fit_one, _sweep
 from hdpbsid.selection.feedthrough import (
     feedthrough_offered,
     honours_feedthrough,
@@ -27,8 +27,8 @@ __all__ = ["decide_feedthrough"]
 
 def _feedthrough_candidates(
     get_method: Any,
-    ok: list[dict[str, Any]],
-    chosen: dict[str, Any],
+    ok: list[CandidateRow],
+    chosen: CandidateRow,
     swept: Sequence[str],
     orders: list[int],
     est: tuple,
@@ -37,7 +37,7 @@ def _feedthrough_candidates(
     opts: dict,
     n_jobs: int | None,
     order_given: bool = False,
-) -> tuple[list[dict[str, Any]], str, float]:
+) -> tuple[list[CandidateRow], str, float]:
     """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
     the reason they are or are not offered and the closed-loop bound on the simulation
     gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
@@ -49,32 +49,32 @@ def _feedthrough_candidates(
     sweep.  Every order: without ``D`` a direct term can cost states (a fast mode
     imitates it) or remove them (a plant whose output is dominated by ``D u`` looks
     static), so the order without ``D`` bounds nothing."""
-    offered, why, bound = feedthrough_offered(chosen["model"], est)
+    offered, why, bound = feedthrough_offered(chosen.model, est)
     if not offered:
         return [], why, bound
     # every built-in method of the sweep but those whose candidates showed they estimate
     # D whatever they are asked; a method with no candidate without D (dt with no
     # continuous-time model at an order) may have one with D
-    own = {r["method"] for r in ok if not honours_feedthrough(r["model"])}
+    own = {r.method for r in ok if not honours_feedthrough(r.model)}
     methods = [m for m in swept if takes_feedthrough(m) and m not in own]
     if not methods:
         return [], why + "; no method here takes feedthrough=, so no candidate with D", bound
     d_opts = {m: {**opts.get(m, {}), "feedthrough": True} for m in methods}
     extra = _sweep(get_method, methods, orders, est, val, windows, d_opts, n_jobs, order_given)
     for r in extra:
-        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+        r.settings = {**r.settings, "feedthrough": True}
     return extra, why + f"; candidates with D of {', '.join(methods)} at every order", bound
 
 
 def _choose_structure(
-    ok: list[dict[str, Any]],
+    ok: list[CandidateRow],
     k: int,
-    extra: list[dict[str, Any]],
+    extra: list[CandidateRow],
     val: tuple,
     windows: int,
     why: str,
     bound: float = 0.0,
-) -> tuple[list[dict[str, Any]], str]:
+) -> tuple[list[CandidateRow], str]:
     """The pool the selection goes on with: the candidates without ``D`` (``ok``, where
     the one-standard-error rule takes ``ok[k]``) or those with ``D`` (the scored rows of
     ``extra``), and the rule's text.  Each structure is represented by the candidate the
@@ -94,34 +94,34 @@ def _choose_structure(
     ``D``"), and its candidates then compete in the pool of the structure chosen, as
     candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
     others with ``D``)."""
-    scored = [r for r in extra if r["criterion"] is not None and r["criterion"].finite]
+    scored = [r for r in extra if r.criterion is not None and r.criterion.finite]
     if not scored:
         return ok, why + ("; no candidate with D could be scored" if extra else "")
-    own = [r for r in ok if not honours_feedthrough(r["model"])]
-    plain = [r for r in ok if honours_feedthrough(r["model"])]
+    own = [r for r in ok if not honours_feedthrough(r.model)]
+    plain = [r for r in ok if honours_feedthrough(r.model)]
     scored.sort(key=structure_key)
-    b = scored[choose_smallest_adequate([r["criterion"] for r in scored])[0]]
-    a = plain[choose_smallest_adequate([r["criterion"] for r in plain])[0]] if plain else ok[k]
+    b = scored[choose_smallest_adequate([r.criterion for r in scored])[0]]
+    a = plain[choose_smallest_adequate([r.criterion for r in plain])[0]] if plain else ok[k]
     choice = judge_direct_term(
-        a["model"],
-        b["model"],
-        (a["criterion"], b["criterion"]),
+        a.model,
+        b.model,
+        (a.criterion, b.criterion),
         check_data(*val),
         windows,
         bound=bound,
     )
     text = (
-        f"{why}; without D {a['method']} order {a['order']}, with D {b['method']} order "
-        f"{b['order']}: {choice.text()}"
+        f"{why}; without D {a.method} order {a.order}, with D {b.method} order "
+        f"{b.order}: {choice.text()}"
     )
     if not choice.value:
         return ok, text
     for r in own:
-        r["settings"] = {**r.get("settings", {}), "feedthrough": True}
+        r.settings = {**r.settings, "feedthrough": True}
     return sorted(scored + own, key=structure_key), text
 
 
-def _feedthrough_report(model: StateSpaceModel, ok: list[dict[str, Any]], why: str) -> str:
+def _feedthrough_report(model: StateSpaceModel, ok: list[CandidateRow], why: str) -> str:
     """The text of ``options["feedthrough_rule"]``: whether the returned ``model`` has a
     direct term, and why (:func:`_feedthrough_candidates`, :func:`_choose_structure`)."""
     has_d = honours_feedthrough(model) and model.report.feedthrough.estimated
@@ -210,21 +210,21 @@ def _judge_two(
     fit = _fit_one(get_method, method, order, est, val, windows, {method: dict(options)})
     with_opts = {method: {**options, "feedthrough": True}}
     own = f"auto: {method} does not take feedthrough= (its own D is kept)"
-    if _scores(fit) and not honours_feedthrough(fit["model"]):
+    if _scores(fit) and not honours_feedthrough(fit.model):
         return False, own
     if _scores(fit):
-        offered, why, bound = feedthrough_offered(fit["model"], est)
+        offered, why, bound = feedthrough_offered(fit.model, est)
         if not offered:
             return False, f"auto: {why}; D = 0"
     fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
-    if _scores(fit_d) and not honours_feedthrough(fit_d["model"]):
+    if _scores(fit_d) and not honours_feedthrough(fit_d.model):
         return False, own
     if not _scores(fit):
         return _judge_without_rival(fit, fit_d, est)
     if not _scores(fit_d):
-        return False, f"auto: {why}; the candidate with D: {fit_d['status']}; D = 0"
+        return False, f"auto: {why}; the candidate with D: {fit_d.status}; D = 0"
     choice = judge_direct_term(
-        fit["model"], fit_d["model"], (fit["criterion"], fit_d["criterion"]), val, windows,
+        fit.model, fit_d.model, (fit.criterion, fit_d.criterion), val, windows,
         bound=bound,
     )  # fmt: skip
     return choice.value, (
@@ -232,22 +232,20 @@ def _judge_two(
     )
 
 
-def _scores(row: dict[str, Any]) -> bool:
+def _scores(row: CandidateRow) -> bool:
     """Whether the candidate ``row`` was fitted and has a finite held-out score."""
-    return row["criterion"] is not None and row["criterion"].finite
+    return row.criterion is not None and row.criterion.finite
 
 
-def _judge_without_rival(
-    fit: dict[str, Any], fit_d: dict[str, Any], est: tuple
-) -> tuple[bool, str]:
+def _judge_without_rival(fit: CandidateRow, fit_d: CandidateRow, est: tuple) -> tuple[bool, str]:
     """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score:
     ``D`` is estimated when it is offered (tested on the candidate with ``D``, ``fit_d``)
     and that candidate scores."""
     if not _scores(fit_d):
-        return False, f"auto: not judged (no candidate: {fit['status']}); D = 0"
-    offered, why, _ = feedthrough_offered(fit_d["model"], est)
+        return False, f"auto: not judged (no candidate: {fit.status}); D = 0"
+    offered, why, _ = feedthrough_offered(fit_d.model, est)
     if not offered:
         return False, f"auto: {why}; D = 0"
     return True, (
-        f"auto: {why}; the candidate without D: {fit['status']}; the one with D scores: D estimated"
+        f"auto: {why}; the candidate without D: {fit.status}; the one with D scores: D estimated"
     )

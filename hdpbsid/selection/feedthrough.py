@@ -70,7 +70,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -81,6 +81,9 @@ from hdpbsid.models.criteria import (
     windowed_simulation_error,
 )
 from hdpbsid.models.model import StateSpaceModel
+
+if TYPE_CHECKING:  # the candidates import this rule; the type is for annotations only
+    from hdpbsid.selection.candidates import CandidateRow
 
 __all__ = [
     "FEEDTHROUGH_CHOICES",
@@ -470,30 +473,30 @@ def takes_feedthrough(method: str) -> bool:
     )
 
 
-def with_d(row: dict[str, Any]) -> bool:
+def with_d(row: CandidateRow) -> bool:
     """Whether the selection candidate ``row`` was fitted with ``D`` asked for by the
     judgement (its ``settings``).
 
     Parameters
     ----------
-    row : dict
+    row : CandidateRow
         A candidate of the selection.
 
     Returns
     -------
     bool
-        Whether ``row["settings"]`` asks for ``feedthrough=True``.
+        Whether ``row.settings`` asks for ``feedthrough=True``.
     """
-    return bool(row.get("settings", {}).get("feedthrough", False))
+    return bool(row.settings.get("feedthrough", False))
 
 
-def structure_key(row: dict[str, Any]) -> tuple[int, bool, float]:
+def structure_key(row: CandidateRow) -> tuple[int, bool, float]:
     """The ranking of scored candidates for the one-standard-error rule: order first,
     then without ``D`` before with ``D`` (module docstring), then held-out error.
 
     Parameters
     ----------
-    row : dict
+    row : CandidateRow
         A scored candidate (``order``, ``criterion``, ``settings``).
 
     Returns
@@ -501,7 +504,7 @@ def structure_key(row: dict[str, Any]) -> tuple[int, bool, float]:
     tuple of (int, bool, float)
         The order, whether it has ``D``, and its held-out error.
     """
-    return (row["order"], with_d(row), row["criterion"].total)
+    return (row.order, with_d(row), row.criterion.total)
 
 
 def arx_residuals(u: Any, y: Any, lags: int) -> Any:

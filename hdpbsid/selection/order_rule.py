@@ -27,10 +27,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
 
 from hdpbsid.models.criteria import SIGNIFICANCE_Z, choose_smallest_adequate
-from hdpbsid.selection.candidates import _among, _index
+from hdpbsid.selection.candidates import CandidateRow, _among, _index
 from hdpbsid.selection.feedthrough import structure_key
 from hdpbsid.selection.scoring import break_tie
 
@@ -86,12 +85,12 @@ class OrderChoice:
     rule: str = ""
 
 
-def choose_order(pool: list[dict[str, Any]]) -> OrderChoice:
+def choose_order(pool: list[CandidateRow]) -> OrderChoice:
     """The one-standard-error rule on the scored candidates ``pool`` (module docstring).
 
     Parameters
     ----------
-    pool : list of dict
+    pool : list of CandidateRow
         Scored candidates (finite ``criterion``), sorted by
         :func:`~hdpbsid.selection.feedthrough.structure_key`.
 
@@ -101,7 +100,7 @@ def choose_order(pool: list[dict[str, Any]]) -> OrderChoice:
         The first candidate within one standard error of the best, and every
         candidate's distance to the best.
     """
-    k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    k, stats = choose_smallest_adequate([r.criterion for r in pool])
     return OrderChoice(k, tuple(stats))
 
 
@@ -120,7 +119,7 @@ class MethodChoice:
 
     Attributes
     ----------
-    queue : tuple of dict
+    queue : tuple of CandidateRow
         The candidates in the order they are tried: the chosen order's tied
         candidates, best whole-held-out simulation first, then the larger adequate
         orders.
@@ -131,21 +130,21 @@ class MethodChoice:
 
     Examples
     --------
-    >>> MethodChoice(({"method": "dt", "order": 2},), 1, MethodReason.ALONE).method
+    >>> MethodChoice((CandidateRow("dt", 2),), 1, MethodReason.ALONE).method
     'dt'
     """
 
-    queue: tuple[dict[str, Any], ...]
+    queue: tuple[CandidateRow, ...]
     tied: int
     reason: MethodReason
 
     @property
     def method(self) -> str:
         """The method of the candidate tried first."""
-        return self.queue[0]["method"]
+        return self.queue[0].method
 
 
-def rank_candidates(pool: list[dict[str, Any]], order: OrderChoice, val: tuple) -> MethodChoice:
+def rank_candidates(pool: list[CandidateRow], order: OrderChoice, val: tuple) -> MethodChoice:
     """The candidates of ``pool`` that the one-standard-error rule admits, in the order
     they are tried (module docstring).
 
@@ -156,7 +155,7 @@ def rank_candidates(pool: list[dict[str, Any]], order: OrderChoice, val: tuple) 
 
     Parameters
     ----------
-    pool : list of dict
+    pool : list of CandidateRow
         Scored candidates sorted by :func:`~hdpbsid.selection.feedthrough.structure_key`.
     order : OrderChoice
         The order decision on ``pool`` (its ``index`` and ``stats``).
@@ -176,18 +175,16 @@ def rank_candidates(pool: list[dict[str, Any]], order: OrderChoice, val: tuple) 
     return MethodChoice(tuple(tied + [r for r in queue if not _among(r, tied)]), len(tied), reason)
 
 
-def _ranked(
-    pool: list[dict[str, Any]], k: int, stats: list[float], val: tuple
-) -> list[dict[str, Any]]:
+def _ranked(pool: list[CandidateRow], k: int, stats: list[float], val: tuple) -> list[CandidateRow]:
     """The ranking of :func:`rank_candidates` for the candidate ``pool[k]`` chosen with
     the distances ``stats``, as a list."""
     return list(rank_candidates(pool, OrderChoice(k, tuple(stats)), val).queue)
 
 
-def _admitted(pool: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _admitted(pool: list[CandidateRow]) -> list[CandidateRow]:
     """The candidates of ``pool`` the one-standard-error rule admits: held-out error
     within :data:`~hdpbsid.models.criteria.SIGNIFICANCE_Z` standard errors of the best's
     (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`); the rivals of
     :func:`~hdpbsid.selection.scoring.instability_problem`."""
-    _, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    _, stats = choose_smallest_adequate([r.criterion for r in pool])
     return [r for r, z in zip(pool, stats, strict=True) if z <= SIGNIFICANCE_Z]

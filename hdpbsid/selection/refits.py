@@ -18,6 +18,7 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import DirectTerm
 from hdpbsid.runtime import user_stacklevel
 from hdpbsid.selection.candidates import (
+    CandidateRow,
     _among,
     _given,
     _refit_settings,
@@ -43,15 +44,15 @@ __all__: list[str] = []
 
 def _first_that_holds(
     get_method: Any,
-    candidates: list[dict[str, Any]],
+    candidates: list[CandidateRow],
     est: tuple,
     whole: tuple,
     val: tuple,
     windows: int,
     opts: dict,
     floor: bool = True,
-    pool: Sequence[dict[str, Any]] = (),
-) -> tuple[StateSpaceModel | None, list[tuple[str, str, dict[str, Any]]], dict[str, Any] | None]:
+    pool: Sequence[CandidateRow] = (),
+) -> tuple[StateSpaceModel | None, list[tuple[str, str, CandidateRow]], CandidateRow | None]:
     """The first of ``candidates`` that, with its held-out-judged settings settled
     (:func:`settle_candidate`, fitted on ``est``), passes the floor (unless ``floor`` is
     False): :func:`beats_the_mean`, and :func:`instability_problem` against the scored
@@ -67,16 +68,16 @@ def _first_that_holds(
     every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
     passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
     a sound answer when no refit holds: :func:`select_model`)."""
-    failures: list[tuple[str, str, dict[str, Any]]] = []
+    failures: list[tuple[str, str, CandidateRow]] = []
     for chosen in candidates:
         settle_candidate(get_method, chosen, est, val, windows, opts)
-        name = f"{chosen['method']} order {chosen['order']}"
+        name = f"{chosen.method} order {chosen.order}"
         if floor:
             how = _floor_problem(chosen, val, pool)
             if how:
                 failures.append(("floor", f"{name}: {how}", chosen))
                 continue
-            chosen["passed_floor"] = True
+            chosen.passed_floor = True
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -92,48 +93,48 @@ def _first_that_holds(
     return None, failures, None
 
 
-def _floor_problem(row: dict[str, Any], val: tuple, pool: Sequence[dict[str, Any]]) -> str:
+def _floor_problem(row: CandidateRow, val: tuple, pool: Sequence[CandidateRow]) -> str:
     """Why candidate ``row`` fails the floor of :func:`_first_that_holds`, or ``""``: it
     does not predict the held-out part ``val`` better than its mean
     (:func:`beats_the_mean`), or the record does not need its growth against the
     admitted candidates ``pool`` (:func:`instability_problem`)."""
-    _, how = beats_the_mean(row["model"], val)
+    _, how = beats_the_mean(row.model, val)
     return how or instability_problem(row, pool)
 
 
 def _refit(
-    get_method: Any, chosen: dict[str, Any], whole: tuple, opts: dict
+    get_method: Any, chosen: CandidateRow, whole: tuple, opts: dict
 ) -> tuple[StateSpaceModel, dict[str, Any]]:
     """Candidate ``chosen`` identified again on the ``whole`` record, with the user's
     settings, those it keeps from the candidate (:func:`refit_keeps`) and those its
     method chose on held-out data, and those kept settings.  A candidate judged as a
     structure with ``D`` is marked as asked for it (:func:`_with_d_asked`)."""
-    func = get_method(chosen["method"])
+    func = get_method(chosen.method)
     given = _given(chosen, opts)
-    kept = refit_keeps(func, chosen["model"], given)
-    settings = {**given, **kept, **_refit_settings(chosen["model"])}
-    model = func(*whole, order=chosen["order"], **settings)
+    kept = refit_keeps(func, chosen.model, given)
+    settings = {**given, **kept, **_refit_settings(chosen.model)}
+    model = func(*whole, order=chosen.order, **settings)
     if with_d(chosen) and not honours_feedthrough(model) and model.m:
         # judged as a structure with D: D is a parameter of the refinement
         # (hdpbsid.refine.pem), whatever the method says of its own D
         _with_d_asked(model)
-    if "p_rule" in chosen:
-        model.options["p_rule"] = chosen["p_rule"]
+    if chosen.p_rule is not None:
+        model.options["p_rule"] = chosen.p_rule
     return model, kept
 
 
 def _refit_problem(
-    model: StateSpaceModel, chosen: dict[str, Any], val: tuple, windows: int, floor: bool
+    model: StateSpaceModel, chosen: CandidateRow, val: tuple, windows: int, floor: bool
 ) -> str:
     """Why the refit ``model`` of candidate ``chosen`` is not returned, or ``""``: it does
     not hold on the held-out part ``val`` (:func:`refit_holds`); with the ``floor``, it
     predicts the whole held-out part worse than its mean (:func:`beats_the_mean`: a
     refit whose windowed score holds can still diverge over the whole part) or grows a
     mode the candidate did not have; a time series' refit is not stationary."""
-    holds, how = refit_holds(model, chosen["criterion"], val, windows)
+    holds, how = refit_holds(model, chosen.criterion, val, windows)
     if holds and floor:
         # the floor the candidate passed, for the model returned
-        how = beats_the_mean(model, val)[1] or _new_growth(model, chosen["model"])
+        how = beats_the_mean(model, val)[1] or _new_growth(model, chosen.model)
         how = f"the refit on the whole record: {how}" if how else how
     if not how:
         why = stationarity_problem(model)
@@ -152,17 +153,17 @@ def _new_growth(model: StateSpaceModel, candidate: StateSpaceModel) -> str:
     return ""
 
 
-def _accept_refit(model: StateSpaceModel, chosen: dict[str, Any], kept: dict[str, Any]) -> None:
+def _accept_refit(model: StateSpaceModel, chosen: CandidateRow, kept: dict[str, Any]) -> None:
     """Record on the refit ``model`` returned what it takes from candidate ``chosen``: the
     candidate refined on the estimation part as a warm start of the refinement
     (:func:`hdpbsid.refine.pem.refine_pem`), the settings chosen on held-out data, and
     the settings ``kept`` (:func:`refit_keeps`)."""
-    warm = chosen.get("refined_model")
+    warm = chosen.refined_model
     if warm is not None:
         from hdpbsid.refine.pem import warm_start_option
 
         model.report = model.report.but(warm_start=warm_start_option(warm))
-    _carry_refit_settings(model, chosen["model"])
+    _carry_refit_settings(model, chosen.model)
     if kept:
         model.options["refit_kept"] = kept
         model.options["refit_kept_rule"] = (
@@ -196,31 +197,31 @@ def _carry_refit_settings(model: StateSpaceModel, candidate: StateSpaceModel) ->
 
 
 def _warn_if_much_worse(
-    row: dict[str, Any],
+    row: CandidateRow,
     model: StateSpaceModel,
-    failures: list[tuple[str, str, dict[str, Any]]],
+    failures: list[tuple[str, str, CandidateRow]],
 ) -> None:
     """A :class:`SelectionWarning` when the candidate ``row`` returned (as ``model``) is
     much worse on the held-out part than the best candidate the checks rejected
     (:func:`much_worse`): what was rejected and why, the ratio, and what to pass to get
     it.  The text is kept in ``model.options["selection_warning"]``."""
-    crit = row.get("criterion")
+    crit = row.criterion
     rejected = [
         (r, text)
         for _, text, r in failures
-        if r is not row and r.get("criterion") is not None and r["criterion"].finite
+        if r is not row and r.criterion is not None and r.criterion.finite
     ]
     if crit is None or not rejected:
         return
-    best, why = min(rejected, key=lambda p: p[0]["criterion"].total)
-    worse, ratio = much_worse(crit, best["criterion"])
+    best, why = min(rejected, key=lambda p: p[0].criterion.total)
+    worse, ratio = much_worse(crit, best.criterion)
     if not worse:
         return
     text = (
-        f"{row['method']} order {row['order']} is returned, but its held-out error is "
+        f"{row.method} order {row.order} is returned, but its held-out error is "
         f"{ratio:.3g} times that of {why} (rejected for that reason). If that model is "
         f"what the record should give (e.g. an unstable plant inside a feedback loop), "
-        f"pass method={best['method']!r}, order={best['order']}; "
+        f"pass method={best.method!r}, order={best.order}; "
         f"model.options['selection_rule'] lists every candidate that was rejected"
     )
     model.options["selection_warning"] = text
@@ -228,15 +229,15 @@ def _warn_if_much_worse(
     warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
 
 
-def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> StateSpaceModel:
+def _candidate_itself(row: CandidateRow, where: str, warn: bool = True) -> StateSpaceModel:
     """The candidate ``row``'s own model (fitted on the estimation part), returned when
     no refit on the whole record holds (:func:`_choose`, step 2), with a
     :class:`SelectionWarning`
     (if ``warn``) saying so and what would help; the text is also kept in
     ``options["selection_fallback"]``."""
-    model = row["model"]
+    model = row.model
     text = (
-        f"{row['method']} order {row['order']}: the model fitted on the estimation part "
+        f"{row.method} order {row.order}: the model fitted on the estimation part "
         f"(all but {where}) is returned, as judged on the held-out part; its refit on the "
         f"whole record did not hold (model.options['selection_rule'] says why): the "
         f"method's data-driven settings change with the record length. A longer record, "
@@ -250,8 +251,8 @@ def _candidate_itself(row: dict[str, Any], where: str, warn: bool = True) -> Sta
 
 
 def _stand_ins(
-    pool: list[dict[str, Any]], queue: list[dict[str, Any]], row: dict[str, Any], val: tuple
-) -> list[dict[str, Any]]:
+    pool: list[CandidateRow], queue: list[CandidateRow], row: CandidateRow, val: tuple
+) -> list[CandidateRow]:
     """The candidates of ``pool`` outside the ranking ``queue`` whose refit on the whole
     record may be returned instead of candidate ``row`` as fitted on the estimation part
     (:func:`_choose`, step 2): those not much worse than ``row`` (:func:`much_worse`) on
@@ -276,20 +277,20 @@ def _stand_ins(
     mode or static gain, which each window's fitted initial state absorbs), and the
     selection's tie-break already defers to the whole simulation where the windows
     cannot tell."""
-    crit, whole = row["criterion"], whole_held_out_error(row["model"], val)
+    crit, whole = row.criterion, whole_held_out_error(row.model, val)
     near = [
         r
         for r in pool
-        if not _among(r, queue) and r is not row and not much_worse(r["criterion"], crit)[0]
+        if not _among(r, queue) and r is not row and not much_worse(r.criterion, crit)[0]
     ]
-    near = [r for r in near if not much_worse(whole_held_out_error(r["model"], val), whole)[0]]
-    return sorted(near, key=lambda r: r["criterion"].total)
+    near = [r for r in near if not much_worse(whole_held_out_error(r.model, val), whole)[0]]
+    return sorted(near, key=lambda r: r.criterion.total)
 
 
 def _choose(
     get_method: Any,
-    ok: list[dict[str, Any]],
-    queue: list[dict[str, Any]],
+    ok: list[CandidateRow],
+    queue: list[CandidateRow],
     est: tuple,
     whole: tuple,
     val: tuple,
@@ -297,7 +298,7 @@ def _choose(
     opts: dict,
     where: str,
     refined: bool = False,
-) -> tuple[StateSpaceModel, list[tuple[str, str, dict[str, Any]]], str]:
+) -> tuple[StateSpaceModel, list[tuple[str, str, CandidateRow]], str]:
     """The model returned by :func:`~hdpbsid.selection.auto.select_model` from the scored
     candidates ``ok`` and the first ranking ``queue``
     (:func:`~hdpbsid.selection.order_rule.rank_candidates`); also every failure and a note
@@ -329,7 +330,7 @@ def _choose(
     the best candidate a check rejected (:func:`much_worse`), a :class:`SelectionWarning`
     says what was rejected, why, and how to ask for it (:func:`_warn_if_much_worse`).
     """
-    failures: list[tuple[str, str, dict[str, Any]]] = []
+    failures: list[tuple[str, str, CandidateRow]] = []
     pool, first = list(ok), queue
     while queue:
         model, more, row = _first_that_holds(
@@ -339,7 +340,7 @@ def _choose(
         if model is not None:
             _warn_if_much_worse(row, model, failures)
             return model, failures, ""
-        sound = [r for r in queue if r.get("passed_floor")]
+        sound = [r for r in queue if r.passed_floor]
         if sound:
             split = (est, whole, val, windows)
             model, note = _sound_fallback(
@@ -349,7 +350,7 @@ def _choose(
         pool = [r for r in pool if not _among(r, queue)]
         if not pool:
             break
-        k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+        k, stats = choose_smallest_adequate([r.criterion for r in pool])
         queue = _ranked(pool, k, stats, val)
     # no candidate passes the floor: the floor cannot judge these models, the windowed
     # ranking stands
@@ -359,14 +360,14 @@ def _choose(
 
 def _sound_fallback(
     get_method: Any,
-    pool: list[dict[str, Any]],
-    queue: list[dict[str, Any]],
-    row: dict[str, Any],
+    pool: list[CandidateRow],
+    queue: list[CandidateRow],
+    row: CandidateRow,
     split: tuple,
     opts: dict,
     where: str,
     refined: bool,
-    failures: list[tuple[str, str, dict[str, Any]]],
+    failures: list[tuple[str, str, CandidateRow]],
 ) -> tuple[StateSpaceModel, str]:
     """Step 2 of :func:`_choose`: ``row``, the first candidate of ``queue`` that passed the
     floor, had no refit that held; the refit of the first stand-in that holds
@@ -385,21 +386,21 @@ def _sound_fallback(
     model = _candidate_itself(row, where, warn=not refined)
     _warn_if_much_worse(row, model, failures)
     return model, (
-        f"; returned: {row['method']} order {row['order']} as fitted on the "
+        f"; returned: {row.method} order {row.order} as fitted on the "
         f"estimation part (no refit on the whole record held)"
     )
 
 
 def _without_floor(
     get_method: Any,
-    first: list[dict[str, Any]],
+    first: list[CandidateRow],
     est: tuple,
     whole: tuple,
     val: tuple,
     windows: int,
     opts: dict,
     where: str,
-    failures: list[tuple[str, str, dict[str, Any]]],
+    failures: list[tuple[str, str, CandidateRow]],
 ) -> StateSpaceModel:
     """Step 4 of :func:`_choose`: no candidate passes the floor, so the first ranking
     ``first`` stands without it, with a :class:`SelectionWarning`; the failures are added

@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
 from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import SIGNIFICANCE_Z, WindowedError, choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.selection.candidates import _index
+from hdpbsid.selection.candidates import CandidateRow, _index
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
 from hdpbsid.selection.scoring import looks_closed_loop, score_model
@@ -43,38 +42,38 @@ def _refine_and_score(
     return refined, err
 
 
-def _refined_error(r: dict[str, Any], est: tuple, val: tuple, windows: int) -> WindowedError:
+def _refined_error(r: CandidateRow, est: tuple, val: tuple, windows: int) -> WindowedError:
     """The held-out score of candidate ``r``'s model refined on ``est``
-    (:func:`_refine_and_score`), kept in ``r["refined_criterion"]`` (and the refined
-    model in ``r["refined_model"]``)."""
-    if r.get("refined_criterion") is None:
+    (:func:`_refine_and_score`), kept in ``r.refined_criterion`` (and the refined
+    model in ``r.refined_model``)."""
+    if r.refined_criterion is None:
         _refine_rows([r], est, val, windows, None)
-    return r["refined_criterion"]
+    return r.refined_criterion
 
 
 def _refine_rows(
-    rows: list[dict[str, Any]], est: tuple, val: tuple, windows: int, n_jobs: int | None
+    rows: list[CandidateRow], est: tuple, val: tuple, windows: int, n_jobs: int | None
 ) -> None:
     """:func:`_refined_error` of every row of ``rows`` not refined yet, in parallel with
     joblib when ``n_jobs`` is given (one BLAS thread per worker, as in :func:`_sweep`: the
     same numbers as the serial run)."""
-    todo = list({id(r): r for r in rows if r.get("refined_criterion") is None}.values())
+    todo = list({id(r): r for r in rows if r.refined_criterion is None}.values())
     if n_jobs is not None and n_jobs != 1 and len(todo) > 1:
         from joblib import Parallel, delayed
 
         out = Parallel(n_jobs=n_jobs, inner_max_num_threads=1)(
-            delayed(_refine_and_score)(r["model"], est, val, windows) for r in todo
+            delayed(_refine_and_score)(r.model, est, val, windows) for r in todo
         )
     else:
-        out = [_refine_and_score(r["model"], est, val, windows) for r in todo]
+        out = [_refine_and_score(r.model, est, val, windows) for r in todo]
     for r, (refined, err) in zip(todo, out, strict=True):
         if refined is not None:
-            r["refined_model"] = refined
-        r["refined_criterion"] = err
+            r.refined_model = refined
+        r.refined_criterion = err
 
 
 def rejudge_refined(
-    ok: list[dict[str, Any]],
+    ok: list[CandidateRow],
     stats: list[float],
     k: int,
     est: tuple,
@@ -133,8 +132,8 @@ def rejudge_refined(
 
     Parameters
     ----------
-    ok : list of dict
-        The scored candidates of one structure, sorted by order (rows with ``method``,
+    ok : list of CandidateRow
+        The scored candidates of one structure, sorted by order (with ``method``,
         ``order``, ``model`` and ``criterion``).
     stats : list of float
         Their distances to the best held-out error, in standard errors.
@@ -159,7 +158,7 @@ def rejudge_refined(
 
 
 def rejudge_order(
-    ok: list[dict[str, Any]],
+    ok: list[CandidateRow],
     order: OrderChoice,
     est: tuple,
     val: tuple,
@@ -171,7 +170,7 @@ def rejudge_order(
 
     Parameters
     ----------
-    ok : list of dict
+    ok : list of CandidateRow
         The scored candidates of one structure, sorted by order.
     order : OrderChoice
         The one-standard-error rule's decision on ``ok``.
@@ -196,11 +195,11 @@ def rejudge_order(
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return order
     k = order.index
-    n_star = ok[k]["order"]
+    n_star = ok[k].order
     best_of = _best_of_orders(ok, order.stats)
     lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
-    upward = n_star + 1 in best_of and looks_closed_loop(ok[k]["model"], est)
+    upward = n_star + 1 in best_of and looks_closed_loop(ok[k].model, est)
     _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
     upward = upward and _bias_symptom(ok[k], est, val, windows)
     chosen, rule, reason = ok[k], "", order.reason
@@ -215,31 +214,31 @@ def rejudge_order(
     return OrderChoice(_index(ok, chosen), order.stats, reason, rule)
 
 
-def _best_of_orders(ok: list[dict[str, Any]], stats: Sequence[float]) -> dict[int, dict[str, Any]]:
+def _best_of_orders(ok: list[CandidateRow], stats: Sequence[float]) -> dict[int, CandidateRow]:
     """The best candidate (smallest held-out error) of every order among the candidates
     ``ok`` within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` standard
     errors (``stats``) of the best: those :func:`rejudge_refined` may refine."""
-    best_of: dict[int, dict[str, Any]] = {}
+    best_of: dict[int, CandidateRow] = {}
     for r, z in zip(ok, stats, strict=True):
-        n = r["order"]
+        n = r.order
         if z <= SELECTION_POLICY.rejudge_z and (
-            n not in best_of or r["criterion"].total < best_of[n]["criterion"].total
+            n not in best_of or r.criterion.total < best_of[n].criterion.total
         ):
             best_of[n] = r
     return best_of
 
 
-def _bias_symptom(row: dict[str, Any], est: tuple, val: tuple, windows: int) -> bool:
+def _bias_symptom(row: CandidateRow, est: tuple, val: tuple, windows: int) -> bool:
     """The symptom of a choice the bias made: refined, the chosen candidate ``row``
     predicts the held-out part worse than its subspace estimate did, by more than one
     standard error (:func:`rejudge_refined`, *Up*)."""
-    e_ref, e_sub = _refined_error(row, est, val, windows), row["criterion"]
+    e_ref, e_sub = _refined_error(row, est, val, windows), row.criterion
     return e_ref.finite and choose_smallest_adequate([e_ref, e_sub])[1][0] > SIGNIFICANCE_Z
 
 
 def _smallest_refined(
-    lower: list[dict[str, Any]], chosen: dict[str, Any], est: tuple, val: tuple, windows: int
-) -> tuple[dict[str, Any], str]:
+    lower: list[CandidateRow], chosen: CandidateRow, est: tuple, val: tuple, windows: int
+) -> tuple[CandidateRow, str]:
     """*Down* (:func:`rejudge_refined`): of the candidates ``lower`` (the best of every
     order up to the chosen one), the one with the smallest refined held-out error, and
     the rule's text; ``chosen`` and ``""`` when none of them can be scored refined."""
@@ -248,22 +247,22 @@ def _smallest_refined(
     if not finite:
         return chosen, ""
     chosen = lower[min(finite, key=lambda i: (errors[i].total, i))]
-    names = ", ".join(f"{r['method']} {r['order']}" for r in lower)
+    names = ", ".join(f"{r.method} {r.order}" for r in lower)
     return chosen, (
         f"; order decided again between refined candidates ({names}; within "
         f"{SELECTION_POLICY.rejudge_z:g} SE of the best), the smallest refined error: "
-        f"{chosen['method']} order {chosen['order']}"
+        f"{chosen.method} order {chosen.order}"
     )
 
 
 def _larger_refined(
-    chosen: dict[str, Any],
-    best_of: dict[int, dict[str, Any]],
+    chosen: CandidateRow,
+    best_of: dict[int, CandidateRow],
     n_up: int,
     est: tuple,
     val: tuple,
     windows: int,
-) -> tuple[dict[str, Any], str]:
+) -> tuple[CandidateRow, str]:
     """*Up* (:func:`rejudge_refined`): from order ``n_up`` (the one after the order the
     one-standard-error rule chose) upwards, each order's best candidate of ``best_of``
     replaces ``chosen`` while, refined, it beats it by more than one standard error (the
@@ -279,8 +278,8 @@ def _larger_refined(
             break
         chosen = best_of[n_up]
         rule += (
-            f"; closed loop (feedback test): refined, {chosen['method']} order "
-            f"{chosen['order']} beats order {chosen['order'] - 1} by {z[0]:.1f} SE"
+            f"; closed loop (feedback test): refined, {chosen.method} order "
+            f"{chosen.order} beats order {chosen.order - 1} by {z[0]:.1f} SE"
         )
         n_up += 1
     return chosen, rule

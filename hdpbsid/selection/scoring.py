@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.policy import SELECTION_POLICY
+
+if TYPE_CHECKING:  # the candidates are scored here; the type is for annotations only
+    from hdpbsid.selection.candidates import CandidateRow
 
 __all__ = [
     "score_model",
@@ -114,11 +117,11 @@ def whole_held_out_error(model: StateSpaceModel, val: tuple) -> WindowedError:
         return windowed_simulation_error(model, t, u, y, 1)
 
 
-def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
+def break_tie(tied: list[CandidateRow], val: tuple) -> list[CandidateRow]:
     """The candidates ``tied`` (one order, every one within one standard error of the
     best held-out error) ordered by their simulation error over the whole held-out
     record ``val`` from one fitted initial state (windows = 1), best first; each row
-    gets ``"whole_simulation"`` (that error, relative).
+    gets ``whole_simulation`` (that error, relative).
 
     Why: the windowed criterion fits an initial state in every window, and a model's
     free response over a window can imitate any error that is slow compared with the
@@ -136,23 +139,23 @@ def break_tie(tied: list[dict[str, Any]], val: tuple) -> list[dict[str, Any]]:
 
     Parameters
     ----------
-    tied : list of dict
-        The candidate rows of one order (``model`` each); each gets ``"whole_simulation"``
+    tied : list of CandidateRow
+        The candidates of one order (``model`` each); each gets ``whole_simulation``
         when there are two or more.
     val : tuple
         The held-out record ``(t, u, y)``.
 
     Returns
     -------
-    list of dict
+    list of CandidateRow
         ``tied``, best whole-simulation error first (as given when fewer than two).
     """
     if len(tied) < 2:
         return tied
     for r in tied:
-        e = whole_held_out_error(r["model"], val)
-        r["whole_simulation"] = e.total if e.finite else np.inf
-    return sorted(tied, key=lambda r: r["whole_simulation"])
+        e = whole_held_out_error(r.model, val)
+        r.whole_simulation = e.total if e.finite else np.inf
+    return sorted(tied, key=lambda r: r.whole_simulation)
 
 
 def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
@@ -335,10 +338,10 @@ def stationarity_problem(model: StateSpaceModel) -> str:
     )
 
 
-def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> str:
+def instability_problem(row: CandidateRow, pool: Sequence[CandidateRow]) -> str:
     """Why the held-out record does not support the growth of candidate ``row``, or
     ``""`` (a stable candidate, or a growth the record supports).  ``pool``: the
-    candidates the one-standard-error rule admits (rows with ``model``, ``order`` and
+    candidates the one-standard-error rule admits (with ``model``, ``order`` and
     held-out ``criterion``; :func:`select_model` passes those within one standard error
     of the best).
 
@@ -375,9 +378,9 @@ def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> 
 
     Parameters
     ----------
-    row : dict
+    row : CandidateRow
         The candidate: ``model``, ``order``, ``criterion``.
-    pool : sequence of dict
+    pool : sequence of CandidateRow
         The admitted candidates, its possible stable rivals.
 
     Returns
@@ -385,23 +388,23 @@ def instability_problem(row: dict[str, Any], pool: Sequence[dict[str, Any]]) -> 
     str
         The reason, naming the eigenvalue and the stable rival, or ``""``.
     """
-    model = row["model"]
+    model = row.model
     if model.m == 0:
         return stationarity_problem(model)
     if not grows(model):
         return ""
-    err = row["criterion"]
+    err = row.criterion
     for r in pool:
-        c = r.get("criterion")
-        if r is row or c is None or not c.finite or r["order"] > row["order"]:
+        c = r.criterion
+        if r is row or c is None or not c.finite or r.order > row.order:
             continue
-        if grows(r["model"]) or c.per_window.size != err.per_window.size:
+        if grows(r.model) or c.per_window.size != err.per_window.size:
             continue
         k, stats = choose_smallest_adequate([c, err])
         if k == 0:
             return (
                 f"unstable (eigenvalue {_worst_eigenvalue(model):.3g}) where the record does "
-                f"not need the growth: the stable {r['method']} order {r['order']} predicts "
+                f"not need the growth: the stable {r.method} order {r.order} predicts "
                 f"the held-out part at least as well by the one-standard-error rule (the two "
                 f"differ by {abs(stats[0] - stats[1]):.2g} standard errors)"
             )

@@ -16,6 +16,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.auto import beats_the_mean
+from hdpbsid.selection.candidates import CandidateRow
 from hdpbsid.systems import (
     add_noise,
     random_steps,
@@ -385,10 +386,10 @@ def test_tie_is_broken_by_the_whole_held_out_simulation():
     errs = [windowed_simulation_error(m, t, u, y, 16, hold="zoh") for m in (wrong, true)]
     _, z = choose_smallest_adequate(errs)
     assert max(z) <= 1.0  # the premise: a tie at the resolution of the windows
-    rows = [{"model": wrong, "order": 2}, {"model": true, "order": 2}]
+    rows = [CandidateRow("x", 2, model=wrong), CandidateRow("x", 2, model=true)]
     ranked = break_tie(rows, (t, u, y))
-    assert ranked[0]["model"] is true
-    assert ranked[0]["whole_simulation"] < ranked[1]["whole_simulation"]
+    assert ranked[0].model is true
+    assert ranked[0].whole_simulation < ranked[1].whole_simulation
 
 
 def test_auto_refits_a_hermite_candidate_at_the_alpha_it_chose_on_held_out_data():
@@ -440,7 +441,7 @@ def _rejudge_rows(t, u, y, true):
     rows = []
     for n, m in ((2, biased), (3, fitted)):
         err, _ = score_model(m, val, windows)
-        rows.append({"method": "x", "order": n, "criterion": err, "model": m})
+        rows.append(CandidateRow("x", n, criterion=err, model=m))
     return rows, est, val, windows
 
 
@@ -450,17 +451,17 @@ def test_rejudge_refined_lowers_the_order_a_biased_candidate_lost():
     t, u, y, true = _record(3, snr=20.0)
     rows, est, val, windows = _rejudge_rows(t, u, y, true)
     # the biased order-2 candidate scores worse than order 3 on held-out data
-    assert rows[0]["criterion"].total > rows[1]["criterion"].total
+    assert rows[0].criterion.total > rows[1].criterion.total
     # within REJUDGE_Z of the best: refined (to the truth's neighbourhood) it is as good as
     # order 3 within one standard error, and the smaller order is taken
     k, rule = rejudge_refined(rows, [2.0, 0.0], 1, est, val, windows)
     assert k == 0, rule
-    assert rows[0]["refined_criterion"].total < rows[0]["criterion"].total
+    assert rows[0].refined_criterion.total < rows[0].criterion.total
     assert "order decided again" in rule
     # beyond REJUDGE_Z nothing is refined and the choice stands
     rows, est, val, windows = _rejudge_rows(t, u, y, true)
     assert rejudge_refined(rows, [REJUDGE_Z + 1.0, 0.0], 1, est, val, windows) == (1, "")
-    assert "refined_criterion" not in rows[0]
+    assert rows[0].refined_criterion is None
 
 
 def test_rejudge_refined_needs_uniform_samples():

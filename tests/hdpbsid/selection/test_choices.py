@@ -7,6 +7,7 @@ import pytest
 import hdpbsid.selection.auto as auto
 from hdpbsid.models.criteria import WindowedError, choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.selection.candidates import CandidateRow
 from hdpbsid.selection.feedback import (
     AR_ORDER,
     FEEDBACK_LAGS,
@@ -36,8 +37,8 @@ def _err(per_window) -> WindowedError:
     return WindowedError(w, float(w.sum()), 0.0, True)
 
 
-def _row(method: str, order: int, per_window) -> dict:
-    return {"method": method, "order": order, "criterion": _err(per_window)}
+def _row(method: str, order: int, per_window) -> CandidateRow:
+    return CandidateRow(method, order, criterion=_err(per_window))
 
 
 def test_the_policy_fields_are_the_module_constants():
@@ -72,9 +73,9 @@ def test_choose_order_is_the_one_standard_error_rule():
         _row("a", 3, [1.0, 1.1, 0.9, 1.0]),
     ]
     choice = choose_order(pool)
-    k, stats = choose_smallest_adequate([r["criterion"] for r in pool])
+    k, stats = choose_smallest_adequate([r.criterion for r in pool])
     assert (choice.index, choice.stats) == (k, tuple(stats))
-    assert pool[choice.index]["order"] == 2
+    assert pool[choice.index].order == 2
     assert choice.reason is OrderReason.ONE_STANDARD_ERROR and choice.rule == ""
 
 
@@ -85,7 +86,7 @@ def test_rank_candidates_lists_the_admitted_from_the_chosen_order():
         _row("a", 3, [1.0, 1.1, 0.9, 1.0]),
     ]
     ranking = rank_candidates(pool, choose_order(pool), val=None)
-    assert [r["order"] for r in ranking.queue] == [2, 3]
+    assert [r.order for r in ranking.queue] == [2, 3]
     assert ranking.tied == 1 and ranking.reason is MethodReason.ALONE
     assert ranking.method == "a"
 

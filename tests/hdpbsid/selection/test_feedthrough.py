@@ -8,6 +8,7 @@ import pytest
 
 import hdpbsid
 from hdpbsid.selection.auto import decide_feedthrough
+from hdpbsid.selection.candidates import CandidateRow
 from hdpbsid.selection.feedthrough import check_feedthrough, structure_key
 from hdpbsid.systems import (
     add_noise,
@@ -51,12 +52,10 @@ def test_structure_key_ranks_no_d_first_within_an_order():
 
     def row(order, d, total):
         err = WindowedError(np.array([total]), total, 0.0, True)
-        return {"order": order, "criterion": err, "settings": {"feedthrough": d}}
+        return CandidateRow("x", order, criterion=err, settings={"feedthrough": d})
 
     rows = [row(2, True, 0.1), row(3, False, 0.05), row(2, False, 0.2), row(1, True, 0.9)]
-    assert [
-        (r["order"], r["settings"]["feedthrough"]) for r in sorted(rows, key=structure_key)
-    ] == [
+    assert [(r.order, r.settings["feedthrough"]) for r in sorted(rows, key=structure_key)] == [
         (1, True),
         (2, False),
         (2, True),

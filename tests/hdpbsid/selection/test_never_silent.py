@@ -2,6 +2,7 @@
 reject (hdpbsid.selection), a time series gets a stationary model, and a record stamped
 with absolute (Unix) time gives the model of the same record from t = 0."""
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -24,6 +25,7 @@ from hdpbsid.selection.auto import (
     score_model,
     stationarity_problem,
 )
+from hdpbsid.selection.candidates import CandidateRow
 from hdpbsid.systems import random_steps, second_order, simulate_discrete, simulate_zoh
 
 TRUE = np.linalg.eigvals(second_order()[0])  # -0.4 +- 1.96i
@@ -143,9 +145,9 @@ def test_stationarity_problem_names_the_unstable_eigenvalue():
     assert stationarity_problem(StateSpaceModel(A, B_, C_, D_, np.zeros((2, 1)))) == ""
 
 
-def _row(model: StateSpaceModel, rec: tuple, windows: int = 8) -> dict:
+def _row(model: StateSpaceModel, rec: tuple, windows: int = 8) -> CandidateRow:
     err, _ = score_model(model, rec, windows)
-    return {"method": "given", "order": model.n, "model": model, "criterion": err}
+    return CandidateRow("given", model.n, model=model, criterion=err)
 
 
 def _grown_truth(gain: float) -> StateSpaceModel:
@@ -172,7 +174,7 @@ def test_an_unstable_candidate_a_stable_one_explains_is_rejected():
     # alone (no stable rival of its size) the growth is not rejected: the rule compares
     assert instability_problem(grown, [grown]) == ""
     # a larger stable model is no rival: stability is not bought with states
-    big = dict(truth, order=4)
+    big = dataclasses.replace(truth, order=4)
     assert instability_problem(grown, [big, grown]) == ""
 
 
@@ -283,12 +285,8 @@ def test_much_worse_is_always_resolved_by_the_held_out_windows(per, ratio, sprea
 def test_a_much_worse_fallback_names_what_was_rejected_and_what_to_pass():
     A, B, C, D = second_order()
     model = StateSpaceModel(A[:1, :1], B[:1], C[:, :1], D, np.zeros((1, 1)))
-    returned = {"method": "dt", "order": 1, "criterion": _err(np.full(8, 12.0))}
-    best = {
-        "method": "legendre",
-        "order": 4,
-        "criterion": _err(np.full(8, 1.0) + 0.01 * np.arange(8)),
-    }
+    returned = CandidateRow("dt", 1, criterion=_err(np.full(8, 12.0)))
+    best = CandidateRow("legendre", 4, criterion=_err(np.full(8, 1.0) + 0.01 * np.arange(8)))
     failures = [("floor", "legendre order 4: unstable (eigenvalue 0.3)", best)]
     with pytest.warns(SelectionWarning, match=r"method='legendre', order=4") as rec:
         _warn_if_much_worse(returned, model, failures)
@@ -296,7 +294,7 @@ def test_a_much_worse_fallback_names_what_was_rejected_and_what_to_pass():
     assert "unstable (eigenvalue 0.3)" in text and "times that of" in text
     assert model.options["selection_warning"] == text
     # not much worse: silent
-    close = {"method": "dt", "order": 2, "criterion": _err(np.full(8, 1.2))}
+    close = CandidateRow("dt", 2, criterion=_err(np.full(8, 1.2)))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _warn_if_much_worse(close, model, failures)
