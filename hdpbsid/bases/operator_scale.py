@@ -51,6 +51,12 @@ The rule is one policy object, :class:`OperatorScalePolicy` (its thresholds are 
 fields, each with its reason; :data:`OPERATOR_SCALE` is the default): its choice is an
 :class:`AlphaChoice` with a typed :class:`AlphaReason`, its checks :class:`AlphaCheck`
 with a typed :class:`CheckReason`.  The module functions are that default policy's.
+The whole decision a method makes from the user's ``alpha`` (a number, ``"basis"``,
+``"dynamics"`` or None) is :meth:`OperatorScalePolicy.decide`: given the method's fit at
+an ``alpha`` and the evidence (:class:`AlphaEvidence`: the records, the band of the
+modes, a refit of part of the record, the caller's held-out data), it returns an
+:class:`AlphaDecision` whose typed :class:`AlphaRule` names the way taken, beside the
+texts the model's options report.
 """
 
 from __future__ import annotations

@@ -153,7 +153,11 @@ def identify_hermite(
         more than one standard error, first on the record itself, then on its last third
         held out from fits on the rest (several records keep ``4 * scale``).  A number is
         used as given, in one pass; ``"basis"``: ``4 * scale`` in one pass (HD-PBSID as
-        published); ``"dynamics"``: from the modes, without the checks.
+        published); ``"dynamics"``: from the modes, without the checks.  One decision,
+        :meth:`OperatorScalePolicy.decide
+        <hdpbsid.bases.operator_scale.OperatorScalePolicy.decide>`, whose typed way
+        (:class:`~hdpbsid.bases.operator_scale.AlphaRule`) ``options["alpha_rule"]``
+        states in words.
     beta : float, optional
         Shift of the integrator form, ``> 0``.
     gamma : float, optional
@@ -172,8 +176,9 @@ def identify_hermite(
     held_out : tuple, optional
         ``(t, u, y)`` of the same experiment kept out of this record (``method="auto"``
         passes its held-out part): the two models of ``alpha`` fitted on the whole record
-        are compared on it instead (:func:`~hdpbsid.bases.operator_scale.held_out_comparison`),
-        and the rule taken is reported in ``options["refit_settings"]``.
+        are compared on it instead (:meth:`OperatorScalePolicy.prove
+        <hdpbsid.bases.operator_scale.OperatorScalePolicy.prove>`), and the rule taken is
+        reported in ``options["refit_settings"]``.
     settings : BasisSettings, optional
         The settings every basis method shares (:class:`~hdpbsid.bases.settings.BasisSettings`).
     **shared
@@ -458,6 +463,6 @@ def _part_refit(c: _Call, fit: _Passes) -> Callable[..., StateSpaceModel]:
             c.st,
             {"input_hold": fit.used_hold},
         )
-        return _project(part)(part.alpha)
+        return _project(part)(float(a))
 
     return refit
