@@ -36,13 +36,15 @@ for its modes); the fit is repeated there until ``a`` settles (at most
 only when its model simulates the record better by more than one standard error of the
 windows (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`: the two models have the
 same structure, so the noise in their in-sample errors cancels in the difference).  The
-result is a :class:`LaguerrePole` with its typed :class:`PoleSource`.
+result is a :class:`LaguerrePole` with its typed :class:`PoleSource` and :class:`PoleRule`.
+:func:`decide_pole` is the whole decision from the user's ``a`` (a number, None or
+``"dynamics"``), given the method's fit at a pole.
 """
 
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,15 +52,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdpbsid.bases.basis_domain import bandwidth
-from hdpbsid.bases.operator_scale import OPERATOR_SCALE, in_sample_screen
+from hdpbsid.bases.operator_scale import OPERATOR_SCALE, AlphaCheck
 from hdpbsid.data.checks import is_uniform
 
 __all__ = [
     "PoleSource",
+    "PoleRule",
     "LaguerrePole",
     "map_back_amplification",
     "minimax_pole",
     "pole_from_dynamics",
+    "decide_pole",
     "dynamics_band",
 ]
 
@@ -72,6 +76,28 @@ class PoleSource(enum.Enum):
     BANDWIDTH = "bandwidth"
     #: the minimax map-back amplification of the identified modes (:func:`minimax_pole`)
     DYNAMICS = "dynamics"
+
+
+class PoleRule(str, enum.Enum):
+    """Which way :func:`decide_pole` took to its pole (the typed counterpart of
+    ``options["a_rule"]``)."""
+
+    #: a number, used as given
+    GIVEN = "given"
+    #: ``a=None``: half the data bandwidth, one pass
+    BANDWIDTH = "bandwidth"
+    #: ``"dynamics"`` on several records, a time series or non-uniform samples: a change
+    #: could not be screened, the first pass is kept
+    NOT_SCREENABLE = "not screenable"
+    #: the first pass's modes ask for its own pole
+    FIRST_PASS_ASKED = "first pass asked for"
+    #: the fit at the modes' pole failed: the first pass is kept
+    REFIT_FAILED = "refit failed"
+    #: from the modes, better in-sample by more than one SE
+    SCREEN_WON = "screen won"
+    #: the in-sample screen did not prove the change (its :class:`CheckReason
+    #: <hdpbsid.bases.operator_scale.CheckReason>` says how): the first pass is kept
+    FIRST_PASS_KEPT = "first pass kept"
 
 
 @dataclass(frozen=True)
@@ -88,12 +114,37 @@ class LaguerrePole:
         The text for ``model.options["a_rule"]``.
     passes : tuple of float
         The pole of every fit made, the first pass's first.
+    rule : PoleRule or None
+        The way taken (typed; None for a pole made by hand).
+    check : AlphaCheck or None
+        The in-sample screen of a change, when one was made.
+
+    Examples
+    --------
+    >>> pole = LaguerrePole(2.0, PoleSource.GIVEN, "given", (2.0,), PoleRule.GIVEN)
+    >>> pole.options()
+    {'a_rule': 'given'}
     """
 
     a: float
     source: PoleSource
     reason: str
     passes: tuple[float, ...] = ()
+    rule: PoleRule | None = None
+    check: AlphaCheck | None = None
+
+    def options(self) -> dict[str, Any]:
+        """The model options of the pole.
+
+        Returns
+        -------
+        dict
+            ``a_rule`` (the reason's text), and ``a_source`` when the pole was asked of the
+            dynamics (``a="dynamics"``).
+        """
+        if self.rule in (None, PoleRule.GIVEN, PoleRule.BANDWIDTH):
+            return {"a_rule": self.reason}
+        return {"a_rule": self.reason, "a_source": self.source.value}
 
 
 def map_back_amplification(a: float, eigenvalues: Any) -> NDArray[np.float64]:
@@ -215,9 +266,39 @@ def pole_from_dynamics(
     first = f"half the data bandwidth ({a0:.4g})"
     if record is None or not is_uniform(np.asarray(record[0], dtype=float)):
         why = "; kept: several records, no input or non-uniform samples, where a change "
-        return LaguerrePole(
-            a0, PoleSource.BANDWIDTH, first + why + "could not be screened", (a0,)
-        ), model0
+        text = first + why + "could not be screened"
+        return LaguerrePole(a0, PoleSource.BANDWIDTH, text, (a0,), PoleRule.NOT_SCREENABLE), model0
+    a, model, passes, failed = _pole_passes(fit, a0, model0, band)
+    w_lo, w_hi = band
+    rule = (
+        f"minimax map-back amplification max_i |lambda_i - a|^2 / (2 a |lambda_i|) over "
+        f"the modes with {w_lo:.3g} <= |lambda| <= {w_hi:.3g} (over the band's edges for "
+        f"a model with a mode outside it), from a first pass at {first}"
+    )
+    if a == a0:
+        # the text predates the typed rule: a failed refit also reads "its modes ask for it"
+        kind = PoleRule.REFIT_FAILED if failed else PoleRule.FIRST_PASS_ASKED
+        text = first + "; its modes ask for it"
+        return LaguerrePole(a0, PoleSource.BANDWIDTH, text, passes, kind), model0
+    check = OPERATOR_SCALE.in_sample_screen(model0, model, record, (a0, a))
+    if not check.take_new:
+        text = (
+            f"{first}; {rule} gave {a:.4g}, not better in-sample by more than one SE ({check.how})"
+        )
+        kept = LaguerrePole(a0, PoleSource.BANDWIDTH, text, passes, PoleRule.FIRST_PASS_KEPT, check)
+        return kept, model0
+    text = f"{rule} ({check.how})"
+    return LaguerrePole(a, PoleSource.DYNAMICS, text, passes, PoleRule.SCREEN_WON, check), model
+
+
+def _pole_passes(
+    fit: Callable[[float], Any], a0: float, model0: Any, band: tuple[float, float]
+) -> tuple[float, Any, tuple[float, ...], bool]:
+    """The fits at the minimax pole of the last model's modes until the pole settles
+    (within :data:`~hdpbsid.bases.operator_scale.SETTLED`, at most
+    :data:`~hdpbsid.bases.operator_scale.MAX_PASSES` refits).  Returns the pole of the
+    model in hand, that model, the pole of every fit tried (a failed one included) and
+    whether the last fit failed."""
     w_lo, w_hi = band
     a, model, passes = a0, model0, [a0]
     for _ in range(OPERATOR_SCALE.max_passes):
@@ -235,26 +316,53 @@ def pole_from_dynamics(
         try:
             model = fit(a)
         except (ValueError, np.linalg.LinAlgError):
-            a = passes[-2]  # the pole of the model in hand
-            break
-    rule = (
-        f"minimax map-back amplification max_i |lambda_i - a|^2 / (2 a |lambda_i|) over "
-        f"the modes with {w_lo:.3g} <= |lambda| <= {w_hi:.3g} (over the band's edges for "
-        f"a model with a mode outside it), from a first pass at {first}"
-    )
-    if a == a0:
-        return LaguerrePole(
-            a0, PoleSource.BANDWIDTH, first + "; its modes ask for it", tuple(passes)
-        ), model0
-    keep, how = in_sample_screen(model0, model, record, (a0, a))
-    if not keep:
-        return LaguerrePole(
-            a0,
-            PoleSource.BANDWIDTH,
-            f"{first}; {rule} gave {a:.4g}, not better in-sample by more than one SE ({how})",
-            tuple(passes),
-        ), model0
-    return LaguerrePole(a, PoleSource.DYNAMICS, f"{rule} ({how})", tuple(passes)), model
+            return passes[-2], model, tuple(passes), True  # the pole of the model in hand
+    return a, model, tuple(passes), False
+
+
+def decide_pole(
+    asked: float | str | None, a0: float, fit: Callable[[float], Any], records: Sequence[Any]
+) -> tuple[LaguerrePole, Any]:
+    """The Laguerre pole of a method, one decision from the user's ``a``.
+
+    A number is used as given; None takes ``a0`` (half the data bandwidth, so the pole
+    sits inside the excited band); ``"dynamics"`` asks the identified modes
+    (:func:`pole_from_dynamics`), the change screened on the single record with an
+    input.
+
+    Parameters
+    ----------
+    asked : float, "dynamics" or None
+        The user's ``a`` (a number validated by the method).
+    a0 : float
+        Half the data bandwidth (rad per time unit).
+    fit : callable
+        ``fit(a)`` identifies the model with pole ``a``.
+    records : sequence of Record
+        The records (``t``, ``u``, ``y``); the first is screened when it is the only one
+        and has an input.
+
+    Returns
+    -------
+    tuple of (LaguerrePole, model)
+        The pole with its typed rule and texts (:meth:`LaguerrePole.options`), and the
+        model fitted with it.
+
+    Examples
+    --------
+    >>> pole, model = decide_pole(2.0, 1.0, lambda a: f"fit at {a}", [])
+    >>> pole.rule, model
+    (<PoleRule.GIVEN: 'given'>, 'fit at 2.0')
+    """
+    if asked is None:
+        text = "half the data bandwidth"
+        return LaguerrePole(a0, PoleSource.BANDWIDTH, text, (a0,), PoleRule.BANDWIDTH), fit(a0)
+    if not isinstance(asked, str):
+        a = float(asked)
+        return LaguerrePole(a, PoleSource.GIVEN, "given", (a,), PoleRule.GIVEN), fit(a)
+    band = dynamics_band(records)
+    one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
+    return pole_from_dynamics(fit, a0, band, None if one is None else (one.t, one.u, one.y))
 
 
 def dynamics_band(records: Any) -> tuple[float, float]:

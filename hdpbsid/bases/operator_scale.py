@@ -51,10 +51,17 @@ The rule is one policy object, :class:`OperatorScalePolicy` (its thresholds are 
 fields, each with its reason; :data:`OPERATOR_SCALE` is the default): its choice is an
 :class:`AlphaChoice` with a typed :class:`AlphaReason`, its checks :class:`AlphaCheck`
 with a typed :class:`CheckReason`.  The module functions are that default policy's.
+The whole decision a method makes from the user's ``alpha`` (a number, ``"basis"``,
+``"dynamics"`` or None) is :meth:`OperatorScalePolicy.decide`: given the method's fit at
+an ``alpha`` and the evidence (:class:`AlphaEvidence`: the records, the band of the
+modes, a refit of part of the record, the caller's held-out data), it returns an
+:class:`AlphaDecision` whose typed :class:`AlphaRule` names the way taken, beside the
+texts the model's options report.
 """
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -64,7 +71,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.data.checks import is_uniform
+from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     WindowedError,
@@ -78,6 +85,9 @@ __all__ = [
     "AlphaChoice",
     "CheckReason",
     "AlphaCheck",
+    "AlphaRule",
+    "AlphaEvidence",
+    "AlphaDecision",
     "OperatorScalePolicy",
     "OPERATOR_SCALE",
     "contraction_factor",
@@ -199,6 +209,121 @@ class AlphaCheck:
             Whether the candidate wins, and the comparison's text.
         """
         return self.take_new, self.how
+
+
+class AlphaRule(str, Enum):
+    """Which way :meth:`OperatorScalePolicy.decide` took to its ``alpha`` (the typed
+    counterpart of ``options["alpha_rule"]``)."""
+
+    #: a number, used as given in one pass
+    GIVEN = "given"
+    #: ``alpha="basis"``: ``4 * scale`` in one pass (HD-PBSID as published)
+    BASIS = "basis"
+    #: several records: ``4 * scale``, no held-out check of a change can be made
+    SEVERAL_RECORDS = "several records"
+    #: ``alpha="dynamics"``: from the identified modes, taken without a check
+    DYNAMICS = "dynamics"
+    #: the first pass's modes ask for its own ``alpha``: nothing to check
+    FIRST_PASS_ASKED = "first pass asked for"
+    #: from the modes, better on the caller's held-out data by more than one SE
+    HELD_OUT_DATA_WON = "held-out data won"
+    #: from the modes, through the in-sample screen and better on the held-out part
+    HELD_OUT_PART_WON = "held-out part won"
+    #: the first pass's ``alpha`` kept: the change was not proved (the last check's
+    #: :class:`CheckReason` says how: lost, too short, unscored)
+    FIRST_PASS_KEPT = "first pass kept"
+
+
+@dataclass(frozen=True)
+class AlphaEvidence:
+    """What :meth:`OperatorScalePolicy.decide` may judge an ``alpha`` on.
+
+    Parameters
+    ----------
+    n_records : int
+        The number of records fitted (several: no check of a change).
+    record : tuple
+        ``(t, u, y)`` of the first record, for the in-sample screen and the held-out part.
+    band : callable
+        ``band()`` returns ``(w_lo, w_hi)``, the band of modes that may set ``alpha``
+        (computed only when the modes are asked).
+    refit : callable
+        ``refit(order, t, u, y, alpha)`` fits the method on part of the record (the
+        held-out check; no recursion into the method's entry point).
+    held_out : tuple or None, optional
+        The caller's ``(t, u, y)`` held out of the record: a change is judged there
+        instead (checked by :func:`~hdpbsid.data.checks.check_data` when used).
+
+    Examples
+    --------
+    >>> ev = AlphaEvidence(2, (), lambda: (0.1, 10.0), lambda *a: None)
+    >>> ev.n_records, ev.held_out
+    (2, None)
+    """
+
+    n_records: int
+    record: tuple
+    band: Callable[[], tuple[float, float]]
+    refit: Callable[..., Any]
+    held_out: tuple | None = None
+
+
+@dataclass(frozen=True)
+class AlphaDecision:
+    """The operator scale a method fits with, the way it was decided, and the evidence.
+
+    Parameters
+    ----------
+    value : float
+        The operator scale taken (rad per time unit).
+    rule : AlphaRule
+        The way taken (typed).
+    text : str
+        The rule's text (``model.options["alpha_rule"]``).
+    modes : AlphaChoice or None, optional
+        The choice from the identified modes, when they were asked.
+    checks : tuple of AlphaCheck, optional
+        The checks made of a change, in order (the last one decided).
+    refit_settings : dict or None, optional
+        The rule a refit on a longer record takes (``{"alpha": "basis"}`` or
+        ``{"alpha": "dynamics"}``), set when the caller's held-out data judged.
+
+    Examples
+    --------
+    >>> d = AlphaDecision(3.0, AlphaRule.GIVEN, "given")
+    >>> d.options(), d.check is None
+    ({'alpha_rule': 'given'}, True)
+    """
+
+    value: float
+    rule: AlphaRule
+    text: str
+    modes: AlphaChoice | None = None
+    checks: tuple[AlphaCheck, ...] = ()
+    refit_settings: dict[str, str] | None = None
+
+    @property
+    def check(self) -> AlphaCheck | None:
+        """The check that decided (the last one made), or None."""
+        return self.checks[-1] if self.checks else None
+
+    def options(self) -> dict[str, Any]:
+        """The model options of the decision, in the order a model file lists them.
+
+        Returns
+        -------
+        dict
+            ``alpha_rule``; with the modes asked, ``alpha_passes``; with a check,
+            ``alpha_check`` (the deciding check's text); ``refit_settings`` when set.
+        """
+        out: dict[str, Any] = {"alpha_rule": self.text}
+        if self.modes is not None:
+            out["alpha_passes"] = list(self.modes.passes)
+        if self.checks:
+            out["alpha_check"] = self.checks[-1].how
+        if self.refit_settings is not None:
+            out["refit_settings"] = self.refit_settings
+        return out
 
 
 @dataclass(frozen=True)
@@ -437,6 +562,135 @@ class OperatorScalePolicy:
         order = int(np.asarray(old.A).shape[0])
         return compare(old, new, record, order, alphas, label="in-sample")
 
+    def decide(
+        self,
+        asked: float | str | None,
+        basis_alpha: float,
+        fit: Callable[[float], Any],
+        evidence: AlphaEvidence,
+    ) -> tuple[AlphaDecision, Any]:
+        """The operator scale of a method, one decision from the user's ``alpha``.
+
+        A number is used as given; ``"basis"``, and any request on several records (no
+        check of a change is possible there), take ``basis_alpha`` (``4 * scale``, HD-PBSID
+        as published); otherwise :meth:`choose` asks the identified modes, and unless
+        ``"dynamics"`` took them unchecked, a change from ``basis_alpha`` must prove itself
+        (:meth:`prove`) or the first pass's model is kept.  The burden of proof is on the
+        change because the truncation factor models neither the variance nor the noise
+        bias, which grow with ``alpha`` (module docstring).
+
+        Parameters
+        ----------
+        asked : float, {"basis", "dynamics"} or None
+            The user's ``alpha`` (validated by the method).
+        basis_alpha : float
+            The basis rule's operator scale, the first pass of the modes' rule.
+        fit : callable
+            ``fit(alpha)`` returns the method's model of the whole data at ``alpha`` (a
+            model with ``n``, ``eigenvalues`` and ``report.windows``).
+        evidence : AlphaEvidence
+            The records, the band of the modes, the part refit and the held-out data.
+
+        Returns
+        -------
+        decision : AlphaDecision
+            The operator scale, the way taken (typed) and its texts.
+        model : object
+            The model fitted at it.
+
+        Examples
+        --------
+        >>> ev = AlphaEvidence(1, (), lambda: (0.1, 10.0), lambda *a: None)
+        >>> d, model = OPERATOR_SCALE.decide("basis", 2.0, lambda a: f"fit at {a}", ev)
+        >>> d.rule, d.value, model
+        (<AlphaRule.BASIS: 'basis'>, 2.0, 'fit at 2.0')
+        """
+        if asked is not None and not isinstance(asked, str):
+            value = float(asked)
+            return AlphaDecision(value, AlphaRule.GIVEN, "given"), fit(value)
+        if asked == "basis" or evidence.n_records > 1:
+            rule = AlphaRule.BASIS if asked == "basis" else AlphaRule.SEVERAL_RECORDS
+            return AlphaDecision(basis_alpha, rule, _BASIS_TEXTS[rule]), fit(basis_alpha)
+        return self._from_modes(asked == "dynamics", basis_alpha, fit, evidence)
+
+    def _from_modes(
+        self, unchecked: bool, alpha0: float, fit: Callable[[float], Any], ev: AlphaEvidence
+    ) -> tuple[AlphaDecision, Any]:
+        """:meth:`decide` by the modes: :meth:`choose`, then :meth:`prove` a change."""
+        modes, model = self.choose(fit, alpha0, ev.band())
+        text = modes.rule + " (4 * scale, median over blocks)"
+        checks: tuple[AlphaCheck, ...] = ()
+        value = modes.value
+        if unchecked:
+            rule = AlphaRule.DYNAMICS
+            text += "; taken without a held-out check (alpha='dynamics')"
+        elif value == alpha0:
+            rule = AlphaRule.FIRST_PASS_ASKED
+        else:
+            checks, where = self.prove(fit(alpha0), model, modes, ev)
+            rule = AlphaRule.HELD_OUT_PART_WON
+            if ev.held_out is not None:
+                rule = AlphaRule.HELD_OUT_DATA_WON
+            if not checks[-1].take_new:
+                rule, value, model = AlphaRule.FIRST_PASS_KEPT, alpha0, fit(alpha0)
+                text += (
+                    f"; not better on the {where} by more than one SE: the first pass's alpha kept"
+                )
+        refit = None
+        if ev.held_out is not None:
+            # the rule the held-out data chose, for the refit on a longer record (whose
+            # basis rule gives another 4 * scale and whose modes ask for their own alpha)
+            refit = {"alpha": "basis" if value == alpha0 else "dynamics"}
+        return AlphaDecision(value, rule, text, modes, checks, refit), model
+
+    def prove(
+        self, old: Any, new: Any, modes: AlphaChoice, evidence: AlphaEvidence
+    ) -> tuple[tuple[AlphaCheck, ...], str]:
+        """The checks a change of ``alpha`` from the first pass must pass.
+
+        On the caller's held-out data when there are some (:func:`compare`); else the
+        necessary condition :meth:`in_sample_screen` (no refits), then
+        :meth:`held_out_check` (refits on the first part of the record, judged on the
+        rest).
+
+        Parameters
+        ----------
+        old : model
+            The first pass's model (at ``modes.first``).
+        new : model
+            The model at ``modes.value`` (its ``n`` is the order of the refits).
+        modes : AlphaChoice
+            The choice from the modes.
+        evidence : AlphaEvidence
+            The record, the part refit and the held-out data.
+
+        Returns
+        -------
+        checks : tuple of AlphaCheck
+            The checks made, in order; the last one decides.
+        where : str
+            The data that decide, for the rule's text (``"held-out data"`` or
+            ``"held-out part"``, the latter also when the screen refused the change).
+        """
+        alphas = (modes.first, modes.value)
+        if evidence.held_out is not None:
+            held_out = check_data(*evidence.held_out)
+            return (compare(old, new, held_out, new.n, alphas),), "held-out data"
+        screen = self.in_sample_screen(old, new, evidence.record, alphas)
+        if not screen.take_new:
+            return (screen,), "held-out part"
+        refit = functools.partial(evidence.refit, new.n)
+        check = self.held_out_check(refit, evidence.record, alphas, new.n)
+        return (screen, check), "held-out part"
+
+
+#: the texts of the basis rule's two ways (``model.options["alpha_rule"]``)
+_BASIS_TEXTS = {
+    AlphaRule.BASIS: "4 * scale (median over blocks); asked for (alpha='basis')",
+    AlphaRule.SEVERAL_RECORDS: (
+        "4 * scale (median over blocks); several records: no held-out check of a change"
+    ),
+}
 
 #: the policy of :func:`alpha_from_dynamics` and the checks (its fields' reasons there)
 OPERATOR_SCALE = OperatorScalePolicy()

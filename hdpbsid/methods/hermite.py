@@ -29,6 +29,7 @@ not at rest would bias the VARX regression.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,16 +50,14 @@ from hdpbsid.bases.hermite_family import (
 )
 from hdpbsid.bases.operator_scale import (
     MODE_ENERGY_FRACTION,
-    alpha_from_dynamics,
-    held_out_check,
-    held_out_comparison,
-    in_sample_screen,
+    OPERATOR_SCALE,
+    AlphaEvidence,
 )
 from hdpbsid.bases.pipeline import Projection, make_blocks, project, solve
 from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core.blocks import BlockLag
-from hdpbsid.data.checks import check_data, check_order, check_positive_int
+from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.data.records import Record, as_records
 from hdpbsid.methods.hermite_iv import reference_instruments, with_reference
 from hdpbsid.models.model import StateSpaceModel
@@ -154,7 +153,11 @@ def identify_hermite(
         more than one standard error, first on the record itself, then on its last third
         held out from fits on the rest (several records keep ``4 * scale``).  A number is
         used as given, in one pass; ``"basis"``: ``4 * scale`` in one pass (HD-PBSID as
-        published); ``"dynamics"``: from the modes, without the checks.
+        published); ``"dynamics"``: from the modes, without the checks.  One decision,
+        :meth:`OperatorScalePolicy.decide
+        <hdpbsid.bases.operator_scale.OperatorScalePolicy.decide>`, whose typed way
+        (:class:`~hdpbsid.bases.operator_scale.AlphaRule`) ``options["alpha_rule"]``
+        states in words.
     beta : float, optional
         Shift of the integrator form, ``> 0``.
     gamma : float, optional
@@ -173,8 +176,9 @@ def identify_hermite(
     held_out : tuple, optional
         ``(t, u, y)`` of the same experiment kept out of this record (``method="auto"``
         passes its held-out part): the two models of ``alpha`` fitted on the whole record
-        are compared on it instead (:func:`~hdpbsid.bases.operator_scale.held_out_comparison`),
-        and the rule taken is reported in ``options["refit_settings"]``.
+        are compared on it instead (:meth:`OperatorScalePolicy.prove
+        <hdpbsid.bases.operator_scale.OperatorScalePolicy.prove>`), and the rule taken is
+        reported in ``options["refit_settings"]``.
     settings : BasisSettings, optional
         The settings every basis method shares (:class:`~hdpbsid.bases.settings.BasisSettings`).
     **shared
@@ -256,43 +260,18 @@ def identify_hermite(
     c = _validate(
         t, u, y, order, N, alpha, beta, gamma, scale, estimator, reference, settings, shared
     )
-    family = HermiteFamily(c.scale)
-    wb = records_bandwidth(c.records)
-    q = family.q[c.st.boundary]
-    blocks = make_blocks(
-        c.proj_records,
-        family,
-        c.st.window,
-        lambda: default_window(c.records, family.size_rate(wb), q, P_DEFAULT_RANGE[1]),
-        size_policy(family, c.N, wb),
+    fit = _project(c)
+    rec = c.records[0]
+    evidence = AlphaEvidence(
+        len(c.records), (rec.t, rec.u, rec.y), fit.band, _part_refit(c, fit), held_out
     )
-    s_ref = float(np.median([b.scale for b in blocks.bases.values()]))
-    alpha0 = 4.0 * s_ref if c.alpha is None else c.alpha
-    proj = project(blocks, resolve_holds(c.st.input_hold, c.m), c.st.n_jobs)
-    R = None
-    if c.m_r:
-        proj, R = proj.split_inputs(c.m)
-    options = {
-        "method": "hermite",
-        **blocks.options(),
-        "bandwidth": wb,
-        "scale": s_ref,
-        "centre": c.records[0].t0 + blocks.seg_bases[0].centre,
-        "alpha_rule": "given",
-        "boundary": c.st.boundary,
-        "truncation": "last column of the cut D absorbed as a pseudo-input",
-        "estimator": c.estimator,
-    }
-    fit = _Passes(c, proj, R, options)
-    if c.alpha is not None:
-        return fit(alpha0)
-    if c.alpha_rule == "basis" or len(c.records) > 1:
-        return _basis_rule(fit(alpha0), c.alpha_rule)
-    band = (
-        min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in c.records),
-        min(family.band(b) for b in blocks.bases.values()),
-    )
-    return _dynamics_rule(fit, c, alpha0, band, held_out)
+    asked = c.alpha if c.alpha is not None else c.alpha_rule
+    decision, model = OPERATOR_SCALE.decide(asked, fit.basis_alpha, fit, evidence)
+    model.options.update(decision.options())
+    if decision.refit_settings is not None:
+        choice = Choice(decision.refit_settings, decision.text)
+        model.report = model.report.but(refit_settings=choice)
+    return model
 
 
 identify_hermite.sweep_settings = SWEEP_SETTINGS  # type: ignore[attr-defined]
@@ -365,8 +344,19 @@ class _Passes:
     AIC of the VARX fit) as a later pass would: each later pass would only repeat the
     decision at the cost of two more VARX fits."""
 
-    def __init__(self, c: _Call, proj: Projection, R: Array | None, options: dict) -> None:
+    def __init__(
+        self,
+        c: _Call,
+        proj: Projection,
+        R: Array | None,
+        options: dict,
+        bases: tuple[HermiteFamily, list[Any]],
+    ) -> None:
         self.c, self.proj, self.R, self.options = c, proj, R, options
+        self.bases = bases
+        #: the basis rule's operator scale, 4 * scale (the median over the blocks: ``A'``
+        #: is shared, so ``alpha`` must be), the first pass of the modes' rule
+        self.basis_alpha = 4.0 * options["scale"]
         self.fitted: dict[float, StateSpaceModel] = {}
         self.hold: Choice[str] | None = None
         self.criterion: dict[str, float] = {}
@@ -406,88 +396,73 @@ class _Passes:
         """The input hold of the fits (the first pass's choice)."""
         return self.hold.value if self.hold is not None else self.proj.holds[0]
 
-
-def _basis_rule(model: StateSpaceModel, rule: str | None) -> StateSpaceModel:
-    """The model at ``alpha = 4 * scale``, asked for or the only checkable one."""
-    model.options["alpha_rule"] = "4 * scale (median over blocks); " + (
-        "asked for (alpha='basis')"
-        if rule == "basis"
-        else "several records: no held-out check of a change"
-    )
-    return model
-
-
-def _dynamics_rule(
-    fit: _Passes, c: _Call, alpha0: float, band: tuple[float, float], held_out: Any
-) -> StateSpaceModel:
-    """``alpha`` from the identified modes
-    (:func:`~hdpbsid.bases.operator_scale.alpha_from_dynamics`), kept only when it proves
-    itself (:func:`_check_change`) unless asked for (``alpha="dynamics"``)."""
-    a_new, model, info = alpha_from_dynamics(fit, alpha0, band)
-    info["alpha_rule"] += " (4 * scale, median over blocks)"
-    alpha = a_new
-    if c.alpha_rule == "dynamics":
-        info["alpha_rule"] += "; taken without a held-out check (alpha='dynamics')"
-    elif a_new != alpha0:
-        keep, how, where = _check_change(fit, c, model, alpha0, a_new, held_out)
-        info["alpha_check"] = how
-        if not keep:
-            model, alpha = fit(alpha0), alpha0
-            info["alpha_rule"] += (
-                f"; not better on the {where} by more than one SE: the first pass's alpha kept"
-            )
-    model.options.update(info)
-    if held_out is not None:
-        # the rule the held-out data chose, for the refit on a longer record (whose basis
-        # rule gives another 4 * scale and whose modes ask for their own alpha)
-        settings = {"alpha": "basis" if alpha == alpha0 else "dynamics"}
-        model.options["refit_settings"] = settings
-        model.report = model.report.but(refit_settings=Choice(settings, info["alpha_rule"]))
-    return model
-
-
-def _check_change(
-    fit: _Passes,
-    c: _Call,
-    model: StateSpaceModel,
-    alpha0: float,
-    a_new: float,
-    held_out: Any,
-) -> tuple[bool, str, str]:
-    """Whether ``a_new`` beats ``alpha0`` by more than one standard error: on the caller's
-    held-out data (:func:`~hdpbsid.bases.operator_scale.held_out_comparison`), else on the
-    record itself (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`, the necessary
-    condition, no refits) and then on its last third held out from refits on the rest
-    (:func:`~hdpbsid.bases.operator_scale.held_out_check`).  Returns
-    ``(keep, how, which data)``."""
-    if held_out is not None:
-        keep, how = held_out_comparison(
-            fit(alpha0), model, check_data(*held_out), model.n, (alpha0, a_new)
+    def band(self) -> tuple[float, float]:
+        """The band of modes that may set ``alpha``: from the lowest frequency below which
+        :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of a record's output
+        energy lies to the narrowest basis band of the blocks."""
+        family, bases = self.bases
+        return (
+            min(bandwidth(r.t, r.y, MODE_ENERGY_FRACTION) for r in self.c.records),
+            min(family.band(b) for b in bases),
         )
-        return keep, how, "held-out data"
-    rec = c.records[0]
-    keep, how = in_sample_screen(fit(alpha0), model, (rec.t, rec.u, rec.y), (alpha0, a_new))
-    if keep:
-        ref = c.proj_records[0].u[:, c.m :] if c.m_r else None
-        hold = fit.used_hold
 
-        def refit(t_: Array, u_: Array, y_: Array, a: float) -> StateSpaceModel:
-            return identify_hermite(
-                t_,
-                u_,
-                y_,
-                order=model.n,
-                alpha=a,
-                N=c.N,
-                beta=c.beta,
-                gamma=c.gamma,
-                scale=c.scale,
-                estimator=c.estimator,
-                reference=None if ref is None else ref[: t_.shape[0]],
-                settings=c.st,
-                # the hold the whole record's first pass chose (see _Passes)
-                input_hold=hold,
-            )
 
-        keep, how = held_out_check(refit, rec.t, rec.u, rec.y, a_new, alpha0, model.n)
-    return keep, how, "held-out part"
+def _project(c: _Call) -> _Passes:
+    """The blocks of the validated call projected on their Hermite bases, ready to be fitted
+    at any operator scale (its options: every choice made so far)."""
+    family = HermiteFamily(c.scale)
+    wb = records_bandwidth(c.records)
+    q = family.q[c.st.boundary]
+    blocks = make_blocks(
+        c.proj_records,
+        family,
+        c.st.window,
+        lambda: default_window(c.records, family.size_rate(wb), q, P_DEFAULT_RANGE[1]),
+        size_policy(family, c.N, wb),
+    )
+    s_ref = float(np.median([b.scale for b in blocks.bases.values()]))
+    proj = project(blocks, resolve_holds(c.st.input_hold, c.m), c.st.n_jobs)
+    R = None
+    if c.m_r:
+        proj, R = proj.split_inputs(c.m)
+    options = {
+        "method": "hermite",
+        **blocks.options(),
+        "bandwidth": wb,
+        "scale": s_ref,
+        "centre": c.records[0].t0 + blocks.seg_bases[0].centre,
+        "alpha_rule": "given",
+        "boundary": c.st.boundary,
+        "truncation": "last column of the cut D absorbed as a pseudo-input",
+        "estimator": c.estimator,
+    }
+    return _Passes(c, proj, R, options, (family, list(blocks.bases.values())))
+
+
+def _part_refit(c: _Call, fit: _Passes) -> Callable[..., StateSpaceModel]:
+    """The fit of the held-out check (:meth:`OperatorScalePolicy.held_out_check
+    <hdpbsid.bases.operator_scale.OperatorScalePolicy.held_out_check>`):
+    ``refit(order, t, u, y, alpha)`` is HD-PBSID of a first part of the record with the
+    call's settings at a given ``alpha``, in one pass, with the input hold the whole
+    record's first pass chose (see :class:`_Passes`) and the reference cut alike."""
+    ref = c.proj_records[0].u[:, c.m :] if c.m_r else None
+
+    def refit(order: int, t_: Array, u_: Array, y_: Array, a: float) -> StateSpaceModel:
+        part = _validate(
+            t_,
+            u_,
+            y_,
+            order,
+            c.N,
+            a,
+            c.beta,
+            c.gamma,
+            c.scale,
+            c.estimator,
+            None if ref is None else ref[: t_.shape[0]],
+            c.st,
+            {"input_hold": fit.used_hold},
+        )
+        return _project(part)(float(a))
+
+    return refit

@@ -49,7 +49,7 @@ from hdpbsid.bases.basis_domain import (
     shared_basis,
 )
 from hdpbsid.bases.family import BasisFamily, size_policy
-from hdpbsid.bases.laguerre_pole import dynamics_band, pole_from_dynamics
+from hdpbsid.bases.laguerre_pole import decide_pole
 from hdpbsid.bases.pipeline import make_blocks, project, solve
 from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
@@ -611,42 +611,55 @@ def identify_laguerre(
     N = None if N is None else check_positive_int(N, "N", 2)
     wb = records_bandwidth(records)
     _check_pole_request(a, wb)
-    if isinstance(a, str):
-        one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
-        pole, model = pole_from_dynamics(
-            lambda a_: identify_laguerre(t, u, y, order, a=a_, N=N, variant=variant,
-                                         n_times=n_times, burn_in=burn_in, settings=settings,
-                                         **shared),
-            0.5 * wb, dynamics_band(records),
-            None if one is None else (one.t, one.u, one.y),
-        )  # fmt: skip
-        model.options.update(a_rule=pole.reason, a_source=pole.source.value)
-        return model
-    a, a_rule = (0.5 * wb, "half the data bandwidth") if a is None else (_real(a, "a"), "given")
-    options: dict[str, Any] = {
-        "method": "laguerre",
-        "variant": variant,
-        "a": a,
-        "a_rule": a_rule,
-        "bandwidth": wb,
-        "feedthrough": "Laguerre-domain Dd estimated (required); D mapped back",
-        "n_samples": int(sum(r.ns for r in records)),
-        "t0": records[0].t0,
-    }
-    if variant == "filter":
-        return _filter_variant(records[0], a, N, burn_in, n_times, st, order, options)
-    fam = LaguerreFamily(a)
-    q = fam.q[st.boundary]
-    blocks = make_blocks(
-        records,
-        fam,
-        st.window,
-        lambda: default_window(records, fam.size_rate(wb), q, P_DEFAULT_RANGE[1]),
-        size_policy(fam, N, wb),
-    )
-    proj = project(blocks, resolve_holds(st.input_hold, records[0].u.shape[1]), st.n_jobs)
-    options.update({**blocks.options(), "boundary": st.boundary})
-    return solve(proj, None, st, order, options).model
+    asked = a if a is None or isinstance(a, str) else _real(a, "a")
+    call = _Call(records, wb, variant, N, burn_in, n_times, st, order)
+    pole, model = decide_pole(asked, 0.5 * wb, call.fit, records)
+    model.options.update(pole.options())
+    return model
+
+
+@dataclass(frozen=True)
+class _Call:
+    """The validated arguments of :func:`identify_laguerre` but the pole."""
+
+    records: list[Record]
+    wb: float
+    variant: str
+    N: int | None
+    burn_in: float | None
+    n_times: int | None
+    st: BasisSettings
+    order: int | None
+
+    def fit(self, a: float) -> StateSpaceModel:
+        """The model at the pole ``a`` (its ``a_rule`` is the pole decision's to write)."""
+        records, wb, st = self.records, self.wb, self.st
+        options: dict[str, Any] = {
+            "method": "laguerre",
+            "variant": self.variant,
+            "a": a,
+            "a_rule": "given",
+            "bandwidth": wb,
+            "feedthrough": "Laguerre-domain Dd estimated (required); D mapped back",
+            "n_samples": int(sum(r.ns for r in records)),
+            "t0": records[0].t0,
+        }
+        if self.variant == "filter":
+            return _filter_variant(
+                records[0], a, self.N, self.burn_in, self.n_times, st, self.order, options
+            )
+        fam = LaguerreFamily(a)
+        q = fam.q[st.boundary]
+        blocks = make_blocks(
+            records,
+            fam,
+            st.window,
+            lambda: default_window(records, fam.size_rate(wb), q, P_DEFAULT_RANGE[1]),
+            size_policy(fam, self.N, wb),
+        )
+        proj = project(blocks, resolve_holds(st.input_hold, records[0].u.shape[1]), st.n_jobs)
+        options.update({**blocks.options(), "boundary": st.boundary})
+        return solve(proj, None, st, self.order, options).model
 
 
 def _check_variant(variant: str, records: list[Record]) -> None:

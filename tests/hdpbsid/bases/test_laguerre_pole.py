@@ -10,7 +10,9 @@ from hypothesis import strategies as st
 import hdpbsid
 from hdpbsid.bases.laguerre_pole import (
     LaguerrePole,
+    PoleRule,
     PoleSource,
+    decide_pole,
     map_back_amplification,
     minimax_pole,
 )
@@ -112,3 +114,57 @@ def test_laguerre_given_pole_is_kept():
         warnings.simplefilter("ignore")
         model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None, a=20.0)
     assert model.options["a"] == 20.0 and model.options["a_rule"] == "given"
+
+
+class _PoleModel:
+    """A stand-in with the state matrix the passes read."""
+
+    def __init__(self, eigenvalues):
+        self.A = np.diag(np.asarray(eigenvalues, dtype=float))
+
+
+class _Rec:
+    def __init__(self, m: int = 1, ns: int = 50):
+        self.t = 0.01 * np.arange(ns)
+        self.u = np.ones((ns, m))
+        self.y = np.ones((ns, 1))
+
+
+def test_decide_pole_given_and_bandwidth_take_one_fit():
+    fits = []
+
+    def fit(a):
+        fits.append(a)
+        return _PoleModel([-1.0])
+
+    pole, _ = decide_pole(2.0, 5.0, fit, [_Rec()])
+    assert (pole.rule, pole.a, pole.source) == (PoleRule.GIVEN, 2.0, PoleSource.GIVEN)
+    assert pole.options() == {"a_rule": "given"}
+    pole, _ = decide_pole(None, 5.0, fit, [_Rec()])
+    assert (pole.rule, pole.a) == (PoleRule.BANDWIDTH, 5.0)
+    assert pole.options() == {"a_rule": "half the data bandwidth"}  # no a_source
+    assert fits == [2.0, 5.0]
+
+
+def test_decide_pole_from_the_dynamics_typed_ways(monkeypatch):
+    from hdpbsid.bases import laguerre_pole
+
+    monkeypatch.setattr(laguerre_pole, "dynamics_band", lambda records: (0.01, 1000.0))
+    # several records or a time series: a change cannot be screened, one fit
+    for records in ([_Rec(), _Rec()], [_Rec(m=0)]):
+        pole, _ = decide_pole("dynamics", 5.0, lambda a: _PoleModel([-1.0]), records)
+        assert pole.rule is PoleRule.NOT_SCREENABLE and pole.a == 5.0
+        assert pole.options()["a_source"] == "bandwidth"
+    # the first pass's modes ask for its own pole
+    pole, _ = decide_pole("dynamics", 1.0, lambda a: _PoleModel([-1.0]), [_Rec()])
+    assert pole.rule is PoleRule.FIRST_PASS_ASKED and pole.passes == (1.0,)
+
+    # the fit at the modes' pole fails: the first pass is kept
+    def failing(a):
+        if a != 5.0:
+            raise ValueError("no model")
+        return _PoleModel([-1.0])
+
+    pole, _ = decide_pole("dynamics", 5.0, failing, [_Rec()])
+    assert pole.rule is PoleRule.REFIT_FAILED and pole.a == 5.0 and pole.passes[0] == 5.0
+    assert pole.reason.endswith("its modes ask for it")  # the text the rule had before

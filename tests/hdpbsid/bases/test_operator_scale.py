@@ -90,6 +90,118 @@ def test_choice_without_an_informative_mode_keeps_the_first_alpha() -> None:
     assert choice.value == 3.0 and choice.reason is opscale.AlphaReason.NO_MODE
 
 
+class _Scripted(opscale.OperatorScalePolicy):
+    """The default policy with scripted checks (no models are simulated)."""
+
+    def __init__(self, screen: opscale.AlphaCheck, check: opscale.AlphaCheck) -> None:
+        super().__init__()
+        object.__setattr__(self, "scripted", (screen, check))
+
+    def in_sample_screen(self, *args: object) -> opscale.AlphaCheck:
+        return self.scripted[0]
+
+    def held_out_check(self, identify, record, alphas, order) -> opscale.AlphaCheck:  # type: ignore[override]
+        identify(*record, alphas[1])  # the part refit is called with the order first
+        return self.scripted[1]
+
+
+def _evidence(n_records: int = 1, held_out: tuple | None = None) -> tuple:
+    refits: list[tuple] = []
+    ev = opscale.AlphaEvidence(
+        n_records, ("t", "u", "y"), lambda: (0.1, 100.0), lambda *a: refits.append(a), held_out
+    )
+    return ev, refits
+
+
+def _fit_modes(eigenvalues: list[complex]):
+    fits: dict[float, _Model] = {}
+
+    def fit(alpha: float) -> _Model:
+        model = fits.setdefault(alpha, _Model(eigenvalues))
+        model.n = 1
+        return model
+
+    return fit, fits
+
+
+_WON = opscale.AlphaCheck(True, opscale.CheckReason.WON, "won")
+_LOST = opscale.AlphaCheck(False, opscale.CheckReason.LOST, "lost")
+_SHORT = opscale.AlphaCheck(False, opscale.CheckReason.TOO_SHORT, "short")
+
+
+def test_decide_in_one_pass_for_a_number_the_basis_rule_and_several_records() -> None:
+    policy = opscale.OPERATOR_SCALE
+    fit, fits = _fit_modes([-2.0])
+    d, model = policy.decide(3.0, 8.0, fit, _evidence()[0])
+    assert (d.rule, d.value, d.options()) == (opscale.AlphaRule.GIVEN, 3.0, {"alpha_rule": "given"})
+    assert model is fits[3.0] and d.check is None and d.modes is None
+    d, model = policy.decide("basis", 8.0, fit, _evidence(held_out=("t", "u", "y"))[0])
+    assert d.rule is opscale.AlphaRule.BASIS and d.value == 8.0 and model is fits[8.0]
+    assert d.text == "4 * scale (median over blocks); asked for (alpha='basis')"
+    assert d.refit_settings is None  # the basis rule judges nothing on held-out data
+    for asked in (None, "dynamics"):
+        d, _ = policy.decide(asked, 8.0, fit, _evidence(n_records=2)[0])
+        assert d.rule is opscale.AlphaRule.SEVERAL_RECORDS and d.value == 8.0
+        assert "several records" in d.options()["alpha_rule"]
+    assert sorted(fits) == [3.0, 8.0]  # the modes were never asked
+
+
+def test_decide_by_the_modes_unchecked_or_without_a_change() -> None:
+    policy = opscale.OPERATOR_SCALE
+    fit, fits = _fit_modes([-2.0])
+    d, model = policy.decide("dynamics", 8.0, fit, _evidence(held_out=("t", "u", "y"))[0])
+    assert d.rule is opscale.AlphaRule.DYNAMICS and d.value == 2.0 and model is fits[2.0]
+    assert d.text.endswith("; taken without a held-out check (alpha='dynamics')")
+    assert d.options()["alpha_passes"] == [8.0, 2.0] and "alpha_check" not in d.options()
+    assert d.refit_settings == {"alpha": "dynamics"}
+    d, model = policy.decide(None, 2.0, fit, _evidence()[0])
+    assert d.rule is opscale.AlphaRule.FIRST_PASS_ASKED and d.value == 2.0 and not d.checks
+    assert d.text.endswith("from a first pass at alpha = 2 (4 * scale, median over blocks)")
+
+
+def test_decide_a_change_must_prove_itself() -> None:
+    fit, fits = _fit_modes([-2.0])
+    # the screen refuses: no refits, the first pass's model kept
+    ev, refits = _evidence()
+    d, model = _Scripted(_LOST, _WON).decide(None, 8.0, fit, ev)
+    assert d.rule is opscale.AlphaRule.FIRST_PASS_KEPT and d.value == 8.0
+    assert model is fits[8.0] and d.checks == (_LOST,) and refits == []
+    assert d.text.endswith(
+        "not better on the held-out part by more than one SE: the first pass's alpha kept"
+    )
+    assert d.options()["alpha_check"] == "lost"
+    # the screen passes and the held-out part decides, with refits of the model's order
+    d, model = _Scripted(_WON, _WON).decide(None, 8.0, fit, ev)
+    assert d.rule is opscale.AlphaRule.HELD_OUT_PART_WON and d.value == 2.0
+    assert model is fits[2.0] and refits == [(1, "t", "u", "y", 2.0)]
+    d, _ = _Scripted(_WON, _SHORT).decide(None, 8.0, fit, ev)
+    assert d.rule is opscale.AlphaRule.FIRST_PASS_KEPT
+    assert d.check is not None and d.check.reason is opscale.CheckReason.TOO_SHORT
+
+
+def test_decide_on_the_callers_held_out_data(monkeypatch) -> None:
+    fit, fits = _fit_modes([-2.0])
+    t = np.arange(10.0)
+    held_out = (t, t[:, None], t[:, None])
+    seen: list[tuple] = []
+
+    def compare(old, new, record, order, alphas, label="held-out"):
+        seen.append((old, new, order, alphas))
+        return (_WON, _LOST)[len(seen) - 1]
+
+    monkeypatch.setattr(opscale, "compare", compare)
+    for rule, value in (
+        (opscale.AlphaRule.HELD_OUT_DATA_WON, 2.0),
+        (opscale.AlphaRule.FIRST_PASS_KEPT, 8.0),
+    ):
+        d, model = opscale.OPERATOR_SCALE.decide(None, 8.0, fit, _evidence(held_out=held_out)[0])
+        assert d.rule is rule and d.value == value and model is fits[value]
+        assert d.refit_settings == {"alpha": "dynamics" if value == 2.0 else "basis"}
+        assert list(d.options())[-1] == "refit_settings"
+    assert seen[0] == (fits[8.0], fits[2.0], 1, (8.0, 2.0))
+    assert "not better on the held-out data" in d.text
+
+
 def test_minimax_alpha_slack_moves_alpha_down_not_up() -> None:
     lam = [-0.5 + 2j, -0.5 - 2j, -50.0]
     a = opscale.minimax_alpha(lam, 4)
@@ -134,10 +246,18 @@ def _stiff_record(seed: int, snr: float) -> tuple[np.ndarray, np.ndarray, np.nda
     return t, u, add_noise(y, snr, rng)[0]
 
 
-def test_stiff_system_alpha_from_the_modes() -> None:
+def test_stiff_system_alpha_from_the_modes(monkeypatch) -> None:
+    import hdpbsid.methods.hermite as hermite
+
+    def no_recursion(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the held-out refits called identify_hermite")
+
+    # the held-out refits fit the method's projection directly
+    monkeypatch.setattr(hermite, "identify_hermite", no_recursion)
     t, u, y = _stiff_record(3, 40.0)
     with pytest.warns(RuntimeWarning, match="Ns/2"):  # the band asks for N > Ns/2
         m = identify_hermite(t, u, y, order=3)
+    monkeypatch.undo()
     new = float(eigenvalue_errors(m.eigenvalues, STIFF_EIGS).max())
     old_alpha = m.options["alpha_passes"][0]
     with pytest.warns(RuntimeWarning, match="Ns/2"):
@@ -274,12 +394,10 @@ def test_named_alpha_rules() -> None:
 def test_in_sample_screen_refuses_an_equal_change_without_refits(monkeypatch) -> None:
     from basis_data import make_data
 
-    import hdpbsid.methods.hermite as hermite
-
     def no_refits(*args: object, **kwargs: object) -> None:
         raise AssertionError("the held-out refits ran")
 
-    monkeypatch.setattr(hermite, "held_out_check", no_refits)
+    monkeypatch.setattr(opscale.OperatorScalePolicy, "held_out_check", no_refits)
     t, u, y = make_data(5, snr=20)
     m = identify_hermite(t, u, y, order=2)
     # |lambda| = 2 asks for alpha 2.0 against the basis rule's 3.7; both fit the record to
