@@ -285,6 +285,30 @@ def _kernels(engine: str) -> ModuleType | None:
     return select_kernels(engine, _load_kernels)
 
 
+def _finite_predictor(pr: Predictor) -> bool:
+    """Whether the sampled predictor's matrices are finite.  A step of the search far out
+    of the stable region overflows the matrix exponential; such a predictor is treated as
+    an unstable one (penalised), not as an error that ends the refinement."""
+    return all(np.all(np.isfinite(a)) for a in (pr.F, pr.G, pr.Kd, pr.Du))
+
+
+def _gram_solve(FtF: Array, rhs: Array) -> Array:
+    """``FtF^-1 rhs`` for the free response's normal equations, the minimum-norm least-squares
+    solution when ``FtF`` is singular.
+
+    The initial state is eliminated by least squares: only the projection of the errors on
+    the complement of the free response's column space enters the cost, and every
+    least-squares solution gives the same projection.  ``FtF`` is singular when a mode of
+    the predictor leaves no trace in the weighted outputs (a drifting time series whose
+    predictor has a pole at 1 to rounding, or a decoupled state), which must not end the
+    refinement: the other modes' free response is still eliminated.
+    """
+    try:
+        return np.linalg.solve(FtF, rhs)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(FtF, rhs, rcond=None)[0]
+
+
 def _residuals_numpy(
     theta: Array,
     lay: _Layout,
@@ -312,6 +336,8 @@ def _residuals_numpy(
     A, B, C, D, K = lay.unpack(theta)
     pr = sampled_predictor(A, B, C, D, K, h, hold, lay.feedthrough, derivatives=jac)
     ns, n, l = y.shape[0], lay.n, lay.l
+    if not _finite_predictor(pr):
+        return _penalised(ns * l, theta, jac, directions, penalty)
     lam, V = np.linalg.eig(pr.F)
     if not _is_stable(lam) or np.linalg.cond(V) > _MAX_MODAL_COND:
         return _penalised(ns * l, theta, jac, directions, penalty)
@@ -330,7 +356,7 @@ def _residuals_numpy(
     Ew = W @ E
     Fr = F.reshape(-1, n)  # (l Ns, n), rows ordered like Ew.ravel()
     FtF = Fr.T @ Fr
-    x0 = np.linalg.solve(FtF, Fr.T @ Ew.ravel())
+    x0 = _gram_solve(FtF, Fr.T @ Ew.ravel())
     r = Ew.ravel() - Fr @ x0
     if not jac:
         return r
@@ -354,7 +380,7 @@ def _residuals_numpy(
     for a in range(nk):  # C d(xi) = sum over modes of C V[:, a] s_a
         dE += (CVk[None, :, a, None] * S[:, None, a, :]).real
     J = -(W @ dE).reshape(q, -1).T  # (l Ns, q)
-    J = J - Fr @ np.linalg.solve(FtF, Fr.T @ J)
+    J = J - Fr @ _gram_solve(FtF, Fr.T @ J)
     return r, J
 
 
@@ -422,6 +448,8 @@ def _error_pass(
     response, initial state), the weighted free response left in the workspace; None when
     the predictor is unstable or its modes are not resolved."""
     ns, n, l = y.shape[0], C.shape[1], C.shape[0]
+    if not _finite_predictor(pr):
+        return None
     lam, V = np.linalg.eig(pr.F)
     if not _is_stable(lam) or np.linalg.cond(V) > _MAX_MODAL_COND:
         return None
@@ -430,7 +458,7 @@ def _error_pass(
     kernels.weighted_errors(F, G, Kd, C, Du, W, u, y, Ew, Fr3)
     Fr = Fr3.reshape(-1, n)  # (l Ns, n), rows ordered like Ew.ravel()
     FtF = Fr.T @ Fr
-    x0 = np.linalg.solve(FtF, Fr.T @ Ew.ravel())
+    x0 = _gram_solve(FtF, Fr.T @ Ew.ravel())
     r = Ew.ravel() - Fr @ x0
     return r, F, G, Kd, lam, V, FtF, x0
 
@@ -521,7 +549,7 @@ def _projected_product(Z: Array, Tw: Array, FtF: Array, nz: int, l: int, n: int)
     the coefficients of the ``Fr_c`` columns of ``Z``."""
     ns, q = Z.shape[0], Tw.shape[2]
     FZ = (Z[:, nz:].T @ Z[:, :nz]).reshape(l, n, nz)
-    M = np.linalg.solve(FtF, np.einsum("cjz,czq->jq", FZ, Tw))
+    M = _gram_solve(FtF, np.einsum("cjz,czq->jq", FZ, Tw))
     coef = np.zeros((l, Z.shape[1], q))
     coef[:, :nz] = Tw
     J = np.empty((l * ns, q))

@@ -221,3 +221,36 @@ def test_refined_model_is_the_numpy_one_within_the_statistical_resolution(
         np.abs(compiled.eigenvalues - numpy.eigenvalues) <= 2 * DEFAULT_SETTINGS.stall_sd * std
     )
     assert compiled.options["refine_hold"] == numpy.options["refine_hold"]
+
+
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_an_overflowing_predictor_is_penalised_like_an_unstable_one(engine: str) -> None:
+    # a search step far outside the stable region: exp(A h) overflows; the evaluation
+    # must return the penalty (which sends the search back), not raise from eig
+    lay = _Layout(1, 1, 1, False)
+    theta = lay.pack(
+        np.array([[1e6]]), np.array([[1.0]]), np.array([[1.0]]), np.zeros((1, 1)), np.ones((1, 1))
+    )
+    rng = np.random.default_rng(0)
+    u, y = rng.standard_normal((50, 1)), rng.standard_normal((50, 1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        r, J = _residuals(theta, lay, u, y, 0.05, "zoh", np.eye(1), True, engine=engine)
+    assert np.all(r == DEFAULT_SETTINGS.unstable_penalty) and not J.any()
+
+
+def test_singular_free_response_gram_gives_the_least_squares_projection() -> None:
+    from hdpbsid.refine.pem_residuals import _gram_solve
+
+    rng = np.random.default_rng(1)
+    Fr = rng.standard_normal((40, 3))
+    Fr[:, 2] = Fr[:, 0] - Fr[:, 1]  # a mode with no independent trace in the outputs
+    e = rng.standard_normal(40)
+    FtF = Fr.T @ Fr
+    FtF[:, 2] = FtF[:, 0] - FtF[:, 1]  # exactly singular, as rounding may leave it
+    FtF[2] = FtF[0] - FtF[1]
+    r = e - Fr @ _gram_solve(FtF, Fr.T @ e)
+    oracle = e - Fr @ np.linalg.lstsq(Fr, e, rcond=None)[0]  # the projection itself
+    # both are the residual of one projection; rounding of normal equations, cond ~ 10
+    np.testing.assert_allclose(r, oracle, atol=1e-10)
+    ok = rng.standard_normal((3, 3)) + 3 * np.eye(3)  # regular: the plain solve
+    np.testing.assert_array_equal(_gram_solve(ok, e[:3]), np.linalg.solve(ok, e[:3]))
