@@ -398,6 +398,10 @@ class IdentificationReport:
     windows : mapping of str to int, optional
         The past and future windows ``"p"``, ``"f"`` of the PBSID core, when the method
         reports them.
+    basis : mapping of str to float, optional
+        The basis a basis method projected on, when it reports them: its size ``"N"``
+        (one size for every block), the time scale ``"scale"`` of its functions and the
+        operator scale ``"alpha"`` of the integrator form.
     refit_settings : Choice of dict or None, optional
         Settings the method chose on held-out data, which a refit of the model on a longer
         record takes as given.
@@ -434,6 +438,7 @@ class IdentificationReport:
     input_hold: Choice[str] | None = None
     feedthrough: DirectTerm | None = None
     windows: Mapping[str, int] = field(default_factory=dict)
+    basis: Mapping[str, float] = field(default_factory=dict)
     refit_settings: Choice[Mapping[str, Any]] | None = None
     candidates: tuple[Candidate, ...] = ()
     selection_rule: str = ""
@@ -446,6 +451,7 @@ class IdentificationReport:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "windows", _copied(self.windows))
+        object.__setattr__(self, "basis", _copied(self.basis))
         object.__setattr__(self, "timings", _copied(self.timings))
         object.__setattr__(self, "candidates", tuple(self.candidates))
         object.__setattr__(self, "warnings", tuple(self.warnings))
@@ -556,6 +562,11 @@ class IdentificationReport:
             input_hold=hold,
             feedthrough=DirectTerm.from_option(options.get("feedthrough")),
             windows={k: options[k] for k in ("p", "f") if k in options},
+            basis={
+                k: float(options[k])
+                for k in ("N", "scale", "alpha")
+                if isinstance(options.get(k), int | float) and not isinstance(options[k], bool)
+            },
             refit_settings=(
                 Choice(dict(refit), str(options.get("alpha_rule", "")))
                 if isinstance(refit, Mapping)

@@ -67,14 +67,14 @@ def task(case: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
 
 def _hermite_scale(t: np.ndarray, N: int | None, rec: Any) -> float:
     """The time scale ``s`` of the Hermite basis the method will use (it depends on N
-    only): read from a default identification's options."""
+    only): the one a default identification reports (``model.report.basis``)."""
     import slbasis
 
     if N is None:
         from hdpbsid.identify import identify
 
         m = identify(rec.t, rec.u, rec.y, 2, method="hermite", detrend=None)
-        return float(m.options["scale"])
+        return float(m.report.basis["scale"])
     return float(slbasis.basis("hermite", int(N), (float(t[0]), float(t[-1]))).scale)
 
 

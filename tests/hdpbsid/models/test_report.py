@@ -308,3 +308,22 @@ def test_a_method_s_own_order_table_becomes_its_candidates() -> None:
     assert {c.method for c in model.report.candidates} == {"frequency"}
     assert [c.order for c in model.report.candidates] == [r["order"] for r in rows]
     assert "frequency" in repr(model)
+
+
+def test_the_basis_a_method_used_is_in_the_report() -> None:
+    import slbasis
+    from hdpbsid.systems import second_order, simulate_zoh
+
+    report = IdentificationReport.from_options(
+        {"N": 120, "scale": 2.5, "alpha": "basis", "p": 3, "feedthrough": True}
+    )
+    assert report.basis == {"N": 120.0, "scale": 2.5}  # numbers only: "basis" is a rule
+    A, B, C, D = second_order()
+    t = np.arange(2000) * 0.02
+    u = np.sin(0.7 * t) + np.sin(2.3 * t)
+    y = simulate_zoh(A, B, C, D, t, u)
+    model = hdpbsid.identify(t, u, y, 2, method="hermite", N=150, refine=None, detrend=None)
+    # one record, no windows: the basis slbasis builds for N functions on the record
+    oracle = slbasis.basis("hermite", 150, (float(t[0]), float(t[-1]))).scale
+    assert model.report.basis["N"] == 150 and model.report.basis["scale"] == oracle
+    assert hdpbsid.identify(t, u, y, 2, method="dt", refine=None).report.basis == {}
