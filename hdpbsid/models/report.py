@@ -380,6 +380,15 @@ def _copied(mapping: Mapping[str, Any] | None) -> dict[str, Any]:
     return dict(mapping or {})
 
 
+def _numbers(options: Mapping[str, Any], keys: tuple[str, ...]) -> dict[str, float]:
+    """The entries of ``options`` among ``keys`` that are numbers (not flags), as floats."""
+    return {
+        k: float(options[k])
+        for k in keys
+        if isinstance(options.get(k), int | float) and not isinstance(options[k], bool)
+    }
+
+
 @dataclass(frozen=True)
 class IdentificationReport:
     """What the identification decided, and why: the typed channel between its stages.
@@ -562,11 +571,7 @@ class IdentificationReport:
             input_hold=hold,
             feedthrough=DirectTerm.from_option(options.get("feedthrough")),
             windows={k: options[k] for k in ("p", "f") if k in options},
-            basis={
-                k: float(options[k])
-                for k in ("N", "scale", "alpha")
-                if isinstance(options.get(k), int | float) and not isinstance(options[k], bool)
-            },
+            basis=_numbers(options, ("N", "scale", "alpha")),
             refit_settings=(
                 Choice(dict(refit), str(options.get("alpha_rule", "")))
                 if isinstance(refit, Mapping)
@@ -577,9 +582,5 @@ class IdentificationReport:
             selection_fallback=str(options.get("selection_fallback") or ""),
             refinement=Refinement.from_options(options),
             warm_start=WarmStart.from_option(options.get(WARM_START_OPTION)),
-            timings={
-                k: float(options[k])
-                for k in ("refine_time",)
-                if isinstance(options.get(k), int | float)
-            },
+            timings=_numbers(options, ("refine_time",)),
         )
