@@ -81,7 +81,7 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class AlphaRule:
+class DefaultAlpha:
     """The default pole of the integrator (:func:`default_alpha`): ``alpha = factor *
     omega_y``, ``omega_y`` the largest bandwidth holding ``output_fraction`` of an
     output's energy.
@@ -95,8 +95,8 @@ class AlphaRule:
 
     Examples
     --------
-    >>> AlphaRule()
-    AlphaRule(factor=0.5, output_fraction=0.95)
+    >>> DefaultAlpha()
+    DefaultAlpha(factor=0.5, output_fraction=0.95)
     """
 
     #: the map's disc ``|lambda + alpha| < alpha`` holds real eigenvalues in
@@ -108,10 +108,10 @@ class AlphaRule:
 
 
 #: the rule of :func:`default_alpha`
-ALPHA_RULE = AlphaRule()
+DEFAULT_ALPHA = DefaultAlpha()
 #: default alpha = ALPHA_FACTOR * (bandwidth holding OUTPUT_FRACTION of the output energy)
-ALPHA_FACTOR = ALPHA_RULE.factor
-OUTPUT_FRACTION = ALPHA_RULE.output_fraction
+ALPHA_FACTOR = DEFAULT_ALPHA.factor
+OUTPUT_FRACTION = DEFAULT_ALPHA.output_fraction
 
 
 @library_call
