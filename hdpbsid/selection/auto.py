@@ -21,9 +21,9 @@ for every method:
   with ``K``, or with ``K = 0``, i.e. its simulation error, the right criterion when the
   noise is white output noise.  A model is worth its best predictor; a bad noise
   estimate does not count against a good plant model, and in closed loop the models
-  whose noise model matters are judged with it.  (Choosing the predictor on the
-  estimation part instead, where ``K`` was fitted, kept ``K`` for models it then made
-  worse on the held-out part: the closed-loop quadrotor's order 3 lost to order 4.)
+  whose noise model matters are judged with it.  (The predictor is chosen on the
+  held-out part, not on the estimation part where ``K`` was fitted: there ``K`` always
+  looks useful, also for models it makes worse on new data.)
   A predictor ``A - K C`` that is unstable in sampled form is not scored with ``K``
   (:func:`hdpbsid.models.criteria.predictor_is_stable`: with each window's fitted initial state
   it would use the window's later outputs); such a model is scored by its simulation.

@@ -63,8 +63,8 @@ def _first_that_holds(
     candidate whose refit is returned.  The floor for the refit:
     the windowed score of :func:`refit_holds` fits an initial state per window, so a
     refit with a spurious growing mode can pass it and still diverge over the held-out
-    part it was fitted on (robot arm, DaISy, ``method="chebyshev"``: the order-8 refit
-    had a pair at ``+0.59 +- 1.5i`` rad/s and a validation fit below -100 %).  Also
+    part it was fitted on (an over-sized order on a short record can place a spare pair
+    in the right half-plane).  Also
     every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
     passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
     a sound answer when no refit holds: :func:`select_model`)."""

@@ -101,19 +101,15 @@ def rejudge_refined(
     refined error is taken.  Not the one-standard-error rule again: its preference for
     the smaller order was applied once, to choose ``n*``; here a smaller order replaces
     ``n*`` only when, refined, it predicts at least as well as ``n*`` refined -- the bias
-    correction, not a second discount for parsimony (with the rule applied twice the
-    closed-loop quadrotor's order 3, an unstable pole that adds little output variance,
-    lost to a refined order 2 within one standard error on 4 of 10 seeds).  Measured on
-    the Table-2 closed loop (rate and acceleration, 20 dB, ``feedthrough=True``, seeds
-    0-4): the unrefined candidates chose order 5-6 on every seed; with this step order 4,
-    the plant's, on 2 of 5.
+    correction, not a second discount for parsimony (applied twice, the rule drops a true
+    mode that adds little output variance, such as an unstable pole held back by the loop,
+    whenever the smaller order comes within one standard error).
 
-    *Up.*  The bias can also make a too small order look adequate: on the Table-2 plant
-    with the rate output only (20 dB, seeds 0-4) the subspace order-3 candidate scored
-    better on held-out data than its own prediction-error refit (0.0086-0.0092 against
-    0.0094-0.0102, 3.2-5.3 standard errors) and tied with order 4, so the
-    one-standard-error rule chose 3, while refined, order 4 beats order 3 by 4.3-6.3
-    standard errors.  That symptom -- the consistent refit of the chosen structure
+    *Up.*  The bias can also make a too small order look adequate: in closed loop a
+    subspace candidate of too small an order can score better on held-out data than its
+    own prediction-error refit and tie with the next order, so the one-standard-error
+    rule keeps it, while refined, the larger order beats it by several standard errors.
+    That symptom -- the consistent refit of the chosen structure
     predicting worse than its biased estimate, by more than one standard error -- is what
     the step looks for, when the feedback test declares the record closed loop
     (:func:`looks_closed_loop`, on the chosen candidate's errors over the estimation part;
@@ -121,9 +117,8 @@ def rejudge_refined(
     then the next larger order is refined too and replaces the decision when it beats it
     by more than one standard error (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`
     with the smaller order listed first: the burden of proof on the larger order), and so
-    on upwards.  Without the symptom no larger order is refined (closed-loop quadrotor,
-    seeds 0-5: the refit of the chosen order 3 within 0.22 standard errors of its subspace
-    estimate).
+    on upwards.  Without the symptom no larger order is refined (a refit within a standard
+    error of its subspace estimate shows no bias worth correcting).
 
     Each refined candidate's score is added to its row (``refined_error``,
     ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the

@@ -133,9 +133,9 @@ def break_tie(tied: list[CandidateRow], val: tuple) -> list[CandidateRow]:
     candidates of the chosen order compete (equal state dimension, so equal numbers of
     parameters: the one-standard-error rule's choice of complexity is unchanged), so
     the closed-loop bias of a simulation criterion (module docstring) can move the
-    method, not the order.  On the ball-and-beam record (DaISy) the windowed scores of
-    ``laguerre`` and ``legendre`` at order 4 were 0.12 standard errors apart and their
-    one-window simulation errors 5x apart, the order of their validation fits.
+    method, not the order.  Two methods whose windowed scores are a fraction of a standard
+    error apart can differ severalfold in the one-window simulation error, and it is that
+    error a user's validation reports.
 
     Parameters
     ----------
@@ -170,11 +170,10 @@ def beats_the_mean(model: StateSpaceModel, val: tuple) -> tuple[bool, str]:
     than a window (:func:`break_tie`), in particular a spurious fast-growing mode: within
     a window its free response can cancel the growth of the forced response, over the
     whole held-out part no initial state can (in floating point, a growth beyond
-    ``1/eps``), and the simulation diverges.  On the robot-arm record (DaISy),
-    ``method="hermite"`` had chosen order 7, a pair at ``Re = +1.06`` per sample that won
-    the windowed score with a 96.5 % fit and simulated the held-out part with a relative
-    error of 1e174.  An unstable plant in closed loop passes through its stable
-    innovation predictor.
+    ``1/eps``), and the simulation diverges: an over-sized order can win the windowed score
+    with a spurious unstable pair and simulate the held-out part with an error beyond any
+    scale.  An unstable plant in closed loop passes through its stable innovation
+    predictor.
 
     Parameters
     ----------
@@ -364,8 +363,8 @@ def instability_problem(row: CandidateRow, pool: Sequence[CandidateRow]) -> str:
     one model separates a true unstable plant from a spurious growing mode: over a
     horizon ``T`` any error of the state estimated from the past grows as
     ``e^(sigma T)``, so a free run from the state fitted on the record's start diverges
-    for the true plant too (a rule built on it rejected every candidate of a measured
-    record of a plant in such a loop and fell back to a first-order model); and with the
+    for the true plant too (a rule built on it rejects every candidate of a plant in such a
+    loop); and with the
     initial state fitted on the judged horizon itself, the later inputs cancel any
     growth up to ``1/eps``, so it passes a spurious mode too.  A comparison with the stable
     alternatives needs neither: it asks what the held-out data prefer, at the resolution
