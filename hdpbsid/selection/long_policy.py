@@ -15,7 +15,7 @@ the plan is decided before anything runs, so that no candidate is left to run ou
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
@@ -293,7 +293,6 @@ class LongRecordPolicy:
     refine_std: float = 1e-3
     #: the refinement's Jacobian holds ``samples x parameters``
     max_refine_samples: int = 200_000
-    _checked: bool = field(default=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in (
