@@ -55,11 +55,11 @@ from hdpbsid.data.checks import (
     check_signal,
     check_uniform,
 )
-from hdpbsid.data.records import as_records
+from hdpbsid.data.records import Dataset, as_records
 from hdpbsid.models.model import DiscreteModel, StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["identify_dt", "identify_discrete", "default_windows", "WindowBounds"]
+__all__ = ["identify_dt", "fit_dt", "identify_discrete", "default_windows", "WindowBounds"]
 
 Array = NDArray[np.float64]
 
@@ -560,7 +560,66 @@ def identify_dt(
     >>> model.n, np.sort_complex(model.eigenvalues).round(4)
     (2, array([-0.4-1.9596j, -0.4+1.9596j]))
     """
-    records = as_records(t, u, y)
+    return fit_dt(
+        Dataset.of(t, u, y), order, p=p, f=f, regularize=regularize, feedthrough=feedthrough,
+        stable_k=stable_k, normalize=normalize, max_order=max_order, p_criterion=p_criterion,
+        uniform_rtol=uniform_rtol,
+    )  # fmt: skip
+
+
+def fit_dt(
+    data: Dataset,
+    order: int | None = None,
+    p: int | None = None,
+    f: int | None = None,
+    regularize: bool | str | float | None = "gcv",
+    feedthrough: bool = False,
+    stable_k: bool = False,
+    normalize: bool = True,
+    max_order: int | None = None,
+    p_criterion: str = "aic",
+    uniform_rtol: float = 1e-6,
+) -> StateSpaceModel:
+    """Method ``"dt"`` on the records of ``data``: :func:`identify_dt` in the registry's
+    call shape (:func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked (one record is a Dataset of one), uniformly sampled with one
+        sampling interval.
+    order : int, optional
+        Model order; None selects it.
+    p : int, optional
+        Past window.
+    f : int, optional
+        Future window.
+    regularize : bool, str or float, optional
+        VARX ridge.
+    feedthrough : bool, optional
+        Estimate ``D``.
+    stable_k : bool, optional
+        Riccati gain.
+    normalize : bool, optional
+        Scale the channels to unit RMS.
+    max_order : int, optional
+        Largest order of the selection.
+    p_criterion : {"aic", "bic"}, optional
+        The past-window criterion.
+    uniform_rtol : float, optional
+        Relative tolerance of the uniform sampling check.
+
+    Returns
+    -------
+    StateSpaceModel
+        As :func:`identify_dt` returns it.
+
+    Raises
+    ------
+    ValueError
+        As :func:`identify_dt` raises it.
+    """
+    records = as_records(data)
     steps = []
     for i, r in enumerate(records):
         try:
@@ -609,3 +668,4 @@ def identify_dt(
 
 
 identify_dt.refit_keeps = REFIT_KEEPS  # type: ignore[attr-defined]
+identify_dt.fit = fit_dt  # type: ignore[attr-defined]

@@ -58,13 +58,14 @@ from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core.blocks import BlockLag
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import Record, as_records
+from hdpbsid.data.records import Dataset, Record, as_records
 from hdpbsid.methods.hermite_iv import reference_instruments, with_reference
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
 __all__ = [
     "identify_hermite",
+    "fit_hermite",
     "HermiteFamily",
     "hermite_lag",
     "default_hermite_N",
@@ -257,9 +258,64 @@ def identify_hermite(
     >>> model.options["N"]  # the band rule asks for fewer: clipped to N_MIN
     100
     """
-    c = _validate(
-        t, u, y, order, N, alpha, beta, gamma, scale, estimator, reference, settings, shared
-    )
+    return fit_hermite(
+        Dataset.of(t, u, y), order, N=N, alpha=alpha, beta=beta, gamma=gamma, scale=scale,
+        estimator=estimator, reference=reference, held_out=held_out, settings=settings,
+        **shared,
+    )  # fmt: skip
+
+
+def fit_hermite(
+    data: Dataset,
+    order: int | None = None,
+    *,
+    N: int | None = None,
+    alpha: float | str | None = None,
+    beta: float = 1.0,
+    gamma: float = 1.0,
+    scale: float | None = None,
+    estimator: str = "ls",
+    reference: Any = None,
+    held_out: tuple | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
+) -> StateSpaceModel:
+    """HD-PBSID on the records of ``data``: :func:`identify_hermite` in the registry's
+    call shape (:func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked (one record is a Dataset of one).
+    order : int, optional
+        Model order (:func:`identify_hermite`).
+    N : int, optional
+        Basis size (:func:`identify_hermite`).
+    alpha : float, {"basis", "dynamics"} or None, optional
+        Operator scale (:func:`identify_hermite`).
+    beta : float, optional
+        Shift of the integrator form.
+    gamma : float, optional
+        Gain of the integrator form.
+    scale : float, optional
+        Time scale of the functions.
+    estimator : {"ls", "iv"}, optional
+        The estimator of the VARX stage.
+    reference : array_like, optional
+        The instruments of ``estimator="iv"``.
+    held_out : tuple, optional
+        ``(t, u, y)`` kept out of the records, on which ``alpha`` is judged.
+    settings : BasisSettings, optional
+        The settings every basis method shares.
+    **shared
+        The same settings as keywords.
+
+    Returns
+    -------
+    StateSpaceModel
+        As :func:`identify_hermite` returns it.
+    """
+    c = _validate(data, order, N, alpha, beta, gamma, scale, estimator, reference, settings, shared)
     fit = _project(c)
     rec = c.records[0]
     evidence = AlphaEvidence(
@@ -275,6 +331,7 @@ def identify_hermite(
 
 
 identify_hermite.sweep_settings = SWEEP_SETTINGS  # type: ignore[attr-defined]
+identify_hermite.fit = fit_hermite  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True)
@@ -297,9 +354,7 @@ class _Call:
 
 
 def _validate(
-    t: Any,
-    u: Any,
-    y: Any,
+    data: Dataset,
     order: Any,
     N: Any,
     alpha: Any,
@@ -312,7 +367,7 @@ def _validate(
     shared: dict[str, Any],
 ) -> _Call:
     """Check the arguments of :func:`identify_hermite` before any computation."""
-    records = as_records(t, u, y)
+    records = as_records(data)
     st = resolve_settings(settings, shared, "identify_hermite")
     order = check_order(order)
     # with a reference the records carry it as extra input columns (projected alike)
@@ -449,9 +504,7 @@ def _part_refit(c: _Call, fit: _Passes) -> Callable[..., StateSpaceModel]:
 
     def refit(order: int, t_: Array, u_: Array, y_: Array, a: float) -> StateSpaceModel:
         part = _validate(
-            t_,
-            u_,
-            y_,
+            Dataset.of(t_, u_, y_),
             order,
             c.N,
             a,

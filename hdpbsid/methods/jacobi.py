@@ -22,12 +22,13 @@ from __future__ import annotations
 from typing import Any
 
 from hdpbsid.bases.sl_family import SturmLiouvilleFamily
+from hdpbsid.data.records import Dataset
 from hdpbsid.methods.hermite import _real
-from hdpbsid.methods.sturm_liouville import identify_sl
+from hdpbsid.methods.sturm_liouville import fit_sl
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
-__all__ = ["JacobiFamily", "identify_jacobi"]
+__all__ = ["JacobiFamily", "identify_jacobi", "fit_jacobi"]
 
 
 class JacobiFamily(SturmLiouvilleFamily):
@@ -88,7 +89,43 @@ def identify_jacobi(
     ValueError
         Bad exponents, or as :func:`~hdpbsid.methods.sturm_liouville.identify_sl`.
     """
+    _family_fixed(options)
+    return fit_jacobi(Dataset.of(t, u, y), order, **options)
+
+
+def fit_jacobi(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
+    """:func:`identify_jacobi` on the records of ``data`` (the registry's call shape,
+    :func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked.
+    order : int, optional
+        Model order; None selects it.
+    **options
+        ``a``, ``b`` and the options of :func:`~hdpbsid.methods.sturm_liouville.fit_sl`
+        but ``family``.
+
+    Returns
+    -------
+    StateSpaceModel
+        ``options["method"] == "jacobi"``, ``options["family_params"]`` the exponents.
+
+    Raises
+    ------
+    TypeError
+        ``family`` or ``family_params`` passed (the family is Jacobi's).
+    """
+    _family_fixed(options)
+    family = JacobiFamily(options.pop("a", 1.0), options.pop("b", 1.0))
+    return fit_sl(data, order, family=family, **options)
+
+
+def _family_fixed(options: dict[str, Any]) -> None:
+    """Refuse ``family`` and ``family_params`` (the family is Jacobi's)."""
     if "family" in options or "family_params" in options:
         raise TypeError("identify_jacobi: the family is Jacobi's; pass a and b, or use identify_sl")
-    family = JacobiFamily(options.pop("a", 1.0), options.pop("b", 1.0))
-    return identify_sl(t, u, y, order, family=family, **options)
+
+
+identify_jacobi.fit = fit_jacobi  # type: ignore[attr-defined]

@@ -56,13 +56,14 @@ from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core.blocks import BlockLag
 from hdpbsid.core.varx import SampleShift
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import Record, as_records
+from hdpbsid.data.records import Dataset, Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
 
 __all__ = [
     "identify_laguerre",
+    "fit_laguerre",
     "LaguerreFamily",
     "laguerre_model",
     "cayley",
@@ -602,7 +603,54 @@ def identify_laguerre(
     >>> round(model.options["a"], 3)  # half the data bandwidth
     1.649
     """
-    records = as_records(t, u, y)
+    return fit_laguerre(
+        Dataset.of(t, u, y), order, a=a, N=N, variant=variant, n_times=n_times,
+        burn_in=burn_in, settings=settings, **shared,
+    )  # fmt: skip
+
+
+def fit_laguerre(
+    data: Dataset,
+    order: int | None = None,
+    *,
+    a: float | str | None = None,
+    N: int | None = None,
+    variant: str = "projection",
+    n_times: int | None = None,
+    burn_in: float | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
+) -> StateSpaceModel:
+    """CT-PBSID on the records of ``data``: :func:`identify_laguerre` in the registry's
+    call shape (:func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked (one record is a Dataset of one).
+    order : int, optional
+        Model order (:func:`identify_laguerre`).
+    a : float, "dynamics" or None, optional
+        The Laguerre pole (:func:`identify_laguerre`).
+    N : int, optional
+        Basis size.
+    variant : {"projection", "filter"}, optional
+        The coefficients' variant.
+    n_times : int, optional
+        Filter variant: sample times used after the burn-in.
+    burn_in : float, optional
+        Filter variant: seconds skipped.
+    settings : BasisSettings, optional
+        The shared settings.
+    **shared
+        The shared settings as keywords.
+
+    Returns
+    -------
+    StateSpaceModel
+        As :func:`identify_laguerre` returns it.
+    """
+    records = as_records(data)
     _check_variant(variant, records)
     # the shared ``feedthrough`` setting does not apply: the Laguerre-domain ``Dd`` is
     # always estimated (module docstring) and reported in options["feedthrough"]
@@ -616,6 +664,9 @@ def identify_laguerre(
     pole, model = decide_pole(asked, 0.5 * wb, call.fit, records)
     model.options.update(pole.options())
     return model
+
+
+identify_laguerre.fit = fit_laguerre  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,13 @@
 """The method registry: method names and the functions that identify with them.
 
 Methods live in :data:`METHODS` (name -> callable with the call shape ``func(t, u, y,
-order=None, **options) -> StateSpaceModel``).
+order=None, **options) -> StateSpaceModel``, the public front door).  Inside the package a
+method is called in its second shape, ``fit(data, order=None, **settings)`` on one
+:class:`~hdpbsid.data.records.Dataset` (one record is a Dataset of one
+:class:`~hdpbsid.data.records.Record`): :func:`get_fit` gives it.  A built-in method's
+front door carries its Dataset function as the attribute ``fit``
+(``identify_hermite.fit is fit_hermite``); a method registered with the front-door shape
+only is called through :class:`FrontDoor`, which hands it the record's arrays.
 
 * every built-in method is registered *lazily* (:data:`LAZY_METHODS`), so a process
   that imports only this module (a worker of ``n_jobs``) knows them all: the first
@@ -24,20 +30,29 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
+from hdpbsid.data.records import Dataset
 from hdpbsid.models.model import StateSpaceModel
 
 __all__ = [
     "IdentifyFunc",
+    "DatasetFunc",
+    "FrontDoor",
     "METHODS",
     "LAZY_METHODS",
     "register_method",
     "get_method",
+    "get_fit",
+    "dataset_call",
     "is_available",
     "available_methods",
 ]
 
 IdentifyFunc = Callable[..., StateSpaceModel]
+#: The package's call shape of a method: ``fit(data: Dataset, order=None, **settings)``.
+DatasetFunc = Callable[..., StateSpaceModel]
 
 #: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
 METHODS: dict[str, IdentifyFunc] = {}
@@ -208,3 +223,113 @@ def available_methods() -> list[str]:
         if name not in METHODS:
             _load_lazy(name)
     return sorted(METHODS)
+
+
+@dataclass(frozen=True)
+class FrontDoor:
+    """A method known by its front door ``func(t, u, y, order=None, **options)`` only (a
+    user's :func:`register_method`), called in the package's shape ``fit(data, order=None,
+    **settings)``.
+
+    Several records are passed as the :class:`~hdpbsid.data.records.Dataset` in the
+    ``t`` slot with ``u = y = None`` (the list form every method accepts), and so is one
+    record that came as a list (``listed``).  Another single record is passed as its
+    arrays: the absolute times ``t0 + t``, the input (None for a time series, ``u`` with
+    no column) and the output.
+
+    Parameters
+    ----------
+    func : callable
+        The method's front door.
+    listed : bool, optional
+        The records came as a list (of any length).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> seen = []
+    >>> door = FrontDoor(lambda t, u, y, order=None: seen.append((t[0], u, order)))
+    >>> t = 10.0 + np.arange(20) * 0.5
+    >>> door(Dataset.of(t, None, np.sin(t)), order=2)
+    >>> seen
+    [(np.float64(10.0), None, 2)]
+    """
+
+    func: IdentifyFunc
+    listed: bool = False
+
+    def __call__(self, data: Dataset, order: int | None = None, **settings: Any) -> Any:
+        """Run the front door on ``data`` (the class docstring says how).
+
+        Parameters
+        ----------
+        data : Dataset
+            The records.
+        order : int or None, optional
+            The model order.
+        **settings
+            The method's keywords.
+
+        Returns
+        -------
+        StateSpaceModel
+            What the method returns.
+        """
+        if self.listed or len(data) > 1:
+            return self.func(data, None, None, order=order, **settings)
+        r = data.records[0]
+        u = None if r.u.shape[1] == 0 else r.u
+        return self.func(r.t0 + r.t, u, r.y, order=order, **settings)
+
+
+def dataset_call(func: IdentifyFunc, listed: bool = False) -> DatasetFunc:
+    """The Dataset shape ``fit(data, order=None, **settings)`` of the method ``func``.
+
+    Parameters
+    ----------
+    func : callable
+        A registered method (its front door).
+    listed : bool, optional
+        The records came as a list: a front door gets them as one (:class:`FrontDoor`).
+
+    Returns
+    -------
+    callable
+        ``func.fit`` when the method has a Dataset function (every built-in one), else
+        ``func`` behind a :class:`FrontDoor`.
+
+    Examples
+    --------
+    >>> dataset_call(get_method("hermite")).__name__
+    'fit_hermite'
+    >>> isinstance(dataset_call(lambda t, u, y, order=None: None), FrontDoor)
+    True
+    """
+    fit = getattr(func, "fit", None)
+    return fit if callable(fit) else FrontDoor(func, listed)
+
+
+def get_fit(name: str) -> DatasetFunc:
+    """The method registered for ``name`` in the package's call shape (:func:`dataset_call`).
+
+    Parameters
+    ----------
+    name : str
+        The method name.
+
+    Returns
+    -------
+    callable
+        ``fit(data: Dataset, order=None, **settings) -> StateSpaceModel``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`get_method` raises them.
+
+    Examples
+    --------
+    >>> get_fit("dt").__name__
+    'fit_dt'
+    """
+    return dataset_call(get_method(name))

@@ -62,7 +62,7 @@ from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.bases.sl_family import SturmLiouvilleFamily, integration_matrix
 from hdpbsid.data.checks import check_order, check_positive_int
-from hdpbsid.data.records import Record, as_records
+from hdpbsid.data.records import Dataset, Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import library_call
@@ -71,6 +71,9 @@ __all__ = [
     "identify_sl",
     "identify_legendre",
     "identify_chebyshev",
+    "fit_sl",
+    "fit_legendre",
+    "fit_chebyshev",
     "integration_matrix",
     "SturmLiouvilleFamily",
     "default_alpha",
@@ -232,7 +235,57 @@ def identify_sl(
     >>> model.options["family"], model.options["N"]
     ('legendre', 99)
     """
-    records = as_records(t, u, y)
+    return fit_sl(
+        Dataset.of(t, u, y), order, family=family, N=N, alpha=alpha, beta=beta, gamma=gamma,
+        family_params=family_params, settings=settings, **shared,
+    )  # fmt: skip
+
+
+def fit_sl(
+    data: Dataset,
+    order: int | None = None,
+    *,
+    family: Any = "legendre",
+    N: int | None = None,
+    alpha: float | None = None,
+    beta: float = 1.0,
+    gamma: float = 1.0,
+    family_params: dict | None = None,
+    settings: BasisSettings | None = None,
+    **shared: Any,
+) -> StateSpaceModel:
+    """PBSID in a Sturm-Liouville basis on the records of ``data``: :func:`identify_sl` in
+    the registry's call shape (:func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked (one record is a Dataset of one).
+    order : int, optional
+        Model order (:func:`identify_sl`).
+    family : str or SturmLiouvilleFamily, optional
+        The basis family.
+    N : int, optional
+        Basis size.
+    alpha : float, optional
+        Operator scale.
+    beta : float, optional
+        Shift of the integrator form.
+    gamma : float, optional
+        Gain of the integrator form.
+    family_params : dict, optional
+        Parameters of a named family.
+    settings : BasisSettings, optional
+        The shared settings.
+    **shared
+        The shared settings as keywords.
+
+    Returns
+    -------
+    StateSpaceModel
+        As :func:`identify_sl` returns it.
+    """
+    records = as_records(data)
     m, l = records[0].u.shape[1], records[0].y.shape[1]
     st = resolve_settings(settings, shared, "identify_sl")
     order = check_order(order)
@@ -383,9 +436,41 @@ def identify_legendre(
     >>> np.sort_complex(identify_legendre(t, u, y, order=2).eigenvalues).round(2)
     array([-0.4-1.96j, -0.4+1.96j])
     """
+    _family_fixed("identify_legendre", "legendre", options)
+    return fit_legendre(Dataset.of(t, u, y), order, **options)
+
+
+def fit_legendre(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
+    """:func:`identify_legendre` on the records of ``data`` (the registry's call shape,
+    :func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked.
+    order : int, optional
+        Model order; None selects it.
+    **options
+        Keywords of :func:`fit_sl` other than ``family``.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model.
+
+    Raises
+    ------
+    TypeError
+        If ``family`` is passed.
+    """
+    _family_fixed("identify_legendre", "legendre", options)
+    return fit_sl(data, order, family="legendre", **options)
+
+
+def _family_fixed(func: str, family: str, options: dict[str, Any]) -> None:
+    """Refuse a ``family`` among the keywords of a method whose family is fixed."""
     if "family" in options:
-        raise TypeError("identify_legendre: family is fixed to 'legendre'; use identify_sl")
-    return identify_sl(t, u, y, order, family="legendre", **options)
+        raise TypeError(f"{func}: family is fixed to {family!r}; use identify_sl")
 
 
 @library_call
@@ -421,6 +506,37 @@ def identify_chebyshev(
     TypeError
         If ``family`` is passed (use :func:`identify_sl`).
     """
-    if "family" in options:
-        raise TypeError("identify_chebyshev: family is fixed to 'chebyshev_t'; use identify_sl")
-    return identify_sl(t, u, y, order, family="chebyshev_t", **options)
+    _family_fixed("identify_chebyshev", "chebyshev_t", options)
+    return fit_chebyshev(Dataset.of(t, u, y), order, **options)
+
+
+def fit_chebyshev(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
+    """:func:`identify_chebyshev` on the records of ``data`` (the registry's call shape,
+    :func:`hdpbsid.methods.registry.get_fit`).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records, checked.
+    order : int, optional
+        Model order; None selects it.
+    **options
+        Keywords of :func:`fit_sl` other than ``family``.
+
+    Returns
+    -------
+    StateSpaceModel
+        The continuous-time model.
+
+    Raises
+    ------
+    TypeError
+        If ``family`` is passed.
+    """
+    _family_fixed("identify_chebyshev", "chebyshev_t", options)
+    return fit_sl(data, order, family="chebyshev_t", **options)
+
+
+identify_sl.fit = fit_sl  # type: ignore[attr-defined]
+identify_legendre.fit = fit_legendre  # type: ignore[attr-defined]
+identify_chebyshev.fit = fit_chebyshev  # type: ignore[attr-defined]

@@ -109,6 +109,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from hdpbsid.data.checks import check_data, check_positive_int, is_uniform
+from hdpbsid.data.records import Dataset
 from hdpbsid.models.criteria import (
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
@@ -168,6 +169,7 @@ from hdpbsid.selection.scoring import (
 
 __all__ = [
     "identify_auto",
+    "fit_auto",
     "select_order",
     "select_model",
     "score_model",
@@ -487,14 +489,63 @@ def identify_auto(
         The chosen candidate identified on the whole record, with the comparison in
         ``options["selection"]`` and ``report.candidates``.
     """
-    from hdpbsid.data.records import as_records
+    return fit_auto(
+        Dataset.of(t, u, y), order, methods=methods, max_order=max_order, holdout=holdout,
+        n_jobs=n_jobs, method_options=method_options, refined=refined, feedthrough=feedthrough,
+        **shared,
+    )  # fmt: skip
 
-    recs = as_records(t, u, y)
-    if len(recs) == 1:
-        t, u, y = recs[0].t, recs[0].u, recs[0].y
+
+def fit_auto(
+    data: Dataset,
+    order: int | None = None,
+    *,
+    methods: Sequence[str] | None = None,
+    max_order: int | None = None,
+    holdout: float = HOLDOUT,
+    n_jobs: int | None = None,
+    method_options: dict[str, dict[str, Any]] | None = None,
+    refined: bool = False,
+    feedthrough: bool | str | None = None,
+    **shared: Any,
+) -> StateSpaceModel:
+    """``method="auto"`` on the records of ``data``: :func:`identify_auto` in the
+    registry's call shape (:func:`hdpbsid.methods.registry.get_fit`).  One record is
+    selected on its relative times (as :func:`identify_auto` always did).
+
+    Parameters
+    ----------
+    data : Dataset
+        The records (several: the last one held out).
+    order : int or None
+        The order of every candidate, or None for ``1..max_order``.
+    methods : sequence of str or None
+        The methods compared.
+    max_order : int or None
+        The largest order (default :data:`AUTO_MAX_ORDER`).
+    holdout : float
+        The held-out share at the end of a single record.
+    n_jobs : int or None
+        Sweep the methods in parallel (joblib).
+    method_options : dict or None
+        Settings per method.
+    refined : bool
+        Whether the model will be refined (:func:`rejudge_refined`).
+    feedthrough : bool or str or None
+        ``True``/``False`` for every method, ``"auto"`` to decide ``D`` from the data.
+    **shared
+        Settings every method is given.
+
+    Returns
+    -------
+    StateSpaceModel
+        As :func:`identify_auto` returns it.
+    """
+    first = data.records[0]
+    t, u, y = (first.t, first.u, first.y) if len(data) == 1 else (data, None, None)
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
     orders = [check_positive_int(order, "order")] if order is not None else list(range(1, mo + 1))
-    methods = _auto_methods(methods, recs)
+    methods = _auto_methods(methods, data)
     feedthrough = None if feedthrough is None else check_feedthrough(feedthrough)
     if feedthrough is not None and feedthrough != "auto":
         shared["feedthrough"] = feedthrough
@@ -523,15 +574,18 @@ def identify_auto(
     return model
 
 
-def _auto_methods(methods: Sequence[str] | None, recs: Sequence[Any]) -> list[str]:
+identify_auto.fit = fit_auto  # type: ignore[attr-defined]
+
+
+def _auto_methods(methods: Sequence[str] | None, data: Dataset) -> list[str]:
     """The methods of ``method="auto"``: ``methods`` when given (each name checked by the
     registry, which raises for unknown ones), else the available ones of
-    :data:`AUTO_METHODS`, without ``dt`` when a record of ``recs`` is not uniformly
+    :data:`AUTO_METHODS`, without ``dt`` when a record of ``data`` is not uniformly
     sampled."""
     from hdpbsid.methods.registry import get_method, is_available
 
     if methods is None:
-        uniform = all(is_uniform(r.t) for r in recs)
+        uniform = data.uniform
         return [m for m in AUTO_METHODS if (uniform or m != "dt") and is_available(m)]
     methods = list(methods)
     for m in methods:
