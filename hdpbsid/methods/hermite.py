@@ -324,8 +324,9 @@ def fit_hermite(
     asked = c.alpha if c.alpha is not None else c.alpha_rule
     decision, model = OPERATOR_SCALE.decide(asked, fit.basis_alpha, fit, evidence)
     model.options.update(decision.options())
+    model.report = model.report.but(alpha=Choice(decision.value, decision.text, decision.rule))
     if decision.refit_settings is not None:
-        choice = Choice(decision.refit_settings, decision.text)
+        choice = Choice(decision.refit_settings, decision.text, decision.rule)
         model.report = model.report.but(refit_settings=choice)
     return model
 

@@ -59,6 +59,7 @@ from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.data.records import Dataset, Record, as_records
 from hdpbsid.methods.hermite import _real
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import Choice
 from hdpbsid.runtime import library_call
 
 __all__ = [
@@ -663,6 +664,7 @@ def fit_laguerre(
     call = _Call(records, wb, variant, N, burn_in, n_times, st, order)
     pole, model = decide_pole(asked, 0.5 * wb, call.fit, records)
     model.options.update(pole.options())
+    model.report = model.report.but(pole=Choice(pole.a, pole.reason, pole.rule))
     return model
 
 

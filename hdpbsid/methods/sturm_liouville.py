@@ -57,6 +57,7 @@ from hdpbsid.bases.basis_domain import (
     resolve_holds,
 )
 from hdpbsid.bases.family import Choice, Integrator, size_policy
+from hdpbsid.bases.operator_scale import AlphaRule
 from hdpbsid.bases.pipeline import make_blocks, one_or_all, project, solve
 from hdpbsid.bases.segments import default_window, records_bandwidth
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
@@ -307,7 +308,8 @@ def fit_sl(
         lambda: default_window(records, fam.size_rate(wb), q, p_def),
         size_policy(fam, N, wb),
     )
-    a = default_alpha(records) if alpha is None else Choice(_real(alpha, "alpha"), "given")
+    given = None if alpha is None else Choice(_real(alpha, "alpha"), "given", AlphaRule.GIVEN)
+    a = default_alpha(records) if given is None else given
     proj = project(blocks, resolve_holds(st.input_hold, m), st.n_jobs)
     bases = blocks.bases.values()
     options = {
@@ -327,6 +329,7 @@ def fit_sl(
     # range of windows), not at this method's own small window: the same for every order
     op = Integrator(a.value, beta, gamma)
     fit = solve(proj, op, st, order, options, hold_range=P_DEFAULT_RANGE, p_range=(p_def, p_def))
+    fit.model.report = fit.model.report.but(alpha=a)
     return fit.model
 
 

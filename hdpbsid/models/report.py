@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any, Generic, TypeVar
 
 import numpy as np
@@ -54,12 +55,21 @@ WARM_START_OPTION = "refine_warm_start"
 class Choice(Generic[T_]):
     """A value chosen by a policy and the reason for it (reported beside the model).
 
+    The reason is a text, the one the model's options and files carry, and where the
+    policy has a typed way (an :class:`enum.Enum`: the operator scale's
+    :class:`~hdpbsid.bases.operator_scale.AlphaRule`, the Laguerre pole's
+    :class:`~hdpbsid.bases.laguerre_pole.PoleRule`, ...) that member too, as ``rule``,
+    for code that acts on the reason: it compares members, not texts.  Two choices are
+    equal when their values and texts are (the text states the rule).
+
     Parameters
     ----------
     value : any
         What was chosen (a basis size, an operator scale, an input hold, ...).
     reason : str
         Why: ``"given"`` for a user's value, else the rule and its inputs.
+    rule : enum.Enum or None, optional
+        The policy's typed reason, when it has one.
 
     Examples
     --------
@@ -67,10 +77,19 @@ class Choice(Generic[T_]):
     Choice(value=3, reason='given')
     >>> Choice(3, "given").given
     True
+    >>> from hdpbsid.bases.operator_scale import AlphaRule
+    >>> c = Choice(2.0, "4 * scale (the basis rule)", AlphaRule.BASIS)
+    >>> c.rule is AlphaRule.BASIS, c == Choice(2.0, "4 * scale (the basis rule)")
+    (True, True)
     """
 
     value: T_
     reason: str
+    rule: Enum | None = field(default=None, compare=False)
+
+    def __repr__(self) -> str:
+        typed = "" if self.rule is None else f", rule={type(self.rule).__name__}.{self.rule.name}"
+        return f"Choice(value={self.value!r}, reason={self.reason!r}{typed})"
 
     @property
     def given(self) -> bool:
@@ -411,6 +430,13 @@ class IdentificationReport:
         The basis a basis method projected on, when it reports them: its size ``"N"``
         (one size for every block), the time scale ``"scale"`` of its functions and the
         operator scale ``"alpha"`` of the integrator form.
+    alpha : Choice of float or None, optional
+        The operator scale of the integrator form and how it was decided (Hermite: ``rule``
+        an :class:`~hdpbsid.bases.operator_scale.AlphaRule`; its text is
+        ``options["alpha_rule"]``), when the method has one.
+    pole : Choice of float or None, optional
+        The Laguerre pole ``a`` and how it was decided (``rule`` a
+        :class:`~hdpbsid.bases.laguerre_pole.PoleRule`; its text is ``options["a_rule"]``).
     refit_settings : Choice of dict or None, optional
         Settings the method chose on held-out data, which a refit of the model on a longer
         record takes as given.
@@ -448,6 +474,8 @@ class IdentificationReport:
     feedthrough: DirectTerm | None = None
     windows: Mapping[str, int] = field(default_factory=dict)
     basis: Mapping[str, float] = field(default_factory=dict)
+    alpha: Choice[float] | None = None
+    pole: Choice[float] | None = None
     refit_settings: Choice[Mapping[str, Any]] | None = None
     candidates: tuple[Candidate, ...] = ()
     selection_rule: str = ""

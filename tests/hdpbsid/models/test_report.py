@@ -327,3 +327,28 @@ def test_the_basis_a_method_used_is_in_the_report() -> None:
     oracle = slbasis.basis("hermite", 150, (float(t[0]), float(t[-1]))).scale
     assert model.report.basis["N"] == 150 and model.report.basis["scale"] == oracle
     assert hdpbsid.identify(t, u, y, 2, method="dt", refine=None).report.basis == {}
+
+
+def test_the_report_carries_the_typed_rules_of_alpha_and_the_pole() -> None:
+    """The operator scale of a Hermite identification and the pole of a Laguerre one reach
+    the report as choices with their policies' enum members (not only their texts), and
+    the texts stay the ones ``model.options`` writes."""
+    from hdpbsid.bases.laguerre_pole import PoleRule
+    from hdpbsid.bases.operator_scale import AlphaRule
+
+    t, u, y = _record(2)
+    hermite = hdpbsid.identify(t, u, y, 2, method="hermite", alpha="basis", refine=None)
+    alpha = hermite.report.alpha
+    assert alpha is not None and alpha.rule is AlphaRule.BASIS
+    assert alpha.value == hermite.options["alpha"] and alpha.reason == hermite.options["alpha_rule"]
+    chosen = hdpbsid.identify(t, u, y, 2, method="hermite", refine=None).report.alpha
+    assert isinstance(chosen.rule, AlphaRule) and chosen.rule is not AlphaRule.BASIS
+    given = hdpbsid.identify(t, u, y, 2, method="hermite", alpha=3.0, refine=None).report.alpha
+    assert given.rule is AlphaRule.GIVEN and given.given and given == Choice(3.0, "given")
+    laguerre = hdpbsid.identify(t, u, y, 2, method="laguerre", refine=None)
+    pole = laguerre.report.pole
+    assert pole is not None and pole.rule is PoleRule.BANDWIDTH
+    assert pole.value == laguerre.options["a"] and pole.reason == laguerre.options["a_rule"]
+    assert "rule=PoleRule.BANDWIDTH" in repr(pole)
+    legendre = hdpbsid.identify(t, u, y, 2, method="legendre", alpha=2.0, N=200, refine=None)
+    assert legendre.report.alpha.rule is AlphaRule.GIVEN
