@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 from hdpbsid.bases.basis_domain import PROJECTION, bandwidth, data_bandwidth, project_record
 from hdpbsid.bases.memo import memoize
 from hdpbsid.bases.settings import check_window
-from hdpbsid.data.checks import is_uniform
 from hdpbsid.data.records import Record, split_windows
 
 __all__ = [
@@ -275,7 +274,7 @@ def make_segments(
         if length is None or r.duration < 2 * length:
             segs.append(r)
         else:
-            segs.extend(split_windows(r, length, uniform=is_uniform(r.t)))
+            segs.extend(split_windows(r, length, uniform=r.uniform))
     info["window"] = length
     info["n_records"] = len(records)
     info["n_segments"] = len(segs)

@@ -59,6 +59,10 @@ class Record:
         Number of samples.
     duration : float
         ``t[-1] - t[0]``.
+    uniform : bool
+        Whether the record is uniformly sampled (:func:`hdpbsid.data.checks.is_uniform` of
+        its relative times, ``k h`` exactly for a record made uniform by
+        :func:`relative_times`): the one test the methods and the selection read.
     """
 
     t: Array
@@ -76,6 +80,11 @@ class Record:
     def duration(self) -> float:
         """``t[-1] - t[0]``."""
         return float(self.t[-1])
+
+    @property
+    def uniform(self) -> bool:
+        """Whether the record is uniformly sampled."""
+        return is_uniform(self.t)
 
 
 @dataclass(frozen=True)
@@ -188,7 +197,7 @@ class Dataset:
     @property
     def uniform(self) -> bool:
         """Whether every record is uniformly sampled."""
-        return all(is_uniform(r.t) for r in self.records)
+        return all(r.uniform for r in self.records)
 
 
 def is_record_list(t: Any) -> bool:
