@@ -12,6 +12,7 @@ report``, each step a function of its own below it.
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from dataclasses import dataclass
@@ -38,7 +39,7 @@ from hdpbsid.identify_inputs import (
 )
 from hdpbsid.methods.registry import (
     IdentifyFunc,
-    dataset_call,
+    call_method,
     get_method,
 )
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels
@@ -144,7 +145,8 @@ def _first_pass_records(
         levels.append(lv)
     options.pop("order_rule", None)
     # made once here: the method takes the records as they are (as_records)
-    model = dataset_call(func, listed=True)(Dataset.of(records), order=req.order, **options)
+    data = Dataset.of(records)
+    model = call_method(func, (data, None, None), data, order=req.order, **options)
     if req.feedthrough == "auto":
         model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
     if req.order is None:
@@ -169,11 +171,8 @@ def _first_pass_record(
         record = (t, u, y)
     else:
         record = (tt, None if u is None else ud, yd)
-    # made once here: the method takes the record as it is; the held-out selection splits
-    # the arrays (its candidates score on the stamps as given)
-    data = Dataset.of(*record)
     model = _run(
-        req.method, func, record, data, req.order, options, refined=req.refine is not None,
+        req.method, func, record, req.order, options, refined=req.refine is not None,
         judge_feedthrough=req.feedthrough == "auto",
     )  # fmt: skip
     trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
@@ -664,15 +663,15 @@ def _run(
     method: str,
     func: IdentifyFunc,
     record: tuple[Any, Any, Any],
-    data: Dataset,
     order: Any,
     options: dict,
     refined: bool = False,
     judge_feedthrough: bool = False,
 ) -> StateSpaceModel:
-    """Run ``method`` on one record, given as its arrays ``record = (t, u, y)`` and as the
-    :class:`~hdpbsid.data.records.Dataset` ``data`` of them (the method's call shape,
-    :func:`~hdpbsid.methods.registry.dataset_call`); ``order=None`` goes through the
+    """Run ``method`` on one record ``record = (t, u, y)``: the held-out selections split
+    its arrays (their candidates score on the stamps as given), the method itself runs on
+    the :class:`~hdpbsid.data.records.Dataset` made of it here
+    (:func:`~hdpbsid.methods.registry.call_method`).  ``order=None`` goes through the
     held-out order choice
     (:func:`hdpbsid.selection.auto.select_order`) unless ``order_rule="svd"``.  ``refined``:
     the result will be refined, so the held-out choice is told (it then decides close
@@ -687,13 +686,15 @@ def _run(
     ft: dict[str, Any] = {"feedthrough": given} if given is not None else {}
     # the held-out selections judge the direct term themselves when asked to
     judged = {"feedthrough": "auto"} if judge_feedthrough else ft
-    fit = dataset_call(func)
+    # the method runs on the Dataset of the record, made here (when it has a Dataset
+    # function: call_method); the held-out selections cut the arrays themselves
+    data = functools.partial(Dataset.of, *record)
     if order is None and method != "auto" and rule == "held-out":
         from hdpbsid.selection.auto import select_order
 
         return select_order(method, *record, refined=refined, **judged, **options)
     if method == "auto":
-        return fit(data, order=order, refined=refined, **judged, **options)
+        return call_method(func, record, data, order=order, refined=refined, **judged, **options)
     why = ""
     if judge_feedthrough and order is None:
         why = "auto: not judged (order_rule='svd' chooses the order on the whole record); D = 0"
@@ -702,7 +703,7 @@ def _run(
 
         has_d, why = decide_feedthrough(method, *record, order, options)
         ft = {"feedthrough": True} if has_d else {}
-    model = fit(data, order=order, **ft, **options)
+    model = call_method(func, record, data, order=order, **ft, **options)
     if why and isinstance(model, StateSpaceModel):
         model.options["feedthrough_rule"] = why
     return model

@@ -567,6 +567,7 @@ def identify_dt(
     )  # fmt: skip
 
 
+@library_call
 def fit_dt(
     data: Dataset,
     order: int | None = None,

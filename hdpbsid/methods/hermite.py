@@ -265,6 +265,7 @@ def identify_hermite(
     )  # fmt: skip
 
 
+@library_call
 def fit_hermite(
     data: Dataset,
     order: int | None = None,

@@ -93,6 +93,7 @@ def identify_jacobi(
     return fit_jacobi(Dataset.of(t, u, y), order, **options)
 
 
+@library_call
 def fit_jacobi(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
     """:func:`identify_jacobi` on the records of ``data`` (the registry's call shape,
     :func:`hdpbsid.methods.registry.get_fit`).

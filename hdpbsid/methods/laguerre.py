@@ -610,6 +610,7 @@ def identify_laguerre(
     )  # fmt: skip
 
 
+@library_call
 def fit_laguerre(
     data: Dataset,
     order: int | None = None,

@@ -7,7 +7,7 @@ method is called in its second shape, ``fit(data, order=None, **settings)`` on o
 :class:`~hdpbsid.data.records.Record`): :func:`get_fit` gives it.  A built-in method's
 front door carries its Dataset function as the attribute ``fit``
 (``identify_hermite.fit is fit_hermite``); a method registered with the front-door shape
-only is called through :class:`FrontDoor`, which hands it the record's arrays.
+only is called with the record's arrays (:func:`call_method`, :class:`FrontDoor`).
 
 * every built-in method is registered *lazily* (:data:`LAZY_METHODS`), so a process
   that imports only this module (a worker of ``n_jobs``) knows them all: the first
@@ -46,6 +46,7 @@ __all__ = [
     "get_method",
     "get_fit",
     "dataset_call",
+    "call_method",
     "is_available",
     "available_methods",
 ]
@@ -54,7 +55,7 @@ IdentifyFunc = Callable[..., StateSpaceModel]
 #: The package's call shape of a method: ``fit(data: Dataset, order=None, **settings)``.
 DatasetFunc = Callable[..., StateSpaceModel]
 
-#: Registered methods: name -> ``func(t, u, y, order=None, **options)``.
+#: Registered methods: name -> ``func(t, u, y, order=None, **options)`` (the front door).
 METHODS: dict[str, IdentifyFunc] = {}
 
 #: Methods imported on first use: name -> candidate ``(module, function name)`` pairs,
@@ -84,7 +85,10 @@ def register_method(name: str, func: IdentifyFunc, overwrite: bool = False) -> I
         The method name (non-empty), as ``identify(..., method=name)`` takes it.
     func : callable
         ``func(t, u, y, order=None, **options)`` returning a
-        :class:`~hdpbsid.models.model.StateSpaceModel`.
+        :class:`~hdpbsid.models.model.StateSpaceModel` (a list of records, as a
+        :class:`~hdpbsid.data.records.Dataset`, may come in ``t`` with ``u = y = None``).
+        A function with an attribute ``fit``, ``fit(data, order=None, **settings)`` on a
+        Dataset, is called that way inside the package (:func:`dataset_call`).
     overwrite : bool, optional
         Replace a different function registered under ``name``.
 
@@ -229,20 +233,17 @@ def available_methods() -> list[str]:
 class FrontDoor:
     """A method known by its front door ``func(t, u, y, order=None, **options)`` only (a
     user's :func:`register_method`), called in the package's shape ``fit(data, order=None,
-    **settings)``.
-
-    Several records are passed as the :class:`~hdpbsid.data.records.Dataset` in the
-    ``t`` slot with ``u = y = None`` (the list form every method accepts), and so is one
-    record that came as a list (``listed``).  Another single record is passed as its
-    arrays: the absolute times ``t0 + t``, the input (None for a time series, ``u`` with
-    no column) and the output.
+    **settings)``: several records are passed as the
+    :class:`~hdpbsid.data.records.Dataset` in the ``t`` slot with ``u = y = None`` (the
+    list form every method accepts), one record as its arrays: the absolute times
+    ``t0 + t``, the input (None for a time series, ``u`` with no column) and the output.
+    A caller that holds the arrays the Dataset was made of passes them instead
+    (:func:`call_method`).
 
     Parameters
     ----------
     func : callable
         The method's front door.
-    listed : bool, optional
-        The records came as a list (of any length).
 
     Examples
     --------
@@ -256,7 +257,6 @@ class FrontDoor:
     """
 
     func: IdentifyFunc
-    listed: bool = False
 
     def __call__(self, data: Dataset, order: int | None = None, **settings: Any) -> Any:
         """Run the front door on ``data`` (the class docstring says how).
@@ -275,22 +275,20 @@ class FrontDoor:
         StateSpaceModel
             What the method returns.
         """
-        if self.listed or len(data) > 1:
+        if len(data) > 1:
             return self.func(data, None, None, order=order, **settings)
         r = data.records[0]
         u = None if r.u.shape[1] == 0 else r.u
         return self.func(r.t0 + r.t, u, r.y, order=order, **settings)
 
 
-def dataset_call(func: IdentifyFunc, listed: bool = False) -> DatasetFunc:
+def dataset_call(func: IdentifyFunc) -> DatasetFunc:
     """The Dataset shape ``fit(data, order=None, **settings)`` of the method ``func``.
 
     Parameters
     ----------
     func : callable
         A registered method (its front door).
-    listed : bool, optional
-        The records came as a list: a front door gets them as one (:class:`FrontDoor`).
 
     Returns
     -------
@@ -306,7 +304,54 @@ def dataset_call(func: IdentifyFunc, listed: bool = False) -> DatasetFunc:
     True
     """
     fit = getattr(func, "fit", None)
-    return fit if callable(fit) else FrontDoor(func, listed)
+    return fit if callable(fit) else FrontDoor(func)
+
+
+def call_method(
+    func: IdentifyFunc,
+    arrays: tuple[Any, Any, Any],
+    data: Dataset | Callable[[], Dataset],
+    order: int | None = None,
+    **settings: Any,
+) -> Any:
+    """Run the registered method ``func`` in its own call shape on a record the caller
+    holds both ways: its Dataset function on ``data``, a front door (a user's method) on
+    ``arrays``, what such a method was always given, bit for bit.
+
+    Parameters
+    ----------
+    func : callable
+        A registered method (its front door).
+    arrays : tuple
+        ``(t, u, y)`` as the caller has them (a list of records, or a Dataset, in the
+        ``t`` slot with ``u = y = None`` for several).
+    data : Dataset or callable
+        The Dataset of ``arrays``, or a function making it (called only for a Dataset
+        function: a front door's record is not checked here).
+    order : int or None, optional
+        The model order.
+    **settings
+        The method's keywords.
+
+    Returns
+    -------
+    StateSpaceModel
+        What the method returns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(300) * 0.1
+    >>> u = np.sign(np.sin(0.7 * t))
+    >>> y = np.convolve(u, np.exp(-t[:50]), "full")[:300] * 0.1
+    >>> rec = (t, u, y)
+    >>> call_method(get_method("dt"), rec, lambda: Dataset.of(*rec), order=1).n
+    1
+    """
+    fit = getattr(func, "fit", None)
+    if not callable(fit):
+        return func(*arrays, order=order, **settings)
+    return fit(data if isinstance(data, Dataset) else data(), order=order, **settings)
 
 
 def get_fit(name: str) -> DatasetFunc:

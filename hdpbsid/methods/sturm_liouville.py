@@ -242,6 +242,7 @@ def identify_sl(
     )  # fmt: skip
 
 
+@library_call
 def fit_sl(
     data: Dataset,
     order: int | None = None,
@@ -443,6 +444,7 @@ def identify_legendre(
     return fit_legendre(Dataset.of(t, u, y), order, **options)
 
 
+@library_call
 def fit_legendre(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
     """:func:`identify_legendre` on the records of ``data`` (the registry's call shape,
     :func:`hdpbsid.methods.registry.get_fit`).
@@ -513,6 +515,7 @@ def identify_chebyshev(
     return fit_chebyshev(Dataset.of(t, u, y), order, **options)
 
 
+@library_call
 def fit_chebyshev(data: Dataset, order: int | None = None, **options: Any) -> StateSpaceModel:
     """:func:`identify_chebyshev` on the records of ``data`` (the registry's call shape,
     :func:`hdpbsid.methods.registry.get_fit`).

@@ -105,6 +105,7 @@ importable from here.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any
 
@@ -121,6 +122,7 @@ from hdpbsid.models.report import Candidate
 from hdpbsid.runtime import library_call
 from hdpbsid.selection.candidates import (
     CandidateRow,
+    FitRecord,
     _sweep,
     accepts_held_out,
     refit_keeps,
@@ -286,12 +288,12 @@ def select_model(
         last = recs[-1]
         val = (last.t, last.u, last.y)
         est_list = [(r.t, r.u, r.y) for r in recs[:-1]]
-        est: tuple = (est_list, None, None) if len(est_list) > 1 else est_list[0]
+        est = FitRecord((est_list, None, None) if len(est_list) > 1 else est_list[0])
         n_val, where = last.t.size, "the last record"
     else:
         t, u, y = check_data(t, u, y)
         split = int(round(t.size * (1.0 - float(holdout))))
-        est = (t[:split], u[:split], y[:split])
+        est = FitRecord((t[:split], u[:split], y[:split]))
         val = (t[split:], u[split:], y[split:])
         n_val, where = t.size - split, f"the last {holdout:.0%} of the record"
     windows = default_windows(n_val, max(orders))
@@ -311,7 +313,8 @@ def select_model(
             "resample the record uniformly or give the order"
         )
     opts = method_options or {}
-    args = (get_method, methods, sorted(orders), est, (t, u, y), val, windows, where, opts)
+    whole = FitRecord((t, u, y))
+    args = (get_method, methods, sorted(orders), est, whole, val, windows, where, opts)
     try:
         return _select(*args, n_jobs, refined, judge_feedthrough, relax=False)
     except NoCandidate:
@@ -326,8 +329,8 @@ def _select(
     get_method: Any,
     methods: Sequence[str],
     orders: list[int],
-    est: tuple,
-    whole: tuple,
+    est: FitRecord,
+    whole: FitRecord,
     val: tuple,
     windows: int,
     where: str,
@@ -390,7 +393,7 @@ def _rejudged_queue(
     ok: list[CandidateRow],
     order: OrderChoice,
     queue: list[CandidateRow],
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
     n_jobs: int | None,
@@ -403,7 +406,7 @@ def _rejudged_queue(
     k = order.index
     same = [i for i, r in enumerate(ok) if with_d(r) == with_d(ok[k])]
     within = OrderChoice(same.index(k), tuple(order.stats[i] for i in same))
-    again = rejudge_order([ok[i] for i in same], within, est, val, windows, n_jobs)
+    again = rejudge_order([ok[i] for i in same], within, est.arrays, val, windows, n_jobs)
     k2 = same[again.index]
     if k2 != k:
         queue = [ok[k2]] + [r for r in queue if r is not ok[k2]]
@@ -496,6 +499,7 @@ def identify_auto(
     )  # fmt: skip
 
 
+@library_call
 def fit_auto(
     data: Dataset,
     order: int | None = None,
@@ -637,7 +641,7 @@ def select_order(
         score in ``options["order_selection"]``.
     """
     mo = AUTO_MAX_ORDER if max_order is None else check_positive_int(max_order, "max_order")
-    from hdpbsid.methods.registry import get_method
+    from hdpbsid.methods.registry import call_method, get_method
 
     given_ft = options.pop("feedthrough", None)
     ft = None if given_ft is None else check_feedthrough(given_ft)
@@ -660,7 +664,8 @@ def select_order(
     except ValueError as exc:
         if "longer record" not in str(exc):
             raise
-        model = get_method(method)(t, u, y, order=None, max_order=mo, **options)
+        data = functools.partial(Dataset.of, t, u, y)  # made only for a Dataset function
+        model = call_method(get_method(method), (t, u, y), data, max_order=mo, **options)
         model.options["order_selection"] = f"singular values of the method ({exc})"
         if judge:
             model.options["feedthrough_rule"] = "auto: not judged (too short to score); D = 0"

@@ -15,11 +15,14 @@ import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from hdpbsid.bases.basis_domain import BasisTooSmall
+from hdpbsid.data.records import Dataset
+from hdpbsid.methods.registry import call_method
 from hdpbsid.models.criteria import WindowedError
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
@@ -27,6 +30,7 @@ from hdpbsid.selection.feedthrough import with_d
 from hdpbsid.selection.scoring import score_model, stationarity_problem
 
 __all__ = [
+    "FitRecord",
     "CandidateRow",
     "FirstPass",
     "accepts_held_out",
@@ -34,6 +38,64 @@ __all__ = [
     "settle_candidate",
     "refit_keeps",
 ]
+
+
+@dataclass(frozen=True)
+class FitRecord:
+    """A record the held-out selection fits candidates on (the estimation part, or the
+    whole record for the refit of the chosen one), cut once by
+    :func:`~hdpbsid.selection.auto.select_model`: its arrays as cut and the
+    :class:`~hdpbsid.data.records.Dataset` the methods take (:meth:`fit`).
+
+    The arrays are also what the judgements that run on the estimation part compute on
+    (the refinement of :mod:`hdpbsid.selection.rejudge`, the feedback test of
+    :func:`~hdpbsid.selection.feedthrough.feedthrough_offered`): one record's stamps as
+    the caller gave them (a Dataset's records hold times relative to their first sample,
+    rounded differently), or for several records their list in the ``t`` slot with
+    ``u = y = None``, the form those judgements recognise and skip.  The Dataset is made
+    on the first fit, so a record its checks refuse fails each fit as the method's own
+    checks did (the candidate's ``status``), not the selection.
+
+    Parameters
+    ----------
+    arrays : tuple
+        ``(t, u, y)`` as cut (above).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = 100.0 + np.arange(20) * 0.1
+    >>> part = FitRecord((t, np.ones((20, 1)), np.sin(t)[:, None]))
+    >>> len(part.data), float(part.arrays[0][0]), float(part.data.records[0].t[0])
+    (1, 100.0, 0.0)
+    """
+
+    arrays: tuple[Any, Any, Any]
+
+    @cached_property
+    def data(self) -> Dataset:
+        """The records, checked once (:meth:`~hdpbsid.data.records.Dataset.of`)."""
+        return Dataset.of(*self.arrays)
+
+    def fit(self, func: Any, order: int, **settings: Any) -> StateSpaceModel:
+        """The registered method ``func`` fitted on the record.
+
+        Parameters
+        ----------
+        func : callable
+            The method (its front door, :func:`~hdpbsid.methods.registry.get_method`).
+        order : int
+            The model order.
+        **settings
+            The method's keywords.
+
+        Returns
+        -------
+        StateSpaceModel
+            Its model: the method's Dataset function on :attr:`data`; a method with a
+            front door only gets the arrays (:func:`~hdpbsid.methods.registry.call_method`).
+        """
+        return call_method(func, self.arrays, lambda: self.data, order, **settings)
 
 
 class FirstPass(NamedTuple):
@@ -263,7 +325,7 @@ def _refit_settings(model: StateSpaceModel) -> dict[str, Any]:
 
 
 def settle_candidate(
-    get_method: Any, row: CandidateRow, est: tuple, val: tuple, windows: int, options: dict
+    get_method: Any, row: CandidateRow, est: FitRecord, val: tuple, windows: int, options: dict
 ) -> CandidateRow:
     """The candidate ``row`` with the settings its method judges on held-out data
     (:func:`sweep_settings`) judged: fitted again on ``est`` with the user's settings
@@ -279,8 +341,8 @@ def settle_candidate(
         The registry's ``get_method``.
     row : CandidateRow
         The candidate (scored: ``model`` and ``criterion``), updated in place.
-    est : tuple
-        The estimation part ``(t, u, y)``.
+    est : FitRecord
+        The estimation part.
     val : tuple
         The held-out part ``(t, u, y)``.
     windows : int
@@ -302,7 +364,7 @@ def settle_candidate(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = func(*est, order=row.order, **given, held_out=val)
+            model = est.fit(func, row.order, **given, held_out=val)
             # a time series' model that is not stationary is no candidate
             bad = bool(stationarity_problem(model))
             err, use_k = (None, False) if bad else score_model(model, val, windows)
@@ -344,7 +406,7 @@ def _given(row: CandidateRow, options: dict) -> dict[str, Any]:
 
 
 def _fit_at_order(
-    func: Any, rec: tuple, order: int, settings: dict[str, Any], order_given: bool
+    func: Any, rec: FitRecord, order: int, settings: dict[str, Any], order_given: bool
 ) -> tuple[StateSpaceModel, dict[str, Any], str]:
     """``func`` fitted on ``rec`` at ``order`` with ``settings``, and the settings it took
     beyond them.  When the user gave the order (``order_given``) and the method's default
@@ -356,12 +418,12 @@ def _fit_at_order(
     large order does not compete with the orders the basis supports.  The third value is
     the reason for the window passed (empty when none was)."""
     try:
-        return func(*rec, order=order, **settings), {}, ""
+        return rec.fit(func, order, **settings), {}, ""
     except BasisTooSmall as exc:
         if not order_given or "p" in settings or exc.p_needed > exc.p_max:
             raise
         extra = {"p": exc.p_needed}
-        model = func(*rec, order=order, **settings, **extra)
+        model = rec.fit(func, order, **settings, **extra)
         rule = (
             f"p = {exc.p_needed}, the smallest window that reaches the order asked for, "
             f"above the precision rule (the VARX is determined up to p = {exc.p_max}; "
@@ -375,7 +437,7 @@ def _fit_one(
     get_method: Any,
     method: str,
     order: int,
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
     options: dict,
@@ -419,7 +481,7 @@ def _sweep_method(
     get_method: Any,
     method: str,
     orders: list[int],
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
     options: dict,
@@ -436,7 +498,7 @@ def _sweep(
     get_method: Any,
     methods: Sequence[str],
     orders: list[int],
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
     options: dict,

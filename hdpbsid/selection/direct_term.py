@@ -12,7 +12,7 @@ from typing import Any
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, default_windows
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.selection.candidates import CandidateRow, _fit_one, _sweep
+from hdpbsid.selection.candidates import CandidateRow, FitRecord, _fit_one, _sweep
 from hdpbsid.selection.feedthrough import (
     feedthrough_offered,
     honours_feedthrough,
@@ -31,7 +31,7 @@ def _feedthrough_candidates(
     chosen: CandidateRow,
     swept: Sequence[str],
     orders: list[int],
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
     opts: dict,
@@ -49,7 +49,7 @@ def _feedthrough_candidates(
     sweep.  Every order: without ``D`` a direct term can cost states (a fast mode
     imitates it) or remove them (a plant whose output is dominated by ``D u`` looks
     static), so the order without ``D`` bounds nothing."""
-    offered, why, bound = feedthrough_offered(chosen.model, est)
+    offered, why, bound = feedthrough_offered(chosen.model, est.arrays)
     if not offered:
         return [], why, bound
     # every built-in method of the sweep but those whose candidates showed they estimate
@@ -187,10 +187,11 @@ def decide_feedthrough(
     if not takes_feedthrough(method):
         return False, f"auto: not judged ({method!r} is not a built-in method); D = 0"
     split = int(round(t.size * (1.0 - float(holdout))))
-    est, val = (t[:split], u[:split], y[:split]), (t[split:], u[split:], y[split:])
+    val = (t[split:], u[split:], y[split:])
     windows = default_windows(t.size - split, order)
     if windows < MIN_WINDOWS:
         return False, "auto: not judged (too short to hold out the scoring windows); D = 0"
+    est = FitRecord((t[:split], u[:split], y[:split]))
     return _judge_two(get_method, method, order, options, est, val, windows)
 
 
@@ -199,7 +200,7 @@ def _judge_two(
     method: str,
     order: int,
     options: dict[str, Any],
-    est: tuple,
+    est: FitRecord,
     val: tuple,
     windows: int,
 ) -> tuple[bool, str]:
@@ -213,7 +214,7 @@ def _judge_two(
     if _scores(fit) and not honours_feedthrough(fit.model):
         return False, own
     if _scores(fit):
-        offered, why, bound = feedthrough_offered(fit.model, est)
+        offered, why, bound = feedthrough_offered(fit.model, est.arrays)
         if not offered:
             return False, f"auto: {why}; D = 0"
     fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
@@ -237,13 +238,15 @@ def _scores(row: CandidateRow) -> bool:
     return row.criterion is not None and row.criterion.finite
 
 
-def _judge_without_rival(fit: CandidateRow, fit_d: CandidateRow, est: tuple) -> tuple[bool, str]:
+def _judge_without_rival(
+    fit: CandidateRow, fit_d: CandidateRow, est: FitRecord
+) -> tuple[bool, str]:
     """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score:
     ``D`` is estimated when it is offered (tested on the candidate with ``D``, ``fit_d``)
     and that candidate scores."""
     if not _scores(fit_d):
         return False, f"auto: not judged (no candidate: {fit.status}); D = 0"
-    offered, why, _ = feedthrough_offered(fit_d.model, est)
+    offered, why, _ = feedthrough_offered(fit_d.model, est.arrays)
     if not offered:
         return False, f"auto: {why}; D = 0"
     return True, (

@@ -51,6 +51,7 @@ eigenvalue error); the report then says "closed loop" where "misfit" would be ac
 from __future__ import annotations
 
 import copy
+import functools
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -488,14 +489,14 @@ def closed_loop_start(
 def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateSpaceModel | None:
     """The ``dt`` model of ``model``'s order and direct term on the record, or None when
     it cannot be fitted (no continuous-time model of that order) or differs in shape."""
-    from hdpbsid.methods.registry import get_method
+    from hdpbsid.data.records import Dataset
+    from hdpbsid.methods.registry import call_method, get_method
 
     feedthrough = model.report.feedthrough is not None and model.report.feedthrough.estimated
+    func, data = get_method(CLOSED_LOOP_START_METHOD), functools.partial(Dataset.of, t, u, y)
     try:
         with np.errstate(all="ignore"):
-            start = get_method(CLOSED_LOOP_START_METHOD)(
-                t, u, y, order=model.n, feedthrough=feedthrough
-            )
+            start = call_method(func, (t, u, y), data, order=model.n, feedthrough=feedthrough)
     except (ValueError, np.linalg.LinAlgError):
         return None
     return start if (start.n, start.m, start.l) == (model.n, model.m, model.l) else None

@@ -553,7 +553,8 @@ def _whole_record(
 ) -> Any:
     """``method`` at order ``n`` on the whole record: the method itself (in memory), or
     HD-PBSID's streamed core when the plan says so."""
-    from hdpbsid.methods.registry import get_method
+    from hdpbsid.data.records import Dataset
+    from hdpbsid.methods.registry import call_method, get_method
     from hdpbsid.selection.auto import refit_keeps
 
     given = {**{k: v for k, v in opts.items() if k not in _AUTO_ONLY}}
@@ -577,7 +578,8 @@ def _whole_record(
     t, u, y = _segment(rec, 0, rec.ns)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = func(t, u, y, order=n, **settings)
+        data = Dataset.of(t, u, y)
+        model = call_method(func, (t, u, y), data, order=n, **settings)
     model.options["long_record_fit"] = "the method on the whole record, in memory"
     return model
 

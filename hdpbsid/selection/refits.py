@@ -19,6 +19,7 @@ from hdpbsid.models.report import DirectTerm
 from hdpbsid.runtime import user_stacklevel
 from hdpbsid.selection.candidates import (
     CandidateRow,
+    FitRecord,
     _among,
     _given,
     _refit_settings,
@@ -45,8 +46,8 @@ __all__: list[str] = []
 def _first_that_holds(
     get_method: Any,
     candidates: list[CandidateRow],
-    est: tuple,
-    whole: tuple,
+    est: FitRecord,
+    whole: FitRecord,
     val: tuple,
     windows: int,
     opts: dict,
@@ -103,7 +104,7 @@ def _floor_problem(row: CandidateRow, val: tuple, pool: Sequence[CandidateRow]) 
 
 
 def _refit(
-    get_method: Any, chosen: CandidateRow, whole: tuple, opts: dict
+    get_method: Any, chosen: CandidateRow, whole: FitRecord, opts: dict
 ) -> tuple[StateSpaceModel, dict[str, Any]]:
     """Candidate ``chosen`` identified again on the ``whole`` record, with the user's
     settings, those it keeps from the candidate (:func:`refit_keeps`) and those its
@@ -113,7 +114,7 @@ def _refit(
     given = _given(chosen, opts)
     kept = refit_keeps(func, chosen.model, given)
     settings = {**given, **kept, **_refit_settings(chosen.model)}
-    model = func(*whole, order=chosen.order, **settings)
+    model = whole.fit(func, chosen.order, **settings)
     if with_d(chosen) and not honours_feedthrough(model) and model.m:
         # judged as a structure with D: D is a parameter of the refinement
         # (hdpbsid.refine.pem), whatever the method says of its own D
@@ -291,8 +292,8 @@ def _choose(
     get_method: Any,
     ok: list[CandidateRow],
     queue: list[CandidateRow],
-    est: tuple,
-    whole: tuple,
+    est: FitRecord,
+    whole: FitRecord,
     val: tuple,
     windows: int,
     opts: dict,
@@ -394,8 +395,8 @@ def _sound_fallback(
 def _without_floor(
     get_method: Any,
     first: list[CandidateRow],
-    est: tuple,
-    whole: tuple,
+    est: FitRecord,
+    whole: FitRecord,
     val: tuple,
     windows: int,
     opts: dict,

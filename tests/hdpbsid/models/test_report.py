@@ -350,5 +350,5 @@ def test_the_report_carries_the_typed_rules_of_alpha_and_the_pole() -> None:
     assert pole is not None and pole.rule is PoleRule.BANDWIDTH
     assert pole.value == laguerre.options["a"] and pole.reason == laguerre.options["a_rule"]
     assert "rule=PoleRule.BANDWIDTH" in repr(pole)
-    legendre = hdpbsid.identify(t, u, y, 2, method="legendre", alpha=2.0, N=200, refine=None)
+    legendre = hdpbsid.identify(t, u, y, 2, method="legendre", alpha=2.0, N=700, refine=None)
     assert legendre.report.alpha.rule is AlphaRule.GIVEN
