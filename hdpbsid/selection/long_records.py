@@ -66,6 +66,7 @@ the passes over the record.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 import warnings
 from dataclasses import dataclass
@@ -578,7 +579,7 @@ def _whole_record(
     t, u, y = _segment(rec, 0, rec.ns)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        data = Dataset.of(t, u, y)
+        data = functools.partial(Dataset.of, t, u, y)  # made only for a Dataset function
         model = call_method(func, (t, u, y), data, order=n, **settings)
     model.options["long_record_fit"] = "the method on the whole record, in memory"
     return model
