@@ -155,6 +155,8 @@ class CoreOut:
         The core's own result (normalised units).
     options : dict
         The core's options and the window rules.
+    window : PastWindow or None
+        The past window and its typed reason (None when the core does not report one).
     """
 
     A: Array
@@ -166,6 +168,7 @@ class CoreOut:
     noise_covariance: Array
     core: CoreResult
     options: dict
+    window: PastWindow | None = None
 
 
 def _largest_determined_p(nb: int, d: int, ncols: int, z: int) -> int:
@@ -679,4 +682,4 @@ def run_core(
     )
     B, C, D, K, ncov = _user_units(core, sc, m)
     opts = _core_options(core, sc, window, f is not None, normalize, len(lag.sizes))
-    return CoreOut(core.A, B, C, D, K, np.zeros((core.A.shape[0], 0)), ncov, core, opts)
+    return CoreOut(core.A, B, C, D, K, np.zeros((core.A.shape[0], 0)), ncov, core, opts, window)

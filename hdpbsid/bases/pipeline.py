@@ -572,9 +572,13 @@ def to_fit(
     Returns
     -------
     Fit
-        The model and its input hold.
+        The model and its input hold; the core's past window and its typed reason are in
+        ``model.report.past_window``.
     """
     model = family.model(
         out, operator, options, settings=settings, hold=hold, hold_criterion=criterion, order=order
     )
+    if out.window is not None:
+        window = Choice(out.window.value, out.window.text, out.window.reason)
+        model.report = model.report.but(past_window=window)
     return Fit(model, hold, criterion)

@@ -437,6 +437,9 @@ class IdentificationReport:
     pole : Choice of float or None, optional
         The Laguerre pole ``a`` and how it was decided (``rule`` a
         :class:`~hdpbsid.bases.laguerre_pole.PoleRule`; its text is ``options["a_rule"]``).
+    past_window : Choice of int or None, optional
+        The past window ``p`` of a basis method's core and why (``rule`` a
+        :class:`~hdpbsid.bases.basis_core.WindowReason`; its text is ``options["p_rule"]``).
     refit_settings : Choice of dict or None, optional
         Settings the method chose on held-out data, which a refit of the model on a longer
         record takes as given.
@@ -476,6 +479,7 @@ class IdentificationReport:
     basis: Mapping[str, float] = field(default_factory=dict)
     alpha: Choice[float] | None = None
     pole: Choice[float] | None = None
+    past_window: Choice[int] | None = None
     refit_settings: Choice[Mapping[str, Any]] | None = None
     candidates: tuple[Candidate, ...] = ()
     selection_rule: str = ""

@@ -20,6 +20,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from hdpbsid.bases.basis_core import WindowReason
 from hdpbsid.bases.basis_domain import BasisTooSmall
 from hdpbsid.data.records import Dataset
 from hdpbsid.methods.registry import call_method
@@ -382,7 +383,7 @@ def settle_candidate(
         return row
     row.first_pass = FirstPass(row.model, row.criterion)
     if row.p_rule is not None:
-        model.options["p_rule"] = row.p_rule
+        _mark_window_rule(model, row.p_rule)
     row.model, row.criterion, row.predictor = model, err, _predictor_name(use_k)
     return row
 
@@ -429,8 +430,27 @@ def _fit_at_order(
             f"above the precision rule (the VARX is determined up to p = {exc.p_max}; "
             f"less precise than a basis that holds the default window)"
         )
-        model.options["p_rule"] = rule
+        _mark_window_rule(model, rule)
         return model, extra, rule
+
+
+def _mark_window_rule(model: StateSpaceModel, rule: str) -> None:
+    """Say on ``model`` why its past window is the one :func:`_fit_at_order` passed
+    (``options["p_rule"]`` and ``report.past_window``, typed
+    :attr:`~hdpbsid.bases.basis_core.WindowReason.ORDER_NEEDS`: the smallest window that
+    reaches the order asked for).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        A basis method's model fitted with that window.
+    rule : str
+        The rule's text.
+    """
+    model.options["p_rule"] = rule
+    before = model.report.past_window
+    p = before.value if before is not None else model.report.windows.get("p")
+    model.report = model.report.but(past_window=Choice(p, rule, WindowReason.ORDER_NEEDS))
 
 
 def _fit_one(

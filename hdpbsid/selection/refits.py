@@ -22,6 +22,7 @@ from hdpbsid.selection.candidates import (
     FitRecord,
     _among,
     _given,
+    _mark_window_rule,
     _refit_settings,
     refit_keeps,
     settle_candidate,
@@ -120,7 +121,7 @@ def _refit(
         # (hdpbsid.refine.pem), whatever the method says of its own D
         _with_d_asked(model)
     if chosen.p_rule is not None:
-        model.options["p_rule"] = chosen.p_rule
+        _mark_window_rule(model, chosen.p_rule)
     return model, kept
 
 
