@@ -61,12 +61,27 @@ def initial_state(O: Array, r: Array) -> Array:
     ndarray, shape (n,)
         The least-squares initial state.
 
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When ``O`` or ``r`` is not finite (the free response of a diverging model or
+        predictor): the least-squares problem has no solution.
+
     Notes
     -----
     ``O`` and ``r`` are scaled by powers of two (exact) to unit size first: the solver
     forms norms (sums of squares), which for a record in extreme units (1e-200, 1e200)
-    underflow or overflow.
+    underflow or overflow.  Non-finite data never reach LAPACK: its scaling routine
+    rejects them with a message printed on the process's standard output (which a
+    library must not emit) before the solver raises the same error.
+
+    Examples
+    --------
+    >>> initial_state(np.array([[1.0], [2.0]]), np.array([1.0, 2.0]))
+    array([1.])
     """
+    if not (np.all(np.isfinite(O)) and np.all(np.isfinite(r))):
+        raise np.linalg.LinAlgError("initial_state: the free response is not finite")
     po = int(scale_exponents(O.ravel(), "O")[0]) if O.size else 0
     pr = int(scale_exponents(r, "r")[0]) if r.size else 0
     x = np.linalg.lstsq(np.ldexp(O, po), np.ldexp(r, pr), rcond=None)[0]

@@ -168,3 +168,16 @@ def test_decide_pole_from_the_dynamics_typed_ways(monkeypatch):
     pole, _ = decide_pole("dynamics", 5.0, failing, [_Rec()])
     assert pole.rule is PoleRule.REFIT_FAILED and pole.a == 5.0 and pole.passes[0] == 5.0
     assert pole.reason.endswith("its modes ask for it")  # the text the rule had before
+
+
+def test_diverging_predictor_prints_nothing_from_lapack(capfd):
+    """A first-pass model whose one-step predictor diverges (the bandwidth pole on the
+    stiff record) is not refined, and no non-finite free response reaches LAPACK, whose
+    scaling routine would print "On entry to DLASCL ..." on the process's standard output."""
+    t, u, y = _stiff_record(1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", a=None)
+    assert "diverges" in model.options["refine_rule"]
+    out = capfd.readouterr()
+    assert "DLASCL" not in out.out + out.err
