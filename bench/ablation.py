@@ -71,13 +71,16 @@ class Rule:
     """A decision rule of the default pipeline and how it is switched off.
 
     ``patches()`` imports the library and returns the monkeypatches that switch the rule
-    off (applied by :func:`switched_off`, undone after the run)."""
+    off (applied by :func:`switched_off`, undone after the run).  ``removed``: the rule
+    has since been removed from the library on the ablation's evidence; its switch is
+    then a no-op and its measured rows stay in the report."""
 
     name: str
     area: str
     does: str
     off: str
     patches: Callable[[], list[Patch]]
+    removed: bool = False
 
 
 # -- the switches ----------------------------------------------------------------------
@@ -432,7 +435,7 @@ def switched_off(rule: Rule | None) -> Iterator[None]:
     undo them, in reverse order, after it."""
     saved: list[Patch] = []
     try:
-        for owner, attr, new in [] if rule is None else rule.patches():
+        for owner, attr, new in [] if rule is None or rule.removed else rule.patches():
             old = owner.__dict__[attr] if isinstance(owner, type) else getattr(owner, attr)
             saved.append((owner, attr, old))
             setattr(owner, attr, _counted(new))
@@ -506,14 +509,16 @@ def compare(
 
 
 def verdict(outcome: Outcome) -> str:
-    """The rule's verdict (module docstring) from the rows its switch-off changed."""
+    """The rule's verdict (module docstring) from the rows its switch-off changed, marked
+    when the rule has since been removed."""
+    mark = " (removed)" if outcome.rule in RULES and RULES[outcome.rule].removed else ""
     if outcome.count("worse") or outcome.count("mixed"):
-        return "earns its place"
+        return "earns its place" + mark
     if outcome.count("better"):
-        return "hurts"
+        return "hurts" + mark
     if outcome.count("changed"):
-        return "neutral"
-    return "no effect"
+        return "neutral" + mark
+    return "no effect" + mark
 
 
 def _delta(tot: dict[str, tuple[float, float, str]], key: str, fmt: str) -> str:

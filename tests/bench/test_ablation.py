@@ -38,7 +38,7 @@ def _current(owner: object, attr: str) -> object:
     return owner.__dict__[attr] if isinstance(owner, type) else getattr(owner, attr)
 
 
-@pytest.mark.parametrize("name", list(AB.RULES))
+@pytest.mark.parametrize("name", [n for n, r in AB.RULES.items() if not r.removed])
 def test_switch_replaces_and_restores(name: str) -> None:
     """Every switch names attributes the library has, replaces them inside the block and
     restores them after it (a renamed function surfaces here, not as a silent no-op)."""
@@ -141,3 +141,12 @@ def test_main_writes_the_rule_and_the_report(tmp_path: Path) -> None:
     )
     table = [line for line in text.splitlines() if line.startswith("| `")]
     assert [line for line in again.read_text().splitlines() if line.startswith("| `")] == table
+
+
+def test_a_removed_rule_switches_nothing() -> None:
+    """A rule removed from the library keeps its measured rows; its switch is a no-op."""
+    rule = AB.Rule("gone", "-", "-", "-", lambda: [(object(), "nothing", None)], removed=True)
+    with AB.switched_off(rule):
+        pass
+    out = AB.compare("gone", BASE, BASE)
+    assert AB.verdict(out) == "no effect"
