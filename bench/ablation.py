@@ -487,6 +487,8 @@ class Outcome:
     rows: int
     #: records on which the switch was reached (None: not recorded)
     reached: int | None = None
+    #: CPU seconds of the identification calls, summed over the rows
+    cpu: float = 0.0
 
     def count(self, verdict: str) -> int:
         """Rows with that verdict of :func:`regression.compare_rows`."""
@@ -505,7 +507,8 @@ def compare(
     base = [r for r in base if r["id"] in ids]
     changes, tot, _ = regression.compare_tables(base, rows)
     reached = None if calls is None else sum(n > 0 for i, n in calls.items() if i in ids)
-    return Outcome(rule, changes, tot, len(base), reached)
+    cpu = sum(x for x in (regression._num(r["cpu_s"]) for r in rows) if x == x)
+    return Outcome(rule, changes, tot, len(base), reached, cpu)
 
 
 def verdict(outcome: Outcome) -> str:
@@ -534,8 +537,9 @@ def report(outcomes: Sequence[Outcome], header: str) -> str:
         header,
         "",
         "| rule | area | what it does | switched off | reached | worse | mixed | better "
-        "| changed | true order | err % median | err % p90 | misfit % median | verdict |",
-        "|---|---|---|---|---:|---:|---:|---:|---:|---|---|---|---|---|",
+        "| changed | true order | err % median | err % p90 | misfit % median | CPU s "
+        "| verdict |",
+        "|---|---|---|---|---:|---:|---:|---:|---:|---|---|---|---|---:|---|",
     ]
     for o in outcomes:
         r = RULES.get(o.rule, _UNCHANGED)
@@ -546,7 +550,7 @@ def report(outcomes: Sequence[Outcome], header: str) -> str:
             f"{'?' if o.reached is None else o.reached}/{o.rows} | {o.count('worse')} | "
             f"{o.count('mixed')} | {o.count('better')} | {o.count('changed')} | {found} | "
             f"{_delta(t, 'err_median', '.3g')} | {_delta(t, 'err_p90', '.3g')} | "
-            f"{_delta(t, 'misfit_median', '.3g')} | {verdict(o)} |"
+            f"{_delta(t, 'misfit_median', '.3g')} | {o.cpu:.0f} | {verdict(o)} |"
         )
     lines += ["", "## The rows each switch-off changed", ""]
     order = {"worse": 0, "mixed": 1, "better": 2, "changed": 3}
@@ -577,18 +581,28 @@ def collect(csv_dir: Path, base: Sequence[dict[str, Any]]) -> list[Outcome]:
 _UNCHANGED = Rule("none", "-", "the unchanged library against the baseline table", "-", list)
 
 
-def _header(command: str, base: Path) -> str:
-    commit = regression._git("rev-parse", "--short", "HEAD")
+def _header(csv_dir: Path, base: Path) -> str:
+    runs = sorted(
+        {
+            f"`{m['command']}` at commit {m['commit']}"
+            for m in (json.loads(p.read_text()) for p in sorted(csv_dir.glob("*.json")))
+            if "command" in m
+        }
+    )
     date = datetime.now(timezone.utc).isoformat(timespec="minutes")
     return (
         "# Ablation of the decision rules\n\n"
-        f"`{command}` at commit {commit}, {date}; baseline `{base}`.  How it is measured: "
+        f"Rows of {', '.join(runs) or csv_dir}; report of {date}; baseline "
+        f"`{base.name}`.  How it is measured: "
         "the docstring of `bench/ablation.py` (each rule switched off alone; rows worse / "
         "better by the margins of `bench/regression.py`; totals over the rows scored in "
         "both tables).  Verdicts: *earns its place* (switching it off makes a row worse), "
         "*hurts* (switching it off only improves rows), *neutral* (rows change within the "
         "margins), *no effect* (no row changes).  *reached*: records on which the switched "
-        "function was called at least once."
+        "replacement was called at least once (a wrapper replacing the function that takes the "
+        "rule counts every call of it).  *CPU s*: the identification calls' CPU seconds "
+        "summed over the rows (shared cores: compare with the row `none`, the unchanged "
+        "library run in the same session, and read differences below about 10 % as noise)."
     )
 
 
@@ -627,7 +641,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         w0 = time.perf_counter()
         rows, calls = run_rule(rule, specs, args.n_jobs)
         regression.write_csv(rows, args.csv_dir / f"{name}.csv")
-        (args.csv_dir / f"{name}.json").write_text(json.dumps({"calls": calls}, indent=0) + "\n")
+        meta = {"command": command, "commit": regression._git("rev-parse", "--short", "HEAD")}
+        (args.csv_dir / f"{name}.json").write_text(json.dumps({**meta, "calls": calls}) + "\n")
         o = compare(name, base, rows, calls)
         print(
             f"{name}: {len(rows)} rows in {time.perf_counter() - w0:.0f} s, reached on "
@@ -636,9 +651,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"changed {o.count('changed')}: {verdict(o)}",
             flush=True,
         )
-        args.out.write_text(report(collect(args.csv_dir, base), _header(command, args.base)) + "\n")
+        args.out.write_text(
+            report(collect(args.csv_dir, base), _header(args.csv_dir, args.base)) + "\n"
+        )
     if args.report_only:
-        args.out.write_text(report(collect(args.csv_dir, base), _header(command, args.base)) + "\n")
+        args.out.write_text(
+            report(collect(args.csv_dir, base), _header(args.csv_dir, args.base)) + "\n"
+        )
     return 0
 
 
