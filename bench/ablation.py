@@ -320,7 +320,7 @@ RULES: dict[str, Rule] = {
         Rule(
             "floor_mean", _SEL,
             "a candidate or refit must predict the whole held-out part better than its mean",
-            "beats_the_mean always passes", _floor_mean,
+            "beats_the_mean always passes", _floor_mean, removed=True,
         ),
         Rule(
             "floor_instability", _SEL,
