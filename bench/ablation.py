@@ -531,8 +531,9 @@ def _delta(tot: dict[str, tuple[float, float, str]], key: str, fmt: str) -> str:
     )
 
 
-def report(outcomes: Sequence[Outcome], header: str) -> str:
-    """The markdown report: one row per rule, then each rule's changed rows."""
+def report(outcomes: Sequence[Outcome], header: str, notes: str = "") -> str:
+    """The markdown report: one row per rule, the ``notes`` (markdown, written by hand),
+    then each rule's changed rows."""
     lines = [
         header,
         "",
@@ -553,6 +554,8 @@ def report(outcomes: Sequence[Outcome], header: str) -> str:
             f"{_delta(t, 'misfit_median', '.3g')} | {o.cpu:.0f} | {verdict(o)} |"
         )
     lines += ["", "## The rows each switch-off changed", ""]
+    if notes:
+        lines[-3:-3] = ["", notes.strip()]
     order = {"worse": 0, "mixed": 1, "better": 2, "changed": 3}
     for o in outcomes:
         lines.append(f"### `{o.rule}` ({o.rows} rows; {verdict(o)})")
@@ -606,6 +609,13 @@ def _header(csv_dir: Path, base: Path) -> str:
     )
 
 
+def _report(csv_dir: Path, base_path: Path, base: Sequence[dict[str, Any]]) -> str:
+    """The report of every rule measured in ``csv_dir``, with its ``notes.md`` if any."""
+    notes = csv_dir / "notes.md"
+    text = notes.read_text() if notes.is_file() else ""
+    return report(collect(csv_dir, base), _header(csv_dir, base_path), text) + "\n"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rules", nargs="+", choices=sorted(RULES), help="default: every rule")
@@ -651,13 +661,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"changed {o.count('changed')}: {verdict(o)}",
             flush=True,
         )
-        args.out.write_text(
-            report(collect(args.csv_dir, base), _header(args.csv_dir, args.base)) + "\n"
-        )
+        args.out.write_text(_report(args.csv_dir, args.base, base))
     if args.report_only:
-        args.out.write_text(
-            report(collect(args.csv_dir, base), _header(args.csv_dir, args.base)) + "\n"
-        )
+        args.out.write_text(_report(args.csv_dir, args.base, base))
     return 0
 
 
