@@ -34,11 +34,10 @@ the best candidate's.  Among the candidates of that order within one standard er
 (ties at the resolution of the held-out data), the one with the smallest simulation
 error over the whole held-out part from one initial state wins (:func:`break_tie`: it
 sees the slow errors that each window's fitted initial state hides).  That
-``(method, order)`` is then identified on the whole record, after two checks that pass
-the choice to the next candidate when they fail: the candidate must predict the whole
-held-out part from one initial state better than its mean (:func:`beats_the_mean`), and
-its refit on the whole record must score on the held-out part within one standard error
-of the candidate (:func:`refit_holds`) and pass the same floor.  Held-out data judge the
+``(method, order)`` is then identified on the whole record, after a check that passes
+the choice to the next candidate when it fails: its refit on the whole record must score
+on the held-out part within one standard error of the candidate (:func:`refit_holds`)
+and pass the same floor as the candidate.  Held-out data judge the
 models, so a method that is biased on this record, or an order the data do not support,
 loses by the measure a user would apply to the result.
 

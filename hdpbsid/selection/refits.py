@@ -32,7 +32,6 @@ from hdpbsid.selection.order_rule import _admitted, _ranked
 from hdpbsid.selection.policy import NoCandidate, SelectionWarning
 from hdpbsid.selection.scoring import (
     _worst_eigenvalue,
-    beats_the_mean,
     grows,
     instability_problem,
     much_worse,
@@ -57,16 +56,11 @@ def _first_that_holds(
 ) -> tuple[StateSpaceModel | None, list[tuple[str, str, CandidateRow]], CandidateRow | None]:
     """The first of ``candidates`` that, with its held-out-judged settings settled
     (:func:`settle_candidate`, fitted on ``est``), passes the floor (unless ``floor`` is
-    False): :func:`beats_the_mean`, and :func:`instability_problem` against the scored
-    candidates ``pool``; and whose refit on the ``whole`` record passes
-    :func:`refit_holds` and :func:`beats_the_mean`, refitted, and grows no mode the
+    False): :func:`instability_problem` against the scored candidates ``pool``; and
+    whose refit on the ``whole`` record passes :func:`refit_holds` and grows no mode the
     candidate did not have (the held-out part judged a stable model; the growth of the
     refit was never judged); or None.  Returns ``(model, failures, row)``, ``row`` the
-    candidate whose refit is returned.  The floor for the refit:
-    the windowed score of :func:`refit_holds` fits an initial state per window, so a
-    refit with a spurious growing mode can pass it and still diverge over the held-out
-    part it was fitted on (an over-sized order on a short record can place a spare pair
-    in the right half-plane).  Also
+    candidate whose refit is returned.  Also
     every failure as ``(kind, text, row)``, kind ``"floor"`` or ``"refit"``; a candidate that
     passed the floor is marked ``passed_floor`` (its own model, fitted on ``est``, is then
     a sound answer when no refit holds: :func:`select_model`)."""
@@ -75,7 +69,7 @@ def _first_that_holds(
         settle_candidate(get_method, chosen, est, val, windows, opts)
         name = f"{chosen.method} order {chosen.order}"
         if floor:
-            how = _floor_problem(chosen, val, pool)
+            how = instability_problem(chosen, pool)
             if how:
                 failures.append(("floor", f"{name}: {how}", chosen))
                 continue
@@ -93,15 +87,6 @@ def _first_that_holds(
             return model, failures, chosen
         failures.append(("refit", f"{name}: {how}", chosen))
     return None, failures, None
-
-
-def _floor_problem(row: CandidateRow, val: tuple, pool: Sequence[CandidateRow]) -> str:
-    """Why candidate ``row`` fails the floor of :func:`_first_that_holds`, or ``""``: it
-    does not predict the held-out part ``val`` better than its mean
-    (:func:`beats_the_mean`), or the record does not need its growth against the
-    admitted candidates ``pool`` (:func:`instability_problem`)."""
-    _, how = beats_the_mean(row.model, val)
-    return how or instability_problem(row, pool)
 
 
 def _refit(
@@ -130,13 +115,11 @@ def _refit_problem(
 ) -> str:
     """Why the refit ``model`` of candidate ``chosen`` is not returned, or ``""``: it does
     not hold on the held-out part ``val`` (:func:`refit_holds`); with the ``floor``, it
-    predicts the whole held-out part worse than its mean (:func:`beats_the_mean`: a
-    refit whose windowed score holds can still diverge over the whole part) or grows a
-    mode the candidate did not have; a time series' refit is not stationary."""
+    grows a mode the candidate did not have; a time series' refit is not stationary."""
     holds, how = refit_holds(model, chosen.criterion, val, windows)
     if holds and floor:
         # the floor the candidate passed, for the model returned
-        how = beats_the_mean(model, val)[1] or _new_growth(model, chosen.model)
+        how = _new_growth(model, chosen.model)
         how = f"the refit on the whole record: {how}" if how else how
     if not how:
         why = stationarity_problem(model)
@@ -306,8 +289,8 @@ def _choose(
     (:func:`~hdpbsid.selection.order_rule.rank_candidates`); also every failure and a note
     for the rule.  Never a model the checks rejected, quietly:
 
-    1. the first candidate of ``queue`` that passes the floor (:func:`beats_the_mean`,
-       :func:`instability_problem`) and whose refit on the whole record holds
+    1. the first candidate of ``queue`` that passes the floor
+       (:func:`instability_problem`) and whose refit on the whole record holds
        (:func:`_first_that_holds`);
     2. else, if a candidate of ``queue`` passed the floor, the first candidate outside
        ``queue`` that is not much worse than it on the held-out part (:func:`_stand_ins`),
@@ -323,9 +306,8 @@ def _choose(
        held-out data, so they leave the ranking and the one-standard-error rule is applied
        again to the rest (a candidate the rule rejected against a better one is never
        returned while that better one stands);
-    4. no candidate passes the floor (an unstable plant sampled non-uniformly has no stable
-       predictor to run over the whole held-out part): the first ranking stands without
-       the floor, with a :class:`SelectionWarning`;
+    4. no candidate passes the floor: the first ranking stands without the floor, with
+       a :class:`SelectionWarning`;
     5. nothing holds: ``ValueError`` naming every failure and what would help.
 
     Whatever the step, when the model returned is much worse on the held-out part than

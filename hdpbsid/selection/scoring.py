@@ -3,11 +3,12 @@
 Every candidate is scored by the better of its two predictors on the held-out part
 (:func:`score_model`), ties of one order are broken by the simulation over the whole
 held-out part (:func:`break_tie`), and a candidate or its refit is returned only past a
-floor: it predicts the held-out part better than its mean (:func:`beats_the_mean`), grows
-no mode the record does not need (:func:`instability_problem`,
+floor: it grows no mode the record does not need (:func:`instability_problem`,
 :func:`refinement_instability`; a time series: :func:`stationarity_problem`), and its
-refit on the whole record holds (:func:`refit_holds`).  The reasoning of each rule is in
-its docstring and in the module docstring of :mod:`hdpbsid.selection.auto`.
+refit on the whole record holds (:func:`refit_holds`).  :func:`beats_the_mean` (a model
+predicts the held-out part better than its mean) is kept for the caller.  The reasoning
+of each rule is in its docstring and in the module docstring of
+:mod:`hdpbsid.selection.auto`.
 """
 
 from __future__ import annotations
