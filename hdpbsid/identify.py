@@ -12,9 +12,9 @@ report``, each step a function of its own below it.
 
 from __future__ import annotations
 
-import functools
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,7 +28,7 @@ from hdpbsid.data.checks import (
     require_joblib,
 )
 from hdpbsid.data.detrend import DETREND_CHOICES, detrend_record, warn_if_levels_dominate
-from hdpbsid.data.records import Dataset
+from hdpbsid.data.records import Dataset, Labels
 from hdpbsid.identify_inputs import (
     _check_records,
     _Labels,
@@ -124,7 +124,13 @@ def _identify_long(
 
 
 def _first_pass_records(
-    func: IdentifyFunc, t: Any, u: Any, y: Any, req: _Request, options: dict[str, Any]
+    func: IdentifyFunc,
+    t: Any,
+    u: Any,
+    y: Any,
+    req: _Request,
+    options: dict[str, Any],
+    labels: Labels | None = None,
 ) -> _FirstPass:
     """The method on several records, each detrended on its own and given to the method
     as one :class:`~hdpbsid.data.records.Dataset`; the model holds the sample-weighted
@@ -145,7 +151,7 @@ def _first_pass_records(
         levels.append(lv)
     options.pop("order_rule", None)
     # made once here: the method takes the records as they are (as_records)
-    data = Dataset.of(records)
+    data = Dataset.of(records).described(labels, [(lv.u0, lv.y0) for lv in levels])
     model = call_method(func, (data, None, None), data, order=req.order, **options)
     if req.feedthrough == "auto":
         model.options.setdefault("feedthrough_rule", "auto: several records, not judged; D = 0")
@@ -157,7 +163,13 @@ def _first_pass_records(
 
 
 def _first_pass_record(
-    func: IdentifyFunc, t: Any, u: Any, y: Any, req: _Request, options: dict[str, Any]
+    func: IdentifyFunc,
+    t: Any,
+    u: Any,
+    y: Any,
+    req: _Request,
+    options: dict[str, Any],
+    labels: Labels | None = None,
 ) -> _FirstPass:
     """The method on one record, detrended as ``req.detrend`` says (the record passed
     unchanged with ``detrend=None``: exactly what the method got before)."""
@@ -171,9 +183,11 @@ def _first_pass_record(
         record = (t, u, y)
     else:
         record = (tt, None if u is None else ud, yd)
+    ops = [None if req.detrend is None else (lv.u0, lv.y0)]
     model = _run(
         req.method, func, record, req.order, options, refined=req.refine is not None,
         judge_feedthrough=req.feedthrough == "auto",
+        describe=lambda data: data.described(labels, ops),
     )  # fmt: skip
     trend = None if lv.t_ref is None else LinearTrend(lv.t_ref, lv.u_slope, lv.y_slope)
     return _FirstPass(model, record, lv.u0, lv.y0, trend, lv.as_dict())
@@ -444,7 +458,7 @@ def identify(
     t, u, y = signal_scale.apply(t, u, y)
     t_method = time.perf_counter()
     first_pass = _first_pass_records if several else _first_pass_record
-    first = first_pass(func, t, u, y, req, options)
+    first = first_pass(func, t, u, y, req, options, labels.as_labels())
     # 3. refine; 4. report: the operating point, the units, the labels, the settings
     model = _refine_step(first, req, several, t_method)
     records = t if several else [(t, u, y)]
@@ -667,6 +681,7 @@ def _run(
     options: dict,
     refined: bool = False,
     judge_feedthrough: bool = False,
+    describe: Callable[[Dataset], Dataset] | None = None,
 ) -> StateSpaceModel:
     """Run ``method`` on one record ``record = (t, u, y)``: the held-out selections split
     its arrays (their candidates score on the stamps as given), the method itself runs on
@@ -678,7 +693,9 @@ def _run(
     orders between refined candidates, :func:`hdpbsid.selection.auto.rejudge_refined`).
     ``judge_feedthrough`` (``feedthrough="auto"``): the held-out choice judges the direct
     term with the order (:mod:`hdpbsid.selection.feedthrough`); with the method and the
-    order given, :func:`hdpbsid.selection.auto.decide_feedthrough` judges it alone."""
+    order given, :func:`hdpbsid.selection.auto.decide_feedthrough` judges it alone.
+    ``describe`` gives the Dataset made of ``record`` the front door's labels and the
+    operating point detrending removed (:meth:`~hdpbsid.data.records.Dataset.described`)."""
     rule = options.pop("order_rule", "held-out")
     if rule not in ("held-out", "svd"):
         raise ValueError(f"order_rule must be 'held-out' or 'svd', got {rule!r}")
@@ -686,9 +703,13 @@ def _run(
     ft: dict[str, Any] = {"feedthrough": given} if given is not None else {}
     # the held-out selections judge the direct term themselves when asked to
     judged = {"feedthrough": "auto"} if judge_feedthrough else ft
+
     # the method runs on the Dataset of the record, made here (when it has a Dataset
     # function: call_method); the held-out selections cut the arrays themselves
-    data = functools.partial(Dataset.of, *record)
+    def data() -> Dataset:
+        made = Dataset.of(*record)
+        return made if describe is None else describe(made)
+
     if order is None and method != "auto" and rule == "held-out":
         from hdpbsid.selection.auto import select_order
 

@@ -24,7 +24,7 @@ from hdpbsid.data.checks import (
     scale_exponents,
 )
 from hdpbsid.data.detrend import Levels
-from hdpbsid.data.records import Dataset
+from hdpbsid.data.records import Dataset, Labels
 from hdpbsid.models.model import StateSpaceModel, scale_signals
 from hdpbsid.runtime import user_stacklevel
 
@@ -89,6 +89,13 @@ class _Labels:
             self.inputs = check_names(inputs, "input_names", m, "u")
         if outputs is not None and l is not None:
             self.outputs = check_names(outputs, "output_names", l, "y")
+
+    def as_labels(self) -> Labels:
+        """The names and unit as the :class:`~hdpbsid.data.records.Labels` of a Dataset."""
+        names = [
+            None if n is None else tuple(str(x) for x in n) for n in (self.inputs, self.outputs)
+        ]
+        return Labels(names[0], names[1], self.time_unit)
 
     def apply(self, model: StateSpaceModel, records: Any) -> None:
         """Label ``model`` (and its sampled model) and record the median step of the

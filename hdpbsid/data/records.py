@@ -16,7 +16,7 @@ computation (sample spacing, basis time maps, quadrature nodes) must not add to 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -26,6 +26,7 @@ from hdpbsid.data.checks import check_data, check_varies, is_uniform, time_resol
 
 __all__ = [
     "Record",
+    "Labels",
     "Dataset",
     "as_records",
     "split_windows",
@@ -52,6 +53,9 @@ class Record:
         Absolute time of the first sample.
     resolution : float, optional
         Resolution of the original stamps (:func:`hdpbsid.data.checks.time_resolution`).
+    operating_point : tuple of ndarray, optional
+        The levels ``(u0 (m,), y0 (l,))`` removed from ``u`` and ``y`` before they were
+        stored (:mod:`hdpbsid.data.detrend`); None when nothing was removed.
 
     Attributes
     ----------
@@ -70,6 +74,7 @@ class Record:
     y: Array
     t0: float = 0.0
     resolution: float = 0.0
+    operating_point: tuple[Array, Array] | None = None
 
     @property
     def ns(self) -> int:
@@ -88,6 +93,29 @@ class Record:
 
 
 @dataclass(frozen=True)
+class Labels:
+    """The channel names and the time unit of a :class:`Dataset` (what a user gave
+    :func:`hdpbsid.identify`; None where nothing was given).
+
+    Parameters
+    ----------
+    inputs, outputs : tuple of str, optional
+        One name per input and output channel.
+    time_unit : str, optional
+        The unit of the times.
+
+    Examples
+    --------
+    >>> Labels(("elevator",), ("q", "theta"), "s").outputs
+    ('q', 'theta')
+    """
+
+    inputs: tuple[str, ...] | None = None
+    outputs: tuple[str, ...] | None = None
+    time_unit: str | None = None
+
+
+@dataclass(frozen=True)
 class Dataset:
     """Several checked records of one system, made once and passed down whole.
 
@@ -102,6 +130,8 @@ class Dataset:
     ----------
     records : tuple of Record
         At least one record; every one with the channel counts of the first.
+    labels : Labels, optional
+        The channel names and time unit (:meth:`described`).
 
     Attributes
     ----------
@@ -132,6 +162,7 @@ class Dataset:
     """
 
     records: tuple[Record, ...]
+    labels: Labels | None = None
 
     def __post_init__(self) -> None:
         records = tuple(self.records)
@@ -146,6 +177,8 @@ class Dataset:
                     f"records[0] has {records[0].u.shape[1]} and {records[0].y.shape[1]}"
                 )
         object.__setattr__(self, "records", records)
+        if self.labels is not None and not isinstance(self.labels, Labels):
+            raise TypeError(f"labels must be a Labels, got {type(self.labels).__name__}")
 
     @classmethod
     def of(cls, t: Any, u: Any = None, y: Any = None, min_samples: int = 2) -> Dataset:
@@ -167,6 +200,50 @@ class Dataset:
         """
         return cls(tuple(as_records(t, u, y, min_samples)))
 
+    def described(self, labels: Labels | None = None, operating_points: Any = None) -> Dataset:
+        """This Dataset with its labels and each record's operating point (the levels
+        detrending removed), as :func:`hdpbsid.identify` makes it at the front door.
+
+        Parameters
+        ----------
+        labels : Labels, optional
+            The channel names and time unit.
+        operating_points : sequence of (u0, y0), optional
+            One pair per record (None for a record whose levels were not removed).
+
+        Returns
+        -------
+        Dataset
+            The same records (arrays shared, not copied), described.
+
+        Raises
+        ------
+        ValueError
+            If ``operating_points`` does not give one entry per record.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> t = np.arange(20) * 0.5
+        >>> data = Dataset.of(t, None, np.sin(t)).described(
+        ...     Labels(outputs=("q",), time_unit="s"), [(np.zeros(0), np.array([0.1]))]
+        ... )
+        >>> data.labels.time_unit, data.records[0].operating_point[1]
+        ('s', array([0.1]))
+        """
+        records = self.records
+        if operating_points is not None:
+            ops = list(operating_points)
+            if len(ops) != len(records):
+                raise ValueError(
+                    f"operating_points: expected {len(records)} entries (one per record), "
+                    f"got {len(ops)}"
+                )
+            records = tuple(
+                replace(r, operating_point=op) for r, op in zip(records, ops, strict=True)
+            )
+        return Dataset(records, labels)
+
     def __len__(self) -> int:
         return len(self.records)
 
@@ -175,7 +252,7 @@ class Dataset:
 
     def __getitem__(self, key: Any) -> Any:
         if isinstance(key, slice):
-            return Dataset(self.records[key])
+            return Dataset(self.records[key], self.labels)
         r = self.records[key]
         return (r.t, r.u, r.y)
 

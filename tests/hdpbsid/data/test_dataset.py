@@ -108,3 +108,38 @@ def test_the_method_gets_the_records_checked_once_and_identify_takes_a_dataset()
     # spacing differs by rounding (1e-16 relative), far below the estimate's noise
     np.testing.assert_allclose(from_data.eigenvalues, from_list.eigenvalues, rtol=1e-9)
     assert from_data.n == 2 and isinstance(from_data.report.method, str)
+
+
+@pytest.mark.parametrize("several", [False, True])
+def test_the_dataset_a_method_gets_carries_labels_and_operating_points(several) -> None:
+    """The Dataset made at the front door carries what the user named (channels, time
+    unit) and, per record, the levels detrending removed: the record's own input and
+    output means (detrend="mean"), computed here independently."""
+    recs = _records(0)
+    seen = []
+
+    def fit(data, order=None, **options):
+        seen.append(data)
+        return hdpbsid.methods.registry.get_fit("dt")(data, order=order, **options)
+
+    def door(t, u=None, y=None, order=None, **options):  # pragma: no cover - not called
+        raise AssertionError("the package calls the Dataset function")
+
+    door.fit = fit
+    register_method("spy-labels", door)
+    try:
+        args = (recs,) if several else recs[0]
+        hdpbsid.identify(
+            *args, order=2, method="spy-labels", refine=None,
+            input_names=["force"], output_names=["position"], time_unit="ms",
+        )  # fmt: skip
+    finally:
+        METHODS.pop("spy-labels", None)
+    (data,) = seen
+    assert data.labels.inputs == ("force",) and data.labels.outputs == ("position",)
+    assert data.labels.time_unit == "ms"
+    for r, (_, u, y) in zip(data.records, recs if several else recs[:1], strict=True):
+        u0, y0 = r.operating_point
+        # a mean of 900 samples of size about 1: rounding far below 1e-12
+        np.testing.assert_allclose(u0, np.mean(u, axis=0).ravel(), atol=1e-12)
+        np.testing.assert_allclose(y0, np.mean(y, axis=0).ravel(), atol=1e-12)
