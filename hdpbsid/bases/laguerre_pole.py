@@ -37,8 +37,11 @@ only when its model simulates the record better by more than one standard error 
 windows (:func:`~hdpbsid.bases.operator_scale.in_sample_screen`: the two models have the
 same structure, so the noise in their in-sample errors cancels in the difference).  The
 result is a :class:`LaguerrePole` with its typed :class:`PoleSource` and :class:`PoleRule`.
-:func:`decide_pole` is the whole decision from the user's ``a`` (a number, None or
-``"dynamics"``), given the method's fit at a pole.
+:func:`decide_pole` is the whole decision from the user's ``a`` (a number,
+``"bandwidth"``, ``"dynamics"`` or None), given the method's fit at a pole.  The default
+(None) keeps the bandwidth pole unless the first pass's modes are ill-conditioned there
+(:class:`PolePolicy`): the second pass and its in-sample screen, which a feedback loop
+biases, are spent only where the bandwidth pole magnifies the index-domain errors.
 """
 
 from __future__ import annotations
@@ -58,6 +61,8 @@ from hdpbsid.data.checks import is_uniform
 __all__ = [
     "PoleSource",
     "PoleRule",
+    "PolePolicy",
+    "POLE_POLICY",
     "LaguerrePole",
     "map_back_amplification",
     "minimax_pole",
@@ -84,8 +89,10 @@ class PoleRule(str, enum.Enum):
 
     #: a number, used as given
     GIVEN = "given"
-    #: ``a=None``: half the data bandwidth, one pass
+    #: ``a="bandwidth"``: half the data bandwidth, one pass
     BANDWIDTH = "bandwidth"
+    #: ``a=None``: half the data bandwidth, its modes well conditioned there (one pass)
+    CONDITIONED = "conditioned"
     #: ``"dynamics"`` on several records, a time series or non-uniform samples: a change
     #: could not be screened, the first pass is kept
     NOT_SCREENABLE = "not screenable"
@@ -98,6 +105,25 @@ class PoleRule(str, enum.Enum):
     #: the in-sample screen did not prove the change (its :class:`CheckReason
     #: <hdpbsid.bases.operator_scale.CheckReason>` says how): the first pass is kept
     FIRST_PASS_KEPT = "first pass kept"
+
+
+@dataclass(frozen=True)
+class PolePolicy:
+    """The default pole's one setting (:func:`decide_pole` with ``a=None``)."""
+
+    #: the largest map-back amplification ``max_i g(a0, lambda_i)`` of the first pass's
+    #: modes at which the bandwidth pole is kept without a second pass: ``g`` is the
+    #: factor from an index-domain eigenvalue's absolute error to the relative error of
+    #: ``lambda``, so above 10 the map back loses a decimal digit of the index-domain
+    #: estimate, and ``g = 1/|mu -+ 1|`` to first order: the mode lies within a tenth of
+    #: the point where the map back is singular.  A pole inside the band (``a`` between
+    #: the slowest and fastest mode) keeps ``g`` of a well-damped set of modes of one
+    #: decade near ``(sqrt(10) + 1/sqrt(10))/2 + 1 ~ 2.7``
+    max_amplification: float = 10.0
+
+
+#: the default :class:`PolePolicy`
+POLE_POLICY = PolePolicy()
 
 
 @dataclass(frozen=True)
@@ -237,6 +263,7 @@ def pole_from_dynamics(
     a0: float,
     band: tuple[float, float],
     record: tuple | None,
+    first_model: Any = None,
 ) -> tuple[LaguerrePole, Any]:
     """The Laguerre pole chosen from the identified dynamics (module docstring), and the
     model fitted with it.
@@ -256,13 +283,15 @@ def pole_from_dynamics(
         a time series) or a non-uniformly sampled record keeps ``a0``: a change could
         not be screened (simulating a time series is no test, and the screen does not
         score non-uniform samples).
+    first_model : model, optional
+        The fit at ``a0`` when the caller has it already.
 
     Returns
     -------
     tuple of (LaguerrePole, model)
         The pole with its source and reason, and the model fitted with it.
     """
-    model0 = fit(a0)
+    model0 = fit(a0) if first_model is None else first_model
     first = f"half the data bandwidth ({a0:.4g})"
     if record is None or not is_uniform(np.asarray(record[0], dtype=float)):
         why = "; kept: several records, no input or non-uniform samples, where a change "
@@ -299,16 +328,9 @@ def _pole_passes(
     :data:`~hdpbsid.bases.operator_scale.MAX_PASSES` refits).  Returns the pole of the
     model in hand, that model, the pole of every fit tried (a failed one included) and
     whether the last fit failed."""
-    w_lo, w_hi = band
     a, model, passes = a0, model0, [a0]
     for _ in range(OPERATOR_SCALE.max_passes):
-        lam = np.linalg.eigvals(model.A)
-        inside = (np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)
-        # a model with a mode outside the band the samples resolve is no guide to the
-        # modes; the pole that balances the band's edges (the slowest and the fastest
-        # mode the data could show, the data bandwidth 2 a0 at most) stands in for them
-        edges = [-w_lo, -min(2.0 * a0, w_hi)]
-        new = minimax_pole(lam[inside] if np.all(inside) else edges)
+        new = minimax_pole(_guide_modes(model, a0, band))
         if new is None or abs(new - a) <= OPERATOR_SCALE.settled * a:
             break
         a = new
@@ -325,14 +347,21 @@ def decide_pole(
 ) -> tuple[LaguerrePole, Any]:
     """The Laguerre pole of a method, one decision from the user's ``a``.
 
-    A number is used as given; None takes ``a0`` (half the data bandwidth, so the pole
-    sits inside the excited band); ``"dynamics"`` asks the identified modes
+    A number is used as given; ``"bandwidth"`` takes ``a0`` (half the data bandwidth, so
+    the pole sits inside the excited band); ``"dynamics"`` asks the identified modes
     (:func:`pole_from_dynamics`), the change screened on the single record with an
-    input.
+    input; None (the default) takes ``a0`` when the first pass's modes are well
+    conditioned there -- their largest map-back amplification
+    (:func:`map_back_amplification`) at most :attr:`PolePolicy.max_amplification` -- and
+    asks the modes otherwise.  The second pass is thus spent only where the bandwidth
+    pole provably magnifies the index-domain errors (a stiff record, whose slow modes it
+    maps next to ``-1``); elsewhere the in-sample screen of a change, which a feedback
+    loop biases (the simulation error of a closed-loop record favours the model that
+    follows the loop's noise), is not run at all.
 
     Parameters
     ----------
-    asked : float, "dynamics" or None
+    asked : float, "bandwidth", "dynamics" or None
         The user's ``a`` (a number validated by the method).
     a0 : float
         Half the data bandwidth (rad per time unit).
@@ -354,15 +383,49 @@ def decide_pole(
     >>> pole.rule, model
     (<PoleRule.GIVEN: 'given'>, 'fit at 2.0')
     """
-    if asked is None:
+    if asked == "bandwidth":
         text = "half the data bandwidth"
         return LaguerrePole(a0, PoleSource.BANDWIDTH, text, (a0,), PoleRule.BANDWIDTH), fit(a0)
-    if not isinstance(asked, str):
+    if not isinstance(asked, str) and asked is not None:
         a = float(asked)
         return LaguerrePole(a, PoleSource.GIVEN, "given", (a,), PoleRule.GIVEN), fit(a)
     band = dynamics_band(records)
     one = records[0] if len(records) == 1 and records[0].u.shape[1] else None
-    return pole_from_dynamics(fit, a0, band, None if one is None else (one.t, one.u, one.y))
+    record = None if one is None else (one.t, one.u, one.y)
+    if asked is None:
+        return _conditioned_pole(fit, a0, band, record)
+    return pole_from_dynamics(fit, a0, band, record)
+
+
+def _guide_modes(model: Any, a0: float, band: tuple[float, float]) -> NDArray[np.complex128]:
+    """The modes that set the pole: the model's, or the band's edges for a model with a
+    mode outside the band the samples resolve.
+
+    Such a model is no guide to the modes; the pole that balances the band's edges (the
+    slowest and the fastest mode the data could show, the data bandwidth ``2 a0`` at most)
+    stands in for them."""
+    w_lo, w_hi = band
+    lam = np.linalg.eigvals(model.A)
+    inside = (np.abs(lam) >= w_lo) & (np.abs(lam) <= w_hi)
+    edges = np.array([-w_lo, -min(2.0 * a0, w_hi)], dtype=complex)
+    return lam[inside] if np.all(inside) else edges
+
+
+def _conditioned_pole(
+    fit: Callable[[float], Any], a0: float, band: tuple[float, float], record: tuple | None
+) -> tuple[LaguerrePole, Any]:
+    """The default pole: half the data bandwidth, unless the first pass's modes are
+    ill-conditioned there (:attr:`PolePolicy.max_amplification`), when the pole is asked of
+    the dynamics (:func:`pole_from_dynamics`, its change screened as there)."""
+    model0 = fit(a0)
+    g = float(np.max(map_back_amplification(a0, _guide_modes(model0, a0, band))))
+    if g <= POLE_POLICY.max_amplification:
+        text = (
+            f"half the data bandwidth ({a0:.4g}); the map-back amplification of its modes, "
+            f"{g:.3g}, is at most {POLE_POLICY.max_amplification:g}"
+        )
+        return LaguerrePole(a0, PoleSource.BANDWIDTH, text, (a0,), PoleRule.CONDITIONED), model0
+    return pole_from_dynamics(fit, a0, band, record, first_model=model0)
 
 
 def dynamics_band(records: Any) -> tuple[float, float]:

@@ -526,15 +526,17 @@ def identify_laguerre(
         Outputs.
     order : int, optional
         Model order; None: the largest log-gap of the singular values.
-    a : float, "dynamics" or None, optional
-        The Laguerre pole (rad per time unit).  None: half the data bandwidth (99 % of the
-        input energy, 95 % of the output energy), so the pole sits inside the excited band.
-        ``"dynamics"``: after that first pass, the pole minimising the largest map-back
-        amplification of the identified modes (:mod:`hdpbsid.bases.laguerre_pole`), kept
-        when it simulates the record better (``options["a_rule"]``, ``["a_source"]``) -- the
-        choice for stiff open-loop records, where the bandwidth pole maps the slow modes
-        next to ``-1``; not the default, because on closed loops with an unstable plant its
-        record screen moved the order selection to higher orders.
+    a : float, "bandwidth", "dynamics" or None, optional
+        The Laguerre pole (rad per time unit).  ``"bandwidth"``: half the data bandwidth
+        (99 % of the input energy, 95 % of the output energy), so the pole sits inside the
+        excited band.  ``"dynamics"``: after that first pass, the pole minimising the
+        largest map-back amplification of the identified modes
+        (:mod:`hdpbsid.bases.laguerre_pole`), kept when it simulates the record better
+        (``options["a_rule"]``, ``["a_source"]``).  None (default): the bandwidth pole,
+        and the ``"dynamics"`` pass only when the first pass's modes are ill-conditioned
+        at it (largest map-back amplification above
+        :attr:`~hdpbsid.bases.laguerre_pole.PolePolicy.max_amplification`; a stiff
+        record, whose slow modes the bandwidth pole maps next to ``-1``).
     N : int, optional
         Basis size (projection: the record fills 90 % of the support of ``N`` functions,
         ``N = 2 a T / 3.6`` clipped to ``[100, 4000]`` and to ``Ns / 2``, with a
@@ -565,8 +567,8 @@ def identify_laguerre(
     ------
     ValueError
         If ``variant`` is unknown, the filter variant gets several records, ``a`` is not a
-        positive number, None or ``"dynamics"``, the data have no bandwidth to choose ``a``
-        from, or the burn-in leaves fewer than 2 samples.
+        positive number, None, ``"bandwidth"`` or ``"dynamics"``, the data have no
+        bandwidth to choose ``a`` from, or the burn-in leaves fewer than 2 samples.
     TypeError
         If an argument has the wrong type or a keyword is not a shared setting.
 
@@ -632,7 +634,7 @@ def fit_laguerre(
         The records, checked (one record is a Dataset of one).
     order : int, optional
         Model order (:func:`identify_laguerre`).
-    a : float, "dynamics" or None, optional
+    a : float, "bandwidth", "dynamics" or None, optional
         The Laguerre pole (:func:`identify_laguerre`).
     N : int, optional
         Basis size.
@@ -729,8 +731,8 @@ def _check_pole_request(a: Any, wb: float) -> None:
     string other than ``"dynamics"`` is no pole."""
     if (a is None or isinstance(a, str)) and wb <= 0:
         raise ValueError("cannot choose the Laguerre pole a: the data have no bandwidth")
-    if isinstance(a, str) and a != "dynamics":
-        raise ValueError(f"a must be a positive number, None or 'dynamics', got {a!r}")
+    if isinstance(a, str) and a not in ("bandwidth", "dynamics"):
+        raise ValueError(f"a must be a positive number, None, 'bandwidth' or 'dynamics', got {a!r}")
 
 
 def _filter_variant(

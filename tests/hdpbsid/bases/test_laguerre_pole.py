@@ -87,15 +87,18 @@ def _stiff_record(seed: int, snr: float = 40.0, dt: float = 0.01, ns: int = 6000
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_laguerre_on_a_stiff_record_takes_its_pole_from_the_dynamics(seed):
+@pytest.mark.parametrize("a", [None, "dynamics"])
+def test_laguerre_on_a_stiff_record_takes_its_pole_from_the_dynamics(seed, a):
     """Steps held 0.05 s put the data bandwidth near 190 rad/s, and the first pass's pole
     (95) is 60 times the pair's |lambda|: its model is far off (a spurious mode, or the
-    pair lost).  The pole from the dynamics lies between the modes, and both are
-    recovered within 5 % (the issue's target at 40 dB), before any refinement."""
+    pair lost), and its modes are ill-conditioned there, so the default asks the
+    dynamics as ``a="dynamics"`` does.  The pole from the dynamics lies between the
+    modes, and both are recovered within 5 % (the target at 40 dB), before any
+    refinement."""
     t, u, y = _stiff_record(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None, a="dynamics")
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", refine=None, a=a)
     assert model.options["a_source"] == "dynamics"
     lam = np.linalg.eigvals(A_STIFF)
     assert 1.5 < model.options["a"] < 80.0
@@ -140,10 +143,45 @@ def test_decide_pole_given_and_bandwidth_take_one_fit():
     pole, _ = decide_pole(2.0, 5.0, fit, [_Rec()])
     assert (pole.rule, pole.a, pole.source) == (PoleRule.GIVEN, 2.0, PoleSource.GIVEN)
     assert pole.options() == {"a_rule": "given"}
-    pole, _ = decide_pole(None, 5.0, fit, [_Rec()])
+    pole, _ = decide_pole("bandwidth", 5.0, fit, [_Rec()])
     assert (pole.rule, pole.a) == (PoleRule.BANDWIDTH, 5.0)
     assert pole.options() == {"a_rule": "half the data bandwidth"}  # no a_source
     assert fits == [2.0, 5.0]
+
+
+def test_default_pole_asks_the_dynamics_only_when_ill_conditioned(monkeypatch):
+    """``a=None``: the mode -1 at the pole 5 has ``g = 6^2 / 10 = 3.6`` (one fit, the
+    bandwidth pole kept); the mode -0.05 has ``g = 5.05^2 / 0.5 = 51`` > 10, so the pole
+    is asked of the dynamics, which put it at the mode's magnitude."""
+    from hdpbsid.bases import laguerre_pole
+
+    monkeypatch.setattr(laguerre_pole, "dynamics_band", lambda records: (0.01, 1000.0))
+    fits = []
+
+    def fit_at(mode):
+        def fit(a):
+            fits.append(a)
+            return _PoleModel([mode])
+
+        return fit
+
+    pole, _ = decide_pole(None, 5.0, fit_at(-1.0), [_Rec()])
+    assert (pole.rule, pole.a, fits) == (PoleRule.CONDITIONED, 5.0, [5.0])
+    assert "3.6" in pole.reason
+    fits.clear()
+    policy = type(laguerre_pole.OPERATOR_SCALE)
+    monkeypatch.setattr(policy, "in_sample_screen", lambda self, *args: _Take())
+    pole, _ = decide_pole(None, 5.0, fit_at(-0.05), [_Rec()])
+    assert pole.rule is PoleRule.SCREEN_WON and pole.source is PoleSource.DYNAMICS
+    assert pole.a == pytest.approx(0.05, rel=0.011)  # the grid's 1 % step
+    assert fits[0] == 5.0 and len(fits) == 2  # the first pass is fitted once
+
+
+class _Take:
+    """A screen that takes the change."""
+
+    take_new = True
+    how = "stand-in"
 
 
 def test_decide_pole_from_the_dynamics_typed_ways(monkeypatch):
@@ -177,7 +215,7 @@ def test_diverging_predictor_prints_nothing_from_lapack(capfd):
     t, u, y = _stiff_record(1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", a=None)
+        model = hdpbsid.identify(t, u, y, order=3, method="laguerre", a="bandwidth")
     assert "diverges" in model.options["refine_rule"]
     out = capfd.readouterr()
     assert "DLASCL" not in out.out + out.err

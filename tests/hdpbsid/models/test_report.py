@@ -347,8 +347,8 @@ def test_the_report_carries_the_typed_rules_of_alpha_and_the_pole() -> None:
     assert given.rule is AlphaRule.GIVEN and given.given and given == Choice(3.0, "given")
     laguerre = hdpbsid.identify(t, u, y, 2, method="laguerre", refine=None)
     pole = laguerre.report.pole
-    assert pole is not None and pole.rule is PoleRule.BANDWIDTH
+    assert pole is not None and pole.rule is PoleRule.CONDITIONED
     assert pole.value == laguerre.options["a"] and pole.reason == laguerre.options["a_rule"]
-    assert "rule=PoleRule.BANDWIDTH" in repr(pole)
+    assert "rule=PoleRule.CONDITIONED" in repr(pole)
     legendre = hdpbsid.identify(t, u, y, 2, method="legendre", alpha=2.0, N=700, refine=None)
     assert legendre.report.alpha.rule is AlphaRule.GIVEN
