@@ -587,7 +587,7 @@ _UNCHANGED = Rule("none", "-", "the unchanged library against the baseline table
 def _header(csv_dir: Path, base: Path) -> str:
     runs = sorted(
         {
-            f"`{m['command']}` at commit {m['commit']}"
+            f"`{m['command']}`"
             for m in (json.loads(p.read_text()) for p in sorted(csv_dir.glob("*.json")))
             if "command" in m
         }

@@ -47,6 +47,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -450,8 +451,11 @@ def main() -> None:
         text=True,
     ).stdout.strip()
     print(f"# code {head or 'unknown'}", flush=True)  # the log's, not the table's
+    from importlib.metadata import version
+
+    day = time.strftime("%Y-%m-%d", time.gmtime())
     lines = [
-        f"# code {head or 'unknown'}; default environment; load average at start "
+        f"# hdpbsid {version('hdpbsid')}, {day}; default environment; load average at start "
         f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)",
         "| sweep | case | method | samples | input band (Hz) | wall time | CPU time "
         "| peak extra memory of the call | peak RSS | worst eigenvalue error | notes |",

@@ -606,13 +606,10 @@ def main(argv: list[str] | None = None) -> int:
             env=_environment(False, None),
             check=True,
         )
-    commit = subprocess.run(
-        ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
-    ).stdout.strip()
     load0 = os.getloadavg()
     command = " ".join(["python bench/user.py", *(argv if argv is not None else sys.argv[1:])])
     lines = [
-        f"`{command}` at {commit}: {os.cpu_count()} cores, load average (1, 5, 15 min)"
+        f"`{command}` ({_provenance()}): {os.cpu_count()} cores, load average (1, 5, 15 min)"
         f" {_loads(load0)} at the start; median of {args.reps}, the columns alternating"
         " process by process",
         "",
@@ -643,6 +640,15 @@ def main(argv: list[str] | None = None) -> int:
         Path(args.md).write_text("\n".join(lines) + "\n")
         print(f"wrote {args.md}")
     return 0
+
+
+def _provenance() -> str:
+    """The package version and the date of the run (the page is documentation: the commit
+    measured is a development detail, kept out of it)."""
+    from importlib.metadata import version
+
+    day = time.strftime("%Y-%m-%d", time.gmtime())
+    return f"hdpbsid {version('hdpbsid')}, {day}"
 
 
 def _loads(load: tuple[float, float, float]) -> str:

@@ -7,7 +7,10 @@
 * the architecture page draws the package tree as it is: every module it names exists and
   every module of ``slbasis``/``hdpbsid`` is on it;
 * the import directions it states hold (parsed from the sources, not imported);
-* the API page names objects that exist.
+* the API page names objects that exist;
+* the README is a user's page: at most 150 lines, the set-up commands first, a ``pip
+  install`` route; neither it nor a page of the site (the bench result pages included)
+  names a commit: development history belongs to the repository, not to the documents.
 
 ``make docs`` builds the whole site with warnings as errors.
 """
@@ -287,3 +290,42 @@ def test_api_page_names_exist() -> None:
         for part in attr.split("."):
             obj = getattr(obj, part)
         assert obj.__doc__, f"{name} has no docstring"
+
+
+#: a commit's abbreviated or full hash: 7-40 lower-case hex digits with a letter and a
+#: digit, not part of a longer word, a path, a number or a colour (``#1f77b4``)
+COMMIT = re.compile(
+    r"(?<![0-9A-Za-z_#./-])(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,40}(?![0-9A-Za-z_])"
+)
+
+
+def _user_documents() -> list[Path]:
+    """The README, the changelog, the site's Markdown sources and the bench result pages
+    the site includes."""
+    pages = [p for p in DOCS.rglob("*.md") if "_build" not in p.parts]
+    results = sorted((ROOT / "bench" / "results").glob("*.md"))
+    return [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted(pages), *results]
+
+
+def test_the_commit_pattern_finds_hashes_and_spares_words() -> None:
+    hits = COMMIT.findall("at dda43c9: fixed in 410bf2f; colour #1f77b4, add 1234567, decade")
+    assert hits == ["dda43c9", "410bf2f"]
+
+
+def test_no_document_names_a_commit() -> None:
+    found = [
+        f"{p.relative_to(ROOT)}:{i}: {m.group()}"
+        for p in _user_documents()
+        for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+        for m in COMMIT.finditer(line)
+    ]
+    assert not found, found
+
+
+def test_readme_is_a_short_page_that_starts_with_the_commands() -> None:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    lines = text.splitlines()
+    assert len(lines) <= 150
+    first_block = text.split("```")[1]
+    assert "make demo" in first_block and "make test" in first_block
+    assert "pip install ." in text
