@@ -52,9 +52,13 @@ from slbasis.numeric.jit import array as _array
 __all__ = ["weighted_errors", "sensitivity_regressors"]
 
 _jit = numba.njit(cache=True, nogil=True)
+#: the per-sample steps, inlined into the passes by numba (its IR, before LLVM): a call
+#: per sample otherwise passes every array as a reference-counted structure, which cost
+#: more than the few multiply-adds of a step; the operations and their order are the same
+_jit_step = numba.njit(cache=True, nogil=True, inline="always")
 
 
-@_jit
+@_jit_step
 def _predictor_step(
     F: np.ndarray,
     G: np.ndarray,
@@ -80,7 +84,7 @@ def _predictor_step(
         xi[i] = xn[i]
 
 
-@_jit
+@_jit_step
 def _weighted_maps(W: np.ndarray, C: np.ndarray, Du: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``W C`` and ``W Du``, each entry summed over the outputs in order."""
     l, n, m = C.shape[0], C.shape[1], Du.shape[1]
@@ -95,7 +99,7 @@ def _weighted_maps(W: np.ndarray, C: np.ndarray, Du: np.ndarray) -> tuple[np.nda
     return WC, WDu
 
 
-@_jit
+@_jit_step
 def _error_sample(
     W: np.ndarray,
     WC: np.ndarray,
@@ -124,7 +128,7 @@ def _error_sample(
             Fr[c, k, j] = P[c, j]
 
 
-@_jit
+@_jit_step
 def _power_step(P: np.ndarray, F: np.ndarray, Pn: np.ndarray) -> None:
     """``P <- P F`` in place (``Pn``: scratch)."""
     l, n = P.shape[0], P.shape[1]
@@ -185,7 +189,7 @@ def weighted_errors(
         _predictor_step(F, G, Kd, xi, u, y, k, xn)
 
 
-@_jit
+@_jit_step
 def _load_w(w: np.ndarray, xi: np.ndarray, u: np.ndarray, y: np.ndarray, k: int) -> None:
     """``w <- [xi; u_k; y_k]``."""
     n, m, l = xi.shape[0], u.shape[1], y.shape[1]
@@ -197,7 +201,7 @@ def _load_w(w: np.ndarray, xi: np.ndarray, u: np.ndarray, y: np.ndarray, k: int)
         w[n + m + j] = y[k, j]
 
 
-@_jit
+@_jit_step
 def _write_row(
     Z: np.ndarray,
     k: int,
@@ -227,7 +231,7 @@ def _write_row(
             Z[k, ncols + p + c * n + j] = Fr[c, k, j]
 
 
-@_jit
+@_jit_step
 def _modal_step(
     zr: np.ndarray,
     zi: np.ndarray,

@@ -47,10 +47,14 @@ _POW2 = np.ldexp(1.0, np.arange(_EMIN, _EMAX + 1))  # _POW2[k - _EMIN] = 2^k, ex
 _TINY = 2.2250738585072014e-308  # smallest normal double
 _SUM_FLAGS = {"reassoc", "contract"}
 _jit = numba.njit(cache=True, nogil=True)
+#: the steps of the passes, inlined by numba (its IR, before LLVM): a call per block and
+#: row otherwise passes every array as a reference-counted structure; the operations and
+#: their order are the same
+_jit_step = numba.njit(cache=True, nogil=True, inline="always")
 _jit_sum = numba.njit(cache=True, nogil=True, fastmath=_SUM_FLAGS)
 
 
-@_jit
+@_jit_step
 def _factors(e: int, pow2: np.ndarray) -> tuple[float, float]:
     """``(s1, s2)``, powers of two with ``(m * s1) * s2 = round(m 2^e)`` for every ``m``.
 
@@ -65,7 +69,7 @@ def _factors(e: int, pow2: np.ndarray) -> tuple[float, float]:
     return pow2[e - _EMIN], 1.0
 
 
-@_jit
+@_jit_step
 def _renormalise(mp: np.ndarray, mc: np.ndarray, e: np.ndarray, pow2: np.ndarray) -> None:
     """``(mp, mc) *= 2^-k``, ``e += k`` per sample, ``k = frexp(max(|mp|, |mc|))[1]``.
 
@@ -96,7 +100,7 @@ def _renormalise(mp: np.ndarray, mc: np.ndarray, e: np.ndarray, pow2: np.ndarray
         e[i] += k
 
 
-@_jit
+@_jit_step
 def _step(x: np.ndarray, mp: np.ndarray, mc: np.ndarray, b: float, a: float, a_next: float) -> None:
     """One row of the recurrence in place: ``(mp, mc) <- (mc, ((x - b) mc - a mp) / a_next)``.
 
@@ -108,7 +112,7 @@ def _step(x: np.ndarray, mp: np.ndarray, mc: np.ndarray, b: float, a: float, a_n
         mc[i] = new
 
 
-@_jit
+@_jit_step
 def _step_write(
     x: np.ndarray,
     mp: np.ndarray,
@@ -128,7 +132,7 @@ def _step_write(
         row[i] = (new * f1[i]) * f2[i]
 
 
-@_jit
+@_jit_step
 def _scale_factors(e: np.ndarray, s1: np.ndarray, s2: np.ndarray, pow2: np.ndarray) -> None:
     for i in range(e.size):
         s1[i], s2[i] = _factors(e[i], pow2)
@@ -198,7 +202,7 @@ def eval_range(
             _step_write(xb, p, c, b[n], a_prev[n], a_next[n], f1, f2, out[n + 1, c0 : c0 + w])
 
 
-@_jit
+@_jit_step
 def _weigh(wy: np.ndarray, e: np.ndarray, ws: np.ndarray, pow2: np.ndarray) -> None:
     """``ws[j, i] = round(wy[j, i] 2^e[i])`` (correctly rounded, :func:`_factors`), with
     results below the smallest normal number set to 0.
@@ -223,7 +227,7 @@ def _madd(s: float, a: float, b: float) -> float:
     return s + a * b
 
 
-@_jit
+@_jit_step
 def _sum(m: np.ndarray, ws: np.ndarray, j: int, c: np.ndarray, n: int) -> int:
     """``c[n, j:j+g] += ws[j:j+g] @ m`` for the next group of ``g <= 4`` columns; returns ``g``."""
     g = min(4, ws.shape[0] - j)
@@ -262,7 +266,7 @@ def _sum(m: np.ndarray, ws: np.ndarray, j: int, c: np.ndarray, n: int) -> int:
     return g
 
 
-@_jit
+@_jit_step
 def _step_sum(
     x: np.ndarray,
     mp: np.ndarray,
