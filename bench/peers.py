@@ -284,6 +284,10 @@ def discrete_ls_simulation(A: Array, B: Array, C: Array, D: Array, u: Array, y: 
         O[k] = C @ P
         P = A @ P
     O2 = O.reshape(-1, n)
+    if not (np.all(np.isfinite(O2)) and np.all(np.isfinite(y0))):
+        # an unstable model overflowed: no fit, and LAPACK's scaling routine would print
+        # "On entry to DLASCL ..." on a non-finite matrix
+        return np.full(y.shape, np.nan)
     x0 = np.linalg.lstsq(O2, (y - y0).ravel(), rcond=None)[0]
     return y0 + (O2 @ x0).reshape(y.shape)
 
