@@ -82,9 +82,8 @@ def _request(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
-    given_ft = options.pop("feedthrough", None)
-    feedthrough = None if given_ft is None else check_feedthrough(given_ft)
-    if feedthrough is not None and feedthrough != "auto":
+    feedthrough = check_feedthrough(options.pop("feedthrough", "auto"))
+    if feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     return _Request(method, order, refine, detrend, feedthrough, long_record, progress)

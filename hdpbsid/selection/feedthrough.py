@@ -1,5 +1,5 @@
-"""``feedthrough="auto"`` of :func:`hdpbsid.identify`: whether the model has a direct term
-``D``, decided from the data.
+"""``feedthrough="auto"`` (the default of :func:`hdpbsid.identify`): whether the model has
+a direct term ``D``, decided from the data.
 
 The direct term is a structural choice like the order, and it is judged on the same
 held-out part (:mod:`hdpbsid.selection.auto`), in two steps.
