@@ -14,6 +14,7 @@ from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import SIGNIFICANCE_Z, WindowedError, choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
+from hdpbsid.selection.feedthrough import paired_z
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
 from hdpbsid.selection.scoring import looks_closed_loop, score_model
@@ -192,7 +193,8 @@ def rejudge_order(
     k = order.index
     n_star = ok[k].order
     best_of = _best_of_orders(ok, order.stats)
-    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
+    every = _best_of_orders(ok, [0.0] * len(ok))
+    lower = [every[n] for n in sorted(every) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
     upward = n_star + 1 in best_of and looks_closed_loop(ok[k].model, est)
     _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
@@ -241,7 +243,11 @@ def _smallest_refined(
     finite = [i for i, e in enumerate(errors) if e.finite]
     if not finite:
         return chosen, ""
-    chosen = lower[min(finite, key=lambda i: (errors[i].total, i))]
+    k = finite[0]
+    for i in finite[1:]:
+        if paired_z(errors[k], errors[i]) > SELECTION_POLICY.refined_z:
+            k = i
+    chosen = lower[k]
     names = ", ".join(f"{r.method} {r.order}" for r in lower)
     return chosen, (
         f"; order decided again between refined candidates ({names}; within "
