@@ -41,9 +41,12 @@ class SelectionPolicy:
         Held-out error ratio beyond which a returned model is much worse than a
         rejected one (:func:`hdpbsid.selection.scoring.much_worse`).
     rejudge_z : float
-        Standard errors from the best within which an order's best candidate is refined
-        before the order is decided again (:func:`hdpbsid.selection.rejudge.
-        rejudge_refined`).
+        Standard errors from the best within which a larger order's best candidate is
+        refined before the order is decided again upwards (:func:`hdpbsid.selection.
+        rejudge.rejudge_refined`).
+    refined_z : float
+        Paired standard errors by which a larger refined order must beat a smaller one
+        to replace it when the order is decided again downwards.
 
     Examples
     --------
