@@ -41,12 +41,9 @@ class SelectionPolicy:
         Held-out error ratio beyond which a returned model is much worse than a
         rejected one (:func:`hdpbsid.selection.scoring.much_worse`).
     rejudge_z : float
-        Standard errors from the best within which a larger order's best candidate is
-        refined before the order is decided again upwards (:func:`hdpbsid.selection.
-        rejudge.rejudge_refined`).
-    refined_z : float
-        Paired standard errors by which a larger refined order must beat a smaller one
-        to replace it when the order is decided again downwards.
+        Standard errors from the best within which an order's best candidate is refined
+        before the order is decided again (:func:`hdpbsid.selection.rejudge.
+        rejudge_refined`).
 
     Examples
     --------
@@ -66,10 +63,6 @@ class SelectionPolicy:
     #: bias of the subspace candidates can put the true order 1.4-2.2 standard errors
     #: behind a larger one
     rejudge_z: float = 3.0
-    #: between refined candidates of nested orders, the larger replaces the smaller only
-    #: when better by more than two standard errors of the paired per-window difference
-    #: (a one-sided false alarm of about 2.3 %)
-    refined_z: float = 2.0
 
 
 #: the policy :mod:`hdpbsid.selection.auto` applies

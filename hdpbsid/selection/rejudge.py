@@ -14,7 +14,6 @@ from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import SIGNIFICANCE_Z, WindowedError, choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
-from hdpbsid.selection.feedthrough import paired_z
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
 from hdpbsid.selection.scoring import looks_closed_loop, score_model
@@ -92,24 +91,19 @@ def rejudge_refined(
     loop; so the order should be decided between refined candidates.  Refining all of
     them would cost a refinement per candidate; only the decisions the bias can flip are
     taken again, each candidate refined on the estimation part and scored on the held-out
-    part (:func:`_refined_error`).  Upwards, only the best candidate of an order whose
-    error is within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` (3)
-    standard errors of the best takes part.
+    part (:func:`_refined_error`).  Only the best candidate of an order whose error is
+    within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` (3) standard errors
+    of the best takes part.
 
     *Down.*  Extra states can absorb part of the bias, so a larger order can score better
-    than the true one although the true one, fitted efficiently, would not be beaten.  At
-    high SNR the bias can put the true order many standard errors behind (the standard
-    error shrinks with the noise, the bias does not), so the best candidate of *every*
-    order up to the chosen order ``n*`` is refined, whatever its subspace score.  Between
-    the refined candidates, from the smallest order up, a larger order replaces the
-    current one only when it predicts the held-out part better by more than
-    :attr:`~hdpbsid.selection.policy.SelectionPolicy.refined_z` standard errors of the
-    paired per-window difference (:func:`~hdpbsid.selection.feedthrough.paired_z`): the
-    burden of proof on the extra states, as in the one-standard-error rule, but paired --
-    both refined models are consistent, and their difference in each window is free of
-    the noise the windows share, so a true mode that adds little output variance (an
-    unstable pole held back by the loop) still shows in every window, while a state that
-    fits noise does not.
+    than the true one although the true one, fitted efficiently, would not be beaten.
+    The orders up to the chosen order ``n*`` are refined and the one with the smallest
+    refined error is taken.  Not the one-standard-error rule again: its preference for
+    the smaller order was applied once, to choose ``n*``; here a smaller order replaces
+    ``n*`` only when, refined, it predicts at least as well as ``n*`` refined -- the bias
+    correction, not a second discount for parsimony (applied twice, the rule drops a true
+    mode that adds little output variance, such as an unstable pole held back by the loop,
+    whenever the smaller order comes within one standard error).
 
     *Up.*  The bias can also make a too small order look adequate: in closed loop a
     subspace candidate of too small an order can score better on held-out data than its
@@ -198,8 +192,7 @@ def rejudge_order(
     k = order.index
     n_star = ok[k].order
     best_of = _best_of_orders(ok, order.stats)
-    every = _best_of_orders(ok, [0.0] * len(ok))
-    lower = [every[n] for n in sorted(every) if n <= n_star]
+    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
     upward = n_star + 1 in best_of and looks_closed_loop(ok[k].model, est)
     _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
@@ -242,23 +235,18 @@ def _smallest_refined(
     lower: list[CandidateRow], chosen: CandidateRow, est: tuple, val: tuple, windows: int
 ) -> tuple[CandidateRow, str]:
     """*Down* (:func:`rejudge_refined`): of the candidates ``lower`` (the best of every
-    order up to the chosen one, by order), the smallest whose refined held-out error no
-    larger order beats by more than ``refined_z`` paired standard errors, and the rule's
-    text; ``chosen`` and ``""`` when none of them can be scored refined."""
+    order up to the chosen one), the one with the smallest refined held-out error, and
+    the rule's text; ``chosen`` and ``""`` when none of them can be scored refined."""
     errors = [_refined_error(r, est, val, windows) for r in lower]
     finite = [i for i, e in enumerate(errors) if e.finite]
     if not finite:
         return chosen, ""
-    k = finite[0]
-    for i in finite[1:]:
-        if paired_z(errors[k], errors[i]) > SELECTION_POLICY.refined_z:
-            k = i
-    chosen = lower[k]
+    chosen = lower[min(finite, key=lambda i: (errors[i].total, i))]
     names = ", ".join(f"{r.method} {r.order}" for r in lower)
     return chosen, (
-        f"; order decided again between refined candidates ({names}; the best of every "
-        f"order up to the chosen one), a larger order only when better by more than "
-        f"{SELECTION_POLICY.refined_z:g} paired SE: {chosen.method} order {chosen.order}"
+        f"; order decided again between refined candidates ({names}; within "
+        f"{SELECTION_POLICY.rejudge_z:g} SE of the best), the smallest refined error: "
+        f"{chosen.method} order {chosen.order}"
     )
 
 

@@ -81,11 +81,14 @@ def test_auto_estimates_a_direct_term_that_is_there(seed):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_auto_keeps_d_zero_when_there_is_none(seed):
-    """Open loop, no direct term: the candidates with D are offered and lose (no better
-    by two standard errors on both held-out criteria), so D stays exactly zero."""
+    """Open loop, no direct term, a zero-order-held input: y_k depends on u up to
+    u_{k-1} only, so the innovations of u and y are not linked at lag 0 and no candidate
+    with D is fitted (the screen); D stays exactly zero."""
     t, u, y = _open_loop(seed, 0.0)
     model = _quiet(hdpbsid.identify, t, u, y, feedthrough="auto")
-    assert "offered: open loop" in model.options["feedthrough_rule"]
+    assert "not offered: open loop" in model.options["feedthrough_rule"]
+    assert "no lag-0 link" in model.options["feedthrough_rule"]
+    assert not any(r["feedthrough"] for r in model.options["selection"])
     assert "returned: D = 0" in model.options["feedthrough_rule"]
     assert np.all(model.D == 0.0)
 
