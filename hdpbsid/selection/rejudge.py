@@ -91,15 +91,13 @@ def rejudge_refined(
     loop; so the order should be decided between refined candidates.  Refining all of
     them would cost a refinement per candidate; only the decisions the bias can flip are
     taken again, each candidate refined on the estimation part and scored on the held-out
-    part (:func:`_refined_error`).
+    part (:func:`_refined_error`).  Only the best candidate of an order whose error is
+    within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` (3) standard errors
+    of the best takes part.
 
     *Down.*  Extra states can absorb part of the bias, so a larger order can score better
-    than the true one although the true one, fitted efficiently, would not be beaten.  At
-    high SNR the bias can put the true order many standard errors behind (the standard
-    error shrinks with the noise, the bias does not), so the best candidate of *every*
-    order below the chosen order ``n*`` is refined, whatever its subspace score, with
-    the chosen candidate itself for ``n*`` (another candidate of ``n*`` is no smaller
-    order, and the order rule already chose between them), and the one with the smallest
+    than the true one although the true one, fitted efficiently, would not be beaten.
+    The orders up to the chosen order ``n*`` are refined and the one with the smallest
     refined error is taken.  Not the one-standard-error rule again: its preference for
     the smaller order was applied once, to choose ``n*``; here a smaller order replaces
     ``n*`` only when, refined, it predicts at least as well as ``n*`` refined -- the bias
@@ -107,17 +105,7 @@ def rejudge_refined(
     mode that adds little output variance, such as an unstable pole held back by the loop,
     whenever the smaller order comes within one standard error).
 
-    *The refit's start.*  When the decision stands (the chosen candidate is kept), its
-    refinement on the estimation part is not handed on as a warm start of the refit on
-    the whole record (:mod:`hdpbsid.refine.pem`): the refit then starts as it would
-    without the re-judgement.  A start fitted on two thirds of the record ranks first by
-    its predicted cost by construction (it is a minimum already) and keeps the search in
-    its basin; it is given only to a decision it made, so that the refit lands in the
-    minimum the decision was judged at.
-
-    *Up.*  Only the best candidate of an order whose error is within
-    :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` (3) standard errors of the
-    best takes part.  The bias can also make a too small order look adequate: in closed loop a
+    *Up.*  The bias can also make a too small order look adequate: in closed loop a
     subspace candidate of too small an order can score better on held-out data than its
     own prediction-error refit and tie with the next order, so the one-standard-error
     rule keeps it, while refined, the larger order beats it by several standard errors.
@@ -204,8 +192,7 @@ def rejudge_order(
     k = order.index
     n_star = ok[k].order
     best_of = _best_of_orders(ok, order.stats)
-    every = _best_of_orders(ok, [0.0] * len(ok))
-    lower = [every[n] for n in sorted(every) if n < n_star] + [ok[k]]
+    lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
     upward = n_star + 1 in best_of and looks_closed_loop(ok[k].model, est)
     _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
@@ -219,16 +206,13 @@ def rejudge_order(
         chosen, more = _larger_refined(chosen, best_of, n_star + 1, est, val, windows)
         rule += more
         reason = OrderReason.REFINED_LARGER if chosen is not before else reason
-    if chosen is ok[k]:
-        chosen.refined_model = None  # the decision stands: no warm start from it
     return OrderChoice(_index(ok, chosen), order.stats, reason, rule)
 
 
 def _best_of_orders(ok: list[CandidateRow], stats: Sequence[float]) -> dict[int, CandidateRow]:
     """The best candidate (smallest held-out error) of every order among the candidates
     ``ok`` within :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` standard
-    errors (``stats``) of the best: those :func:`rejudge_refined` may refine upwards
-    (all zero ``stats``: every order's best, downwards)."""
+    errors (``stats``) of the best: those :func:`rejudge_refined` may refine."""
     best_of: dict[int, CandidateRow] = {}
     for r, z in zip(ok, stats, strict=True):
         n = r.order
@@ -251,8 +235,7 @@ def _smallest_refined(
     lower: list[CandidateRow], chosen: CandidateRow, est: tuple, val: tuple, windows: int
 ) -> tuple[CandidateRow, str]:
     """*Down* (:func:`rejudge_refined`): of the candidates ``lower`` (the best of every
-    order below the chosen one, and the chosen one), the one with the smallest refined
-    held-out error, and
+    order up to the chosen one), the one with the smallest refined held-out error, and
     the rule's text; ``chosen`` and ``""`` when none of them can be scored refined."""
     errors = [_refined_error(r, est, val, windows) for r in lower]
     finite = [i for i, e in enumerate(errors) if e.finite]
@@ -261,8 +244,8 @@ def _smallest_refined(
     chosen = lower[min(finite, key=lambda i: (errors[i].total, i))]
     names = ", ".join(f"{r.method} {r.order}" for r in lower)
     return chosen, (
-        f"; order decided again between refined candidates ({names}; the best of every "
-        f"order below the chosen one), the smallest refined error: "
+        f"; order decided again between refined candidates ({names}; within "
+        f"{SELECTION_POLICY.rejudge_z:g} SE of the best), the smallest refined error: "
         f"{chosen.method} order {chosen.order}"
     )
 
