@@ -604,7 +604,20 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
 
 class Offer(NamedTuple):
     """Whether candidates with ``D`` are offered (:func:`feedthrough_offered`), why, and
-    the terms of their judgement (:func:`judge_direct_term`)."""
+    the terms of their judgement (:func:`judge_direct_term`).
+
+    Attributes
+    ----------
+    offered : bool
+        Whether candidates with ``D`` are fitted.
+    why : str
+        The reason, for ``options["feedthrough_rule"]``.
+    bound : float
+        The share by which ``D`` must lower the simulation error in closed loop (the
+        controller bound), else 0.
+    min_gain : float
+        The share by which ``D`` must lower it with a deterministic input, else 0.
+    """
 
     #: whether candidates with ``D`` are fitted
     offered: bool
