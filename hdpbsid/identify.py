@@ -68,7 +68,7 @@ class _Request:
     order: Any
     refine: str | None
     detrend: str | None
-    feedthrough: Any  # None (not given), True, False or "auto"
+    feedthrough: Any  # True, False or "auto" (the default)
     long_record: Any
     progress: bool
 
@@ -82,9 +82,8 @@ def _request(
         raise ValueError(f"refine must be one of {REFINE_CHOICES}, got {refine!r}")
     if detrend not in DETREND_CHOICES:
         raise ValueError(f"detrend must be one of {DETREND_CHOICES}, got {detrend!r}")
-    given_ft = options.pop("feedthrough", None)
-    feedthrough = None if given_ft is None else check_feedthrough(given_ft)
-    if feedthrough is not None and feedthrough != "auto":
+    feedthrough = check_feedthrough(options.pop("feedthrough", "auto"))
+    if feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
     return _Request(method, order, refine, detrend, feedthrough, long_record, progress)
@@ -312,7 +311,7 @@ def identify(
         ``"dt"``); with ``"auto"`` to every method tried, besides ``methods=``,
         ``max_order=``, ``n_jobs=`` and ``method_options=`` of
         :func:`~hdpbsid.selection.auto.identify_auto`.  Read here: ``feedthrough=``
-        (``True``, ``False`` or ``"auto"``; Notes), ``order_rule=`` (``"held-out"``
+        (``"auto"``, the default, ``True`` or ``False``; Notes), ``order_rule=`` (``"held-out"``
         or ``"svd"``), ``long_record=`` (a
         :class:`~hdpbsid.selection.long_records.LongRecordPolicy`, or False: off),
         ``progress=`` (progress bars on the long-record path), ``max_delay=`` and
@@ -379,16 +378,18 @@ def identify(
     ``feedthrough=True`` (a free ``D`` lets closed-loop data predict the noise through
     the controller).
 
-    *Direct term.*  ``feedthrough`` not given: ``D = 0`` for every method that has the
-    setting.  ``"auto"`` decides ``D`` from the data
+    *Direct term.*  ``feedthrough="auto"`` (the default) decides ``D`` from the data
     (:mod:`hdpbsid.selection.feedthrough`), judged like the order on the last third of
-    the record: ``D`` is estimated only when the best candidate with it is better by
-    more than three standard errors of the paired difference on the one-step prediction
-    error and two on the simulation error, no worse over the whole held-out simulation,
-    and in closed loop better than a controller reacting within the sample could make
-    it (such a controller makes ``D`` unidentifiable; the bound is derived in
-    :func:`hdpbsid.selection.feedthrough.judge_direct_term`).  Several records,
-    non-uniform samples, ``order_rule="svd"`` and the long-record path keep ``D = 0``.
+    the record: candidates with ``D`` are fitted only when the innovations of ``u`` and
+    ``y`` are linked at lag 0, and ``D`` is estimated only when the best candidate with
+    it is better by more than three standard errors of the paired difference on the
+    one-step prediction error and two on the simulation error, no worse over the whole
+    held-out simulation, in closed loop better than a controller reacting within the
+    sample could make it (such a controller makes ``D`` unidentifiable; the bound is
+    derived in :mod:`hdpbsid.selection.feedthrough`), and with a deterministic input
+    (which cannot tell ``D`` from dynamics) when it halves the simulation error.
+    Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
+    keep ``D = 0``.
     What was decided and why: ``options["feedthrough_rule"]``.  ``True``/``False``
     estimate ``D`` or keep it at zero, as given.
 

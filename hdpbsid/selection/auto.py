@@ -349,12 +349,12 @@ def _select(
     order = choose_order(ok)
     ft_rule = ""
     if judge_feedthrough:
-        extra, ft_rule, bound = _feedthrough_candidates(
+        extra, offer = _feedthrough_candidates(
             get_method, ok, ok[order.index], methods, orders, est, val, windows, opts,
             n_jobs, relax,
         )  # fmt: skip
         rows = rows + extra
-        ok, ft_rule = _choose_structure(ok, order.index, extra, val, windows, ft_rule, bound)
+        ok, ft_rule = _choose_structure(ok, order.index, extra, val, windows, offer)
         order = choose_order(ok)
     for r, z in zip(ok, order.stats, strict=True):
         r.z = z

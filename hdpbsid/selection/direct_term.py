@@ -14,6 +14,7 @@ from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, defau
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, FitRecord, _fit_one, _sweep
 from hdpbsid.selection.feedthrough import (
+    Offer,
     feedthrough_offered,
     honours_feedthrough,
     judge_direct_term,
@@ -37,10 +38,10 @@ def _feedthrough_candidates(
     opts: dict,
     n_jobs: int | None,
     order_given: bool = False,
-) -> tuple[list[CandidateRow], str, float]:
+) -> tuple[list[CandidateRow], Offer]:
     """The candidates with ``D`` for :func:`select_model` (``judge_feedthrough``), and
-    the reason they are or are not offered and the closed-loop bound on the simulation
-    gain (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
+    whether they are offered, why, and the terms of their judgement
+    (:func:`~hdpbsid.selection.feedthrough.feedthrough_offered`, tested with
     ``chosen``, the candidate without ``D`` the one-standard-error rule takes, on the
     estimation part): every built-in method of
     ``swept`` (:func:`~hdpbsid.selection.feedthrough.takes_feedthrough`) whose candidates
@@ -49,21 +50,24 @@ def _feedthrough_candidates(
     sweep.  Every order: without ``D`` a direct term can cost states (a fast mode
     imitates it) or remove them (a plant whose output is dominated by ``D u`` looks
     static), so the order without ``D`` bounds nothing."""
-    offered, why, bound = feedthrough_offered(chosen.model, est.arrays)
-    if not offered:
-        return [], why, bound
+    offer = feedthrough_offered(chosen.model, est.arrays)
+    if not offer.offered:
+        return [], offer
+    why = offer.why
     # every built-in method of the sweep but those whose candidates showed they estimate
     # D whatever they are asked; a method with no candidate without D (dt with no
     # continuous-time model at an order) may have one with D
     own = {r.method for r in ok if not honours_feedthrough(r.model)}
     methods = [m for m in swept if takes_feedthrough(m) and m not in own]
     if not methods:
-        return [], why + "; no method here takes feedthrough=, so no candidate with D", bound
+        why += "; no method here takes feedthrough=, so no candidate with D"
+        return [], offer._replace(why=why)
     d_opts = {m: {**opts.get(m, {}), "feedthrough": True} for m in methods}
     extra = _sweep(get_method, methods, orders, est, val, windows, d_opts, n_jobs, order_given)
     for r in extra:
         r.settings = {**r.settings, "feedthrough": True}
-    return extra, why + f"; candidates with D of {', '.join(methods)} at every order", bound
+    why += f"; candidates with D of {', '.join(methods)} at every order"
+    return extra, offer._replace(why=why)
 
 
 def _choose_structure(
@@ -72,8 +76,7 @@ def _choose_structure(
     extra: list[CandidateRow],
     val: tuple,
     windows: int,
-    why: str,
-    bound: float = 0.0,
+    offer: Offer,
 ) -> tuple[list[CandidateRow], str]:
     """The pool the selection goes on with: the candidates without ``D`` (``ok``, where
     the one-standard-error rule takes ``ok[k]``) or those with ``D`` (the scored rows of
@@ -85,8 +88,8 @@ def _choose_structure(
     by more than :data:`~hdpbsid.selection.feedthrough.FEEDTHROUGH_Z` and
     :data:`~hdpbsid.selection.feedthrough.SIMULATION_Z` standard errors, paired, not
     worse over the whole held-out simulation, and in closed loop
-    a larger simulation gain than ``bound``, the most a controller's instantaneous path
-    could give).
+    a larger simulation gain than ``offer.bound``, the most a controller's instantaneous
+    path could give; with a deterministic input a larger gain than ``offer.min_gain``).
 
     A method that estimates ``D`` whatever it is asked (Laguerre's ``D_d``) has no
     structure to choose: the structures are compared between the methods that take
@@ -94,6 +97,7 @@ def _choose_structure(
     ``D``"), and its candidates then compete in the pool of the structure chosen, as
     candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
     others with ``D``)."""
+    why = offer.why
     scored = [r for r in extra if r.criterion is not None and r.criterion.finite]
     if not scored:
         return ok, why + ("; no candidate with D could be scored" if extra else "")
@@ -108,7 +112,8 @@ def _choose_structure(
         (a.criterion, b.criterion),
         check_data(*val),
         windows,
-        bound=bound,
+        bound=offer.bound,
+        min_gain=offer.min_gain,
     )
     text = (
         f"{why}; without D {a.method} order {a.order}, with D {b.method} order "
@@ -214,22 +219,23 @@ def _judge_two(
     if _scores(fit) and not honours_feedthrough(fit.model):
         return False, own
     if _scores(fit):
-        offered, why, bound = feedthrough_offered(fit.model, est.arrays)
-        if not offered:
-            return False, f"auto: {why}; D = 0"
+        offer = feedthrough_offered(fit.model, est.arrays)
+        if not offer.offered:
+            return False, f"auto: {offer.why}; D = 0"
     fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
     if _scores(fit_d) and not honours_feedthrough(fit_d.model):
         return False, own
     if not _scores(fit):
         return _judge_without_rival(fit, fit_d, est)
     if not _scores(fit_d):
-        return False, f"auto: {why}; the candidate with D: {fit_d.status}; D = 0"
+        return False, f"auto: {offer.why}; the candidate with D: {fit_d.status}; D = 0"
     choice = judge_direct_term(
         fit.model, fit_d.model, (fit.criterion, fit_d.criterion), val, windows,
-        bound=bound,
+        bound=offer.bound, min_gain=offer.min_gain,
     )  # fmt: skip
     return choice.value, (
-        f"auto: {why}; at order {order} on the held-out part ({windows} windows): {choice.text()}"
+        f"auto: {offer.why}; at order {order} on the held-out part ({windows} windows): "
+        f"{choice.text()}"
     )
 
 
@@ -246,9 +252,10 @@ def _judge_without_rival(
     and that candidate scores."""
     if not _scores(fit_d):
         return False, f"auto: not judged (no candidate: {fit.status}); D = 0"
-    offered, why, _ = feedthrough_offered(fit_d.model, est.arrays)
-    if not offered:
-        return False, f"auto: {why}; D = 0"
+    offer = feedthrough_offered(fit_d.model, est.arrays)
+    if not offer.offered:
+        return False, f"auto: {offer.why}; D = 0"
     return True, (
-        f"auto: {why}; the candidate without D: {fit.status}; the one with D scores: D estimated"
+        f"auto: {offer.why}; the candidate without D: {fit.status}; the one with D scores: "
+        "D estimated"
     )

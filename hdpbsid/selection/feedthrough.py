@@ -1,5 +1,5 @@
-"""``feedthrough="auto"`` of :func:`hdpbsid.identify`: whether the model has a direct term
-``D``, decided from the data.
+"""``feedthrough="auto"`` (the default of :func:`hdpbsid.identify`): whether the model has
+a direct term ``D``, decided from the data.
 
 The direct term is a structural choice like the order, and it is judged on the same
 held-out part (:mod:`hdpbsid.selection.auto`), in two steps.
@@ -44,6 +44,31 @@ a direct term in open loop as well.  What the data do tell:
   ``feedthrough=True`` is the user's statement that the loop has at least one sample
   of delay.
 
+What tells ``D`` at all is the innovation ``w_k`` of ``u_k`` given past ``u`` and ``y``:
+in the one-step predictor ``yhat_k = f(past) + D u_k`` the part of ``u_k`` that the past
+predicts makes ``D u_k`` a function of the past, which dynamics can give as well.  Two
+cases follow (:func:`feedthrough_offered`):
+
+* ``w`` is a part of ``u``'s variance (:func:`input_innovation`): ``D = 0`` predicts the
+  innovation ``e_k`` of ``y_k`` no worse than any ``D`` unless ``e_k`` and ``w_k`` are
+  linked at lag 0 -- by a direct term or by a controller reacting within the sample.
+  Bartlett's test of their independence (:func:`lag0_link`, the score test of
+  ``D = 0`` on model-free innovations) screens: without a link no candidate with ``D``
+  is fitted (it could only win by chance, and it costs a sweep);
+* ``u`` is deterministic to working precision (a sum of sinusoids, a sweep, or a loop
+  whose reference is one; the share below
+  :attr:`FeedthroughPolicy.innovation_floor`): ``D`` is identified only through the
+  model structure -- a ``D`` and a fast mode or a controller's state are alternatives
+  of one model class -- and the one-step criterion has no power of its own on it.  The
+  candidates are offered (a plant with a large direct term is still told: its models
+  without ``D`` fail), and besides the tests above ``D`` must lower the held-out
+  simulation error by more than half -- the structure without it *much worse*, by the
+  ratio (:attr:`~hdpbsid.selection.policy.SelectionPolicy.much_worse_ratio`, 2) that
+  the held-out selection resolves whatever the spread of its windows.  A paired test
+  of a few standard errors is no evidence here: it measures how two structures fit the
+  one input the record has, not a parameter the input identifies, and a model told
+  from a sweep is used on other inputs.
+
 How ``D`` is chosen (:func:`judge_direct_term`, :class:`FeedthroughChoice`).  The best
 candidates with and without ``D`` (each chosen among its own structure's orders and
 methods by the one-standard-error rule) are compared on the held-out part by the
@@ -70,7 +95,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -81,6 +106,7 @@ from hdpbsid.models.criteria import (
     windowed_simulation_error,
 )
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.selection.policy import MUCH_WORSE_RATIO
 
 if TYPE_CHECKING:  # the candidates import this rule; the type is for annotations only
     from hdpbsid.selection.candidates import CandidateRow
@@ -99,6 +125,9 @@ __all__ = [
     "check_feedthrough",
     "honours_feedthrough",
     "feedthrough_offered",
+    "Offer",
+    "input_innovation",
+    "lag0_link",
     "structure_key",
     "with_d",
     "arx_residuals",
@@ -131,6 +160,12 @@ class FeedthroughPolicy:
         The margin on the windowed one-step prediction error.
     z_simulation : float
         The margin on the windowed simulation error.
+    innovation_floor : float
+        The share of the input's variance left unpredicted by its own and the output's
+        past at or below which the input is deterministic (:func:`input_innovation`):
+        ``D`` must then halve the simulation error (module docstring).
+    link_level : float
+        The false-alarm probability of the lag-0 screen (:func:`lag0_link`).
 
     Examples
     --------
@@ -142,6 +177,14 @@ class FeedthroughPolicy:
     z_prediction: float = 3.0
     #: the criterion that confirms: the conventional two standard errors (about 2.3 %)
     z_simulation: float = 2.0
+    #: an input whose innovation share is below ``sqrt(eps)`` (a residual RMS under
+    #: 1.2e-4 of the input's) is deterministic to working precision: rounding leaves
+    #: shares near ``eps``, an input with a random component at its sample rate keeps
+    #: one of order ``h_0^2 / sum h_j^2`` of its shaping filter, far above
+    innovation_floor: float = float(np.sqrt(np.finfo(float).eps))
+    #: the lag-0 screen's false-alarm probability: a false alarm costs the fits with
+    #: ``D`` and nothing else (the judgement decides); one in a hundred
+    link_level: float = 0.01
 
 
 #: the policy ``feedthrough="auto"`` applies
@@ -166,6 +209,8 @@ class FeedthroughReason(str, Enum):
     #: closed loop: the simulation improved by no more than a controller's
     #: instantaneous path can give (module docstring)
     WITHIN_CONTROLLER_BOUND = "no larger than a controller reacting within the sample could give"
+    #: deterministic input: the structure with ``D`` did not halve the simulation error
+    NOT_IDENTIFIED = "deterministic input, and the simulation error not halved by D"
     #: not offered (no input, several records, not testable)
     NOT_OFFERED = "not offered"
     #: one of the two candidates could not be fitted or scored
@@ -192,6 +237,8 @@ class FeedthroughChoice:
     gain, bound : float or None
         The relative improvement of the windowed simulation error by ``D``, and the
         largest a controller's instantaneous path could give (0 in open loop).
+    min_gain : float
+        The improvement asked for whatever the loop (a deterministic input), else 0.
     """
 
     value: bool
@@ -201,6 +248,7 @@ class FeedthroughChoice:
     whole_simulation: tuple[float, float] | None = None
     gain: float | None = None
     bound: float | None = None
+    min_gain: float = 0.0
 
     def text(self) -> str:
         """One line for the report: the decision, the reason and the statistics.
@@ -221,6 +269,11 @@ class FeedthroughChoice:
             out += (
                 f"; simulation error {100 * self.gain:.3g} % lower with D, needs more than "
                 f"{100 * self.bound:.3g} % in closed loop"
+            )
+        if self.gain is not None and self.min_gain:
+            out += (
+                f"; simulation error {100 * self.gain:.3g} % lower with D, needs more than "
+                f"{100 * self.min_gain:.3g} % with a deterministic input"
             )
         if self.whole_simulation is not None:
             out += (
@@ -289,6 +342,7 @@ def judge_direct_term(
     z: float = FEEDTHROUGH_Z,
     bound: float = 0.0,
     z_simulation: float = SIMULATION_Z,
+    min_gain: float = 0.0,
 ) -> FeedthroughChoice:
     """Whether the candidate ``with_`` (``D`` estimated) replaces ``without`` (``D = 0``):
     better on the held-out record ``val = (t, u, y)`` by more than ``z`` standard errors
@@ -323,6 +377,10 @@ def judge_direct_term(
         0 in open loop.
     z_simulation : float
         The margin on the windowed simulation error (:data:`SIMULATION_Z`).
+    min_gain : float
+        The share by which ``D`` must lower the windowed simulation error whatever the
+        loop: with a deterministic input, ``1 - 1 / much_worse_ratio``
+        (:func:`feedthrough_offered`); else 0.
 
     Returns
     -------
@@ -353,10 +411,14 @@ def judge_direct_term(
         reason = FeedthroughReason.LOST_WHOLE_SIMULATION
     elif not gain > bound:
         reason = FeedthroughReason.WITHIN_CONTROLLER_BOUND
+    elif not gain > min_gain:
+        reason = FeedthroughReason.NOT_IDENTIFIED
     else:
         reason = FeedthroughReason.WON
     won = reason is FeedthroughReason.WON
-    return FeedthroughChoice(won, reason, z_pred, z_sim, wh, float(gain), float(bound))
+    return FeedthroughChoice(
+        won, reason, z_pred, z_sim, wh, float(gain), float(bound), float(min_gain)
+    )
 
 
 def controller_share(u: Any, y: Any, lags: int) -> float:
@@ -540,17 +602,130 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
     return out
 
 
-def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, float]:
+class Offer(NamedTuple):
+    """Whether candidates with ``D`` are offered (:func:`feedthrough_offered`), why, and
+    the terms of their judgement (:func:`judge_direct_term`).
+
+    Attributes
+    ----------
+    offered : bool
+        Whether candidates with ``D`` are fitted.
+    why : str
+        The reason, for ``options["feedthrough_rule"]``.
+    bound : float
+        The share by which ``D`` must lower the simulation error in closed loop (the
+        controller bound), else 0.
+    min_gain : float
+        The share by which ``D`` must lower it with a deterministic input, else 0.
+    """
+
+    #: whether candidates with ``D`` are fitted
+    offered: bool
+    #: the reason, for ``options["feedthrough_rule"]``
+    why: str
+    #: the share by which ``D`` must lower the simulation error (closed loop), else 0
+    bound: float = 0.0
+    #: the share by which ``D`` must lower the simulation error when the input is
+    #: deterministic (:func:`input_innovation`), else 0
+    min_gain: float = 0.0
+
+
+def input_innovation(w: Any, u: Any) -> float:
+    """The share of the input's variance that no strictly causal predictor explains:
+    ``sum(w_j^2) / sum((u_j - mean)^2)`` for the residuals ``w`` of the least-squares
+    VARX of ``u_k`` on past ``u`` and ``y`` (:func:`arx_residuals`), the largest over
+    the input channels.  ``D`` is identified from the data through this part of ``u_k``
+    alone: what the past predicts of ``u_k``, ``D`` turns into a function of the past
+    that the model's dynamics can represent as well (the one-step predictor
+    ``yhat_k = f(past) + D u_k``).  Near 0 for a deterministic input (a sum of
+    sinusoids, a sweep; Wold's decomposition: Brockwell & Davis, *Time Series: Theory
+    and Methods*, 2nd ed., 1991, sec. 5.7) and for a loop whose reference is one.
+
+    Parameters
+    ----------
+    w : array_like
+        The input's residuals, ``(N, m)`` (the rows after the lags).
+    u : array_like
+        The inputs on the same rows, ``(N, m)``.
+
+    Returns
+    -------
+    float
+        The share, in ``[0, 1]`` (1 for a constant input: nothing to predict).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> u = np.random.default_rng(0).standard_normal((500, 1))
+    >>> round(input_innovation(u, u), 1)
+    1.0
+    """
+    w, u = np.asarray(w, dtype=float), np.asarray(u, dtype=float)
+    shares = [1.0]
+    for j in range(u.shape[1]):
+        den = float(np.sum((u[:, j] - np.mean(u[:, j])) ** 2))
+        shares.append(min(float(np.sum(w[:, j] ** 2)) / den, 1.0) if den > 0 else 1.0)
+    return max(shares[1:], default=1.0)
+
+
+def lag0_link(e: Any, w: Any) -> tuple[float, float]:
+    """Bartlett's test of independence of the innovations ``e`` of ``y`` and ``w`` of
+    ``u`` at lag 0: the statistic ``-(N - 1 - (l + m + 1) / 2) sum log(1 - r_i^2)`` of
+    their canonical correlations ``r_i``, chi-square with ``l m`` degrees of freedom
+    when they are independent (Anderson, *An Introduction to Multivariate Statistical
+    Analysis*, 3rd ed., 2003, sec. 12.4), and its ``1 - link_level`` quantile.  A
+    direct term (``e_k = D w_k + v_k``) and a controller reacting within the sample
+    (``w_k = -F e_k + ...``) both link them; without either, no candidate with ``D`` can
+    predict better than the noise lets it by chance.  A score test of ``D = 0``
+    (Rao's): ``e`` are the one-step errors of the model without ``D``, ``w`` the part of
+    ``D``'s regressor that the past does not already give.
+
+    Parameters
+    ----------
+    e : array_like
+        The output's innovations, ``(N, l)``.
+    w : array_like
+        The input's innovations on the same rows, ``(N, m)``.
+
+    Returns
+    -------
+    tuple of (float, float)
+        The statistic and the threshold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> w = rng.standard_normal((2000, 1))
+    >>> s, thr = lag0_link(rng.standard_normal((2000, 1)), w)
+    >>> bool(s < thr), bool(lag0_link(0.2 * w + rng.standard_normal((2000, 1)), w)[0] > thr)
+    (True, True)
+    """
+    from scipy.stats import chi2  # here: scipy.stats is slow to import
+
+    e = np.asarray(e, dtype=float)
+    w = np.asarray(w, dtype=float)
+    n, l, m = e.shape[0], e.shape[1], w.shape[1]
+    qe = np.linalg.qr(e - e.mean(axis=0))[0]
+    qw = np.linalg.qr(w - w.mean(axis=0))[0]
+    r = np.clip(np.linalg.svd(qe.T @ qw, compute_uv=False), 0.0, 1.0 - np.finfo(float).eps)
+    stat = -(n - 1 - (l + m + 1) / 2) * float(np.sum(np.log1p(-(r**2))))
+    return stat, float(chi2.ppf(1.0 - FEEDTHROUGH_POLICY.link_level, l * m))
+
+
+def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> Offer:
     """Whether candidates with ``D`` are offered for the record ``rec = (t, u, y)``
-    (module docstring), the reason, and the share by which ``D`` must lower the held-out
-    simulation error (:func:`judge_direct_term`'s ``bound``).  Offered for a uniformly
-    sampled record with an input.  When the feedback test finds no loop the share is
-    0; when it finds one, it is :func:`controller_share`, the most a controller
-    reacting within the sample could give.  The feedback test correlates the
-    residuals of a strictly causal least-squares ARX predictor (:func:`arx_residuals`,
-    lags up to :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per
-    regressor) with the prewhitened input.  ``model``: a candidate of the record (its
-    input hold).
+    (module docstring), the reason, the share by which ``D`` must lower the held-out
+    simulation error (:func:`judge_direct_term`'s ``bound``) and the margin on it.
+    Offered for a uniformly sampled record with an input whose innovations link to the
+    output's at lag 0 (:func:`lag0_link`), or whose innovation is too small to tell
+    (:func:`input_innovation`; then the simulation margin is the deciding one,
+    :data:`FEEDTHROUGH_Z`).  When the feedback test finds no loop the share is 0; when
+    it finds one, it is :func:`controller_share`, the most a controller reacting
+    within the sample could give.  The feedback test correlates the residuals of a
+    strictly causal least-squares ARX predictor (:func:`arx_residuals`, lags up to
+    :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per regressor)
+    with the prewhitened input.  ``model``: a candidate of the record (its input hold).
 
     Parameters
     ----------
@@ -561,39 +736,63 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> tuple[bool, str, 
 
     Returns
     -------
-    tuple of (bool, str, float)
-        Whether ``D`` is offered, why, and the share ``D`` must lower the simulation error
-        by.
+    Offer
+        Whether ``D`` is offered, why, the share ``D`` must lower the simulation error
+        by, and the margin on the simulation error.
     """
     from hdpbsid.selection.feedback import AR_ORDER, feedback_statistics
 
     t, u, y = rec
     if isinstance(t, list | tuple):
-        return False, "not judged: several estimation records; D = 0", 0.0
+        return Offer(False, "not judged: several estimation records; D = 0")
     if model.m == 0:
-        return False, "no input, no direct term", 0.0
+        return Offer(False, "no input, no direct term")
     if not is_uniform(np.asarray(t, dtype=float)):
-        return False, (
+        return Offer(False, (
             "not judged: the feedback test that tells whether D is identifiable needs "
             "uniformly sampled times; D = 0"
-        ), 0.0  # fmt: skip
+        ))  # fmt: skip
     u = np.asarray(u, dtype=float).reshape(len(t), -1)
     y = np.asarray(y, dtype=float).reshape(len(t), -1)
     try:
-        with warnings.catch_warnings(), np.errstate(over="ignore", invalid="ignore"):
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")
             lags = max(min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1]))), 1)
             errors = arx_residuals(u, y, lags)
             st = feedback_statistics(model, t, u, y, errors=errors)
-            share = controller_share(u, y, lags) if st["feedback"] else 0.0
+            w = arx_residuals(y, u, lags)[lags:]
+            share = input_innovation(w, u[lags:])
+            link = lag0_link(errors[lags:], w)
+            bound = controller_share(u, y, lags) if st["feedback"] else 0.0
     except (ValueError, np.linalg.LinAlgError):
-        return False, "not judged: the feedback test cannot be computed", 0.0
-    test = f"feedback test S = {st['statistic']:.4g} vs {st['threshold']:.4g}"
+        return Offer(False, "not judged: the feedback test cannot be computed")
+    return _offer(st, share, link, bound)
+
+
+def _offer(st: dict, share: float, link: tuple[float, float], bound: float) -> Offer:
+    """:func:`feedthrough_offered` from its statistics: the feedback test ``st``, the
+    input's innovation ``share``, the lag-0 ``link`` (statistic, threshold) and the
+    closed-loop ``bound``."""
+    loop = "closed loop" if st["feedback"] else "open loop"
+    test = f"{loop} (feedback test S = {st['statistic']:.4g} vs {st['threshold']:.4g})"
+    min_gain = 0.0
+    if share <= FEEDTHROUGH_POLICY.innovation_floor:
+        min_gain = 1.0 - 1.0 / MUCH_WORSE_RATIO
+        test += (
+            f"; the input is deterministic (its innovation is {share:.2g} of its variance): "
+            f"D is told only by the model structure, and must lower the simulation error "
+            f"by more than {100 * min_gain:.3g} %"
+        )
+    elif not link[0] > link[1]:
+        return Offer(False, (
+            f"not offered: {test}; no lag-0 link between the innovations of u and y "
+            f"(chi2 = {link[0]:.3g} vs {link[1]:.3g}); D = 0"
+        ))  # fmt: skip
     if not st["feedback"]:
-        return True, f"offered: open loop ({test})", 0.0
-    bound = float(share) if np.isfinite(share) else 1.0
-    return True, (
-        f"offered: closed loop ({test}); a controller reacting within the sample could "
+        return Offer(True, f"offered: {test}", 0.0, min_gain)
+    bound = float(bound) if np.isfinite(bound) else 1.0
+    return Offer(True, (
+        f"offered: {test}; a controller reacting within the sample could "
         f"let D explain at most {bound:.2f} of the simulation error (the input's "
         f"innovation given past u and y over that given past u)"
-    ), bound  # fmt: skip
+    ), bound, min_gain)  # fmt: skip

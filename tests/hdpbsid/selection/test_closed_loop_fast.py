@@ -108,14 +108,14 @@ def test_no_start_offered_in_open_loop_or_without_the_statistics(record) -> None
     np.testing.assert_array_equal(offered.A, model.A)
 
 
-def test_auto_feedthrough_estimates_the_direct_term_and_the_fast_modes() -> None:
-    """``feedthrough="auto"`` and the order given, on 30 s of the loop: the acceleration
+def test_the_defaults_estimate_the_direct_term_and_the_fast_modes() -> None:
+    """With every default and the order given, on 30 s of the loop: the acceleration
     output's direct term is found (closed loop, the observer's one sample of delay), and
     with it the fast modes; without it the first pass cannot represent ``D u_k`` and the
     fast poles come out tens of per cent off.  (On the 12 s record above the ``dt``
     start's refinement runs out of its budget, with ``D`` given as well.)"""
     t, u, y = _loop_record(0, 30.0, 20.0)
-    model = identify(t, u, y, 4, feedthrough="auto")
+    model = identify(t, u, y, 4)
     rule = model.options["feedthrough_rule"]
     assert model.options["feedthrough"] is True, rule
     assert "closed loop" in rule

@@ -81,11 +81,14 @@ def test_auto_estimates_a_direct_term_that_is_there(seed):
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_auto_keeps_d_zero_when_there_is_none(seed):
-    """Open loop, no direct term: the candidates with D are offered and lose (no better
-    by two standard errors on both held-out criteria), so D stays exactly zero."""
+    """Open loop, no direct term, a zero-order-held input: y_k depends on u up to
+    u_{k-1} only, so the innovations of u and y are not linked at lag 0 and no candidate
+    with D is fitted (the screen); D stays exactly zero."""
     t, u, y = _open_loop(seed, 0.0)
     model = _quiet(hdpbsid.identify, t, u, y, feedthrough="auto")
-    assert "offered: open loop" in model.options["feedthrough_rule"]
+    assert "not offered: open loop" in model.options["feedthrough_rule"]
+    assert "no lag-0 link" in model.options["feedthrough_rule"]
+    assert not any(r["feedthrough"] for r in model.options["selection"])
     assert "returned: D = 0" in model.options["feedthrough_rule"]
     assert np.all(model.D == 0.0)
 
@@ -101,11 +104,14 @@ def test_order_and_method_given_decide_by_two_candidates():
     assert abs(model.D[0, 0] - D_TRUE) < 0.05  # as in the test above
 
 
-def test_default_is_not_judged():
-    """Without ``feedthrough``, D = 0 and nothing is judged (the judgement is opt-in)."""
+def test_default_judges_the_direct_term():
+    """Without ``feedthrough`` the direct term is judged (the default is "auto"); on a
+    record without one, D stays exactly zero and the rule says why."""
     t, u, y = _open_loop(0, 0.0)
     model = _quiet(hdpbsid.identify, t, u, y, order=2, method="dt")
     assert np.all(model.D == 0.0)
+    assert "D = 0" in model.options["feedthrough_rule"]
+    model = _quiet(hdpbsid.identify, t, u, y, order=2, method="dt", feedthrough=False)
     assert "feedthrough_rule" not in model.options
 
 
@@ -171,8 +177,8 @@ def test_closed_loop_with_an_instantaneous_controller_keeps_d_zero():
     stays exactly 0, with the order given or chosen."""
     t, u, y = _closed_loop(0)
     for kwargs in (
-        {"order": 2, "method": "legendre", "feedthrough": "auto"},
-        {"max_order": 3, "methods": ["dt", "legendre"], "feedthrough": "auto"},
+        {"order": 2, "method": "legendre"},
+        {"max_order": 3, "methods": ["dt", "legendre"]},
     ):
         model = _quiet(hdpbsid.identify, t, u, y, **kwargs)
         rule = model.options["feedthrough_rule"]
@@ -183,14 +189,14 @@ def test_closed_loop_with_an_instantaneous_controller_keeps_d_zero():
 @pytest.mark.parametrize("seed", [0, 1])
 def test_closed_loop_with_a_sample_of_delay_estimates_the_direct_term(seed):
     """A loop with one sample of delay (u_k from y_{k-1}) and a direct term of twice the
-    plant's static gain: D is identifiable and estimated near its true value.  The loop
-    is strong against its excitation (white ``r`` at 10 dB, gain 1.8; spectral radius
-    0.997), so the noise fed back is much of the input's innovation and the controller
-    bound leaves room (about 0.7 of the simulation error against the 0.9 that D
-    explains).  In a weak loop (the steps of the tests above) the bound is near 1: no
-    data tell D from a controller's path there."""
+    plant's static gain: D is identifiable and estimated near its true value, with the
+    defaults.  The loop is strong against its excitation (white ``r`` at 10 dB, gain
+    1.8; spectral radius 0.997), so the noise fed back is much of the input's
+    innovation and the controller bound leaves room (about 0.7 of the simulation error
+    against the 0.9 that D explains).  In a weak loop (the steps of the tests above)
+    the bound is near 1: no data tell D from a controller's path there."""
     t, u, y = _closed_loop(seed, d=D_TRUE, delay=1, kp=1.8, ki=0.5, snr_db=10.0, hold=0.02)
-    model = _quiet(hdpbsid.identify, t, u, y, feedthrough="auto")
+    model = _quiet(hdpbsid.identify, t, u, y)
     rule = model.options["feedthrough_rule"]
     assert "offered: closed loop" in rule and "D estimated" in rule
     assert model.options["feedthrough"] is True
@@ -201,7 +207,7 @@ def test_closed_loop_with_a_sample_of_delay_estimates_the_direct_term(seed):
 
 def test_closed_loop_with_a_sample_of_delay_and_no_direct_term_keeps_d_zero():
     t, u, y = _closed_loop(0, delay=1)
-    model = _quiet(hdpbsid.identify, t, u, y, feedthrough="auto")
+    model = _quiet(hdpbsid.identify, t, u, y)
     assert "closed loop" in model.options["feedthrough_rule"]
     assert np.all(model.D == 0.0)
 

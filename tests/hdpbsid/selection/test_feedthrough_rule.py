@@ -12,7 +12,9 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.feedthrough import (
     FeedthroughReason,
     controller_share,
+    input_innovation,
     judge_direct_term,
+    lag0_link,
     paired_z,
 )
 
@@ -132,3 +134,53 @@ def test_judge_direct_term_needs_more_than_the_bound():
     assert not capped.value
     assert capped.reason is FeedthroughReason.WITHIN_CONTROLLER_BOUND
     assert "D = 0" in capped.text() and "closed loop" in capped.text()
+    # a deterministic input asks for a larger gain whatever the loop
+    weak = judge_direct_term(plain, direct, scores, val, 8, min_gain=won.gain + 0.01)
+    assert not weak.value and weak.reason is FeedthroughReason.NOT_IDENTIFIED
+    assert "deterministic input" in weak.text()
+
+
+def test_input_innovation_tells_a_deterministic_input():
+    """A sum of sinusoids is predicted exactly by its own past (an AR recursion of twice
+    the number of tones), so nothing of it is left for D; white noise is all
+    innovation; filtered noise keeps a share far above the floor."""
+    from scipy.signal import lfilter
+
+    from hdpbsid.selection.feedthrough import FEEDTHROUGH_POLICY, arx_residuals
+
+    ns, lags = 4000, 20
+    k = np.arange(ns)
+    rng = np.random.default_rng(3)
+    y = rng.standard_normal((ns, 1))
+    sines = sum(np.sin(0.05 * j * k + j) for j in range(1, 6))[:, None]
+    white = rng.standard_normal((ns, 1))
+    smooth = lfilter([1.0], [1.0, -1.8, 0.81], white[:, 0])[:, None]
+
+    def share(u):
+        return input_innovation(arx_residuals(y, u, lags)[lags:], u[lags:])
+
+    # rounding leaves ~1e-20 of a deterministic input; the floor is sqrt(eps) ~ 1.5e-8
+    assert share(sines) < FEEDTHROUGH_POLICY.innovation_floor
+    # white noise: only the 40 regressors' overfit (~1 %) is predicted
+    assert share(white) == pytest.approx(1.0, abs=0.03)
+    # AR(2) noise: the innovation is var(white) / var(smooth), about 1e-2 here
+    assert share(smooth) > 1e3 * FEEDTHROUGH_POLICY.innovation_floor
+
+
+def test_lag0_link_is_bartletts_test():
+    """Independent white innovations exceed the threshold about as often as its level
+    says; a direct term's link (e = d w + v) is found."""
+
+    rng = np.random.default_rng(4)
+    hits = 0
+    for _ in range(400):
+        e, w = rng.standard_normal((500, 2)), rng.standard_normal((500, 1))
+        stat, thr = lag0_link(e, w)
+        hits += stat > thr
+    # level 1 %: 4 of 400 expected; the binomial spread is 2, so 12 is four of them
+    assert hits <= 12
+    w = rng.standard_normal((2000, 1))
+    e = 0.2 * w + rng.standard_normal((2000, 1))
+    # d = 0.2: the correlation 0.2 gives N r^2 = 80 against a threshold of 6.6
+    stat, thr = lag0_link(e, w)
+    assert stat > 5 * thr
