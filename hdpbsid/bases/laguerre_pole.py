@@ -109,7 +109,19 @@ class PoleRule(str, enum.Enum):
 
 @dataclass(frozen=True)
 class PolePolicy:
-    """The default pole's one setting (:func:`decide_pole` with ``a=None``)."""
+    """The default pole's one setting (:func:`decide_pole` with ``a=None``).
+
+    Attributes
+    ----------
+    max_amplification : float
+        The largest map-back amplification (:func:`map_back_amplification`) of the first
+        pass's modes at the bandwidth pole that keeps that pole without a second pass.
+
+    Examples
+    --------
+    >>> POLE_POLICY.max_amplification
+    10.0
+    """
 
     #: the largest map-back amplification ``max_i g(a0, lambda_i)`` of the first pass's
     #: modes at which the bandwidth pole is kept without a second pass: ``g`` is the

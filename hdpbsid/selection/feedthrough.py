@@ -403,18 +403,16 @@ def judge_direct_term(
     z_pred = paired_z(*preds) if preds and all(p.finite for p in preds) else paired_z(*scores)
     wh = (float(whole[0].total), float(whole[1].total))
     gain = 1.0 - sims[1].total / sims[0].total if sims[0].total > 0 else 0.0
-    if not z_pred > z:
-        reason = FeedthroughReason.LOST_PREDICTION
-    elif not z_sim > z_simulation:
-        reason = FeedthroughReason.LOST_SIMULATION
-    elif not (whole[1].finite and (not whole[0].finite or wh[1] <= wh[0])):
-        reason = FeedthroughReason.LOST_WHOLE_SIMULATION
-    elif not gain > bound:
-        reason = FeedthroughReason.WITHIN_CONTROLLER_BOUND
-    elif not gain > min_gain:
-        reason = FeedthroughReason.NOT_IDENTIFIED
-    else:
-        reason = FeedthroughReason.WON
+    whole_kept = whole[1].finite and (not whole[0].finite or wh[1] <= wh[0])
+    # the tests in the order the module docstring gives them; the first failed one says why
+    tests = (
+        (z_pred > z, FeedthroughReason.LOST_PREDICTION),
+        (z_sim > z_simulation, FeedthroughReason.LOST_SIMULATION),
+        (whole_kept, FeedthroughReason.LOST_WHOLE_SIMULATION),
+        (gain > bound, FeedthroughReason.WITHIN_CONTROLLER_BOUND),
+        (gain > min_gain, FeedthroughReason.NOT_IDENTIFIED),
+    )
+    reason = next((why for passed, why in tests if not passed), FeedthroughReason.WON)
     won = reason is FeedthroughReason.WON
     return FeedthroughChoice(
         won, reason, z_pred, z_sim, wh, float(gain), float(bound), float(min_gain)
