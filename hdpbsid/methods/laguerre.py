@@ -108,6 +108,12 @@ class LaguerreSupport:
 
 #: Laguerre functions: largest node ``x_N ~ 4 N``; record fills 90 % of ``[0, x_N]``
 LAGUERRE_SUPPORT = LaguerreSupport().support
+
+#: the settings the candidates of an order/method sweep are fitted with
+#: (:func:`hdpbsid.selection.candidates.sweep_settings`): the bandwidth pole, the first
+#: pass of the default.  The method judges no setting on held-out data, so the chosen
+#: candidate's refit keeps this pole too: the predictor the held-out part judged.
+SWEEP_SETTINGS: dict[str, Any] = {"a": "bandwidth"}
 N_MIN, N_MAX = 100, 4000  # the upper limit bounds the cost (clip_basis_size warns)
 
 
@@ -671,6 +677,7 @@ def fit_laguerre(
     return model
 
 
+identify_laguerre.sweep_settings = SWEEP_SETTINGS  # type: ignore[attr-defined]
 identify_laguerre.fit = fit_laguerre  # type: ignore[attr-defined]
 
 

@@ -258,16 +258,20 @@ def accepts_held_out(func: Any) -> bool:
 
 def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
     """The settings the candidates of method ``func`` are fitted with in a sweep: the
-    ``given`` ones (the user's), and for a method that judges a setting of its own on
-    held-out data (:func:`accepts_held_out`), the first-pass values it declares in its
+    ``given`` ones (the user's), and the first-pass values the method declares in its
     ``sweep_settings`` attribute for every such setting the user did not give.
 
-    Why: such a judgement fits the candidate again at the setting the data ask for
-    (HD-PBSID: one to two more fits at an operator scale of their own per order, which
-    no other order shares), and only the chosen candidate's setting reaches the result;
-    it is judged for that candidate by :func:`settle_candidate`: a setting judged for a
-    candidate that is not chosen changes nothing of the result, so judging it only for
-    the chosen one costs nothing in accuracy (``bench/regression.py`` compares both).
+    Why: a setting a method would ask the data for a second time fits the candidate
+    again (HD-PBSID's operator scale: one to two more fits per order, each at a scale of
+    its own, which no other order shares; the Laguerre pole from the modes), and only
+    the chosen candidate's setting reaches the result.  A method that judges such a
+    setting on held-out data (:func:`accepts_held_out`) has it judged for the chosen
+    candidate by :func:`settle_candidate`: a setting judged for a candidate that is not
+    chosen changes nothing of the result, so judging it only for the chosen one costs
+    nothing in accuracy (``bench/regression.py`` compares both).  A method that cannot
+    judge it on held-out data keeps the first pass, the predictor the held-out part
+    judged, in its refit as well: a second pass there would be an in-sample screen the
+    order and method choice never saw.
 
     Parameters
     ----------
@@ -281,7 +285,7 @@ def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
     dict
         The settings of its candidates in the sweep.
     """
-    first = getattr(func, "sweep_settings", None) if accepts_held_out(func) else None
+    first = getattr(func, "sweep_settings", None)
     return {**(first or {}), **given}
 
 
@@ -362,6 +366,8 @@ def settle_candidate(
     if row.settled or first == given:
         return row
     row.settled = True
+    if not accepts_held_out(func):
+        return _keep_first_pass(row, first, given, "the method judges none on held-out data")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -372,19 +378,24 @@ def settle_candidate(
     except (ValueError, np.linalg.LinAlgError):
         err = None
     if err is None or not err.finite:
-        # the first-pass fit stands; its refit on the whole record gets its settings
-        carried = {k: v for k, v in first.items() if k not in given}
-        row.model.options["refit_settings"] = carried
-        row.model.report = row.model.report.but(
-            refit_settings=Choice(
-                carried, "the first pass's (its fit judged on held-out data failed)"
-            )
-        )
-        return row
+        return _keep_first_pass(row, first, given, "its fit judged on held-out data failed")
     row.first_pass = FirstPass(row.model, row.criterion)
     if row.p_rule is not None:
         _mark_window_rule(model, row.p_rule)
     row.model, row.criterion, row.predictor = model, err, _predictor_name(use_k)
+    return row
+
+
+def _keep_first_pass(
+    row: CandidateRow, first: dict[str, Any], given: dict[str, Any], why: str
+) -> CandidateRow:
+    """The candidate ``row`` as the sweep fitted it: its refit on the whole record gets
+    the sweep's settings (``first``) but the user's (``given``), for the reason ``why``."""
+    carried = {k: v for k, v in first.items() if k not in given}
+    row.model.options["refit_settings"] = carried
+    row.model.report = row.model.report.but(
+        refit_settings=Choice(carried, f"the first pass's ({why})")
+    )
     return row
 
 

@@ -466,8 +466,27 @@ def test_sweep_settings_are_the_first_pass_of_a_held_out_judgement_unless_given(
     assert sweep_settings(identify_hermite, {}) == SWEEP_SETTINGS == {"alpha": "basis"}
     # a setting the user gave is never replaced
     assert sweep_settings(identify_hermite, {"alpha": 3.0, "N": 200}) == {"alpha": 3.0, "N": 200}
-    # a method without a held-out judgement is fitted as given
+    # a method that declares no first pass is fitted as given
     assert sweep_settings(identify_dt, {"p": 5}) == {"p": 5}
+    # the Laguerre pole: its first pass, the bandwidth pole, unless given
+    from hdpbsid.methods.laguerre import identify_laguerre
+
+    assert sweep_settings(identify_laguerre, {}) == {"a": "bandwidth"}
+    assert sweep_settings(identify_laguerre, {"a": 2.0}) == {"a": 2.0}
+
+
+def test_auto_keeps_the_laguerre_candidates_first_pass_in_its_refit():
+    """Laguerre judges no setting on held-out data: the chosen candidate's refit on the
+    whole record takes the sweep's bandwidth pole, the predictor the held-out part
+    judged, and says so; nothing is fitted a second time for it."""
+    t, u, y, _ = _record(2)
+    kw = {"method": "auto", "methods": ("laguerre",), "max_order": 3, "refine": None}
+    m = hdpbsid.identify(t, u, y, **kw)
+    assert m.options["method"] == "laguerre"
+    assert m.options["refit_settings"] == {"a": "bandwidth"}
+    assert "judges none on held-out data" in m.options["refit_settings_rule"]
+    assert m.options["a_rule"] == "half the data bandwidth"
+    assert all(r["first_pass_error"] is None for r in m.options["selection"])
 
 
 def test_auto_judges_the_operator_scale_of_the_candidate_it_chooses_only():
