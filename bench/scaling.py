@@ -451,11 +451,15 @@ def main() -> None:
         text=True,
     ).stdout.strip()
     print(f"# code {head or 'unknown'}", flush=True)  # the log's, not the table's
-    from importlib.metadata import version
+    from importlib.metadata import PackageNotFoundError, version
 
     day = time.strftime("%Y-%m-%d", time.gmtime())
+    try:
+        package = f"slbasis-hdpbsid {version('slbasis-hdpbsid')}"
+    except PackageNotFoundError:  # run from a source tree that was not installed
+        package = "slbasis-hdpbsid (not installed)"
     lines = [
-        f"# hdpbsid {version('hdpbsid')}, {day}; default environment; load average at start "
+        f"# {package}, {day}; default environment; load average at start "
         f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)",
         "| sweep | case | method | samples | input band (Hz) | wall time | CPU time "
         "| peak extra memory of the call | peak RSS | worst eigenvalue error | notes |",

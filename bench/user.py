@@ -645,10 +645,13 @@ def main(argv: list[str] | None = None) -> int:
 def _provenance() -> str:
     """The package version and the date of the run (the page is documentation: the commit
     measured is a development detail, kept out of it)."""
-    from importlib.metadata import version
+    from importlib.metadata import PackageNotFoundError, version
 
     day = time.strftime("%Y-%m-%d", time.gmtime())
-    return f"hdpbsid {version('hdpbsid')}, {day}"
+    try:
+        return f"slbasis-hdpbsid {version('slbasis-hdpbsid')}, {day}"
+    except PackageNotFoundError:  # run from a source tree that was not installed
+        return f"slbasis-hdpbsid (not installed), {day}"
 
 
 def _loads(load: tuple[float, float, float]) -> str:
