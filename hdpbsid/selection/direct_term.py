@@ -209,24 +209,24 @@ def _judge_two(
     val: tuple,
     windows: int,
 ) -> tuple[bool, str]:
-    """:func:`decide_feedthrough` on the split record: the candidates without and with
-    ``D`` fitted on ``est`` and scored on ``val`` over ``windows`` windows, ``D`` offered
-    (tested on the candidate without ``D`` first: a record where ``D`` is not offered
-    costs no fit with ``D``) and judged."""
+    """:func:`decide_feedthrough` on the split record: ``D`` offered (the screen is
+    model-free and runs first: a record where ``D`` is not offered costs no fit at all,
+    and the method is then fitted once, on the whole record), the candidates without
+    and with ``D`` fitted on ``est`` and scored on ``val`` over ``windows`` windows, and
+    judged."""
+    offer = feedthrough_offered(None, est.arrays)
+    if not offer.offered:
+        return False, f"auto: {offer.why}; D = 0"
     fit = _fit_one(get_method, method, order, est, val, windows, {method: dict(options)})
     with_opts = {method: {**options, "feedthrough": True}}
     own = f"auto: {method} does not take feedthrough= (its own D is kept)"
     if _scores(fit) and not honours_feedthrough(fit.model):
         return False, own
-    if _scores(fit):
-        offer = feedthrough_offered(fit.model, est.arrays)
-        if not offer.offered:
-            return False, f"auto: {offer.why}; D = 0"
     fit_d = _fit_one(get_method, method, order, est, val, windows, with_opts)
     if _scores(fit_d) and not honours_feedthrough(fit_d.model):
         return False, own
     if not _scores(fit):
-        return _judge_without_rival(fit, fit_d, est)
+        return _judge_without_rival(fit, fit_d, offer)
     if not _scores(fit_d):
         return False, f"auto: {offer.why}; the candidate with D: {fit_d.status}; D = 0"
     choice = judge_direct_term(
@@ -244,17 +244,12 @@ def _scores(row: CandidateRow) -> bool:
     return row.criterion is not None and row.criterion.finite
 
 
-def _judge_without_rival(
-    fit: CandidateRow, fit_d: CandidateRow, est: FitRecord
-) -> tuple[bool, str]:
-    """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score:
-    ``D`` is estimated when it is offered (tested on the candidate with ``D``, ``fit_d``)
-    and that candidate scores."""
+def _judge_without_rival(fit: CandidateRow, fit_d: CandidateRow, offer: Offer) -> tuple[bool, str]:
+    """:func:`decide_feedthrough` when the candidate without ``D`` (``fit``) has no score
+    and ``D`` is offered (``offer``): ``D`` is estimated when its candidate ``fit_d``
+    scores."""
     if not _scores(fit_d):
         return False, f"auto: not judged (no candidate: {fit.status}); D = 0"
-    offer = feedthrough_offered(fit_d.model, est.arrays)
-    if not offer.offered:
-        return False, f"auto: {offer.why}; D = 0"
     return True, (
         f"auto: {offer.why}; the candidate without D: {fit.status}; the one with D scores: "
         "D estimated"

@@ -170,7 +170,7 @@ def _prewhiten(u: Array, order: int) -> Array:
 
 
 def feedback_statistics(
-    model: StateSpaceModel,
+    model: StateSpaceModel | None,
     t: Any,
     u: Any,
     y: Any,
@@ -193,8 +193,9 @@ def feedback_statistics(
 
     Parameters
     ----------
-    model : StateSpaceModel
-        The model whose one-step prediction errors are tested.
+    model : StateSpaceModel or None
+        The model whose one-step prediction errors are tested; None when ``errors`` are
+        given (the test needs the model only to predict).
     t, u, y : array_like
         The record (``u`` None: a time series, nothing to test).
     lags : int
@@ -212,23 +213,24 @@ def feedback_statistics(
     Raises
     ------
     TypeError
-        When ``model`` is not a :class:`~hdpbsid.models.model.StateSpaceModel`.
+        When ``model`` is not a :class:`~hdpbsid.models.model.StateSpaceModel` and no
+        ``errors`` are given.
     ValueError
         When ``lags`` or ``ar_order`` is not a positive integer.
     """
-    if not isinstance(model, StateSpaceModel):
+    if errors is None and not isinstance(model, StateSpaceModel):
         raise TypeError(f"model must be a StateSpaceModel, got {type(model).__name__}")
     for name, v in (("lags", lags), ("ar_order", ar_order)):
         if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
-    hold = model.report.hold
-    hold = hold if hold in ("zoh", "foh") else "zoh"
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
     u_arr = np.zeros((t.size, 0)) if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
     if errors is not None:
         e = np.asarray(errors, dtype=float).reshape(y.shape)
     else:
+        hold = model.report.hold
+        hold = hold if hold in ("zoh", "foh") else "zoh"
         e = y - model.predict(t, u_arr, y, k=1, method=hold)
     yc = y - y.mean(axis=0)
     py = np.sum(yc**2, axis=0)

@@ -131,6 +131,7 @@ __all__ = [
     "structure_key",
     "with_d",
     "arx_residuals",
+    "arx_innovations",
     "takes_feedthrough",
 ]
 
@@ -567,7 +568,7 @@ def structure_key(row: CandidateRow) -> tuple[int, bool, float]:
     return (row.order, with_d(row), row.criterion.total)
 
 
-def arx_residuals(u: Any, y: Any, lags: int) -> Any:
+def arx_residuals(u: Any, y: Any, lags: int, regressors: Any = None) -> Any:
     """Residuals ``(Ns, l)`` of the least-squares ARX predictor of ``y_k`` from ``y`` and
     ``u`` at lags ``1..lags`` (no ``u_k``: strictly causal, no direct term); the first
     ``lags`` rows are zero.  A causal predictor's errors depend on ``u_j, j <= k`` and
@@ -583,6 +584,8 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
         The outputs, ``(Ns, l)``.
     lags : int
         The number of past samples of each signal.
+    regressors : array_like, optional
+        The signals whose past predicts ``y`` (default ``[y, u]``).
 
     Returns
     -------
@@ -590,7 +593,7 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
         The residuals, ``(Ns, l)``.
     """
     ns = u.shape[0]
-    z = np.hstack([y, u])
+    z = np.hstack([y, u]) if regressors is None else regressors
     X = np.hstack([z[lags - i : ns - i] for i in range(1, lags + 1)])
     X = np.hstack([X, np.ones((X.shape[0], 1))])
     target = y[lags:]
@@ -598,6 +601,31 @@ def arx_residuals(u: Any, y: Any, lags: int) -> Any:
     out = np.zeros_like(y)
     out[lags:] = target - X @ coef
     return out
+
+
+def arx_innovations(u: Any, y: Any, lags: int) -> tuple[Any, Any]:
+    """The residuals of the least-squares ARX predictors of ``y_k`` and of ``u_k`` from
+    ``y`` and ``u`` at lags ``1..lags`` (:func:`arx_residuals` of both, from one
+    factorisation: the two predictors share their regressors).
+
+    Parameters
+    ----------
+    u : array_like
+        The inputs, ``(Ns, m)``.
+    y : array_like
+        The outputs, ``(Ns, l)``.
+    lags : int
+        The number of past samples of each signal.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The output's residuals ``(Ns, l)`` and the input's ``(Ns, m)``; the first ``lags``
+        rows are zero.
+    """
+    l = y.shape[1]
+    both = arx_residuals(u, np.hstack([y, u]), lags, regressors=np.hstack([y, u]))
+    return both[:, :l], both[:, l:]
 
 
 class Offer(NamedTuple):
@@ -711,7 +739,7 @@ def lag0_link(e: Any, w: Any) -> tuple[float, float]:
     return stat, float(chi2.ppf(1.0 - FEEDTHROUGH_POLICY.link_level, l * m))
 
 
-def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> Offer:
+def feedthrough_offered(model: StateSpaceModel | None, rec: tuple) -> Offer:
     """Whether candidates with ``D`` are offered for the record ``rec = (t, u, y)``
     (module docstring), the reason, the share by which ``D`` must lower the held-out
     simulation error (:func:`judge_direct_term`'s ``bound``) and the margin on it.
@@ -723,12 +751,13 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> Offer:
     within the sample could give.  The feedback test correlates the residuals of a
     strictly causal least-squares ARX predictor (:func:`arx_residuals`, lags up to
     :data:`~hdpbsid.selection.feedback.AR_ORDER`, at least ten samples per regressor)
-    with the prewhitened input.  ``model``: a candidate of the record (its input hold).
+    with the prewhitened input: every statistic is model-free, so the screen can run
+    before any candidate is fitted.
 
     Parameters
     ----------
-    model : StateSpaceModel
-        A candidate of the record.
+    model : StateSpaceModel or None
+        A candidate of the record (its number of inputs), or None (read from ``u``).
     rec : tuple
         The estimation record ``(t, u, y)`` (a list of records: not judged).
 
@@ -743,7 +772,8 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> Offer:
     t, u, y = rec
     if isinstance(t, list | tuple):
         return Offer(False, "not judged: several estimation records; D = 0")
-    if model.m == 0:
+    m = model.m if model is not None else (0 if u is None else np.size(u) // len(t))
+    if m == 0:
         return Offer(False, "no input, no direct term")
     if not is_uniform(np.asarray(t, dtype=float)):
         return Offer(False, (
@@ -756,9 +786,9 @@ def feedthrough_offered(model: StateSpaceModel, rec: tuple) -> Offer:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")
             lags = max(min(AR_ORDER, len(t) // (10 * (u.shape[1] + y.shape[1]))), 1)
-            errors = arx_residuals(u, y, lags)
+            errors, w = arx_innovations(u, y, lags)
             st = feedback_statistics(model, t, u, y, errors=errors)
-            w = arx_residuals(y, u, lags)[lags:]
+            w = w[lags:]
             share = input_innovation(w, u[lags:])
             link = lag0_link(errors[lags:], w)
             bound = controller_share(u, y, lags) if st["feedback"] else 0.0

@@ -184,3 +184,18 @@ def test_lag0_link_is_bartletts_test():
     # d = 0.2: the correlation 0.2 gives N r^2 = 80 against a threshold of 6.6
     stat, thr = lag0_link(e, w)
     assert stat > 5 * thr
+
+
+def test_arx_innovations_are_the_two_arx_predictors_residuals():
+    """One factorisation for both predictors: the residuals equal those of the two
+    separate least-squares fits (same regressors, columns permuted), to rounding."""
+    from hdpbsid.selection.feedthrough import arx_innovations, arx_residuals
+
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal((600, 2))
+    y = np.cumsum(rng.standard_normal((600, 1)), axis=0) * 0.1 + u[:, :1]
+    e, w = arx_innovations(u, y, 5)
+    # the regressors are well conditioned here: 1e-9 of the signals' scale is rounding
+    np.testing.assert_allclose(e, arx_residuals(u, y, 5), atol=1e-9)
+    np.testing.assert_allclose(w, arx_residuals(y, u, 5), atol=1e-9)
+    assert np.all(e[:5] == 0) and np.all(w[:5] == 0)
