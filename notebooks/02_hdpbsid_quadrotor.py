@@ -201,8 +201,11 @@ auto = hdpbsid.identify(data.t, data.u, data.y, method="hermite")
 sv = gap.singular_values
 print("singular values:", np.round(sv[:8], 3))
 print("log-gap rule picks order", gap.n, "- held-out model criterion picks order", auto.n)
+print("direct term:", auto.options["feedthrough_rule"])
+# the candidates of the structure the direct term's judgement kept (with or without D);
+# the other structure's candidates have no distance to the best (z) of their own
 for row in auto.options["order_selection"]:
-    if row["fit"] is not None:
+    if row["fit"] is not None and row["z"] is not None:
         print(f"  order {row['order']}: held-out fit {row['fit']:.1f} %, {row['z']:.1f} SE")
 
 # order 3 with N = 400 functions as in the source (§6) and every other default; the other
