@@ -80,6 +80,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm, solve_discrete_are
 
 # is_uniform: the package's one uniformity test (hdpbsid.data.checks), re-exported here
+from hdpbsid.core.normal_equations import lstsq_residuals
 from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
@@ -622,8 +623,7 @@ def _gauss_newton_cost(
     cost = float(np.mean(r**2))
     if not np.all(np.isfinite(J)):
         return cost, float("-inf")  # nothing can be concluded: let the fit decide
-    coef = np.linalg.lstsq(J, r, rcond=None)[0]
-    return cost, float(np.mean((r - J @ coef) ** 2))
+    return cost, float(np.mean(lstsq_residuals(J, r) ** 2))
 
 
 def _modes_resolved(lay: _Layout, theta: Array, h: float) -> bool:

@@ -59,8 +59,8 @@ from typing import Any
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
-from scipy.linalg import cho_factor, cho_solve
 
+from hdpbsid.core.normal_equations import GRAM_RCOND, lstsq_residuals
 from hdpbsid.models.assessment import correlation
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WarmStart
@@ -97,9 +97,9 @@ class FeedbackTest:
     level : float
         False-alarm probability of the chi-square test in open loop.
     gram_rcond : float
-        Smallest squared Cholesky pivot of the prewhitening Gram matrix, relative to its
-        largest diagonal entry, at which the normal equations are solved
-        (:func:`_prewhiten`; about ``1 / cond(X^T X)``).
+        Smallest squared Cholesky pivot of a Gram matrix, relative to its largest
+        diagonal entry, at which the normal equations are solved
+        (:func:`lstsq_residuals`; about ``1 / cond(X^T X)``).
 
     Examples
     --------
@@ -115,9 +115,8 @@ class FeedbackTest:
     lags: int = 20
     #: one false alarm in a thousand open-loop records
     level: float = 1e-3
-    #: the normal-equation coefficients then keep ~8 of the 16 digits, far more than a
-    #: residual used in a correlation test needs
-    gram_rcond: float = 1e-8
+    #: :data:`~hdpbsid.core.normal_equations.GRAM_RCOND`
+    gram_rcond: float = GRAM_RCOND
 
 
 #: the settings :func:`feedback_statistics` applies
@@ -134,15 +133,8 @@ GRAM_RCOND = FEEDBACK_TEST.gram_rcond
 
 def _prewhiten(u: Array, order: int) -> Array:
     """Least-squares AR(``order``) residuals of each column of ``u`` (mean removed);
-    the first ``order`` samples are zero.
-
-    The coefficients solve the normal equations ``X^T X a = X^T x`` by Cholesky (one
-    ``order x order`` Gram matrix: 10^4 samples, order 40, 1.5 ms against 7 ms for the
-    SVD-based ``lstsq``); when the Gram matrix is too ill-conditioned for that
-    (:attr:`FeedbackTest.gram_rcond`: squaring the condition number of ``X`` then costs more digits
-    than the residuals need, e.g. a smooth input whose lags are nearly collinear) the
-    SVD solution is used.  Both are the least-squares AR fit the module docstring needs
-    (``w`` orthogonal to the ``order`` lags in the sample)."""
+    the first ``order`` samples are zero (:func:`lstsq_residuals`: ``w`` orthogonal to
+    the ``order`` lags in the sample, as the module docstring needs)."""
     ns, m = u.shape
     w = np.zeros_like(u)
     for j in range(m):
@@ -152,20 +144,7 @@ def _prewhiten(u: Array, order: int) -> Array:
             continue
         # X[k, i] = x[order - 1 + k - i]: lags 1..order of x[order:], newest first
         X = sliding_window_view(x[:-1], order)[:, ::-1]
-        target = x[order:]
-        G = X.T @ X
-        d = np.diag(G)
-        a = None
-        if np.all(d > 0):
-            try:
-                c = cho_factor(G, check_finite=False)
-                if np.min(np.abs(np.diag(c[0]))) ** 2 > FEEDBACK_TEST.gram_rcond * np.max(d):
-                    a = cho_solve(c, X.T @ target, check_finite=False)
-            except np.linalg.LinAlgError:
-                a = None
-        if a is None:
-            a = np.linalg.lstsq(X, target, rcond=None)[0]
-        w[order:, j] = target - X @ a
+        w[order:, j] = lstsq_residuals(X, x[order:], FEEDBACK_TEST.gram_rcond)
     return w
 
 

@@ -99,6 +99,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from hdpbsid.core.normal_equations import lstsq_residuals
 from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import (
     WindowedError,
@@ -594,12 +595,13 @@ def arx_residuals(u: Any, y: Any, lags: int, regressors: Any = None) -> Any:
     """
     ns = u.shape[0]
     z = np.hstack([y, u]) if regressors is None else regressors
-    X = np.hstack([z[lags - i : ns - i] for i in range(1, lags + 1)])
-    X = np.hstack([X, np.ones((X.shape[0], 1))])
-    target = y[lags:]
-    coef = np.linalg.lstsq(X, target, rcond=None)[0]
+    zt, d = np.ascontiguousarray(np.asarray(z, dtype=float).T), z.shape[1]
+    # the regressors' transpose, row by row (contiguous copies), then a constant
+    XT = np.ones((lags * d + 1, ns - lags))
+    for i in range(1, lags + 1):
+        XT[(i - 1) * d : i * d] = zt[:, lags - i : ns - i]
     out = np.zeros_like(y)
-    out[lags:] = target - X @ coef
+    out[lags:] = lstsq_residuals(XT.T, y[lags:])
     return out
 
 
