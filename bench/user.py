@@ -35,10 +35,11 @@ Rows (``--list``):
 
 * ``sippy``: SIPPY N4SID (``f = p = 60``), ``identify(t, u, y, order=2)`` and HD-PBSID,
   ``identify(t, u, y, order=2, method="hermite")`` (the order is what N4SID is told;
-  every other argument at its default) on ``--reps`` seeds of
-  the 10^4-sample binary-input case of ``bench/scaling.py`` (its functions), one worker
-  process per method, seed and column (a threaded BLAS still spinning after one
-  method's call must not be charged to the other); the worst eigenvalue error (median
+  every other argument at its default) on ``--reps`` seeds (at least
+  :data:`SIPPY_MIN_SEEDS`) of the 10^4-sample binary-input case of ``bench/scaling.py``
+  (its functions), one worker process per method, seed and column (a threaded BLAS still
+  spinning after one method's call must not be charged to the other), each seed's time
+  the median of :data:`SIPPY_CALLS` calls; the worst eigenvalue error (median
   over the seeds) in the label and the ratio hdpbsid / N4SID of the default column on a
   line of its own.
   Without SIPPY (``pip install sippy-unipi``, extra ``bench``) the row says so;
@@ -148,6 +149,14 @@ def _first_call(reps: int, first: int = 0) -> dict:
 #: the 10^4-sample binary-input case of ``bench/scaling.py``: ``identify`` given the order
 #: (the one thing N4SID is told), every other argument at its default
 SIPPY_SAMPLES = 10**4
+#: calls per record and process, their median the record's time: a 0.2 s call varies by
+#: ~10 % from call to call (the machine's other work, the allocator)
+SIPPY_CALLS = 3
+#: records (seeds, one process per side, column and seed) at least: the median time of a
+#: process varies by ~15 % from process to process on one machine (where its arrays fall
+#: in memory, which cores its threads get), so the median of 5 moved the ratio to N4SID by
+#: up to a factor 2 between runs; the median of 15 is within ~5 %
+SIPPY_MIN_SEEDS = 15
 HDPBSID_SPEC = "auto+auto"  # scaling._fit: method "auto", refine "auto" (the defaults)
 #: HD-PBSID itself: ``method="hermite"``, its refinement and every setting at the default
 HERMITE_SPEC = "hermite+auto"
@@ -174,10 +183,12 @@ def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
     would then load from numba's cache inside the timed call, a one-off cost of the process
     that N4SID has no counterpart of.
 
-    One side per process: a threaded BLAS keeps its threads spinning for a while after a
-    call returns (OpenBLAS: a fixed number of cycles before they sleep), so a call
-    timed right after the other side's in the same process was charged that CPU time,
-    and its wall time the core the spinning took."""
+    One side per process, and the records simulated before the untimed call: a threaded
+    BLAS keeps its threads spinning for a while after a call returns (OpenBLAS: a fixed
+    number of cycles before they sleep, ~0.1 s), so a call timed right after the other
+    side's, or right after the simulation of its record, was charged that CPU time, and
+    its wall time the core the spinning took (measured: +0.05-0.1 s of CPU on a 0.2 s
+    call)."""
     if key == "n4sid":
         try:
             import sippy_unipi  # noqa: F401
@@ -190,14 +201,20 @@ def _sippy_binary(key: str, reps: int, first: int = 0) -> dict:
 
     spec = SIPPY_SPECS[key]
     out: dict = {key: {"wall": [], "cpu": [], "err": []}}
+    # every record simulated before the untimed call (see above: the simulation's own
+    # BLAS threads would still spin inside the next call's time)
+    records = [binary_record(SIPPY_SAMPLES, seed) for seed in range(first, first + reps)]
     _fit(spec, binary_record(SIPPY_SAMPLES, 99)[0])  # imports, kernels, first use
-    for seed in range(first, first + reps):
-        data, true = binary_record(SIPPY_SAMPLES, seed)
-        clear_caches()  # the method projects the record itself
-        w0, c0 = time.perf_counter(), time.process_time()
-        eig, _ = _fit(spec, data)
-        out[key]["wall"].append(time.perf_counter() - w0)
-        out[key]["cpu"].append(time.process_time() - c0)
+    for data, true in records:
+        walls, cpus = [], []
+        for _ in range(SIPPY_CALLS):
+            clear_caches()  # the method projects the record itself
+            w0, c0 = time.perf_counter(), time.process_time()
+            eig, _ = _fit(spec, data)
+            walls.append(time.perf_counter() - w0)
+            cpus.append(time.process_time() - c0)
+        out[key]["wall"].append(_median(walls))
+        out[key]["cpu"].append(_median(cpus))
         out[key]["err"].append(_errors(eig, true))
     return out
 
@@ -309,7 +326,7 @@ def sippy_row(reps: int, options: argparse.Namespace) -> list[Line]:
         env = _environment(one, None)
         return _merge([_spawn(f"sippy-{key}", 1, env, first=i) for key in SIPPY_SPECS])
 
-    got = _alternate(reps, both)
+    got = _alternate(max(reps, SIPPY_MIN_SEEDS), both)
     if "status" in got[False]:
         return [("SIPPY N4SID, 10^4 binary-input case", got[False], got[True])]
     lines: list[Line] = []
@@ -610,8 +627,9 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join(["python bench/user.py", *(argv if argv is not None else sys.argv[1:])])
     lines = [
         f"`{command}` ({_provenance()}): {os.cpu_count()} cores, load average (1, 5, 15 min)"
-        f" {_loads(load0)} at the start; median of {args.reps}, the columns alternating"
-        " process by process",
+        f" {_loads(load0)} at the start; median of {args.reps} (the SIPPY rows: of"
+        f" {max(args.reps, SIPPY_MIN_SEEDS)} seeds, each the median of {SIPPY_CALLS} calls),"
+        " the columns alternating process by process",
         "",
         "| row | default wall s | 1 thread wall s | ratio | default CPU s | 1 thread CPU s"
         " | ratio |",
