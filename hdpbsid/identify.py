@@ -387,8 +387,12 @@ def identify(
     held-out simulation, in closed loop better than a controller reacting within the
     sample could make it (such a controller makes ``D`` unidentifiable; the bound is
     derived in :mod:`hdpbsid.selection.feedthrough`), and with a deterministic input
-    (which cannot tell ``D`` from dynamics) when it halves the simulation error.
-    Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
+    (which cannot tell ``D`` from dynamics) when it halves the simulation error.  An
+    input linear between samples links ``u_k`` to ``y_k`` as ``D`` does with a held
+    input; when the refinement keeps the held input with a ``D`` decided so, the linear
+    hold without ``D`` (the smaller of two nested structures) is fitted too and returned
+    unless a likelihood-ratio test rejects it
+    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`).  Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
     keep ``D = 0``.
     What was decided and why: ``options["feedthrough_rule"]``.  ``True``/``False``
     estimate ``D`` or keep it at zero, as given.
@@ -570,7 +574,8 @@ def _refined(
     record ``(t, u, y)``: the model returned and the rule that decided it."""
     rule = "pem: asked for"
     if refine == "pem":
-        return refine_pem(model, t, u, y, warm_start=model.report.warm_start), rule
+        refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
+        return _hold_or_direct_term(model, refined, t, u, y), rule
     if refine != "auto":
         return model, rule
     if several:
@@ -586,7 +591,7 @@ def _refined(
         if unsound:
             rule += f"; the refined model is not kept: {unsound}"
         elif refined.report.converged:
-            model = refined
+            model = _hold_or_direct_term(model, refined, t, u, y)
         else:
             # an iterate cut off by the evaluation budget is neither the subspace
             # estimate nor a prediction-error one (docstring): keep the former
@@ -598,6 +603,22 @@ def _refined(
     model.options["refine_rule"] = rule
     model.options["refine_statistics"] = stats
     return model, rule
+
+
+def _hold_or_direct_term(
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+) -> StateSpaceModel:
+    """``refined``, or the same dynamics with the input linear between samples and no
+    direct term when that explains the record as well
+    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`: a ``D`` that
+    ``feedthrough="auto"`` decided before the hold was chosen); the test's outcome added
+    to ``options["feedthrough_rule"]``."""
+    from hdpbsid.selection.direct_term import linear_hold_or_direct_term
+
+    model, text = linear_hold_or_direct_term(start, refined, t, u, y)
+    if text and model is refined:
+        model.options["feedthrough_rule"] = f"{model.options['feedthrough_rule']}; {text}"
+    return model
 
 
 def _decided(

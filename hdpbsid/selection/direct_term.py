@@ -9,6 +9,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, default_windows
 from hdpbsid.models.model import StateSpaceModel
@@ -23,7 +25,7 @@ from hdpbsid.selection.feedthrough import (
 )
 from hdpbsid.selection.policy import HOLDOUT
 
-__all__ = ["decide_feedthrough"]
+__all__ = ["decide_feedthrough", "linear_hold_or_direct_term", "LINEAR_HOLD_LEVEL"]
 
 
 def _feedthrough_candidates(
@@ -254,3 +256,147 @@ def _judge_without_rival(fit: CandidateRow, fit_d: CandidateRow, offer: Offer) -
         f"auto: {offer.why}; the candidate without D: {fit.status}; the one with D scores: "
         "D estimated"
     )
+
+
+#: false-alarm probability of the likelihood-ratio test of the linear hold without ``D``
+#: against the held input with ``D`` (:func:`linear_hold_or_direct_term`): the level of
+#: the direct term's own screen (:func:`~hdpbsid.selection.feedthrough.lag0_link`)
+LINEAR_HOLD_LEVEL = 0.01
+
+
+def linear_hold_or_direct_term(
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+) -> tuple[StateSpaceModel, str]:
+    """The refined model with the direct term the data chose, or the same dynamics with
+    the input linear between samples and ``D = 0`` when that explains the record as well.
+
+    Why.  Sampled with a first-order hold (the input linear between samples, as
+    :func:`scipy.signal.lsim` assumes), a model without ``D`` has the sampled direct term
+    ``C G2``: the input at ``t_k`` reaches ``y_k`` within the sample (Franklin, Powell &
+    Workman, *Digital Control of Dynamic Systems*, 3rd ed., sec. 6.3.2).  The
+    direct-term screen and the held-out judgement of ``D`` compare candidates before the
+    refinement chooses the hold, so on such a record they take that link for ``D``, and
+    with ``D`` free the held input explains it as well, so the refinement then has no
+    evidence for the other hold.  The two structures are nested as sampled predictors:
+    a held input with ``D`` reproduces any linear-hold model without ``D`` exactly (same
+    ``Phi``, ``C``, ``K``; ``D = C G2``; ``B`` from the held input's ``Gamma``, which is
+    invertible when the modes are resolved by the sampling), with ``l m`` parameters
+    more.  So the smaller structure is tested against it by the likelihood ratio of the
+    one-step errors, ``N (log det S_0 - log det S_1)``, asymptotically chi-square with
+    ``l m`` degrees of freedom under the smaller one (Ljung, *System Identification*,
+    2nd ed., 1999, sec. 16.4), and kept unless rejected at :data:`LINEAR_HOLD_LEVEL`.
+
+    The linear-hold fit starts from the held-input model mapped to the smaller
+    structure (:func:`_linear_hold_input_matrix`) with the budget of one
+    Levenberg-Marquardt run and its confirmation
+    (:class:`~hdpbsid.refine.pem_settings.RefinementSettings`: ``run_nfev +
+    converged_nfev``): when the smaller structure holds, the refined held-input model is
+    within its estimation error of a linear-hold model, so the mapped start lies in the
+    quadratic region of the smaller structure's minimum, where one run converges; a fit
+    that needs more is far from the held-input model, which then is not the linear hold in
+    another form, and ``D`` is kept without the long fit.
+
+    Only for a ``D`` that ``feedthrough="auto"`` decided (``feedthrough=True`` is the
+    user's structure), a refinement that chose the held input among both holds, and a
+    refined linear-hold fit that converged and is sound
+    (:func:`~hdpbsid.selection.scoring.refinement_instability`).
+
+    Parameters
+    ----------
+    start : StateSpaceModel
+        The model the refinement started from.
+    refined : StateSpaceModel
+        Its refinement on ``(t, u, y)``.
+    t, u, y : array_like
+        The record.
+
+    Returns
+    -------
+    model : StateSpaceModel
+        ``refined`` or the linear-hold model without ``D``.
+    text : str
+        What was tested and found, for ``options["feedthrough_rule"]`` (empty when
+        nothing was tested).
+    """
+    import dataclasses
+
+    from scipy.stats import chi2
+
+    from hdpbsid.models.report import DirectTerm
+    from hdpbsid.refine.pem import one_step_errors, refine_pem
+    from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS
+    from hdpbsid.selection.scoring import refinement_instability
+
+    fd = refined.report.feedthrough
+    auto = str(refined.options.get("feedthrough_rule", "")).startswith("auto")
+    tried = tuple(refined.options.get("refine_holds_tried", ()))
+    if not (fd is not None and fd.asked and auto and "foh" in tried):
+        return refined, ""
+    if refined.options.get("input_hold") != "zoh":
+        return refined, ""
+    h = float(np.median(np.diff(np.asarray(t, dtype=float))))
+    alt_start = dataclasses.replace(
+        refined,
+        B=_linear_hold_input_matrix(refined.A, refined.B, refined.C, refined.D, h),
+        D=np.zeros_like(refined.D),
+        options={**start.options, "feedthrough": False},
+        report=start.report.but(feedthrough=DirectTerm(False, False)),
+    )
+    settings = DEFAULT_SETTINGS
+    alt = refine_pem(
+        alt_start, t, u, y, hold="foh", max_nfev=settings.run_nfev + settings.converged_nfev
+    )
+    what = "the input linear between samples without D"
+    if not alt.report.converged:
+        return refined, (
+            f"{what}: its fit from the held-input model did not converge within one run, "
+            f"so it is not that model in another form; D kept"
+        )
+    unsound = refinement_instability(alt_start, alt, (t, u, y))
+    if unsound:
+        return refined, f"{what} not tested: {unsound}; D kept"
+    e1 = one_step_errors(refined, t, u, y, hold="zoh")
+    e0 = one_step_errors(alt, t, u, y, hold="foh")
+    if e0 is None or e1 is None:
+        return refined, f"{what} not tested: an unstable predictor; D kept"
+    n = e1.shape[0]
+    logdet = [np.linalg.slogdet(e.T @ e / n)[1] for e in (e0, e1)]
+    stat = float(n * (logdet[0] - logdet[1]))
+    dof = refined.l * refined.m
+    bound = float(chi2.ppf(1.0 - LINEAR_HOLD_LEVEL, dof))
+    test = (
+        f"{what} against the held input with D: "
+        f"likelihood ratio {stat:.3g} vs {bound:.3g} (chi2, {dof} dof, "
+        f"{LINEAR_HOLD_LEVEL:g})"
+    )
+    if not stat <= bound:
+        return refined, f"{test}: D kept"
+    alt.options["feedthrough_rule"] = (
+        f"{refined.options['feedthrough_rule']}; {test}: the linear hold explains the "
+        f"lag-0 link, D = 0"
+    )
+    return alt, f"{test}: D = 0 with the linear hold"
+
+
+def _linear_hold_input_matrix(A: Any, B: Any, C: Any, D: Any, h: float) -> Any:
+    """The ``B`` of the linear-hold model without ``D`` nearest, as a sampled model, to
+    the held-input model ``(A, B, C, D)`` with step ``h``: the start of
+    :func:`linear_hold_or_direct_term`'s fit.
+
+    Held input: ``x+ = Phi x + G1 B u_k``, ``y_k = C x_k + D u_k``.  Linear between
+    samples without ``D``: ``x+ = Phi x + (G1 - G2 + Phi G2) B' u_k``, ``y_k = C x_k +
+    C G2 B' u_k`` (the state shifted by ``G2 B' u_k``), with ``G1 = int_0^h e^{A s} ds``
+    and ``G2 = int_0^h e^{A s} (h - s) / h ds`` (Franklin, Powell & Workman, sec.
+    6.3.2), both linear in ``B'``; ``B'`` is the least-squares match of the two input
+    maps, exact when the held-input model is the sampled linear-hold one."""
+    from scipy.linalg import expm
+
+    A, B, C, D = (np.asarray(a, dtype=float) for a in (A, B, C, D))
+    n = A.shape[0]
+    M = np.zeros((3 * n, 3 * n))
+    M[:n, :n], M[:n, n : 2 * n], M[n : 2 * n, 2 * n :] = A * h, np.eye(n) * h, np.eye(n)
+    E = expm(M)
+    Phi, G1, G2 = E[:n, :n], E[:n, n : 2 * n], E[:n, 2 * n :]
+    lhs = np.vstack([G1 - G2 + Phi @ G2, C @ G2])
+    rhs = np.vstack([G1 @ B, D])
+    return np.linalg.lstsq(lhs, rhs, rcond=None)[0]

@@ -285,10 +285,9 @@ def test_the_other_hold_is_fitted_from_the_starts_when_the_data_want_it() -> Non
     u = np.sign(rng.standard_normal(t.size))
     _, y, _ = signal.lsim((A, B, C, D), u, t)  # linear interpolation of u
     y = y + 0.1 * np.std(y) * rng.standard_normal(t.size)  # 20 dB
-    # D = 0 stated: an input linear between samples links u_k to y_k at lag 0 as a direct
-    # term does in a held-input model, and the direct term's judgement (which compares
-    # candidates before the refinement chooses the hold) takes that link for D; the two
-    # explanations are not told apart yet, and this test is about the hold
+    # D = 0 stated: this test is about the hold reached from the starts; how the default
+    # tells the linear hold from a direct term (both link u_k to y_k within the sample)
+    # is tested in tests/hdpbsid/selection/test_feedthrough.py
     m = identify(t, u, y, 3, method="dt", feedthrough=False)
     assert m.options["refine"] == "pem" and m.options["input_hold"] == "foh"
     # the 20 dB spread of this record's eigenvalues is ~0.5 %; 2 % leaves room for the
