@@ -392,8 +392,9 @@ def identify(
     input; when the refinement keeps the held input with a ``D`` decided so, the linear
     hold without ``D`` (the smaller of two nested structures) is fitted too and returned
     unless a likelihood-ratio test rejects it
-    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`).  Several records, non-uniform samples, ``order_rule="svd"`` and the long-record path
-    keep ``D = 0``.
+    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`).  Several
+    records, non-uniform samples, ``order_rule="svd"`` and the long-record path keep
+    ``D = 0``.
     What was decided and why: ``options["feedthrough_rule"]``.  ``True``/``False``
     estimate ``D`` or keep it at zero, as given.
 
