@@ -202,7 +202,8 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
         )
     t_refine = time.perf_counter()
     timings = {"method": t_refine - t_method}
-    model, rule = _refined(model, req.refine, several, *first.record)
+    judged = req.feedthrough == "auto"
+    model, rule = _refined(model, req.refine, several, *first.record, judged=judged)
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.report = model.report.but(warm_start=None)
     if not several:
@@ -392,7 +393,8 @@ def identify(
     input; when the refinement keeps the held input with a ``D`` decided so, the linear
     hold without ``D`` (the smaller of two nested structures) is fitted too and returned
     unless a likelihood-ratio test rejects it
-    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`).  Several
+    (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`;
+    ``options["linear_hold_rule"]``).  Several
     records, non-uniform samples, ``order_rule="svd"`` and the long-record path keep
     ``D = 0``.
     What was decided and why: ``options["feedthrough_rule"]``.  ``True``/``False``
@@ -569,14 +571,21 @@ def _estimated_delay(
 
 
 def _refined(
-    model: StateSpaceModel, refine: Any, several: bool, t: Any, u: Any, y: Any
+    model: StateSpaceModel,
+    refine: Any,
+    several: bool,
+    t: Any,
+    u: Any,
+    y: Any,
+    judged: bool = False,
 ) -> tuple[StateSpaceModel, str]:
     """The refinement ``refine`` of :func:`identify` (its docstring) of ``model`` on the
-    record ``(t, u, y)``: the model returned and the rule that decided it."""
+    record ``(t, u, y)``: the model returned and the rule that decided it; ``judged``:
+    ``feedthrough="auto"`` decided the direct term (:func:`_hold_or_direct_term`)."""
     rule = "pem: asked for"
     if refine == "pem":
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
-        return _hold_or_direct_term(model, refined, t, u, y), rule
+        return _hold_or_direct_term(model, refined, t, u, y, judged), rule
     if refine != "auto":
         return model, rule
     if several:
@@ -592,7 +601,7 @@ def _refined(
         if unsound:
             rule += f"; the refined model is not kept: {unsound}"
         elif refined.report.converged:
-            model = _hold_or_direct_term(model, refined, t, u, y)
+            model = _hold_or_direct_term(model, refined, t, u, y, judged)
         else:
             # an iterate cut off by the evaluation budget is neither the subspace
             # estimate nor a prediction-error one (docstring): keep the former
@@ -607,18 +616,18 @@ def _refined(
 
 
 def _hold_or_direct_term(
-    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any, judged: bool
 ) -> StateSpaceModel:
     """``refined``, or the same dynamics with the input linear between samples and no
     direct term when that explains the record as well
     (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`: a ``D`` that
-    ``feedthrough="auto"`` decided before the hold was chosen); the test's outcome added
-    to ``options["feedthrough_rule"]``."""
+    ``feedthrough="auto"`` decided, ``judged``, before the hold was chosen); the test's
+    outcome in ``options["linear_hold_rule"]``."""
     from hdpbsid.selection.direct_term import linear_hold_or_direct_term
 
-    model, text = linear_hold_or_direct_term(start, refined, t, u, y)
-    if text and model is refined:
-        model.options["feedthrough_rule"] = f"{model.options['feedthrough_rule']}; {text}"
+    model, text = linear_hold_or_direct_term(start, refined, t, u, y, judged)
+    if text:
+        model.options["linear_hold_rule"] = text
     return model
 
 

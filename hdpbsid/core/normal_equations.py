@@ -9,18 +9,42 @@ is one level-3 product instead of an orthogonal factorisation.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
 
-__all__ = ["GRAM_RCOND", "lstsq_residuals"]
+__all__ = ["GRAM_RCOND", "NORMAL_EQUATIONS", "NormalEquations", "lstsq_residuals"]
 
 Array = NDArray[np.float64]
 
-#: Smallest squared Cholesky pivot of the Gram matrix, relative to its largest diagonal
-#: entry (about ``1 / cond(X^T X)``), at which :func:`lstsq_residuals` solves the normal
-#: equations: the residuals then keep ~8 of the 16 digits, far more than their users need
-GRAM_RCOND = 1e-8
+
+@dataclass(frozen=True)
+class NormalEquations:
+    """When :func:`lstsq_residuals` solves the normal equations.
+
+    Attributes
+    ----------
+    gram_rcond : float
+        Smallest squared Cholesky pivot of the Gram matrix, relative to its largest
+        diagonal entry (about ``1 / cond(X^T X)``), at which the normal equations are
+        solved.
+
+    Examples
+    --------
+    >>> NormalEquations().gram_rcond
+    1e-08
+    """
+
+    #: the residuals then keep ~8 of the 16 digits, far more than their users read
+    gram_rcond: float = 1e-8
+
+
+#: the setting :func:`lstsq_residuals` applies
+NORMAL_EQUATIONS = NormalEquations()
+#: :attr:`NormalEquations.gram_rcond`
+GRAM_RCOND = NORMAL_EQUATIONS.gram_rcond
 
 
 def lstsq_residuals(X: Array, target: Array, rcond: float | None = None) -> Array:

@@ -16,6 +16,7 @@ from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, defau
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, FitRecord, _fit_one, _sweep
 from hdpbsid.selection.feedthrough import (
+    FEEDTHROUGH_POLICY,
     Offer,
     feedthrough_offered,
     honours_feedthrough,
@@ -25,7 +26,7 @@ from hdpbsid.selection.feedthrough import (
 )
 from hdpbsid.selection.policy import HOLDOUT
 
-__all__ = ["decide_feedthrough", "linear_hold_or_direct_term", "LINEAR_HOLD_LEVEL"]
+__all__ = ["decide_feedthrough", "linear_hold_or_direct_term"]
 
 
 def _feedthrough_candidates(
@@ -258,14 +259,8 @@ def _judge_without_rival(fit: CandidateRow, fit_d: CandidateRow, offer: Offer) -
     )
 
 
-#: false-alarm probability of the likelihood-ratio test of the linear hold without ``D``
-#: against the held input with ``D`` (:func:`linear_hold_or_direct_term`): the level of
-#: the direct term's own screen (:func:`~hdpbsid.selection.feedthrough.lag0_link`)
-LINEAR_HOLD_LEVEL = 0.01
-
-
 def linear_hold_or_direct_term(
-    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any, judged: bool
 ) -> tuple[StateSpaceModel, str]:
     """The refined model with the direct term the data chose, or the same dynamics with
     the input linear between samples and ``D = 0`` when that explains the record as well.
@@ -284,7 +279,8 @@ def linear_hold_or_direct_term(
     more.  So the smaller structure is tested against it by the likelihood ratio of the
     one-step errors, ``N (log det S_0 - log det S_1)``, asymptotically chi-square with
     ``l m`` degrees of freedom under the smaller one (Ljung, *System Identification*,
-    2nd ed., 1999, sec. 16.4), and kept unless rejected at :data:`LINEAR_HOLD_LEVEL`.
+    2nd ed., 1999, sec. 16.4), and kept unless rejected at
+    :attr:`~hdpbsid.selection.feedthrough.FeedthroughPolicy.linear_hold_level`.
 
     The linear-hold fit starts from the held-input model mapped to the smaller
     structure (:func:`_linear_hold_input_matrix`) with the budget of one
@@ -296,10 +292,10 @@ def linear_hold_or_direct_term(
     that needs more is far from the held-input model, which then is not the linear hold in
     another form, and ``D`` is kept without the long fit.
 
-    Only for a ``D`` that ``feedthrough="auto"`` decided (``feedthrough=True`` is the
-    user's structure), a refinement that chose the held input among both holds, and a
-    refined linear-hold fit that converged and is sound
-    (:func:`~hdpbsid.selection.scoring.refinement_instability`).
+    Only for a ``D`` that ``feedthrough="auto"`` decided (``judged``; ``feedthrough=True``
+    is the user's structure), a refinement that chose the held input while free to choose
+    (the method was not told its hold), and a refined linear-hold fit that converged and
+    is sound (:func:`~hdpbsid.selection.scoring.refinement_instability`).
 
     Parameters
     ----------
@@ -309,13 +305,15 @@ def linear_hold_or_direct_term(
         Its refinement on ``(t, u, y)``.
     t, u, y : array_like
         The record.
+    judged : bool
+        Whether ``feedthrough="auto"`` decided the direct term.
 
     Returns
     -------
     model : StateSpaceModel
         ``refined`` or the linear-hold model without ``D``.
     text : str
-        What was tested and found, for ``options["feedthrough_rule"]`` (empty when
+        What was tested and found, for ``options["linear_hold_rule"]`` (empty when
         nothing was tested).
     """
     import dataclasses
@@ -327,12 +325,12 @@ def linear_hold_or_direct_term(
     from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS
     from hdpbsid.selection.scoring import refinement_instability
 
-    fd = refined.report.feedthrough
-    auto = str(refined.options.get("feedthrough_rule", "")).startswith("auto")
-    tried = tuple(refined.options.get("refine_holds_tried", ()))
-    if not (fd is not None and fd.asked and auto and "foh" in tried):
+    fd, fitted = refined.report.feedthrough, refined.report.refinement
+    held = start.report.input_hold
+    free = held is None or not held.given
+    if not (judged and fd is not None and fd.asked and free and fitted is not None):
         return refined, ""
-    if refined.options.get("input_hold") != "zoh":
+    if fitted.hold != "zoh":
         return refined, ""
     h = float(np.median(np.diff(np.asarray(t, dtype=float))))
     alt_start = dataclasses.replace(
@@ -362,20 +360,15 @@ def linear_hold_or_direct_term(
     n = e1.shape[0]
     logdet = [np.linalg.slogdet(e.T @ e / n)[1] for e in (e0, e1)]
     stat = float(n * (logdet[0] - logdet[1]))
-    dof = refined.l * refined.m
-    bound = float(chi2.ppf(1.0 - LINEAR_HOLD_LEVEL, dof))
+    dof, level = refined.l * refined.m, FEEDTHROUGH_POLICY.linear_hold_level
+    bound = float(chi2.ppf(1.0 - level, dof))
     test = (
-        f"{what} against the held input with D: "
-        f"likelihood ratio {stat:.3g} vs {bound:.3g} (chi2, {dof} dof, "
-        f"{LINEAR_HOLD_LEVEL:g})"
+        f"{what} against the held input with D: likelihood ratio {stat:.3g} vs {bound:.3g} "
+        f"(chi2, {dof} dof, {level:g})"
     )
     if not stat <= bound:
         return refined, f"{test}: D kept"
-    alt.options["feedthrough_rule"] = (
-        f"{refined.options['feedthrough_rule']}; {test}: the linear hold explains the "
-        f"lag-0 link, D = 0"
-    )
-    return alt, f"{test}: D = 0 with the linear hold"
+    return alt, f"{test}: the linear hold explains the lag-0 link, D = 0"
 
 
 def _linear_hold_input_matrix(A: Any, B: Any, C: Any, D: Any, h: float) -> Any:

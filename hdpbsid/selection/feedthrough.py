@@ -168,6 +168,10 @@ class FeedthroughPolicy:
         ``D`` must then halve the simulation error (module docstring).
     link_level : float
         The false-alarm probability of the lag-0 screen (:func:`lag0_link`).
+    linear_hold_level : float
+        The false-alarm probability of the likelihood-ratio test of the linear hold
+        without ``D`` against the held input with ``D``
+        (:func:`hdpbsid.selection.direct_term.linear_hold_or_direct_term`).
 
     Examples
     --------
@@ -187,6 +191,9 @@ class FeedthroughPolicy:
     #: the lag-0 screen's false-alarm probability: a false alarm costs the fits with
     #: ``D`` and nothing else (the judgement decides); one in a hundred
     link_level: float = 0.01
+    #: the level of the lag-0 screen that offered ``D``: the smaller structure is
+    #: rejected on the evidence the larger one was admitted on
+    linear_hold_level: float = 0.01
 
 
 #: the policy ``feedthrough="auto"`` applies
