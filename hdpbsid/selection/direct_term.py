@@ -340,10 +340,8 @@ def linear_hold_or_direct_term(
         options={**start.options, "feedthrough": False},
         report=start.report.but(feedthrough=DirectTerm(False, False)),
     )
-    settings = DEFAULT_SETTINGS
-    alt = refine_pem(
-        alt_start, t, u, y, hold="foh", max_nfev=settings.run_nfev + settings.converged_nfev
-    )
+    one_run = DEFAULT_SETTINGS.run_nfev + DEFAULT_SETTINGS.converged_nfev
+    alt = refine_pem(alt_start, t, u, y, hold="foh", max_nfev=one_run)
     what = "the input linear between samples without D"
     if not alt.report.converged:
         return refined, (

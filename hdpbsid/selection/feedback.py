@@ -60,7 +60,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from hdpbsid.core.normal_equations import GRAM_RCOND, lstsq_residuals
+from hdpbsid.core.normal_equations import NORMAL_EQUATIONS, lstsq_residuals
 from hdpbsid.models.assessment import correlation
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WarmStart
@@ -115,8 +115,8 @@ class FeedbackTest:
     lags: int = 20
     #: one false alarm in a thousand open-loop records
     level: float = 1e-3
-    #: :data:`~hdpbsid.core.normal_equations.GRAM_RCOND`
-    gram_rcond: float = GRAM_RCOND
+    #: :attr:`~hdpbsid.core.normal_equations.NormalEquations.gram_rcond`
+    gram_rcond: float = NORMAL_EQUATIONS.gram_rcond
 
 
 #: the settings :func:`feedback_statistics` applies

@@ -632,8 +632,8 @@ def arx_innovations(u: Any, y: Any, lags: int) -> tuple[Any, Any]:
         The output's residuals ``(Ns, l)`` and the input's ``(Ns, m)``; the first ``lags``
         rows are zero.
     """
-    l = y.shape[1]
-    both = arx_residuals(u, np.hstack([y, u]), lags, regressors=np.hstack([y, u]))
+    l, z = y.shape[1], np.hstack([y, u])
+    both = arx_residuals(u, z, lags, regressors=z)
     return both[:, :l], both[:, l:]
 
 
