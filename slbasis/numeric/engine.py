@@ -22,6 +22,12 @@ Threads: :func:`slbasis.runtime.compiled_threads` (numba's thread count, from th
 ``NUMBA_NUM_THREADS`` environment variable or ``numba.set_num_threads``, unless the
 library's thread override is set); calls below ``2^20`` function values per thread run on the
 calling thread only.
+
+Lanes: a projection deals its samples, block by block and round robin, to a number of
+*lanes* that depends on the call's size only (at most :data:`MAX_LANES`); each lane sums
+its samples on its own and the lanes' sums are added in lane order.  The threads run
+whole lanes, so the result is the same bit for bit whatever the number of threads (one
+thread, the default environment's, or an override).
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ __all__ = [
     "work",
     "evaluate_compiled",
     "project_compiled",
+    "MAX_LANES",
 ]
 
 ENGINES = ("auto", "numpy", "numba")
@@ -58,6 +65,9 @@ _THREAD_MIN_WORK = 1 << 20  # function values per thread worth a thread
 _COMPILE_NOW_WORK = 1 << 32
 #: environment variables that switch the compiled engine off
 _SWITCHES = ("SLBASIS_NO_NUMBA", "NUMBA_DISABLE_JIT")
+#: lanes of a projection at most (module docstring): enough to keep eight threads busy;
+#: each lane keeps an ``N x k`` array of sums
+MAX_LANES = 8
 
 
 @functools.lru_cache(maxsize=1)
@@ -173,11 +183,12 @@ def _threads() -> int:
     return compiled_threads()
 
 
-def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:
-    """Contiguous sample ranges, one per thread, whole blocks each (the last takes the rest)."""
+def _ranges(n_samples: int, work_per_sample: int, most: int | None = None) -> list[tuple[int, int]]:
+    """Contiguous sample ranges, whole blocks each (the last takes the rest): at most
+    ``most`` (default: one per thread), none below ``2^20`` function values."""
     block = _compiled().BLOCK
     by_work = (n_samples * work_per_sample) // _THREAD_MIN_WORK
-    parts = max(1, min(_threads(), by_work, -(-n_samples // block)))
+    parts = max(1, min(_threads() if most is None else most, by_work, -(-n_samples // block)))
     per = -(-n_samples // (parts * block)) * block
     return [(s, min(s + per, n_samples)) for s in range(0, n_samples, per)]
 
@@ -194,14 +205,19 @@ def _interleaved(n_samples: int, parts: int) -> np.ndarray:
     return np.concatenate([np.arange(s, min(s + block, n_samples)) for g in groups for s in g])
 
 
-def _run(tasks) -> list:
-    """Run the thunks ``tasks``: the first on this thread, the others on a thread pool."""
-    if len(tasks) == 1:
-        return [tasks[0]()]
-    with ThreadPoolExecutor(max_workers=len(tasks) - 1) as pool:
-        futures = [pool.submit(task) for task in tasks[1:]]
-        first = tasks[0]()
-        return [first] + [f.result() for f in futures]
+def _run(tasks, threads: int | None = None) -> list:
+    """Run the thunks ``tasks`` on ``threads`` threads (default: one per task, the first
+    on this thread); fewer threads than tasks take the next task as they finish (this
+    thread waits).  The results in the order of ``tasks``."""
+    threads = len(tasks) if threads is None else max(1, min(threads, len(tasks)))
+    if threads == 1:
+        return [task() for task in tasks]
+    if threads == len(tasks):
+        with ThreadPoolExecutor(max_workers=threads - 1) as pool:
+            futures = [pool.submit(task) for task in tasks[1:]]
+            return [tasks[0]()] + [f.result() for f in futures]
+    with ThreadPoolExecutor(max_workers=threads) as pool:  # each takes the next task
+        return list(pool.map(lambda task: task(), tasks))
 
 
 def _coefficients(rec) -> tuple:
@@ -256,10 +272,11 @@ def project_compiled(
 ) -> tuple[np.ndarray, int]:
     """The fused projection ``c[n, j] = sum_i phi_n(x_i) wy[j, i]`` (compiled, threaded).
 
-    Each thread sums over every ``len(ranges)``-th block of samples rather than one
-    contiguous range: the cost of a sample varies along the record (far samples of a
-    Gaussian weight take the slow paths of the exponent handling), and the sums do not
-    depend on the order.
+    The samples are dealt block by block to lanes whose number depends on the call's size
+    only (each lane every ``lanes``-th block: the cost of a sample varies along the record,
+    far samples of a Gaussian weight taking the slow paths of the exponent handling); each
+    lane sums on its own and the lanes are added in order, so the sums are the same bit
+    for bit on any number of threads (module docstring).
 
     Parameters
     ----------
@@ -300,13 +317,14 @@ def project_compiled(
     if k < 1 or wy.shape[0] % k or wy.shape[0] // k > 2:
         raise ValueError(f"columns: expected {wy.shape[0]} or half of it, got {columns}")
 
-    ranges = _ranges(x.size, N)
+    # the lanes depend on the call's size only, not on the threads (module docstring)
+    ranges = _ranges(x.size, N, MAX_LANES)
     if len(ranges) > 1:
         # the cost of a sample is not uniform along the record (samples far out on a
         # basis with a Gaussian weight start with phi_0 far below 2^-1022 and take the slow
         # paths of the exponent handling: the outer half of a Hermite record was measured
-        # 1.3x the cost of the inner half), so each thread takes every len(ranges)-th
-        # block instead of one contiguous range; the sums do not depend on the order
+        # 1.3x the cost of the inner half), so each lane takes every len(ranges)-th
+        # block instead of one contiguous range, and the lanes cost about the same
         order = _interleaved(x.size, len(ranges))
         x, m0, e0, wy = x[order], m0[order], e0[order], np.ascontiguousarray(wy[:, order])
 
@@ -320,7 +338,7 @@ def project_compiled(
 
         return run
 
-    parts = _run([task(lo, hi) for lo, hi in ranges])
+    parts = _run([task(lo, hi) for lo, hi in ranges], _threads())
     c = parts[0][0]
     for part, _ in parts[1:]:
         c += part

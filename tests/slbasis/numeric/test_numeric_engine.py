@@ -139,6 +139,23 @@ def test_project_threads(monkeypatch):
     assert np.all(np.abs(fast - ref) <= tol)
 
 
+def test_project_same_bits_on_any_number_of_threads(monkeypatch):
+    """The lanes depend on the call's size only: one, two or three threads (the override,
+    which is obeyed without a measurement) give the same sums bit for bit."""
+    from slbasis.runtime import num_threads
+
+    t = np.linspace(-50.0, 50.0, 5001)
+    Y = np.column_stack([np.cos(t), np.exp(-(t**2) / 50), np.sin(3 * t)])
+    monkeypatch.setattr(engine, "_THREAD_MIN_WORK", 1)
+    assert len(engine._ranges(t.size, 600, engine.MAX_LANES)) > 3  # more lanes than threads
+    got = []
+    for n in (1, 2, 3):
+        with num_threads(n):
+            got.append(_project(HERMITE, 600, t, Y, "trapezoid", "numba"))
+    np.testing.assert_array_equal(got[1], got[0])
+    np.testing.assert_array_equal(got[2], got[0])
+
+
 @given(st.integers(1, 3000), st.integers(2, 4))
 def test_interleaved_split_is_a_round_robin_permutation(n, parts):
     """Each thread's contiguous range of the permuted samples holds every parts-th block."""
