@@ -249,3 +249,22 @@ def test_a_call_that_imports_leaves_no_library_scan_to_the_next(monkeypatch):
         assert len(built) == before
     finally:
         sys.modules.pop(name, None)
+
+
+def test_the_model_does_not_depend_on_the_number_of_threads() -> None:
+    """The projection's lanes are fixed by the call's size (slbasis.numeric.engine), the
+    small-matrix work runs on one BLAS thread: the same record gives the same model bit
+    for bit on one and on two threads (10^4 samples: several lanes; with 4000 the
+    projection is one lane, and per-thread sums passed too)."""
+    from slbasis.numeric import engine
+
+    if engine._disabled():
+        pytest.skip("SLBASIS_NO_NUMBA set: the numpy engine has no threads")
+    t, u, y = _record(3, 10000)
+    models = []
+    for n in (1, 2):
+        clear_caches()  # the second call must project again, not reuse the first's rows
+        with runtime.num_threads(n):
+            models.append(hdpbsid.identify(t, u, y, order=2, method="hermite"))
+    for name in "ABCDK":
+        np.testing.assert_array_equal(getattr(models[1], name), getattr(models[0], name))
