@@ -183,12 +183,11 @@ def _threads() -> int:
     return compiled_threads()
 
 
-def _ranges(n_samples: int, work_per_sample: int, most: int | None = None) -> list[tuple[int, int]]:
-    """Contiguous sample ranges, whole blocks each (the last takes the rest): at most
-    ``most`` (default: one per thread), none below ``2^20`` function values."""
+def _ranges(n_samples: int, work_per_sample: int) -> list[tuple[int, int]]:
+    """Contiguous sample ranges, one per thread, whole blocks each (the last takes the rest)."""
     block = _compiled().BLOCK
     by_work = (n_samples * work_per_sample) // _THREAD_MIN_WORK
-    parts = max(1, min(_threads() if most is None else most, by_work, -(-n_samples // block)))
+    parts = max(1, min(_threads(), by_work, -(-n_samples // block)))
     per = -(-n_samples // (parts * block)) * block
     return [(s, min(s + per, n_samples)) for s in range(0, n_samples, per)]
 
@@ -196,13 +195,37 @@ def _ranges(n_samples: int, work_per_sample: int, most: int | None = None) -> li
 def _interleaved(n_samples: int, parts: int) -> np.ndarray:
     """A permutation of the samples that lists the blocks of ``BLOCK`` samples group by
     group, group ``i`` holding every ``parts``-th block from block ``i`` (round robin):
-    the contiguous ranges of :func:`_ranges` over it then take blocks from all along the
-    record, so that a cost that varies along the record is shared about evenly between
-    the threads (exactly when the number of blocks is a multiple of ``parts``)."""
+    each group then takes blocks from all along the record, so that a cost that varies
+    along the record is shared about evenly between the groups."""
     block = _compiled().BLOCK
     starts = np.arange(0, n_samples, block)
     groups = [starts[i::parts] for i in range(parts)]
     return np.concatenate([np.arange(s, min(s + block, n_samples)) for g in groups for s in g])
+
+
+def _lanes(n_samples: int, work_per_sample: int) -> tuple[np.ndarray | None, list[tuple[int, int]]]:
+    """The lanes of a projection (module docstring): ``(permutation, ranges)``, lane ``g``
+    the range ``g`` of the permuted samples, i.e. the blocks ``g, g + L, g + 2 L, ...``
+    (:func:`_interleaved`); no permutation for one lane.
+
+    ``L`` depends on the call's size only: the largest power of two not above
+    :data:`MAX_LANES`, the number of blocks, or the function values in units of ``2^20``
+    (a lane's work worth a thread).  A power of two divides the usual thread counts (2, 4,
+    8), so whole lanes share out evenly between them."""
+    block = _compiled().BLOCK
+    n_blocks = -(-n_samples // block)
+    most = max(1, min(MAX_LANES, (n_samples * work_per_sample) // _THREAD_MIN_WORK, n_blocks))
+    lanes = 1 << (most.bit_length() - 1)
+    if lanes == 1:
+        return None, [(0, n_samples)]
+    sizes = [
+        sum(min(block, n_samples - s) for s in range(g * block, n_samples, lanes * block))
+        for g in range(lanes)
+    ]
+    bounds = np.cumsum([0, *sizes])
+    return _interleaved(n_samples, lanes), [
+        (int(bounds[g]), int(bounds[g + 1])) for g in range(lanes)
+    ]
 
 
 def _run(tasks, threads: int | None = None) -> list:
@@ -317,15 +340,13 @@ def project_compiled(
     if k < 1 or wy.shape[0] % k or wy.shape[0] // k > 2:
         raise ValueError(f"columns: expected {wy.shape[0]} or half of it, got {columns}")
 
-    # the lanes depend on the call's size only, not on the threads (module docstring)
-    ranges = _ranges(x.size, N, MAX_LANES)
-    if len(ranges) > 1:
-        # the cost of a sample is not uniform along the record (samples far out on a
-        # basis with a Gaussian weight start with phi_0 far below 2^-1022 and take the slow
-        # paths of the exponent handling: the outer half of a Hermite record was measured
-        # 1.3x the cost of the inner half), so each lane takes every len(ranges)-th
-        # block instead of one contiguous range, and the lanes cost about the same
-        order = _interleaved(x.size, len(ranges))
+    # the lanes depend on the call's size only, not on the threads (module docstring); the
+    # cost of a sample is not uniform along the record (samples far out on a basis with a
+    # Gaussian weight start with phi_0 far below 2^-1022 and take the slow paths of the
+    # exponent handling: the outer half of a Hermite record was measured 1.3x the cost of
+    # the inner half), so each lane takes every L-th block and the lanes cost about the same
+    order, ranges = _lanes(x.size, N)
+    if order is not None:
         x, m0, e0, wy = x[order], m0[order], e0[order], np.ascontiguousarray(wy[:, order])
 
     def task(lo: int, hi: int):

@@ -147,7 +147,7 @@ def test_project_same_bits_on_any_number_of_threads(monkeypatch):
     t = np.linspace(-50.0, 50.0, 5001)
     Y = np.column_stack([np.cos(t), np.exp(-(t**2) / 50), np.sin(3 * t)])
     monkeypatch.setattr(engine, "_THREAD_MIN_WORK", 1)
-    assert len(engine._ranges(t.size, 600, engine.MAX_LANES)) > 3  # more lanes than threads
+    assert len(engine._lanes(t.size, 600)[1]) > 3  # more lanes than threads
     got = []
     for n in (1, 2, 3):
         with num_threads(n):
@@ -158,11 +158,26 @@ def test_project_same_bits_on_any_number_of_threads(monkeypatch):
 
 @given(st.integers(1, 3000), st.integers(2, 4))
 def test_interleaved_split_is_a_round_robin_permutation(n, parts):
-    """Each thread's contiguous range of the permuted samples holds every parts-th block."""
+    """Group g of the permuted samples holds every parts-th block from block g."""
     order = engine._interleaved(n, parts)
     block = engine._compiled().BLOCK
     expected = [i for g in range(parts) for i in range(n) if (i // block) % parts == g]
     assert np.array_equal(order, expected)
+
+
+@given(st.integers(1, 40_000), st.integers(1, 5000))
+def test_lanes_are_round_robin_groups_of_a_power_of_two(n, N):
+    """The lanes of a projection: a power of two of them, at most MAX_LANES, lane g the
+    samples of the blocks g, g + L, ... (in order), together every sample once."""
+    order, ranges = engine._lanes(n, N)
+    L = len(ranges)
+    assert L & (L - 1) == 0 and L <= engine.MAX_LANES
+    block = engine._compiled().BLOCK
+    perm = np.arange(n) if order is None else order
+    assert np.array_equal(np.sort(perm), np.arange(n))
+    for g, (lo, hi) in enumerate(ranges):
+        expected = [i for i in range(n) if (i // block) % L == g]
+        assert np.array_equal(perm[lo:hi], expected)
 
 
 def _gaussian_coefficients(N, a):
