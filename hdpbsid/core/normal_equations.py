@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
 
-__all__ = ["GRAM_RCOND", "NORMAL_EQUATIONS", "NormalEquations", "lstsq_residuals"]
+__all__ = ["NORMAL_EQUATIONS", "NormalEquations", "lstsq_residuals"]
 
 Array = NDArray[np.float64]
 
@@ -43,8 +43,6 @@ class NormalEquations:
 
 #: the setting :func:`lstsq_residuals` applies
 NORMAL_EQUATIONS = NormalEquations()
-#: :attr:`NormalEquations.gram_rcond`
-GRAM_RCOND = NORMAL_EQUATIONS.gram_rcond
 
 
 def lstsq_residuals(X: Array, target: Array, rcond: float | None = None) -> Array:
@@ -72,7 +70,7 @@ def lstsq_residuals(X: Array, target: Array, rcond: float | None = None) -> Arra
     target : ndarray, shape (N,) or (N, j)
         The fitted signal(s).
     rcond : float, optional
-        The conditioning bound (default :data:`GRAM_RCOND`).
+        The conditioning bound (default: :data:`NORMAL_EQUATIONS`'s ``gram_rcond``).
 
     Returns
     -------
@@ -88,7 +86,7 @@ def lstsq_residuals(X: Array, target: Array, rcond: float | None = None) -> Arra
     >>> bool(np.allclose(X.T @ r, 0.0, atol=1e-9))
     True
     """
-    rcond = GRAM_RCOND if rcond is None else rcond
+    rcond = NORMAL_EQUATIONS.gram_rcond if rcond is None else rcond
     if not (X.flags.c_contiguous or X.flags.f_contiguous):
         X = np.ascontiguousarray(X)  # a strided view makes the products skip BLAS
     G = X.T @ X
