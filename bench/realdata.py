@@ -235,11 +235,18 @@ def _attempt(
     return Run(label, horizon, order, "ok", n, fit, seconds, model=model)
 
 
+#: suffix of a method name that asks for the refinement's simulation focus
+#: (``identify(..., focus="simulation")``), e.g. ``auto+simulation``
+SIMULATION_FOCUS = "+simulation"
+
+
 def _ours(method: str, split: Split, order: int | None) -> Run:
     rec = split.estimation
+    name = method.removesuffix(SIMULATION_FOCUS)
+    focus = {"focus": "simulation"} if method.endswith(SIMULATION_FOCUS) else {}
 
     def call() -> peers.Identified:
-        m = hdpbsid.identify(rec.t, rec.u, rec.y, method=method, order=order)
+        m = hdpbsid.identify(rec.t, rec.u, rec.y, method=name, order=order, **focus)
         return peers.Identified(m.A, m.B, m.C, m.D, None)
 
     return _attempt(method, call, split, None, order)
@@ -531,7 +538,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument(
         "--peers", nargs="+", choices=all_peers, help="default: every peer that imports here"
     )
-    ap.add_argument("--methods", nargs="+", help="our methods (default: every available)")
+    ap.add_argument(
+        "--methods",
+        nargs="+",
+        help="our methods (default: every available); NAME+simulation: with "
+        "focus='simulation' (e.g. auto+simulation)",
+    )
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown / figures")
     ap.add_argument(
         "--results", action="store_true", help="write the table to bench/results/realdata.md"

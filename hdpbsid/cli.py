@@ -344,6 +344,15 @@ def _add_identification_settings(p: argparse.ArgumentParser) -> None:
         "single uniformly sampled record, kept when it converges; hdpbsid.selection.feedback)",
     )
     p.add_argument(
+        "--focus",
+        choices=("prediction", "simulation"),
+        default="prediction",
+        help="what the refinement fits the plant for: 'prediction' (default: one-step "
+        "prediction error, consistent in closed loop) or 'simulation' (output error, "
+        "then the noise model; open-loop records, the best linear model of a nonlinear "
+        "process)",
+    )
+    p.add_argument(
         "--option",
         action="append",
         metavar="KEY=VALUE",

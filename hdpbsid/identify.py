@@ -45,6 +45,7 @@ from hdpbsid.methods.registry import (
 from hdpbsid.models.model import LinearTrend, StateSpaceModel, _set_levels
 from hdpbsid.models.report import Choice
 from hdpbsid.refine.pem import (
+    FOCUSES,
     REFINE_CHOICES,
     one_step_errors,
     refine_pem,
@@ -71,6 +72,7 @@ class _Request:
     feedthrough: Any  # True, False or "auto" (the default)
     long_record: Any
     progress: bool
+    focus: str = "prediction"
 
 
 def _request(
@@ -86,7 +88,12 @@ def _request(
     if feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
-    return _Request(method, order, refine, detrend, feedthrough, long_record, progress)
+    focus = options.pop("focus", "prediction")
+    if focus not in FOCUSES:
+        raise ValueError(f"focus must be one of {FOCUSES}, got {focus!r}")
+    if focus != "prediction" and refine is None:
+        raise ValueError(f"focus={focus!r} is the refinement's: it needs refine='auto' or 'pem'")
+    return _Request(method, order, refine, detrend, feedthrough, long_record, progress, focus)
 
 
 @dataclass
@@ -114,7 +121,7 @@ def _identify_long(
     and reported as :func:`identify` reports the in-memory path."""
     model = scaling.identify_long(
         t, u, y, req.order, req.refine, req.detrend, long_record=req.long_record,
-        progress=req.progress, **options,
+        progress=req.progress, focus=req.focus, **options,
     )  # fmt: skip
     if labels is not None:
         labels.apply(model, [(t, u, y)])
@@ -203,7 +210,9 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
     t_refine = time.perf_counter()
     timings = {"method": t_refine - t_method}
     judged = req.feedthrough == "auto"
-    model, rule = _refined(model, req.refine, several, *first.record, judged=judged)
+    model, rule = _refined(
+        model, req.refine, several, *first.record, judged=judged, focus=req.focus
+    )
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.report = model.report.but(warm_start=None)
     if not several:
@@ -315,7 +324,9 @@ def identify(
         (``"auto"``, the default, ``True`` or ``False``; Notes), ``order_rule=`` (``"held-out"``
         or ``"svd"``), ``long_record=`` (a
         :class:`~hdpbsid.selection.long_records.LongRecordPolicy`, or False: off),
-        ``progress=`` (progress bars on the long-record path), ``max_delay=`` and
+        ``progress=`` (progress bars on the long-record path), ``focus=``
+        (``"prediction"``, the default, or ``"simulation"``: the plant by its simulation
+        error, open loop; Notes), ``max_delay=`` and
         ``delay_hold=`` (``"zoh"``, ``"foh"`` or ``"bandlimited"``, with
         ``delay="auto"``).
 
@@ -378,6 +389,17 @@ def identify(
     that nor the subspace estimate.  ``D`` is a parameter only with
     ``feedthrough=True`` (a free ``D`` lets closed-loop data predict the noise through
     the controller).
+
+    *Focus.*  The refinement fits the innovation model by its one-step prediction error
+    (``focus="prediction"``, the default: maximum likelihood when the disturbance has
+    the innovation form, consistent in closed loop).  ``focus="simulation"`` fits the
+    plant by its simulation error instead (``K = 0``), then ``K`` with the plant held
+    (:func:`hdpbsid.refine.pem.refine_pem`): in open loop that plant is consistent
+    whatever the disturbance, and on a process with a nonlinear distortion it is the
+    best linear approximation, the linear model that simulates the record best, where
+    the prediction-error plant is pulled towards what predicts one step ahead (a
+    resonance too sharp, for one).  Biased in closed loop (a ``UserWarning`` when the
+    feedback test finds feedback).  The order and method are chosen as with the default.
 
     *Direct term.*  ``feedthrough="auto"`` (the default) decides ``D`` from the data
     (:mod:`hdpbsid.selection.feedthrough`), judged like the order on the last third of
@@ -578,11 +600,15 @@ def _refined(
     u: Any,
     y: Any,
     judged: bool = False,
+    focus: str = "prediction",
 ) -> tuple[StateSpaceModel, str]:
     """The refinement ``refine`` of :func:`identify` (its docstring) of ``model`` on the
     record ``(t, u, y)``: the model returned and the rule that decided it; ``judged``:
-    ``feedthrough="auto"`` decided the direct term (:func:`_hold_or_direct_term`)."""
+    ``feedthrough="auto"`` decided the direct term (:func:`_hold_or_direct_term`);
+    ``focus``: :func:`~hdpbsid.refine.pem.refine_pem`'s."""
     rule = "pem: asked for"
+    if focus == "simulation":
+        return _simulation_refined(model, t, u, y, refine, several)
     if refine == "pem":
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
         return _hold_or_direct_term(model, refined, t, u, y, judged), rule
@@ -613,6 +639,33 @@ def _refined(
     model.options["refine_rule"] = rule
     model.options["refine_statistics"] = stats
     return model, rule
+
+
+def _simulation_refined(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, refine: Any, several: bool
+) -> tuple[StateSpaceModel, str]:
+    """``focus="simulation"``: the output-error plant and then ``K``
+    (:func:`~hdpbsid.refine.pem.refine_pem`), on a single uniformly sampled record;
+    a ``UserWarning`` when the feedback test finds the record closed loop (there the
+    output-error plant is biased)."""
+    if several or not is_uniform(check_time(t, "t", min_samples=2)):
+        raise ValueError("focus='simulation' needs a single uniformly sampled record")
+    errors = _one_step_errors(model, t, u, y)
+    _, _, stats, _ = refine_plan(model, t, u, y, True, errors=errors)
+    rule = f"{'pem' if refine == 'pem' else 'auto'}: focus='simulation', the output-error plant"
+    if stats is not None and stats.get("feedback"):
+        warnings.warn(
+            "focus='simulation' on a record the feedback test finds closed loop: the "
+            "output-error plant ignores the noise the loop feeds back through u and is "
+            "biased; use the default focus='prediction' for closed-loop records",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+        rule += " (closed loop: biased)"
+    refined = refine_pem(model, t, u, y, focus="simulation")
+    refined.options["refine_rule"] = rule
+    refined.options["refine_statistics"] = stats
+    return refined, rule
 
 
 def _hold_or_direct_term(

@@ -113,6 +113,8 @@ def _identify_records(
 
     options = dict(req.options)
     options.setdefault("progress", progress(args.progress, records))
+    if args.focus != "prediction":
+        options.setdefault("focus", args.focus)
     data = records[0].as_tuple() if len(records) == 1 else ([r.as_tuple() for r in records],)
     try:
         return identify(

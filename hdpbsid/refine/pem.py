@@ -77,7 +77,6 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import expm, solve_discrete_are
 
 # is_uniform: the package's one uniformity test (hdpbsid.data.checks), re-exported here
 from hdpbsid.core.normal_equations import lstsq_residuals
@@ -85,6 +84,7 @@ from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
 from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
+from hdpbsid.refine.pem_focus import FOCUSES, simulation_focus
 from hdpbsid.refine.pem_predictor import sampled_predictor
 from hdpbsid.refine.pem_residuals import (
     _ddlc_basis,
@@ -96,6 +96,14 @@ from hdpbsid.refine.pem_residuals import (
     _unscale,
 )
 from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS, RefinementSettings
+from hdpbsid.refine.pem_starts import (
+    _check_warm_start,
+    _kalman_gain,
+    _warm_first,
+    _warm_name,
+    _warm_start,
+    warm_start_option,
+)
 from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
@@ -104,6 +112,7 @@ __all__ = [
     "warm_start_option",
     "is_uniform",
     "REFINE_CHOICES",
+    "FOCUSES",
     "RefinementSettings",
     "DEFAULT_SETTINGS",
 ]
@@ -122,7 +131,6 @@ HOLDS = ("zoh", "foh")
 #: ``warm_start`` argument of :func:`refine_pem`), and the default name of that start in
 #: ``options["refine_start"]``
 WARM_START = WARM_START_OPTION
-WARM_START_NAME = "prediction-error fit on part of the record"
 
 
 class _Fit(NamedTuple):
@@ -201,6 +209,7 @@ def refine_pem(
     max_nfev: int | None = None,
     warm_start: WarmStart | None = None,
     settings: RefinementSettings | None = None,
+    focus: str = "prediction",
 ) -> StateSpaceModel:
     """Prediction-error refinement of ``model`` on the record ``t, u, y`` (module docstring).
 
@@ -238,6 +247,11 @@ def refine_pem(
         that of a prediction-error fit on part of the record).  Not carried to the result.
     settings : RefinementSettings or None, optional
         Budget, stopping rule and evidence thresholds; default :data:`DEFAULT_SETTINGS`.
+    focus : {"prediction", "simulation"}, optional
+        ``"prediction"`` (default): ``A, B, C, [D], K`` together by the one-step
+        prediction error.  ``"simulation"``: the plant by its simulation error, then
+        ``K`` with the plant held (:mod:`hdpbsid.refine.pem_focus`: consistent in open
+        loop whatever the disturbance, biased in closed loop).
 
     Returns
     -------
@@ -273,8 +287,32 @@ def refine_pem(
     'pem'
     """
     settings = DEFAULT_SETTINGS if settings is None else settings
+    if focus not in FOCUSES:
+        raise ValueError(f"focus must be one of {FOCUSES}, got {focus!r}")
     t, u, y = _checked_record(model, t, u, y, hold)
-    task = _task(model, t, u, y, hold, warm_start, max_nfev, settings)
+    if focus == "simulation":
+
+        def fit(start: StateSpaceModel, hd: str | None, free: str) -> StateSpaceModel:
+            return _refine(start, t, u, y, hd, None, max_nfev, settings, free)
+
+        return simulation_focus(fit, model, hold)
+    return _refine(model, t, u, y, hold, warm_start, max_nfev, settings)
+
+
+def _refine(
+    model: StateSpaceModel,
+    t: Array,
+    u: Array,
+    y: Array,
+    hold: str | None,
+    warm_start: Any,
+    max_nfev: int | None,
+    settings: RefinementSettings,
+    free: str = "all",
+) -> StateSpaceModel:
+    """:func:`refine_pem` on the checked record, moving the parameters ``free``
+    (:class:`~hdpbsid.refine.pem_residuals._Layout`)."""
+    task = _task(model, t, u, y, hold, warm_start, max_nfev, settings, free)
     if not task.starts:
         return _keep(
             model,
@@ -335,17 +373,22 @@ def _task(
     warm_start: Any,
     max_nfev: int | None,
     settings: RefinementSettings,
+    free: str = "all",
 ) -> _Task:
-    """The inputs of the refinement of ``model`` on the checked record (:class:`_Task`)."""
+    """The inputs of the refinement of ``model`` on the checked record (:class:`_Task`);
+    ``free``: the parameters moved (:class:`~hdpbsid.refine.pem_residuals._Layout`;
+    with the plant alone, the one start with ``K = 0``)."""
     warm_start = _check_warm_start(warm_start)
     holds = _warm_first(_candidate_holds(model, hold), warm_start)
     h = float((t[-1] - t[0]) / (t.size - 1))
-    lay = _Layout(model.n, model.m, model.l, _fits_feedthrough(model))
+    lay = _Layout(model.n, model.m, model.l, _fits_feedthrough(model), free)
     # scale outputs and inputs to unit RMS so the parameters are comparable; tiny: an
     # all-zero signal keeps a finite scale
     ys = np.sqrt(np.mean(y**2, axis=0)) + np.finfo(float).tiny
     us = np.sqrt(np.mean(u**2, axis=0)) + np.finfo(float).tiny if model.m else np.ones(0)
     starts = _starts(model, lay, h, holds[0], warm_start, ys, us, settings)
+    if free == "plant":  # the output-error fit: K stays at the model's zero
+        starts = {k: v for k, v in starts.items() if k == "model K"}
     budget = settings.max_nfev if max_nfev is None else int(max_nfev)
     return _Task(model, holds, h, lay, ys, us, u / us, y / ys, starts, budget, model.l * t.size)
 
@@ -642,19 +685,6 @@ def _hold_was_given(model: StateSpaceModel) -> bool:
     return model.report.input_hold is not None and model.report.input_hold.given
 
 
-def _kalman_gain(A: Array, C: Array, h: float, q: float) -> Array:
-    """Continuous ``K`` of the steady-state Kalman predictor of the sampled model with
-    process noise ``q I`` and unit measurement noise (filter DARE; stable whenever
-    ``(A, C)`` is detectable), mapped back with ``Kd = int_0^h e^{A s} ds K``
-    (:mod:`hdpbsid.models.conversion`)."""
-    n, l = A.shape[0], C.shape[0]
-    E = expm(np.block([[A * h, np.eye(n) * h], [np.zeros((n, 2 * n))]]))
-    Phi, Psi = E[:n, :n], E[:n, n:]
-    P = solve_discrete_are(Phi.T, C.T, q * np.eye(n), np.eye(l))
-    Kd = Phi @ P @ C.T @ np.linalg.inv(C @ P @ C.T + np.eye(l))
-    return np.linalg.solve(Psi, Kd)
-
-
 def _lm_fit(
     theta: Array,
     lay: _Layout,
@@ -872,30 +902,6 @@ def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: A
     )
 
 
-def _check_warm_start(warm_start: Any) -> WarmStart | None:
-    """``warm_start`` of :func:`refine_pem`, checked."""
-    if warm_start is not None and not isinstance(warm_start, WarmStart):
-        raise TypeError(
-            "warm_start must be a hdpbsid.models.report.WarmStart or None, got "
-            f"{type(warm_start).__name__}"
-        )
-    return warm_start
-
-
-def _warm_first(holds: tuple[str, ...], warm_start: WarmStart | None) -> tuple[str, ...]:
-    """``holds`` with the warm start's hold first when it is among them: that hold was
-    chosen by a prediction-error fit."""
-    warm_hold = None if warm_start is None else warm_start.input_hold
-    if warm_hold in holds[1:]:
-        return (warm_hold, *[hd for hd in holds if hd != warm_hold])
-    return holds
-
-
-def _warm_name(warm_start: WarmStart | None) -> str:
-    """The name of the warm start among the starting points."""
-    return str((warm_start.name if warm_start is not None else None) or WARM_START_NAME)
-
-
 def _refined_report(model: StateSpaceModel, refinement: Refinement) -> Any:
     """The report of the refinement of ``model``: its own, with the hold fitted (given
     when the method was told it) and the refinement's outcome, and no warm start."""
@@ -903,42 +909,3 @@ def _refined_report(model: StateSpaceModel, refinement: Refinement) -> Any:
     return model.report.but(
         input_hold=Choice(refinement.hold, why), refinement=refinement, warm_start=None
     )
-
-
-def warm_start_option(model: StateSpaceModel) -> WarmStart:
-    """The ``warm_start`` of :func:`refine_pem` that offers ``model`` (a prediction-error
-    fit on part of the record) as a starting point: its matrices and its input hold.
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-        The starting model.
-
-    Returns
-    -------
-    WarmStart
-
-    Examples
-    --------
-    >>> from hdpbsid import StateSpaceModel
-    >>> m = StateSpaceModel(A=[[-1.0]], B=[[1.0]], C=[[1.0]], D=[[0.0]], K=[[0.5]])
-    >>> warm_start_option(m)
-    WarmStart(n=1, input_hold=None, name=None)
-    """
-    return WarmStart.of(model, model.report.hold)
-
-
-def _warm_start(
-    model: StateSpaceModel, warm: WarmStart | None, ys: Array, us: Array
-) -> tuple[Array, ...] | None:
-    """The scaled ``(A, B, C, D, K)`` of the warm start ``warm`` (:func:`refine_pem`), or
-    None when there is none or its shapes are not the model's."""
-    if warm is None:
-        return None
-    try:
-        wm = StateSpaceModel(*(np.asarray(getattr(warm, k), dtype=float) for k in "ABCDK"))
-    except (ValueError, TypeError):
-        return None
-    if (wm.n, wm.m, wm.l) != (model.n, model.m, model.l):
-        return None
-    return _scale(wm, ys, us)

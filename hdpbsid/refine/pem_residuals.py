@@ -64,10 +64,12 @@ _MAX_MODAL_COND = 1.0 / np.finfo(float).eps
 
 class _Layout:
     """Where ``A, B, C, D, K`` sit in the parameter vector ``theta`` (row-major blocks
-    ``vec A, vec B, vec C, [vec D], vec K``; ``D`` only when it is a parameter)."""
+    ``vec A, vec B, vec C, [vec D], vec K``; ``D`` only when it is a parameter), and
+    which of them the search moves (``free``: ``"all"``; ``"plant"``, ``K`` held;
+    ``"noise"``, only ``K``; :func:`_ddlc_basis`)."""
 
-    def __init__(self, n: int, m: int, l: int, feedthrough: bool) -> None:
-        self.n, self.m, self.l, self.feedthrough = n, m, l, feedthrough
+    def __init__(self, n: int, m: int, l: int, feedthrough: bool, free: str = "all") -> None:
+        self.n, self.m, self.l, self.feedthrough, self.free = n, m, l, feedthrough, free
         sizes = [n * n, n * m, l * n, l * m if feedthrough else 0, n * l]
         self.stops = np.cumsum([0, *sizes])
 
@@ -167,7 +169,30 @@ def _ddlc_basis(lay: _Layout, theta: Array) -> Array:
     removed ("data-driven local coordinates", McKelvey, Helmersson & Ribarits, Automatica
     40 (2004); the parametrisation of MATLAB's ``ssest``), leaving
     ``n (m + 2 l) + l m [feedthrough]`` free parameters.
+
+    With ``lay.free == "plant"`` (``K`` held at zero: the output-error fit) the ``K``
+    rows of that basis are dropped and the rest orthonormalised again: at ``K = 0`` the
+    similarity directions do not move ``K``, so the result spans the plant's directions
+    that change its input-output behaviour, ``n (m + l) + l m [feedthrough]`` of them.
+    With ``lay.free == "noise"`` the basis is the ``n l`` coordinates of ``K`` (the plant
+    held: no similarity direction is left to remove).
     """
+    s = lay.stops
+    if lay.free == "noise":
+        Q = np.zeros((s[-1], s[5] - s[4]))
+        Q[s[4] : s[5]] = np.eye(s[5] - s[4])
+        return Q
+    Q = _full_ddlc_basis(lay, theta)
+    if lay.free == "plant":
+        Q[s[4] : s[5]] = 0.0
+        U, sv, _ = np.linalg.svd(Q, full_matrices=False)
+        rank = int(np.sum(sv > sv[0] * Q.shape[0] * np.finfo(float).eps)) if sv.size else 0
+        return U[:, :rank]
+    return Q
+
+
+def _full_ddlc_basis(lay: _Layout, theta: Array) -> Array:
+    """:func:`_ddlc_basis` of every parameter."""
     A, B, C, D, K = lay.unpack(theta)
     n = lay.n
     cols = []

@@ -270,6 +270,7 @@ def identify_long(
     *,
     long_record: LongRecordPolicy | None = None,
     progress: bool = False,
+    focus: str = "prediction",
     **options: Any,
 ) -> Any:
     """``identify(t, u, y)`` on a long record by the bounded path (module docstring).
@@ -290,6 +291,9 @@ def identify_long(
         The :class:`LongRecordPolicy` (default: its defaults).
     progress
         Show progress bars (tqdm).
+    focus
+        The refinement's (:func:`hdpbsid.refine.pem.refine_pem`): ``"prediction"``
+        (default) or ``"simulation"``.
     **options
         As :func:`hdpbsid.selection.auto.identify_auto` takes them (``methods=``,
         ``max_order=``, ``method_options=``, settings shared by every method).
@@ -341,7 +345,7 @@ def identify_long(
         model = _whole_record(method, n, rec, reading, chosen, opts, plan, bar)
         if refine is not None:
             bar.stage("refinement")
-            model = _refine(model, chosen, rec, plan, policy, refine, info)
+            model = _refine(model, chosen, rec, plan, policy, refine, info, focus)
         bar.stage("done")
     finally:
         bar.close()
@@ -597,15 +601,21 @@ def _refine(
     policy: LongRecordPolicy,
     refine: str,
     info: dict[str, Any],
+    focus: str = "prediction",
 ) -> Any:
     """The refinement on a bounded part and the choice between it and ``model``
-    (module docstring, step 5); what was done goes to ``info``."""
+    (module docstring, step 5); what was done goes to ``info``; ``focus``: the
+    refinement's."""
     t0 = time.perf_counter()
     part = _segment(rec, *plan.selection)
     do, rule = _refine_decision(model, part, refine, info)
     if not do:
         return model
-    refined, converged, (a, b), rel = _refine_parts(model, chosen, rec, part, plan, policy, info)
+    if focus != "prediction":
+        rule += f"; focus={focus!r}"
+    refined, converged, (a, b), rel = _refine_parts(
+        model, chosen, rec, part, plan, policy, info, focus
+    )
     if not converged:
         text = (
             f"{rule}; the refinement on samples {a}..{b - 1} did not converge: the "
@@ -657,6 +667,7 @@ def _refine_parts(
     plan: LongRecordPlan,
     policy: LongRecordPolicy,
     info: dict[str, Any],
+    focus: str = "prediction",
 ) -> tuple[Any, bool, tuple[int, int], float]:
     """The refined model: on the selection segment ``part``, and when its predicted
     relative eigenvalue std ``s`` exceeds the target, again on ``N s^2 / target^2``
@@ -668,7 +679,7 @@ def _refine_parts(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         # the selection's candidate refined on its estimation part: a second starting point
-        refined = refine_pem(model, *part, warm_start=chosen.report.warm_start)
+        refined = refine_pem(model, *part, warm_start=chosen.report.warm_start, focus=focus)
         rel = _relative_std(refined)
         parts = [b - a]
         converged = refined is not model and refined.report.converged
@@ -677,7 +688,9 @@ def _refine_parts(
         if size > b - a:
             a = (rec.ns - size) // 2
             b = a + size
-            again = refine_pem(model, *_segment(rec, a, b), warm_start=warm_start_option(refined))
+            again = refine_pem(
+                model, *_segment(rec, a, b), warm_start=warm_start_option(refined), focus=focus
+            )
             if again is not model and again.report.converged:
                 refined, rel = again, _relative_std(again)
             parts.append(b - a)

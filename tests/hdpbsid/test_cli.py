@@ -102,6 +102,17 @@ def test_identify_refine_flag(csv_file: Path, tmp_path: Path) -> None:
     np.testing.assert_allclose(_eigs(d), TRUE_EIGS, rtol=1e-6)
 
 
+def test_identify_focus_flag(csv_file: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    argv = ["identify", str(csv_file), "--time", "time", "--inputs", "force"]
+    argv += ["--outputs", "pos", "--order", "2", "--method", "hermite", "--detrend", "none"]
+    assert main([*argv, "--focus", "simulation", "--out", str(out), "--no-plot"]) == 0
+    d = json.loads((out / "model.json").read_text())
+    assert d["options"]["refine_focus"] == "simulation"
+    # noise-free ZOH data: the output-error plant is the truth up to the LM tolerances
+    np.testing.assert_allclose(_eigs(d), TRUE_EIGS, rtol=1e-6)
+
+
 def test_options_passed_through_and_semicolon_csv(csv_file: Path, tmp_path: Path) -> None:
     semi = tmp_path / "semi.csv"
     semi.write_text(csv_file.read_text().replace(",", ";"))

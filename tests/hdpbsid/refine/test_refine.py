@@ -302,7 +302,8 @@ def test_a_warm_start_is_screened_with_the_others_and_reaches_the_same_minimum()
     the same minimum as without it, and the start is not carried to the result; a start
     of other dimensions is ignored."""
     from hdpbsid.models.report import WarmStart
-    from hdpbsid.refine.pem import WARM_START_NAME, warm_start_option
+    from hdpbsid.refine.pem import warm_start_option
+    from hdpbsid.refine.pem_starts import WARM_START_NAME
 
     rng = np.random.default_rng(3)
     t = np.arange(0.0, 40.0, 0.01)

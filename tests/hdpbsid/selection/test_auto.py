@@ -535,7 +535,7 @@ def test_auto_raises_the_order_where_the_closed_loop_bias_hid_it():
     assert m.n == case.order == 4
     assert "closed loop (feedback test)" in m.options["selection_rule"]
     # the chosen candidate refined on the estimation part was offered to the refinement
-    from hdpbsid.refine.pem import WARM_START_NAME
+    from hdpbsid.refine.pem_starts import WARM_START_NAME
 
     assert WARM_START_NAME in m.options["refine_start_predicted"]
     assert m.report.warm_start is None

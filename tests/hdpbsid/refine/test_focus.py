@@ -1,0 +1,115 @@
+"""``focus="simulation"``: the plant by its simulation error (output error), then ``K``.
+
+Oracles: the output-error plant is consistent in open loop whatever the disturbance's
+spectrum (Ljung 1999, sec. 8.5), so on a plant disturbed by noise of another
+resonance it finds the plant's eigenvalues; on a plant with a cubic spring it is the
+best linear approximation, which simulates an independent record better than the
+prediction-error plant; in closed loop it is biased and says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from hdpbsid import identify
+from hdpbsid.models.metrics import eigenvalue_errors
+from hdpbsid.refine.pem import refine_pem
+from hdpbsid.systems import simulate_zoh
+from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
+
+#: a lightly damped pair at 2 rad/s (zeta 0.1), unit static gain
+A = np.array([[0.0, 1.0], [-4.0, -0.4]])
+B = np.array([[0.0], [4.0]])
+C = np.array([[1.0, 0.0]])
+
+
+def _coloured_record(seed: int):
+    """The pair driven by a random binary input, 40 s at 0.02 s, plus a disturbance
+    that is not of the innovation form of the plant: white noise through a sharp
+    resonance at 9 rad/s (AR(2) with poles of modulus 0.98), 15 dB below the output."""
+    rng = np.random.default_rng(seed)
+    dt = 0.02
+    t = np.arange(2000) * dt
+    u = np.repeat(rng.choice((-1.0, 1.0), 200), 10)[:, None]
+    y = simulate_zoh(A, B, C, np.zeros((1, 1)), t, u)
+    r, w = 0.98, 9.0 * dt
+    v = lfilter([1.0], [1.0, -2 * r * np.cos(w), r * r], rng.standard_normal(t.size))
+    v *= np.std(y) / np.std(v) * 10 ** (-15 / 20)
+    return t, u, y + v[:, None]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_output_error_plant_is_consistent_under_a_coloured_disturbance(seed):
+    t, u, y = _coloured_record(seed)
+    m = identify(t, u, y, 2, method="dt", focus="simulation")
+    err = eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(A))
+    # 2000 samples at 15 dB: the output-error std of these eigenvalues is ~0.3 %
+    # (the refinement's reported std); 3 % is ten of them
+    assert err.max() < 0.03, err
+    assert m.options["refine_focus"] == "simulation"
+    assert np.any(m.K != 0.0)  # the noise model is fitted after the plant
+
+
+def _cubic_spring(seed: int, n: int = 12_000):
+    """``x'' + 2 zeta w x' + w^2 (x + 0.1 x^3) = w^2 u`` (w = 2 pi 5 rad/s, zeta 0.03)
+    driven by white noise low-passed at 15 Hz, 100 Hz sampling, RK4 with four steps per
+    sample, output noise 40 dB below: at the record's amplitude the cubic term moves
+    the resonance by tens of percent, so no linear model simulates it well."""
+    rng = np.random.default_rng(seed)
+    dt, w, zeta, sub = 0.01, 2 * np.pi * 5.0, 0.03, 4
+    u = lfilter(*_butter(15.0 * dt * 2), rng.standard_normal(n))
+    u /= np.std(u)
+    h = dt / sub
+    x, v, y = 0.0, 0.0, np.empty(n)
+
+    def acc(x, v, uk):
+        return w * w * (uk - x - 0.1 * x**3) - 2 * zeta * w * v
+
+    for k in range(n):
+        y[k] = x
+        for _ in range(sub):
+            a1, b1 = v, acc(x, v, u[k])
+            a2, b2 = v + h / 2 * b1, acc(x + h / 2 * a1, v + h / 2 * b1, u[k])
+            a3, b3 = v + h / 2 * b2, acc(x + h / 2 * a2, v + h / 2 * b2, u[k])
+            a4, b4 = v + h * b3, acc(x + h * a3, v + h * b3, u[k])
+            x += h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            v += h / 6 * (b1 + 2 * b2 + 2 * b3 + b4)
+    y = y + 0.01 * np.std(y) * rng.standard_normal(n)
+    return dt * np.arange(n), u[:, None], y[:, None]
+
+
+def _butter(wn: float):
+    from scipy.signal import butter
+
+    return butter(2, wn)
+
+
+def _simulation_fit(model, t, u, y) -> float:
+    """Percent fit of the model's simulation from a least-squares initial state."""
+    return float(model.compare(t, u, y, method=model.report.hold or "zoh").fit[0])
+
+
+def test_the_output_error_plant_simulates_a_nonlinear_record_better():
+    t, u, y = _cubic_spring(0)
+    tv, uv, yv = _cubic_spring(1)
+    pem = identify(t, u, y, 2, method="dt")
+    oe = identify(t, u, y, 2, method="dt", focus="simulation")
+    f_pem, f_oe = _simulation_fit(pem, tv, uv, yv), _simulation_fit(oe, tv, uv, yv)
+    # the best linear approximation against the one-step predictor's plant, on a record
+    # neither saw; measured 0 and 1: see the margin in the assertion's message
+    assert f_oe > f_pem + 3.0, (f_oe, f_pem)
+
+
+def test_closed_loop_warns_and_bad_values_raise():
+    d = simulate_pitch_closed_loop(np.random.default_rng(0), snr_db=20.0)
+    with pytest.warns(UserWarning, match="closed loop"):
+        identify(d.t, d.u, d.y, 3, method="hermite", focus="simulation")
+    with pytest.raises(ValueError, match="focus"):
+        identify(d.t, d.u, d.y, 3, method="hermite", focus="output")
+    with pytest.raises(ValueError, match="focus"):
+        identify(d.t, d.u, d.y, 3, method="hermite", refine=None, focus="simulation")
+    m = identify(d.t, d.u, d.y, 3, method="hermite", refine=None)
+    with pytest.raises(ValueError, match="focus"):
+        refine_pem(m, d.t, d.u, d.y, focus="sim")
