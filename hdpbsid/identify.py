@@ -50,6 +50,7 @@ from hdpbsid.refine.pem import (
     one_step_errors,
     refine_pem,
 )
+from hdpbsid.refine.pem_focus import warn_if_closed_loop
 from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_plan
@@ -653,14 +654,7 @@ def _simulation_refined(
     errors = _one_step_errors(model, t, u, y)
     _, _, stats, _ = refine_plan(model, t, u, y, True, errors=errors)
     rule = f"{'pem' if refine == 'pem' else 'auto'}: focus='simulation', the output-error plant"
-    if stats is not None and stats.get("feedback"):
-        warnings.warn(
-            "focus='simulation' on a record the feedback test finds closed loop: the "
-            "output-error plant ignores the noise the loop feeds back through u and is "
-            "biased; use the default focus='prediction' for closed-loop records",
-            UserWarning,
-            stacklevel=user_stacklevel(),
-        )
+    if warn_if_closed_loop("simulation", stats):
         rule += " (closed loop: biased)"
     refined = refine_pem(model, t, u, y, focus="simulation")
     refined.options["refine_rule"] = rule

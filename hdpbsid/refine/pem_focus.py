@@ -23,7 +23,7 @@ import numpy as np
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import user_stacklevel
 
-__all__ = ["FOCUSES", "simulation_focus"]
+__all__ = ["FOCUSES", "simulation_focus", "warn_if_closed_loop"]
 
 #: what the refinement fits the plant for (``refine_pem``'s ``focus``)
 FOCUSES = ("prediction", "simulation")
@@ -92,3 +92,20 @@ def simulation_focus(fit: Fit, model: StateSpaceModel, hold: str | None) -> Stat
         input_hold_before_refine=model.report.hold,
     )
     return noise
+
+
+def warn_if_closed_loop(focus: str, stats: dict | None) -> bool:
+    """Warn (``UserWarning``) when ``focus="simulation"`` meets a record the feedback
+    test (:func:`hdpbsid.selection.feedback.feedback_statistics`; its ``stats``) finds
+    closed loop: there the output-error plant ignores the noise the loop feeds back
+    through the input and is biased.  Returns whether it warned."""
+    if focus != "simulation" or not (stats or {}).get("feedback"):
+        return False
+    warnings.warn(
+        "focus='simulation' on a record the feedback test finds closed loop: the "
+        "output-error plant ignores the noise the loop feeds back through u and is "
+        "biased; use the default focus='prediction' for closed-loop records",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return True

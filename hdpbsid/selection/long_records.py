@@ -613,6 +613,9 @@ def _refine(
         return model
     if focus != "prediction":
         rule += f"; focus={focus!r}"
+        from hdpbsid.refine.pem_focus import warn_if_closed_loop
+
+        warn_if_closed_loop(focus, info.get("refine_statistics"))
     refined, converged, (a, b), rel = _refine_parts(
         model, chosen, rec, part, plan, policy, info, focus
     )
