@@ -485,6 +485,8 @@ def identify(
     _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
     # 2. the record(s) scaled and detrended, the method run (several: as one Dataset)
     several = _is_several(t)
+    if req.focus != "prediction" and (several or not is_uniform(check_time(t, "t"))):
+        raise ValueError(f"focus={req.focus!r} needs a single uniformly sampled record")
     signal_scale = _Scaling(t, u, y, several)
     t, u, y = signal_scale.apply(t, u, y)
     t_method = time.perf_counter()
@@ -609,7 +611,7 @@ def _refined(
     ``focus``: :func:`~hdpbsid.refine.pem.refine_pem`'s."""
     rule = "pem: asked for"
     if focus == "simulation":
-        return _simulation_refined(model, t, u, y, refine, several)
+        return _simulation_refined(model, t, u, y, refine)
     if refine == "pem":
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
         return _hold_or_direct_term(model, refined, t, u, y, judged), rule
@@ -643,14 +645,13 @@ def _refined(
 
 
 def _simulation_refined(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, refine: Any, several: bool
+    model: StateSpaceModel, t: Any, u: Any, y: Any, refine: Any
 ) -> tuple[StateSpaceModel, str]:
     """``focus="simulation"``: the output-error plant and then ``K``
-    (:func:`~hdpbsid.refine.pem.refine_pem`), on a single uniformly sampled record;
+    (:func:`~hdpbsid.refine.pem.refine_pem`), on a single uniformly sampled record
+    (checked by :func:`identify` before the method runs);
     a ``UserWarning`` when the feedback test finds the record closed loop (there the
     output-error plant is biased)."""
-    if several or not is_uniform(check_time(t, "t", min_samples=2)):
-        raise ValueError("focus='simulation' needs a single uniformly sampled record")
     errors = _one_step_errors(model, t, u, y)
     _, _, stats, _ = refine_plan(model, t, u, y, True, errors=errors)
     rule = f"{'pem' if refine == 'pem' else 'auto'}: focus='simulation', the output-error plant"

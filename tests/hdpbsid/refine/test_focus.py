@@ -110,6 +110,11 @@ def test_closed_loop_warns_and_bad_values_raise():
         identify(d.t, d.u, d.y, 3, method="hermite", focus="output")
     with pytest.raises(ValueError, match="focus"):
         identify(d.t, d.u, d.y, 3, method="hermite", refine=None, focus="simulation")
+    jittered = d.t + 1e-4 * np.sin(np.arange(d.t.size))  # not uniform: refused at once
+    with pytest.raises(ValueError, match="uniformly sampled"):
+        identify(jittered, d.u, d.y, 3, method="hermite", focus="simulation")
+    with pytest.raises(ValueError, match="single"):
+        identify([(d.t, d.u, d.y)] * 2, order=3, method="hermite", focus="simulation")
     m = identify(d.t, d.u, d.y, 3, method="hermite", refine=None)
     with pytest.raises(ValueError, match="focus"):
         refine_pem(m, d.t, d.u, d.y, focus="sim")
