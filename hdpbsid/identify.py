@@ -658,6 +658,10 @@ def _simulation_refined(
     if warn_if_closed_loop("simulation", stats):
         rule += " (closed loop: biased)"
     refined = refine_pem(model, t, u, y, focus="simulation")
+    if refined is not model and not refined.report.converged:
+        # as with the default focus: an iterate cut off by the budget is not kept
+        rule += "; the refinement did not converge: the unrefined model is kept"
+        refined = model
     refined.options["refine_rule"] = rule
     refined.options["refine_statistics"] = stats
     return refined, rule

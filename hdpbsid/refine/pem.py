@@ -293,26 +293,15 @@ def refine_pem(
     if focus == "simulation":
 
         def fit(start: StateSpaceModel, hd: str | None, free: str) -> StateSpaceModel:
-            return _refine(start, t, u, y, hd, None, max_nfev, settings, free)
+            return _refine(_task(start, t, u, y, hd, None, max_nfev, settings, free), settings)
 
         return simulation_focus(fit, model, hold)
-    return _refine(model, t, u, y, hold, warm_start, max_nfev, settings)
+    return _refine(_task(model, t, u, y, hold, warm_start, max_nfev, settings), settings)
 
 
-def _refine(
-    model: StateSpaceModel,
-    t: Array,
-    u: Array,
-    y: Array,
-    hold: str | None,
-    warm_start: Any,
-    max_nfev: int | None,
-    settings: RefinementSettings,
-    free: str = "all",
-) -> StateSpaceModel:
-    """:func:`refine_pem` on the checked record, moving the parameters ``free``
-    (:class:`~hdpbsid.refine.pem_residuals._Layout`)."""
-    task = _task(model, t, u, y, hold, warm_start, max_nfev, settings, free)
+def _refine(task: _Task, settings: RefinementSettings) -> StateSpaceModel:
+    """:func:`refine_pem` of the prepared ``task`` (:func:`_task`)."""
+    model = task.model
     if not task.starts:
         return _keep(
             model,
