@@ -118,3 +118,35 @@ def test_closed_loop_warns_and_bad_values_raise():
     m = identify(d.t, d.u, d.y, 3, method="hermite", refine=None)
     with pytest.raises(ValueError, match="focus"):
         refine_pem(m, d.t, d.u, d.y, focus="sim")
+
+
+@pytest.mark.parametrize("n, m, l", [(2, 1, 1), (3, 2, 1), (4, 1, 2)])
+def test_the_plant_chart_leaves_k_alone_and_keeps_every_plant_direction(n, m, l):
+    # at K = 0 the similarity directions (TA - AT, TB, -CT, 0, TK) have no K part, so the
+    # output-error chart is the plant's n (m + l) directions beyond them (l m more with
+    # D): orthonormal, zero on K, and orthogonal to every similarity direction
+    from hdpbsid.refine.pem_residuals import _ddlc_basis, _Layout
+
+    rng = np.random.default_rng(n + 10 * m + 100 * l)
+    for feedthrough in (False, True):
+        lay = _Layout(n, m, l, feedthrough, free="plant")
+        A, B, C = (
+            rng.standard_normal((n, n)),
+            rng.standard_normal((n, m)),
+            rng.standard_normal((l, n)),
+        )
+        theta = lay.pack(A, B, C, rng.standard_normal((l, m)), np.zeros((n, l)))
+        Q = _ddlc_basis(lay, theta)
+        s = lay.stops
+        assert Q.shape[1] == n * (m + l) + (l * m if feedthrough else 0)
+        np.testing.assert_allclose(Q.T @ Q, np.eye(Q.shape[1]), atol=1e-12)  # rounding
+        assert not np.any(Q[s[4] : s[5]])
+        for i in range(n):
+            for j in range(n):
+                T = np.zeros((n, n))
+                T[i, j] = 1.0
+                d = lay.pack(T @ A - A @ T, T @ B, -C @ T, np.zeros((l, m)), np.zeros((n, l)))
+                # orthogonal up to the rounding of the SVD of a unit-scale matrix
+                assert np.abs(Q.T @ d).max() < 1e-10
+        noise = _ddlc_basis(_Layout(n, m, l, feedthrough, free="noise"), theta)
+        assert noise.shape[1] == n * l and not np.any(noise[: s[4]])
