@@ -96,9 +96,23 @@ def simulation_focus(fit: Fit, model: StateSpaceModel, hold: str | None) -> Stat
 
 def warn_if_closed_loop(focus: str, stats: dict | None) -> bool:
     """Warn (``UserWarning``) when ``focus="simulation"`` meets a record the feedback
-    test (:func:`hdpbsid.selection.feedback.feedback_statistics`; its ``stats``) finds
-    closed loop: there the output-error plant ignores the noise the loop feeds back
-    through the input and is biased.  Returns whether it warned."""
+    test finds closed loop: there the output-error plant ignores the noise the loop
+    feeds back through the input and is biased.
+
+    Parameters
+    ----------
+    focus : str
+        The refinement's focus (:data:`FOCUSES`).
+    stats : dict or None
+        The feedback test's statistics
+        (:func:`hdpbsid.selection.feedback.feedback_statistics`; ``"feedback"`` is its
+        verdict), None when it was not run.
+
+    Returns
+    -------
+    bool
+        Whether it warned.
+    """
     if focus != "simulation" or not (stats or {}).get("feedback"):
         return False
     warnings.warn(
