@@ -53,7 +53,7 @@ from hdpbsid.refine.pem import (
 from hdpbsid.refine.pem_focus import warn_if_closed_loop
 from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
-from hdpbsid.selection.feedback import refine_plan
+from hdpbsid.selection.feedback import refine_decision, refine_plan
 from hdpbsid.selection.feedthrough import check_feedthrough
 
 __all__ = ["identify"]
@@ -653,7 +653,8 @@ def _simulation_refined(
     a ``UserWarning`` when the feedback test finds the record closed loop (there the
     output-error plant is biased)."""
     errors = _one_step_errors(model, t, u, y)
-    _, _, stats, _ = refine_plan(model, t, u, y, True, errors=errors)
+    # the feedback test only: the closed-loop start of refine_plan is not used here
+    _, _, stats = refine_decision(model, t, u, y, True, errors=errors)
     rule = f"{'pem' if refine == 'pem' else 'auto'}: focus='simulation', the output-error plant"
     if warn_if_closed_loop("simulation", stats):
         rule += " (closed loop: biased)"

@@ -186,8 +186,7 @@ def _ddlc_basis(lay: _Layout, theta: Array) -> Array:
     if lay.free == "plant":
         Q[s[4] : s[5]] = 0.0
         U, sv, _ = np.linalg.svd(Q, full_matrices=False)
-        rank = int(np.sum(sv > sv[0] * Q.shape[0] * np.finfo(float).eps)) if sv.size else 0
-        return U[:, :rank]
+        return U[:, : _rank(sv, Q.shape[0])]
     return Q
 
 
@@ -203,9 +202,14 @@ def _full_ddlc_basis(lay: _Layout, theta: Array) -> Array:
             cols.append(lay.pack(T @ A - A @ T, T @ B, -C @ T, np.zeros_like(D), T @ K))
     S = np.array(cols).T
     U, sv, _ = np.linalg.svd(S, full_matrices=True)
-    # the numerical rank at the rounding level of the SVD (Golub & Van Loan, sec. 5.4.1)
-    rank = int(np.sum(sv > sv[0] * S.shape[0] * np.finfo(float).eps)) if sv.size else 0
+    rank = _rank(sv, S.shape[0])
     return U[:, rank:]
+
+
+def _rank(sv: Array, rows: int) -> int:
+    """The numerical rank of a matrix of ``rows`` rows with singular values ``sv``: those
+    above the rounding level of its SVD (Golub & Van Loan, sec. 5.4.1)."""
+    return int(np.sum(sv > sv[0] * rows * np.finfo(float).eps)) if sv.size else 0
 
 
 def _scale(model: StateSpaceModel, ys: Array, us: Array) -> tuple[Array, ...]:
