@@ -345,12 +345,14 @@ def _add_identification_settings(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--focus",
-        choices=("prediction", "simulation"),
-        default="prediction",
-        help="what the refinement fits the plant for: 'prediction' (default: one-step "
-        "prediction error, consistent in closed loop) or 'simulation' (output error, "
-        "then the noise model; open-loop records, the best linear model of a nonlinear "
-        "process)",
+        choices=("auto", "prediction", "simulation"),
+        default="auto",
+        help="what the refinement fits the plant for: 'prediction' (one-step prediction "
+        "error, consistent in closed loop), 'simulation' (output error, then the noise "
+        "model; open-loop records, the best linear model of a nonlinear process) or "
+        "'auto' (default: prediction, and the output-error plant in open loop when it "
+        "simulates the record better by more than a standard error; "
+        "hdpbsid.selection.focus)",
     )
     p.add_argument(
         "--option",

@@ -73,7 +73,7 @@ class _Request:
     feedthrough: Any  # True, False or "auto" (the default)
     long_record: Any
     progress: bool
-    focus: str = "prediction"
+    focus: str = "auto"
 
 
 def _request(
@@ -89,10 +89,10 @@ def _request(
     if feedthrough != "auto":
         options["feedthrough"] = feedthrough
     long_record, progress = options.pop("long_record", None), options.pop("progress", False)
-    focus = options.pop("focus", "prediction")
-    if focus not in FOCUSES:
-        raise ValueError(f"focus must be one of {FOCUSES}, got {focus!r}")
-    if focus != "prediction" and refine is None:
+    focus = options.pop("focus", "auto")
+    if focus not in ("auto", *FOCUSES):
+        raise ValueError(f"focus must be 'auto' or one of {FOCUSES}, got {focus!r}")
+    if focus not in ("auto", "prediction") and refine is None:
         raise ValueError(f"focus={focus!r} is the refinement's: it needs refine='auto' or 'pem'")
     return _Request(method, order, refine, detrend, feedthrough, long_record, progress, focus)
 
@@ -326,8 +326,8 @@ def identify(
         or ``"svd"``), ``long_record=`` (a
         :class:`~hdpbsid.selection.long_records.LongRecordPolicy`, or False: off),
         ``progress=`` (progress bars on the long-record path), ``focus=``
-        (``"prediction"``, the default, or ``"simulation"``: the plant by its simulation
-        error, open loop; Notes), ``max_delay=`` and
+        (``"auto"``, the default, ``"prediction"`` or ``"simulation"``: the plant by its
+        simulation error, open loop; Notes), ``max_delay=`` and
         ``delay_hold=`` (``"zoh"``, ``"foh"`` or ``"bandlimited"``, with
         ``delay="auto"``).
 
@@ -392,15 +392,21 @@ def identify(
     the controller).
 
     *Focus.*  The refinement fits the innovation model by its one-step prediction error
-    (``focus="prediction"``, the default: maximum likelihood when the disturbance has
-    the innovation form, consistent in closed loop).  ``focus="simulation"`` fits the
-    plant by its simulation error instead (``K = 0``), then ``K`` with the plant held
+    (``focus="prediction"``: maximum likelihood when the disturbance has the innovation
+    form, consistent in closed loop).  ``focus="simulation"`` fits the plant by its
+    simulation error instead (``K = 0``), then ``K`` with the plant held
     (:func:`hdpbsid.refine.pem.refine_pem`): in open loop that plant is consistent
     whatever the disturbance, and on a process with a nonlinear distortion it is the
     best linear approximation, the linear model that simulates the record best, where
     the prediction-error plant is pulled towards what predicts one step ahead (a
     resonance too sharp, for one).  Biased in closed loop (a ``UserWarning`` when the
-    feedback test finds feedback).  The order and method are chosen as with the default.
+    feedback test finds feedback).  ``focus="auto"`` (the default) refines with the
+    prediction focus and, on an open-loop record whose noise model predicts more than
+    the simulation does, fits the output-error plant from it; that plant replaces it only
+    when it simulates the record better by more than one standard error of the windowed
+    simulation errors, a difference the innovation form cannot explain
+    (:mod:`hdpbsid.selection.focus`; the choice in ``model.report.focus``).  The order
+    and method are chosen as with the prediction focus.
 
     *Direct term.*  ``feedthrough="auto"`` (the default) decides ``D`` from the data
     (:mod:`hdpbsid.selection.feedthrough`), judged like the order on the last third of
@@ -485,7 +491,7 @@ def identify(
     _warn_not_exciting(u if not isinstance(t, list | tuple) else None)
     # 2. the record(s) scaled and detrended, the method run (several: as one Dataset)
     several = _is_several(t)
-    if req.focus != "prediction" and (several or not is_uniform(check_time(t, "t"))):
+    if req.focus == "simulation" and (several or not is_uniform(check_time(t, "t"))):
         raise ValueError(f"focus={req.focus!r} needs a single uniformly sampled record")
     signal_scale = _Scaling(t, u, y, several)
     t, u, y = signal_scale.apply(t, u, y)
@@ -603,18 +609,19 @@ def _refined(
     u: Any,
     y: Any,
     judged: bool = False,
-    focus: str = "prediction",
+    focus: str = "auto",
 ) -> tuple[StateSpaceModel, str]:
     """The refinement ``refine`` of :func:`identify` (its docstring) of ``model`` on the
     record ``(t, u, y)``: the model returned and the rule that decided it; ``judged``:
     ``feedthrough="auto"`` decided the direct term (:func:`_hold_or_direct_term`);
-    ``focus``: :func:`~hdpbsid.refine.pem.refine_pem`'s."""
+    ``focus``: :func:`identify`'s (:func:`_focused`)."""
     rule = "pem: asked for"
     if focus == "simulation":
         return _simulation_refined(model, t, u, y, refine)
     if refine == "pem":
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
-        return _hold_or_direct_term(model, refined, t, u, y, judged), rule
+        model = _hold_or_direct_term(model, refined, t, u, y, judged)
+        return _focused(model, focus, (t, u, y), None), rule
     if refine != "auto":
         return model, rule
     if several:
@@ -631,6 +638,7 @@ def _refined(
             rule += f"; the refined model is not kept: {unsound}"
         elif refined.report.converged:
             model = _hold_or_direct_term(model, refined, t, u, y, judged)
+            model = _focused(model, focus, (t, u, y), stats)
         else:
             # an iterate cut off by the evaluation budget is neither the subspace
             # estimate nor a prediction-error one (docstring): keep the former
@@ -642,6 +650,21 @@ def _refined(
     model.options["refine_rule"] = rule
     model.options["refine_statistics"] = stats
     return model, rule
+
+
+def _focused(model: StateSpaceModel, focus: str, rec: tuple, stats: dict | None) -> StateSpaceModel:
+    """The prediction-error refinement ``model`` on ``rec``, or with ``focus="auto"`` the
+    output-error plant fitted from it when the record shows the innovation form does not
+    hold (:func:`hdpbsid.selection.focus.choose_focus`; ``stats``: the feedback test's,
+    run here when None); the choice in ``model.report.focus``."""
+    from hdpbsid.selection.focus import choose_focus, given
+
+    if focus != "auto":
+        model.report = model.report.but(focus=given(focus))
+        return model
+    if stats is None:
+        _, _, stats = refine_decision(model, *rec, True)
+    return choose_focus(model, *rec, bool((stats or {}).get("feedback")))[0]
 
 
 def _simulation_refined(
@@ -665,6 +688,7 @@ def _simulation_refined(
         refined = model
     refined.options["refine_rule"] = rule
     refined.options["refine_statistics"] = stats
+    refined.report = refined.report.but(focus=Choice("simulation", "given"))
     return refined, rule
 
 

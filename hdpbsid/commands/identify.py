@@ -113,7 +113,7 @@ def _identify_records(
 
     options = dict(req.options)
     options.setdefault("progress", progress(args.progress, records))
-    if args.focus != "prediction":
+    if args.focus != "auto":
         options.setdefault("focus", args.focus)
     data = records[0].as_tuple() if len(records) == 1 else ([r.as_tuple() for r in records],)
     try:

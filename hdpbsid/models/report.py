@@ -454,6 +454,10 @@ class IdentificationReport:
     refine_decision : Choice of bool or None, optional
         Whether the returned model is the refined one, and why (``refine=`` of
         :func:`hdpbsid.identify`; None without a refinement asked for).
+    focus : Choice of str or None, optional
+        What the refinement fitted the plant for, ``"prediction"`` or ``"simulation"``,
+        and why (``rule`` a :class:`~hdpbsid.selection.focus.FocusRule`; None without a
+        refinement).
     warm_start : WarmStart or None, optional
         A starting point the next refinement of this model should be offered (not part of
         a finished identification's result).
@@ -486,6 +490,7 @@ class IdentificationReport:
     selection_fallback: str = ""
     refinement: Refinement | None = None
     refine_decision: Choice[bool] | None = None
+    focus: Choice[str] | None = None
     warm_start: WarmStart | None = None
     timings: Mapping[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
@@ -509,6 +514,8 @@ class IdentificationReport:
             parts.append(f"{len(self.candidates)} candidates")
         if self.refinement is not None:
             parts.append(repr(self.refinement))
+        if self.focus is not None:
+            parts.append(f"focus {self.focus.value}")
         if self.warnings:
             parts.append(f"{len(self.warnings)} warnings")
         return f"IdentificationReport({', '.join(parts)})"
@@ -615,4 +622,9 @@ class IdentificationReport:
             refinement=Refinement.from_options(options),
             warm_start=WarmStart.from_option(options.get(WARM_START_OPTION)),
             timings=_numbers(options, ("refine_time",)),
+            focus=(
+                Choice(str(options["refine_focus"]), str(options.get("focus_rule", "given")))
+                if "refine_focus" in options
+                else None
+            ),
         )

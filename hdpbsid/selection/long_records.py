@@ -270,7 +270,7 @@ def identify_long(
     *,
     long_record: LongRecordPolicy | None = None,
     progress: bool = False,
-    focus: str = "prediction",
+    focus: str = "auto",
     **options: Any,
 ) -> Any:
     """``identify(t, u, y)`` on a long record by the bounded path (module docstring).
@@ -292,8 +292,9 @@ def identify_long(
     progress
         Show progress bars (tqdm).
     focus
-        The refinement's (:func:`hdpbsid.refine.pem.refine_pem`): ``"prediction"``
-        (default) or ``"simulation"``.
+        :func:`hdpbsid.identify`'s: ``"auto"`` (default: chosen on the refinement's part,
+        :func:`hdpbsid.selection.focus.choose_focus`), ``"prediction"`` or
+        ``"simulation"`` (:func:`hdpbsid.refine.pem.refine_pem`'s).
     **options
         As :func:`hdpbsid.selection.auto.identify_auto` takes them (``methods=``,
         ``max_order=``, ``method_options=``, settings shared by every method).
@@ -601,7 +602,7 @@ def _refine(
     policy: LongRecordPolicy,
     refine: str,
     info: dict[str, Any],
-    focus: str = "prediction",
+    focus: str = "auto",
 ) -> Any:
     """The refinement on a bounded part and the choice between it and ``model``
     (module docstring, step 5); what was done goes to ``info``; ``focus``: the
@@ -611,13 +612,14 @@ def _refine(
     do, rule = _refine_decision(model, part, refine, info)
     if not do:
         return model
-    if focus != "prediction":
+    if focus == "simulation":
         rule += f"; focus={focus!r}"
         from hdpbsid.refine.pem_focus import warn_if_closed_loop
 
         warn_if_closed_loop(focus, info.get("refine_statistics"))
+    fitted = "simulation" if focus == "simulation" else "prediction"
     refined, converged, (a, b), rel = _refine_parts(
-        model, chosen, rec, part, plan, policy, info, focus
+        model, chosen, rec, part, plan, policy, info, fitted
     )
     if not converged:
         text = (
@@ -629,6 +631,8 @@ def _refine(
         model.report = model.report.but(refine_decision=Choice(False, text))
         return model
     choice, val_ab = _judge(model, refined, rec, plan, (a, b), info)
+    if choice == "refined" and focus == "auto":
+        refined = _focused(refined, _segment(rec, a, b), info)
     out = refined if choice == "refined" else model
     text = (
         f"{rule}; refined on samples {a}..{b - 1} ({b - a} of {rec.ns}: predicted relative "
@@ -642,6 +646,17 @@ def _refine(
     kept = out.report.refinement if choice == "refined" else None
     out.report = out.report.but(refinement=kept, refine_decision=Choice(choice == "refined", text))
     return out
+
+
+def _focused(refined: Any, part: tuple[Array, Array | None, Array], info: dict[str, Any]) -> Any:
+    """``focus="auto"``: the refinement kept, or the output-error plant fitted from it on
+    its part when that part shows the innovation form does not hold
+    (:func:`hdpbsid.selection.focus.choose_focus`, with the feedback test of the
+    selection segment); the choice in its report."""
+    from hdpbsid.selection.focus import choose_focus
+
+    stats = info.get("refine_statistics") or {}
+    return choose_focus(refined, *part, bool(stats.get("feedback")))[0]
 
 
 def _refine_decision(

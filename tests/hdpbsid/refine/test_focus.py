@@ -11,38 +11,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from focus_data import A, coloured_record
 from scipy.signal import lfilter
 
 from hdpbsid import identify
 from hdpbsid.models.metrics import eigenvalue_errors
 from hdpbsid.refine.pem import refine_pem
-from hdpbsid.systems import simulate_zoh
 from hdpbsid.systems.quadrotor import simulate_pitch_closed_loop
-
-#: a lightly damped pair at 2 rad/s (zeta 0.1), unit static gain
-A = np.array([[0.0, 1.0], [-4.0, -0.4]])
-B = np.array([[0.0], [4.0]])
-C = np.array([[1.0, 0.0]])
-
-
-def _coloured_record(seed: int):
-    """The pair driven by a random binary input, 40 s at 0.02 s, plus a disturbance
-    that is not of the innovation form of the plant: white noise through a sharp
-    resonance at 9 rad/s (AR(2) with poles of modulus 0.98), 15 dB below the output."""
-    rng = np.random.default_rng(seed)
-    dt = 0.02
-    t = np.arange(2000) * dt
-    u = np.repeat(rng.choice((-1.0, 1.0), 200), 10)[:, None]
-    y = simulate_zoh(A, B, C, np.zeros((1, 1)), t, u)
-    r, w = 0.98, 9.0 * dt
-    v = lfilter([1.0], [1.0, -2 * r * np.cos(w), r * r], rng.standard_normal(t.size))
-    v *= np.std(y) / np.std(v) * 10 ** (-15 / 20)
-    return t, u, y + v[:, None]
 
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_output_error_plant_is_consistent_under_a_coloured_disturbance(seed):
-    t, u, y = _coloured_record(seed)
+    t, u, y = coloured_record(seed)
     m = identify(t, u, y, 2, method="dt", focus="simulation")
     err = eigenvalue_errors(m.eigenvalues, np.linalg.eigvals(A))
     # 2000 samples at 15 dB: the output-error std of these eigenvalues is ~0.3 %
@@ -94,12 +74,15 @@ def _simulation_fit(model, t, u, y) -> float:
 def test_the_output_error_plant_simulates_a_nonlinear_record_better():
     t, u, y = _cubic_spring(0)
     tv, uv, yv = _cubic_spring(1)
-    pem = identify(t, u, y, 2, method="dt")
+    pem = identify(t, u, y, 2, method="dt", focus="prediction")
     oe = identify(t, u, y, 2, method="dt", focus="simulation")
     f_pem, f_oe = _simulation_fit(pem, tv, uv, yv), _simulation_fit(oe, tv, uv, yv)
     # the best linear approximation against the one-step predictor's plant, on a record
     # neither saw; measured 0 and 1: see the margin in the assertion's message
     assert f_oe > f_pem + 3.0, (f_oe, f_pem)
+    # the default's focus rule sees it on the estimation record alone
+    auto = identify(t, u, y, 2, method="dt")
+    assert auto.report.focus.value == "simulation", auto.report.focus
 
 
 def test_closed_loop_warns_and_bad_values_raise():
