@@ -235,15 +235,17 @@ def _attempt(
     return Run(label, horizon, order, "ok", n, fit, seconds, model=model)
 
 
-#: suffix of a method name that asks for the refinement's simulation focus
-#: (``identify(..., focus="simulation")``), e.g. ``auto+simulation``
-SIMULATION_FOCUS = "+simulation"
+#: suffixes of a method name that ask for a focus of the refinement
+#: (``identify(..., focus=...)``), e.g. ``auto+simulation``; none: the default
+FOCUS_SUFFIXES = ("+prediction", "+simulation")
 
 
 def _ours(method: str, split: Split, order: int | None) -> Run:
     rec = split.estimation
-    name = method.removesuffix(SIMULATION_FOCUS)
-    focus = {"focus": "simulation"} if method.endswith(SIMULATION_FOCUS) else {}
+    name, focus = method, {}
+    for suffix in FOCUS_SUFFIXES:
+        if method.endswith(suffix):
+            name, focus = method.removesuffix(suffix), {"focus": suffix[1:]}
 
     def call() -> peers.Identified:
         m = hdpbsid.identify(rec.t, rec.u, rec.y, method=name, order=order, **focus)
@@ -541,8 +543,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument(
         "--methods",
         nargs="+",
-        help="our methods (default: every available); NAME+simulation: with "
-        "focus='simulation' (e.g. auto+simulation)",
+        help="our methods (default: every available); NAME+simulation, NAME+prediction: "
+        "with that focus (e.g. auto+simulation)",
     )
     ap.add_argument("--out", type=Path, help="directory for CSV / JSON / markdown / figures")
     ap.add_argument(
