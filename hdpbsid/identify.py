@@ -688,7 +688,9 @@ def _simulation_refined(
         refined = model
     refined.options["refine_rule"] = rule
     refined.options["refine_statistics"] = stats
-    refined.report = refined.report.but(focus=Choice("simulation", "given"))
+    from hdpbsid.selection.focus import given
+
+    refined.report = refined.report.but(focus=given("simulation"))
     return refined, rule
 
 

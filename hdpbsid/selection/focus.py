@@ -17,7 +17,8 @@ Rule (:func:`choose_focus`), after the prediction-error refinement:
 
 1. A record the feedback test finds closed loop keeps the prediction focus (the
    output-error plant is biased there); so does a record the output-error fit does not
-   apply to (no input, non-uniform samples, a plant with a growing mode).
+   apply to (no input, non-uniform samples, a plant that is not stable: its simulation
+   diverges from any initial state).
 2. When the refined model's windowed simulation error is within ``z`` standard errors of
    its windowed one-step prediction error (the one-standard-error rule,
    :func:`~hdpbsid.models.criteria.choose_smallest_adequate`), its noise model predicts
@@ -70,7 +71,7 @@ class FocusRule(str, enum.Enum):
     GIVEN = "given"
     #: the feedback test found the record closed loop
     CLOSED_LOOP = "closed loop"
-    #: no input, non-uniform samples or a growing mode: no output-error fit applies
+    #: no input, non-uniform samples or a plant not stable: no output-error fit applies
     NOT_APPLICABLE = "not applicable"
     #: the noise model predicts nothing the simulation does not (rule 2)
     NOISE_MODEL_IDLE = "noise model idle"
