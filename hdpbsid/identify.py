@@ -55,6 +55,7 @@ from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_decision, refine_plan
 from hdpbsid.selection.feedthrough import check_feedthrough
+from hdpbsid.selection.focus import choose_focus, given
 
 __all__ = ["identify"]
 
@@ -657,8 +658,6 @@ def _focused(model: StateSpaceModel, focus: str, rec: tuple, stats: dict | None)
     output-error plant fitted from it when the record shows the innovation form does not
     hold (:func:`hdpbsid.selection.focus.choose_focus`; ``stats``: the feedback test's,
     run here when None); the choice in ``model.report.focus``."""
-    from hdpbsid.selection.focus import choose_focus, given
-
     if focus != "auto":
         model.report = model.report.but(focus=given(focus))
         return model
@@ -688,8 +687,6 @@ def _simulation_refined(
         refined = model
     refined.options["refine_rule"] = rule
     refined.options["refine_statistics"] = stats
-    from hdpbsid.selection.focus import given
-
     refined.report = refined.report.but(focus=given("simulation"))
     return refined, rule
 

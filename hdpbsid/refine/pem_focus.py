@@ -23,7 +23,7 @@ import numpy as np
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.runtime import user_stacklevel
 
-__all__ = ["FOCUSES", "simulation_focus", "warn_if_closed_loop"]
+__all__ = ["FOCUSES", "simulation_focus", "stable_plant", "warn_if_closed_loop"]
 
 #: what the refinement fits the plant for (``refine_pem``'s ``focus``)
 FOCUSES = ("prediction", "simulation")
@@ -62,7 +62,7 @@ def simulation_focus(fit: Fit, model: StateSpaceModel, hold: str | None) -> Stat
         ``options["refine_focus"] == "simulation"``.  ``model`` itself when the output
         error was not lowered (the refinement's ``RuntimeWarning`` says so).
     """
-    if model.n and not np.max(np.linalg.eigvals(model.A).real) < 0.0:
+    if not stable_plant(model):
         warnings.warn(
             "focus='simulation' needs a stable plant (the simulation of an unstable one "
             "diverges from any initial state); refining with focus='prediction'",
@@ -92,6 +92,24 @@ def simulation_focus(fit: Fit, model: StateSpaceModel, hold: str | None) -> Stat
         input_hold_before_refine=model.report.hold,
     )
     return noise
+
+
+def stable_plant(model: StateSpaceModel) -> bool:
+    """Whether ``model``'s plant has a simulation to fit: every eigenvalue of ``A`` in the
+    open left half plane (a marginal mode's free response does not decay, and an
+    unstable one's diverges from any initial state); a static model has.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model.
+
+    Returns
+    -------
+    bool
+        Whether ``A`` is Hurwitz (True without states).
+    """
+    return model.n == 0 or bool(np.max(np.linalg.eigvals(model.A).real) < 0.0)
 
 
 def warn_if_closed_loop(focus: str, stats: dict | None) -> bool:

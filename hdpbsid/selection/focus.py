@@ -60,6 +60,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
+from hdpbsid.refine.pem_focus import stable_plant
 
 __all__ = ["FocusRule", "choose_focus", "given"]
 
@@ -82,7 +83,7 @@ class FocusRule(str, enum.Enum):
 
 
 def choose_focus(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool | None
+    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool
 ) -> tuple[StateSpaceModel, Choice[str]]:
     """The model the focus rule returns (module docstring) and its choice.
 
@@ -92,9 +93,9 @@ def choose_focus(
         The prediction-error refinement on the record.
     t, u, y : array_like
         The record it was refined on.
-    feedback : bool or None
-        The feedback test's verdict on the record (None: not run, taken as open loop only
-        when the caller has no test; :func:`hdpbsid.identify` always passes one).
+    feedback : bool
+        The feedback test's verdict on the record
+        (:func:`hdpbsid.selection.feedback.feedback_statistics`).
 
     Returns
     -------
@@ -114,7 +115,7 @@ def choose_focus(
 
 
 def _choose(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool | None
+    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool
 ) -> tuple[StateSpaceModel, Choice[str]]:
     """:func:`choose_focus` before the choice is written to the model."""
     t = np.asarray(t, dtype=float)
@@ -123,7 +124,7 @@ def _choose(
         return model, _prediction(FocusRule.CLOSED_LOOP, "the feedback test found feedback")
     if u is None or u.shape[1] == 0 or model.n == 0 or not is_uniform(check_time(t, "t")):
         return model, _prediction(FocusRule.NOT_APPLICABLE, "no input or non-uniform samples")
-    if np.max(np.linalg.eigvals(model.A).real) >= 0.0:
+    if not stable_plant(model):
         return model, _prediction(FocusRule.NOT_APPLICABLE, "the plant is not stable")
     y = np.asarray(y, dtype=float).reshape(t.size, -1)
     windows = default_windows(t.size, model.n)
@@ -148,8 +149,7 @@ def _output_error_or(
     with warnings.catch_warnings():  # a fit that does not lower the cost returns model
         warnings.simplefilter("ignore", RuntimeWarning)
         oe = refine_pem(model, t, u, y, hold=model.report.hold, focus="simulation")
-    stable = oe.n == 0 or np.max(np.linalg.eigvals(oe.A).real) < 0.0
-    if oe is model or not oe.report.converged or not stable:
+    if oe is model or not oe.report.converged or not stable_plant(oe):
         why = "the output-error fit did not converge to a stable plant"
         return model, _prediction(FocusRule.PREDICTION_HOLDS, why)
     output_error = windowed_simulation_error(oe, t, u, y, windows)

@@ -631,8 +631,11 @@ def _refine(
         model.report = model.report.but(refine_decision=Choice(False, text))
         return model
     choice, val_ab = _judge(model, refined, rec, plan, (a, b), info)
-    if choice == "refined" and focus == "auto":
-        refined = _focused(refined, _segment(rec, a, b), info)
+    if choice == "refined" and focus == "auto":  # on the refinement's part, its feedback test
+        from hdpbsid.selection.focus import choose_focus
+
+        feedback = bool((info.get("refine_statistics") or {}).get("feedback"))
+        refined = choose_focus(refined, *_segment(rec, a, b), feedback)[0]
     out = refined if choice == "refined" else model
     text = (
         f"{rule}; refined on samples {a}..{b - 1} ({b - a} of {rec.ns}: predicted relative "
@@ -646,17 +649,6 @@ def _refine(
     kept = out.report.refinement if choice == "refined" else None
     out.report = out.report.but(refinement=kept, refine_decision=Choice(choice == "refined", text))
     return out
-
-
-def _focused(refined: Any, part: tuple[Array, Array | None, Array], info: dict[str, Any]) -> Any:
-    """``focus="auto"``: the refinement kept, or the output-error plant fitted from it on
-    its part when that part shows the innovation form does not hold
-    (:func:`hdpbsid.selection.focus.choose_focus`, with the feedback test of the
-    selection segment); the choice in its report."""
-    from hdpbsid.selection.focus import choose_focus
-
-    stats = info.get("refine_statistics") or {}
-    return choose_focus(refined, *part, bool(stats.get("feedback")))[0]
 
 
 def _refine_decision(
