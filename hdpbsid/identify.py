@@ -403,9 +403,11 @@ def identify(
     resonance too sharp, for one).  Biased in closed loop (a ``UserWarning`` when the
     feedback test finds feedback).  ``focus="auto"`` (the default) refines with the
     prediction focus and, on an open-loop record whose noise model predicts more than
-    the simulation does, fits the output-error plant from it; that plant replaces it only
-    when it simulates the record better by more than one standard error of the windowed
-    simulation errors, a difference the innovation form cannot explain
+    the simulation does, fits the output-error plant from it (or from the refinement's
+    start, whichever simulates the record better); that plant replaces it only when it
+    simulates the record better, after Akaike's correction for the fit's own optimism,
+    by more than one standard error of the windowed simulation errors, a difference the
+    innovation form cannot explain
     (:mod:`hdpbsid.selection.focus`; the choice in ``model.report.focus``).  The order
     and method are chosen as with the prediction focus.
 
@@ -621,8 +623,8 @@ def _refined(
         return _simulation_refined(model, t, u, y, refine)
     if refine == "pem":
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
-        model = _hold_or_direct_term(model, refined, t, u, y, judged)
-        return _focused(model, focus, (t, u, y), None), rule
+        kept = _hold_or_direct_term(model, refined, t, u, y, judged)
+        return _focused(kept, focus, (t, u, y), None, model), rule
     if refine != "auto":
         return model, rule
     if several:
@@ -638,8 +640,8 @@ def _refined(
         if unsound:
             rule += f"; the refined model is not kept: {unsound}"
         elif refined.report.converged:
-            model = _hold_or_direct_term(model, refined, t, u, y, judged)
-            model = _focused(model, focus, (t, u, y), stats)
+            kept = _hold_or_direct_term(model, refined, t, u, y, judged)
+            model = _focused(kept, focus, (t, u, y), stats, model)
         else:
             # an iterate cut off by the evaluation budget is neither the subspace
             # estimate nor a prediction-error one (docstring): keep the former
@@ -653,17 +655,20 @@ def _refined(
     return model, rule
 
 
-def _focused(model: StateSpaceModel, focus: str, rec: tuple, stats: dict | None) -> StateSpaceModel:
+def _focused(
+    model: StateSpaceModel, focus: str, rec: tuple, stats: dict | None, start: StateSpaceModel
+) -> StateSpaceModel:
     """The prediction-error refinement ``model`` on ``rec``, or with ``focus="auto"`` the
-    output-error plant fitted from it when the record shows the innovation form does not
-    hold (:func:`hdpbsid.selection.focus.choose_focus`; ``stats``: the feedback test's,
-    run here when None); the choice in ``model.report.focus``."""
+    output-error plant fitted from it or from its ``start`` when the record shows the
+    innovation form does not hold (:func:`hdpbsid.selection.focus.choose_focus`;
+    ``stats``: the feedback test's, run here when None); the choice in
+    ``model.report.focus``."""
     if focus != "auto":
         model.report = model.report.but(focus=given(focus))
         return model
     if stats is None:
         _, _, stats = refine_decision(model, *rec, True)
-    return choose_focus(model, *rec, bool((stats or {}).get("feedback")))[0]
+    return choose_focus(model, *rec, bool((stats or {}).get("feedback")), start)[0]
 
 
 def _simulation_refined(

@@ -25,18 +25,26 @@ Rule (:func:`choose_focus`), after the prediction-error refinement:
    nothing the simulation does not: the prediction criterion is the simulation
    criterion at the resolution of the record, and the output-error fit would return the
    same plant.  No further fit.
-3. Otherwise the output-error plant is fitted from the refined model's plant (its input
-   hold kept) and replaces it only when its windowed simulation error is below the
-   prediction plant's by more than ``z`` standard errors of its window errors, the
-   prediction plant listed first.  This is a specification test in the spirit of
-   Hausman (Econometrica 46, 1978): under the innovation form both plants estimate the
-   same system, the efficient one (prediction) is kept, and their simulations differ
-   within the spread of the windows; a difference the record resolves says the
-   innovation form does not hold and the prediction plant is biased.  Both plants have
-   the same parameters, so the comparison on the record they were fitted to favours
-   neither by its size; the output-error fit's advantage of minimising this very
-   criterion is of the order of its parameters over the samples, far below a standard
-   error of the window errors.
+3. Otherwise the output-error plant is fitted (the refined model's input hold kept) from
+   whichever of the refined model's plant and, when given, the plant the
+   prediction-error refinement started from simulates the record better: the
+   output-error cost has local minima of its own (Ljung, sec. 10.5), and the
+   prediction-error plant sits where the noise model pulled it, not necessarily in the
+   basin of the output-error cost's minimum nearest the data.  The
+   output-error plant replaces the refined model only when its windowed simulation error,
+   multiplied by Akaike's final-prediction-error factor ``(1 + d/N) / (1 - d/N)`` (``d``
+   the plant's identifiable parameters ``n (m + l)`` plus the direct term's, ``N`` the
+   samples), is below the prediction plant's by more than ``z`` standard errors of its
+   window errors, the prediction plant listed first.  This is a specification test in
+   the spirit of Hausman (Econometrica 46, 1978): under the innovation form both plants
+   estimate the same system, the efficient one (prediction) is kept, and their
+   simulations differ within the spread of the windows; a difference the record
+   resolves says the innovation form does not hold and the prediction plant is biased.
+   The factor removes the output-error fit's advantage of minimising this very
+   criterion on the record it is scored on (Akaike, Ann. Inst. Stat. Math. 21, 1969):
+   with many parameters on a short record that optimism reaches a standard error of the
+   window errors.  The prediction plant did not minimise this criterion and is not
+   corrected, so the test errs towards the efficient estimate.
 
 The windows are those of the held-out selection (:func:`~hdpbsid.models.criteria.default_windows`),
 each with its initial state fitted: a slow drift of the operating point between windows
@@ -45,6 +53,7 @@ does not decide.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import warnings
 from typing import Any
@@ -53,6 +62,7 @@ import numpy as np
 
 from hdpbsid.data.checks import check_time, is_uniform
 from hdpbsid.models.criteria import (
+    WindowedError,
     choose_smallest_adequate,
     default_windows,
     windowed_prediction_error,
@@ -83,7 +93,12 @@ class FocusRule(str, enum.Enum):
 
 
 def choose_focus(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool
+    model: StateSpaceModel,
+    t: Any,
+    u: Any,
+    y: Any,
+    feedback: bool,
+    start: StateSpaceModel | None = None,
 ) -> tuple[StateSpaceModel, Choice[str]]:
     """The model the focus rule returns (module docstring) and its choice.
 
@@ -96,6 +111,9 @@ def choose_focus(
     feedback : bool
         The feedback test's verdict on the record
         (:func:`hdpbsid.selection.feedback.feedback_statistics`).
+    start : StateSpaceModel, optional
+        The model the prediction-error refinement started from: a second start of the
+        output-error fit (rule 3 of the module docstring).
 
     Returns
     -------
@@ -108,14 +126,14 @@ def choose_focus(
         ``"prediction"`` or ``"simulation"`` with the reason; ``rule`` a
         :class:`FocusRule`.
     """
-    out, choice = _choose(model, t, u, y, feedback)
+    out, choice = _choose(model, t, u, y, feedback, start)
     out.report = out.report.but(focus=choice)
     out.options.update(refine_focus=choice.value, focus_rule=choice.reason)
     return out, choice
 
 
 def _choose(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool
+    model: StateSpaceModel, t: Any, u: Any, y: Any, feedback: bool, start: Any
 ) -> tuple[StateSpaceModel, Choice[str]]:
     """:func:`choose_focus` before the choice is written to the model."""
     t = np.asarray(t, dtype=float)
@@ -136,31 +154,62 @@ def _choose(
             FocusRule.NOISE_MODEL_IDLE,
             f"its simulation error is within {z[0]:.2g} SE of its prediction error",
         )
-    return _output_error_or(model, t, u, y, windows, simulated)
+    return _output_error_or(model, (t, u, y), windows, simulated, start)
+
+
+def _output_error_fit(
+    model: StateSpaceModel, rec: tuple, windows: int, simulated: WindowedError, start: Any
+) -> tuple[StateSpaceModel, WindowedError] | None:
+    """The output-error fit from whichever of ``model`` (windowed simulation error
+    ``simulated``) and ``start`` simulates the record better, with its windowed
+    simulation error; None unless it converged to a stable plant."""
+    from hdpbsid.refine.pem import refine_pem
+
+    starts = [(model, simulated)]
+    if start is not None and stable_plant(start):
+        starts.append((start, windowed_simulation_error(start, *rec, windows)))
+    s = min(starts, key=lambda c: c[1].total)[0]
+    with warnings.catch_warnings():  # a fit that does not lower the cost returns s
+        warnings.simplefilter("ignore", RuntimeWarning)
+        oe = refine_pem(s, *rec, hold=model.report.hold, focus="simulation")
+    if oe is s or not oe.report.converged or not stable_plant(oe):
+        return None
+    return oe, windowed_simulation_error(oe, *rec, windows)
 
 
 def _output_error_or(
-    model: StateSpaceModel, t: Any, u: Any, y: Any, windows: int, simulated: Any
+    model: StateSpaceModel, rec: tuple, windows: int, simulated: WindowedError, start: Any
 ) -> tuple[StateSpaceModel, Choice[str]]:
-    """Rule 3 of the module docstring: the output-error plant from ``model``'s when it
-    simulates the record better by more than ``z`` standard errors, else ``model``."""
-    from hdpbsid.refine.pem import refine_pem
-
-    with warnings.catch_warnings():  # a fit that does not lower the cost returns model
-        warnings.simplefilter("ignore", RuntimeWarning)
-        oe = refine_pem(model, t, u, y, hold=model.report.hold, focus="simulation")
-    if oe is model or not oe.report.converged or not stable_plant(oe):
+    """Rule 3 of the module docstring: the output-error plant (from ``model``'s or
+    ``start``'s) when it simulates the record better by more than ``z`` standard errors
+    after its optimism is removed, else ``model``."""
+    fit = _output_error_fit(model, rec, windows, simulated, start)
+    if fit is None:
         why = "the output-error fit did not converge to a stable plant"
         return model, _prediction(FocusRule.PREDICTION_HOLDS, why)
-    output_error = windowed_simulation_error(oe, t, u, y, windows)
-    chosen, z = choose_smallest_adequate([simulated, output_error])
+    oe, output_error = fit
+    chosen, z = choose_smallest_adequate([simulated, _out_of_sample(output_error, oe, rec)])
     text = (
         f"the prediction plant's simulation error is {z[0]:.3g} SE above the "
-        f"output-error plant's ({windows} windows)"
+        f"output-error plant's ({windows} windows, the latter times its final-prediction-"
+        f"error factor)"
     )
     if chosen == 0:
         return model, _prediction(FocusRule.PREDICTION_HOLDS, text)
     return oe, Choice("simulation", text, FocusRule.SIMULATION_BETTER)
+
+
+def _out_of_sample(err: WindowedError, oe: StateSpaceModel, rec: tuple) -> WindowedError:
+    """``err`` of the output-error plant ``oe`` times Akaike's final-prediction-error
+    factor (rule 3 of the module docstring)."""
+    m, l = oe.B.shape[1], oe.C.shape[0]
+    d = oe.n * (m + l) + (m * l if np.any(oe.D) else 0)
+    ns = np.size(rec[0])
+    factor = (1.0 + d / ns) / (1.0 - d / ns) if d < ns else np.inf
+    total = err.total * factor
+    return dataclasses.replace(
+        err, per_window=err.per_window * factor, total=total, fit=100.0 * (1.0 - np.sqrt(total))
+    )
 
 
 def _prediction(rule: FocusRule, why: str) -> Choice[str]:

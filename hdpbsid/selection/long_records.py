@@ -635,7 +635,7 @@ def _refine(
         from hdpbsid.selection.focus import choose_focus
 
         feedback = bool((info.get("refine_statistics") or {}).get("feedback"))
-        refined = choose_focus(refined, *_segment(rec, a, b), feedback)[0]
+        refined = choose_focus(refined, *_segment(rec, a, b), feedback, model)[0]
     out = refined if choice == "refined" else model
     text = (
         f"{rule}; refined on samples {a}..{b - 1} ({b - a} of {rec.ns}: predicted relative "
