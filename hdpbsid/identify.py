@@ -56,6 +56,7 @@ from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_decision, refine_plan
 from hdpbsid.selection.feedthrough import check_feedthrough
 from hdpbsid.selection.focus import choose_focus, given
+from hdpbsid.selection.iterate import IterateRule, keep_iterate
 
 __all__ = ["identify"]
 
@@ -385,10 +386,14 @@ def identify(
     ch. 8-9).  A chi-square feedback test of the first-pass residuals against the
     prewhitened input is reported with the rule in ``options["refine_rule"]`` and
     ``options["refine_statistics"]``, the seconds in ``options["refine_time"]``.  A
-    refinement that does not converge within its evaluation budget, or that grows a
-    mode the record does not ask for, is dropped (the rule says so): the estimate is
-    consistent at a minimum of the cost, and an iterate cut off on its way is neither
-    that nor the subspace estimate.  ``D`` is a parameter only with
+    refinement that grows a mode the record does not ask for is dropped (the rule says
+    so).  One its evaluation budget cuts off before it converges is kept only when the
+    record resolves it as better than its start, its windowed one-step prediction and
+    simulation errors both lower by more than one standard error
+    (:mod:`hdpbsid.selection.iterate`; the report then says it did not converge): the
+    estimate is consistent at a minimum of the cost, an iterate on its way is not, yet a
+    descent that has already left the subspace estimate far behind is the better model
+    of the record.  ``D`` is a parameter only with
     ``feedthrough=True`` (a free ``D`` lets closed-loop data predict the noise through
     the controller).
 
@@ -639,17 +644,16 @@ def _refined(
         unsound = _refinement_problem(model, refined, t, u, y)
         if unsound:
             rule += f"; the refined model is not kept: {unsound}"
-        elif refined.report.converged:
+        elif (iterate := keep_iterate(model, refined, t, u, y)).value:
+            if iterate.rule is not IterateRule.CONVERGED:
+                rule += f"; the refinement was {iterate.reason}"
             kept = _hold_or_direct_term(model, refined, t, u, y, judged)
             model = _focused(kept, focus, (t, u, y), stats, model)
         else:
-            # an iterate cut off by the evaluation budget is neither the subspace
-            # estimate nor a prediction-error one (docstring): keep the former
-            assert refined.report.refinement is not None
-            rule += (
-                f"; the refinement did not converge in {refined.report.refinement.nfev} "
-                f"evaluations: the unrefined model is kept"
-            )
+            # an iterate cut off by the evaluation budget that the record does not
+            # resolve from its start (hdpbsid.selection.iterate): keep the start
+            rule += f"; the refinement was {iterate.reason}: the unrefined model is kept"
+
     model.options["refine_rule"] = rule
     model.options["refine_statistics"] = stats
     return model, rule
@@ -686,10 +690,13 @@ def _simulation_refined(
     if warn_if_closed_loop("simulation", stats):
         rule += " (closed loop: biased)"
     refined = refine_pem(model, t, u, y, focus="simulation")
-    if refined is not model and not refined.report.converged:
-        # as with the default focus: an iterate cut off by the budget is not kept
-        rule += "; the refinement did not converge: the unrefined model is kept"
-        refined = model
+    iterate = keep_iterate(model, refined, t, u, y, focus="simulation")
+    if refined is not model and iterate.rule is not IterateRule.CONVERGED:
+        # as with the default focus (hdpbsid.selection.iterate), by the simulation error
+        rule += f"; the refinement was {iterate.reason}"
+        if not iterate.value:
+            rule += ": the unrefined model is kept"
+            refined = model
     refined.options["refine_rule"] = rule
     refined.options["refine_statistics"] = stats
     refined.report = refined.report.but(focus=given("simulation"))

@@ -77,6 +77,7 @@ from numpy.typing import NDArray
 
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.report import Candidate, Choice
+from hdpbsid.selection.iterate import keep_iterate
 from hdpbsid.selection.long_policy import (
     LongRecordPlan,
     LongRecordPolicy,
@@ -621,10 +622,11 @@ def _refine(
     refined, converged, (a, b), rel = _refine_parts(
         model, chosen, rec, part, plan, policy, info, fitted
     )
-    if not converged:
+    why = _not_kept(model, refined, converged, _segment(rec, a, b), fitted)
+    if why:
         text = (
-            f"{rule}; the refinement on samples {a}..{b - 1} did not converge: the "
-            f"whole-record subspace model is kept"
+            f"{rule}; the refinement on samples {a}..{b - 1} {why}: the whole-record "
+            f"subspace model is kept"
         )
         model.options["refine_rule"] = text
         model.options["refine_time"] = time.perf_counter() - t0
@@ -667,6 +669,18 @@ def _refine_decision(
         model.options["refine_rule"] = rule
         model.report = model.report.but(refine_decision=Choice(False, rule))
     return do, rule
+
+
+def _not_kept(model: Any, refined: Any, converged: bool, seg: tuple, focus: str) -> str:
+    """Why the refinement ``refined`` of ``model`` on ``seg`` is not kept, ``""`` when it
+    is: it did not lower the cost, or its budget cut it off and the record does not
+    resolve it from ``model`` (:func:`hdpbsid.selection.iterate.keep_iterate`)."""
+    if converged:
+        return ""
+    if refined is model:
+        return "did not converge"
+    iterate = keep_iterate(model, refined, *seg, focus=focus)
+    return "" if iterate.value else f"was {iterate.reason}"
 
 
 def _refine_parts(
