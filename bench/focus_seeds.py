@@ -1,7 +1,7 @@
 """The refinement's focus on the measured-like records, over seeds.
 
-Run: ``python bench/focus_seeds.py [--seeds 0 1 2 3] [--records NAME ...]``; writes
-``bench/results/focus_seeds.md``.
+Run: ``python bench/focus_seeds.py [--seeds 0 1 2 3] [--records NAME ...] [--peers KEY
+...]``; writes ``bench/results/focus_seeds.md``.
 
 The measured-like records of ``bench/measured_like.py`` (a direct path with drift and
 coloured noise, a nonlinear level loop, a long record of a resonance with a cubic spring,
@@ -12,6 +12,10 @@ the last third from a least-squares initial state).  Per record and seed it runs
 ``focus="prediction"`` and with ``focus="simulation"``, and prints the three validation
 fits, the order and the default's :class:`~hdpbsid.selection.focus.FocusRule`.  Seed 0 is
 the record of ``bench/realdata.py``; the others are records the rule was not written on.
+With ``--peers`` (keys of ``bench/peers.py`` / ``bench/more_peers.py``) a column gives the
+best of those tools on the same split with their order and setting tuned on the
+validation third, as ``bench/realdata.py`` tunes them (on records over its
+``LONG_RECORD`` samples, the default setting only and its slow peers skipped).
 Not a test: nothing is asserted.
 """
 
@@ -39,9 +43,29 @@ RESULTS = HERE / "results" / "focus_seeds.md"
 FOCUS = {"default (auto)": "auto", "prediction": "prediction", "simulation": "simulation"}
 
 
-def run(name: str, seed: int) -> dict[str, object]:
+def best_peer(split: realdata.Split, keys: list[str]) -> str:
+    """The best validation fit of the tools ``keys`` on ``split``, each tuned over the
+    orders and settings of ``bench/realdata.py``, with the tool, order and setting."""
+    long = split.estimation.t.size > realdata.LONG_RECORD
+    best = None
+    for key in keys:
+        if long and key in realdata.SLOW_PEERS:
+            continue
+        for order in realdata.ORDERS:
+            hs = realdata.peer_horizons(key, split.estimation.y.shape[1], order)
+            for h in hs[:1] if long else hs:
+                r = realdata._peer(key, split, h, order)
+                if r.status == "ok" and (best is None or r.fit > best.fit):
+                    best = r
+    if best is None:
+        return "-"
+    return f"{best.fit:.1f} ({best.method}, n={best.order_requested}, h={best.horizon})"
+
+
+def run(name: str, seed: int, peer_keys: list[str] | None = None) -> dict[str, object]:
     """The validation fits of the three focuses on record ``name`` drawn with ``seed``,
-    the default's order and focus rule, and the default's CPU seconds."""
+    the default's order and focus rule, and the default's CPU seconds; with
+    ``peer_keys`` the best of those tools tuned on validation (:func:`best_peer`)."""
     s = measured_like.GENERATORS[name](seed)
     split = realdata.split_record(s.u, s.y, s.dt)
     est = split.estimation
@@ -57,18 +81,22 @@ def run(name: str, seed: int) -> dict[str, object]:
             row["n"] = m.n
             choice = m.report.focus
             row["rule"] = "no refined model" if choice is None else choice.rule.value
+    if peer_keys:
+        row["peer"] = best_peer(split, peer_keys)
     return row
 
 
 def table(rows: list[dict[str, object]]) -> str:
     """The markdown table of :func:`run`'s rows."""
+    peer = "peer" in rows[0]
     head = "| record | seed | n | " + " | ".join(FOCUS) + " | default's rule | CPU s |"
-    lines = [head, "|---|---:|---:|" + "---:|" * len(FOCUS) + "---|---:|"]
+    head += " best tuned peer |" if peer else ""
+    rule = "|---|---:|---:|" + "---:|" * len(FOCUS) + "---|---:|" + ("---|" if peer else "")
+    lines = [head, rule]
     for r in rows:
         fits = " | ".join(f"{r[k]:.1f}" for k in FOCUS)
-        lines.append(
-            f"| {r['record']} | {r['seed']} | {r['n']} | {fits} | {r['rule']} | {r['cpu']:.2f} |"
-        )
+        line = f"| {r['record']} | {r['seed']} | {r['n']} | {fits} | {r['rule']} | {r['cpu']:.2f} |"
+        lines.append(line + (f" {r['peer']} |" if peer else ""))
     return "\n".join(lines)
 
 
@@ -78,18 +106,26 @@ def main(argv: list[str] | None = None) -> None:
     names = list(measured_like.GENERATORS)
     ap.add_argument("--records", nargs="+", default=names, choices=names)
     ap.add_argument("--md", type=Path, default=RESULTS, help="markdown file ('' for none)")
+    ap.add_argument("--peers", nargs="*", default=[], help="peer keys for the tuned column")
     args = ap.parse_args(argv)
     rows = []
     for name in args.records:
         for seed in args.seeds:
-            rows.append(run(name, seed))
+            rows.append(run(name, seed, args.peers))
             print(table(rows[-1:]).splitlines()[-1], flush=True)
     command = "python bench/focus_seeds.py " + " ".join(sys.argv[1:] if argv is None else argv)
     text = (
         f"Produced by `{command.strip()}` ({peers.machine_line()}). Validation fit in "
         "percent on the last third of each record (`bench/realdata.py`'s scoring), "
         "identified on the first two thirds with the default focus, the prediction focus "
-        "and the simulation focus; seed 0 is the record of the measured-records table.\n\n"
+        "and the simulation focus; seed 0 is the record of the measured-records table"
+        + (
+            "; the best tuned peer: the best of the tools listed, order and setting "
+            "tuned on the validation third"
+            if args.peers
+            else ""
+        )
+        + ".\n\n"
         + table(rows)
         + "\n"
     )
