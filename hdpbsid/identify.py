@@ -646,13 +646,13 @@ def _refined(
             rule += f"; the refined model is not kept: {unsound}"
         elif (iterate := keep_iterate(model, refined, t, u, y)).value:
             if iterate.rule is not IterateRule.CONVERGED:
-                rule += f"; the refinement was {iterate.reason}"
+                rule += f"; the refinement {iterate.reason}"
             kept = _hold_or_direct_term(model, refined, t, u, y, judged)
             model = _focused(kept, focus, (t, u, y), stats, model)
         else:
             # an iterate cut off by the evaluation budget that the record does not
             # resolve from its start (hdpbsid.selection.iterate): keep the start
-            rule += f"; the refinement was {iterate.reason}: the unrefined model is kept"
+            rule += f"; the refinement {iterate.reason}: the unrefined model is kept"
 
     model.options["refine_rule"] = rule
     model.options["refine_statistics"] = stats
@@ -693,7 +693,7 @@ def _simulation_refined(
     iterate = keep_iterate(model, refined, t, u, y, focus="simulation")
     if refined is not model and iterate.rule is not IterateRule.CONVERGED:
         # as with the default focus (hdpbsid.selection.iterate), by the simulation error
-        rule += f"; the refinement was {iterate.reason}"
+        rule += f"; the refinement {iterate.reason}"
         if not iterate.value:
             rule += ": the unrefined model is kept"
             refined = model

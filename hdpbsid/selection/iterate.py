@@ -111,12 +111,12 @@ def keep_iterate(
         chosen, z = choose_smallest_adequate([error(m, t, u, y, windows) for m in (start, refined)])
         if chosen == 0:
             text = (
-                f"cut off after {nfev} evaluations, not kept: its windowed {what} error is "
+                f"did not converge in {nfev} evaluations; not kept: its windowed {what} error is "
                 f"within {z[0]:.3g} SE of its start's ({windows} windows)"
             )
             return Choice(False, text, IterateRule.NOT_RESOLVED)
     text = (
-        f"cut off after {nfev} evaluations, kept: its windowed {' and '.join(criteria)} "
+        f"did not converge in {nfev} evaluations; kept: its windowed {' and '.join(criteria)} "
         f"errors are more than {SIGNIFICANCE_Z:g} SE below its start's ({windows} windows)"
     )
     return Choice(True, text, IterateRule.RESOLVED)

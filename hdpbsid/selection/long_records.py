@@ -680,7 +680,7 @@ def _not_kept(model: Any, refined: Any, converged: bool, seg: tuple, focus: str)
     if refined is model:
         return "did not converge"
     iterate = keep_iterate(model, refined, *seg, focus=focus)
-    return "" if iterate.value else f"was {iterate.reason}"
+    return "" if iterate.value else iterate.reason
 
 
 def _refine_parts(

@@ -182,7 +182,9 @@ def test_auto_keeps_the_unrefined_model_when_the_refinement_does_not_converge(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """A budget too small to converge (the fit needs ~30 evaluations here): the iterate
-    cut off on its way is dropped and the subspace model returned unchanged."""
+    cut off on its way, which the record does not resolve from its start
+    (:mod:`hdpbsid.selection.iterate`), is dropped and the subspace model returned
+    unchanged."""
     import hdpbsid.refine.pem as refine_module
     from hdpbsid.refine.pem_settings import RefinementSettings
 
