@@ -690,9 +690,9 @@ def _simulation_refined(
     if warn_if_closed_loop("simulation", stats):
         rule += " (closed loop: biased)"
     refined = refine_pem(model, t, u, y, focus="simulation")
-    iterate = keep_iterate(model, refined, t, u, y, focus="simulation")
-    if refined is not model and iterate.rule is not IterateRule.CONVERGED:
+    if refined is not model and not refined.report.converged:
         # as with the default focus (hdpbsid.selection.iterate), by the simulation error
+        iterate = keep_iterate(model, refined, t, u, y, focus="simulation")
         rule += f"; the refinement {iterate.reason}"
         if not iterate.value:
             rule += ": the unrefined model is kept"

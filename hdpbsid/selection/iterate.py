@@ -29,8 +29,7 @@ from __future__ import annotations
 import enum
 from typing import Any
 
-import numpy as np
-
+from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import (
     SIGNIFICANCE_Z,
     choose_smallest_adequate,
@@ -97,14 +96,12 @@ def keep_iterate(
     """
     if refined.report.converged:
         return Choice(True, IterateRule.CONVERGED.value, IterateRule.CONVERGED)
-    t = np.asarray(t, dtype=float)
-    u = None if u is None else np.asarray(u, dtype=float).reshape(t.size, -1)
-    y = np.asarray(y, dtype=float).reshape(t.size, -1)
+    t, u, y = check_data(t, u, y)
     windows = default_windows(t.size, max(start.n, refined.n))
     criteria = {}
     if focus != "simulation":
         criteria["one-step prediction"] = windowed_prediction_error
-    if u is not None and u.shape[1] > 0:
+    if u.shape[1] > 0:
         criteria["simulation"] = windowed_simulation_error
     nfev = refined.report.refinement.nfev
     for what, error in criteria.items():
