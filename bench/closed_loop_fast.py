@@ -12,6 +12,10 @@ the one of ``bench/cases.py`` (an LQG on the rate alone):
   observer fed by *both* noisy measurements, ``xhat_{k+1} = Phi xhat_k + Gamma M_k +
   L (y_k - C xhat_k - D M_k)``, ``L`` from poles placed at ``exp(s ts)`` for
   ``s = -40, -45, -50, -55`` rad/s (``scipy.signal.place_poles``).
+* ``observer-slow``: the same with the observer poles at ``-15, -18, -21, -24`` rad/s,
+  inside the band of the fast modes.
+* ``observer-fast``: LQR weights ten times larger on both outputs and the observer poles
+  at ``-60, -70, -80, -90`` rad/s.
 
 No PI loop on the rate: a grid of proportional and integral gains of either sign
 (``check_stable``) found none that stabilises the unstable pair from the rate alone.
@@ -61,15 +65,28 @@ def sampled_plant(ts: float = TS) -> tuple[np.ndarray, ...]:
     return E[:n, :n], E[:n, n:], C, D
 
 
-def observer_controller(ts: float = TS) -> dict[str, np.ndarray]:
-    """LQR gain and an observer on both outputs by pole placement (module docstring)."""
+#: the loops: name -> (LQR output weights on rate and acceleration, observer poles rad/s).
+#: ``observer``: poles faster than every plant mode; ``observer-slow``: poles inside the
+#: band of the fast modes (the estimate lags them); ``observer-fast``: a stiffer LQR and
+#: poles twice as fast
+LOOPS: dict[str, tuple[tuple[float, float], tuple[float, ...]]] = {
+    "observer": ((1.0, 1e-3), (-40.0, -45.0, -50.0, -55.0)),
+    "observer-slow": ((1.0, 1e-3), (-15.0, -18.0, -21.0, -24.0)),
+    "observer-fast": ((10.0, 1e-2), (-60.0, -70.0, -80.0, -90.0)),
+}
+
+
+def observer_controller(ts: float = TS, loop: str = "observer") -> dict[str, np.ndarray]:
+    """LQR gain and an observer on both outputs by pole placement (:data:`LOOPS`)."""
+    if loop not in LOOPS:
+        raise ValueError(f"loop must be one of {list(LOOPS)}, got {loop!r}")
+    weights, observer = LOOPS[loop]
     Phi, Gam, C, _ = sampled_plant(ts)
     n = Phi.shape[0]
-    P = solve_discrete_are(Phi, Gam, C.T @ np.diag([1.0, 1e-3]) @ C + 0.05 * np.eye(n),
+    P = solve_discrete_are(Phi, Gam, C.T @ np.diag(weights) @ C + 0.05 * np.eye(n),
                            np.array([[1e-2]]))  # fmt: skip
     K = np.linalg.solve(1e-2 + Gam.T @ P @ Gam, Gam.T @ P @ Phi)
-    poles = np.exp(np.array([-40.0, -45.0, -50.0, -55.0]) * ts)
-    L = place_poles(Phi.T, C.T, poles).gain_matrix.T
+    L = place_poles(Phi.T, C.T, np.exp(np.array(observer) * ts)).gain_matrix.T
     return {"K": K, "L": L}
 
 
@@ -79,7 +96,7 @@ def simulate(loop: str, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.nd
     n, ns = Phi.shape[0], r.shape[0]
     x, xh = np.zeros(n), np.zeros(n)
     mom, Y = np.empty(ns), np.empty((ns, 2))
-    g = observer_controller()
+    g = observer_controller(loop=loop)
     K, L = g["K"][0], g["L"]
     for k in range(ns):
         m = float(r[k] - K @ xh)
@@ -93,7 +110,7 @@ def simulate(loop: str, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.nd
 def check_stable(loop: str) -> float:
     """Spectral radius of the noise-free loop (must be below 1)."""
     Phi, Gam, C, _ = sampled_plant()
-    g = observer_controller()
+    g = observer_controller(loop=loop)
     K, L = g["K"], g["L"]
     Acl = np.block([[Phi, -Gam @ K], [L @ C, Phi - Gam @ K - L @ C]])
     return float(np.max(np.abs(np.linalg.eigvals(Acl))))
@@ -127,7 +144,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--snr", type=float, default=20.0)
-    ap.add_argument("--loops", nargs="+", default=["observer"])
+    ap.add_argument("--loops", nargs="+", default=list(LOOPS), choices=list(LOOPS))
     ap.add_argument("--no-auto-order", action="store_true", help="skip the order-not-given runs")
     ap.add_argument("--calls", nargs="+", default=None, help="only these calls (labels)")
     ap.add_argument("--out", type=Path, default=RESULTS)

@@ -11,7 +11,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from hdpbsid.data.checks import is_uniform
-from hdpbsid.models.criteria import SIGNIFICANCE_Z, WindowedError, choose_smallest_adequate
+from hdpbsid.models.criteria import (
+    WindowedError,
+    choose_smallest_adequate,
+    windowed_simulation_error,
+)
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
@@ -105,20 +109,21 @@ def rejudge_refined(
     mode that adds little output variance, such as an unstable pole held back by the loop,
     whenever the smaller order comes within one standard error).
 
-    *Up.*  The bias can also make a too small order look adequate: in closed loop a
-    subspace candidate of too small an order can score better on held-out data than its
-    own prediction-error refit and tie with the next order, so the one-standard-error
-    rule keeps it, while refined, the larger order beats it by several standard errors.
-    That symptom -- the consistent refit of the chosen structure
-    predicting worse than its biased estimate, by more than one standard error -- is what
-    the step looks for, when the feedback test declares the record closed loop
-    (:func:`looks_closed_loop`, on the chosen candidate's errors over the estimation part;
-    in open loop the subspace candidates are consistent and the ranking is not biased):
-    then the next larger order is refined too and replaces the decision when it beats it
-    by more than one standard error (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`
-    with the smaller order listed first: the burden of proof on the larger order), and so
-    on upwards.  Without the symptom no larger order is refined (a refit within a standard
-    error of its subspace estimate shows no bias worth correcting).
+    *Up.*  The bias can also make a too small order look adequate: in closed loop the
+    subspace candidate of the larger order can be the biased one and tie with the
+    smaller order, so the one-standard-error rule keeps the smaller, while refined, the
+    larger order beats it by several standard errors.  The bias of the rival does not
+    show in the chosen candidate (its refit can predict exactly as well as its subspace
+    estimate), so the step does not wait for a symptom of it: when the feedback test
+    declares the record closed loop (:func:`looks_closed_loop`, on the chosen
+    candidate's errors over the estimation part; in open loop the subspace candidates
+    are consistent and the ranking is not biased), the next larger order is refined too
+    and replaces the decision when, refined, it beats it by more than one standard error
+    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate` with the smaller order
+    listed first: the burden of proof on the larger order) in the held-out score and in
+    the windowed simulation error (the plant's own: an order is the plant's, and a
+    larger order that predicts better only through its noise model adds no mode of it),
+    and so on upwards.
 
     Each refined candidate's score is added to its row (``refined_error``,
     ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the
@@ -195,8 +200,9 @@ def rejudge_order(
     lower = [best_of[n] for n in sorted(best_of) if n <= n_star]
     lower = lower if len(lower) >= 2 else []
     upward = n_star + 1 in best_of and looks_closed_loop(ok[k].model, est)
-    _refine_rows(lower + ([ok[k]] if upward else []), est, val, windows, n_jobs)
-    upward = upward and _bias_symptom(ok[k], est, val, windows)
+    _refine_rows(
+        lower + ([ok[k], best_of[n_star + 1]] if upward else []), est, val, windows, n_jobs
+    )
     chosen, rule, reason = ok[k], "", order.reason
     if lower:
         chosen, rule = _smallest_refined(lower, chosen, est, val, windows)
@@ -221,14 +227,6 @@ def _best_of_orders(ok: list[CandidateRow], stats: Sequence[float]) -> dict[int,
         ):
             best_of[n] = r
     return best_of
-
-
-def _bias_symptom(row: CandidateRow, est: tuple, val: tuple, windows: int) -> bool:
-    """The symptom of a choice the bias made: refined, the chosen candidate ``row``
-    predicts the held-out part worse than its subspace estimate did, by more than one
-    standard error (:func:`rejudge_refined`, *Up*)."""
-    e_ref, e_sub = _refined_error(row, est, val, windows), row.criterion
-    return e_ref.finite and choose_smallest_adequate([e_ref, e_sub])[1][0] > SIGNIFICANCE_Z
 
 
 def _smallest_refined(
@@ -271,10 +269,38 @@ def _larger_refined(
         step, z = choose_smallest_adequate([e_now, e_up])
         if step != 1:
             break
+        plant = _plant_resolves(chosen, best_of[n_up], val, windows)
+        if plant is None:
+            rule += (
+                f"; closed loop (feedback test): refined, {best_of[n_up].method} order "
+                f"{n_up} predicts better by {z[0]:.1f} SE, but its plant does not simulate "
+                "better by more than 1 SE: not taken"
+            )
+            break
         chosen = best_of[n_up]
         rule += (
             f"; closed loop (feedback test): refined, {chosen.method} order "
-            f"{chosen.order} beats order {chosen.order - 1} by {z[0]:.1f} SE"
+            f"{chosen.order} beats order {chosen.order - 1} by {z[0]:.1f} SE "
+            f"(its simulation by {plant:.1f} SE)"
         )
         n_up += 1
     return chosen, rule
+
+
+def _plant_resolves(now: CandidateRow, up: CandidateRow, val: tuple, windows: int) -> float | None:
+    """The larger order's margin in standard errors when its refined plant simulates the
+    held-out part better than the refined ``now`` by more than one standard error
+    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`, ``now`` listed first);
+    None when it does not.  A larger order that predicts better only through its
+    noise model (``K``) adds no mode of the plant: the order is the plant's, so its
+    extra state must show in the plant's own error, the simulation error (as
+    :func:`~hdpbsid.selection.iterate.keep_iterate` asks of an iterate)."""
+    models = [r.model if r.refined_model is None else r.refined_model for r in (now, up)]
+    try:
+        errors = [windowed_simulation_error(m, *val, windows) for m in models]
+    except ValueError:
+        return None
+    if not all(e.finite for e in errors):
+        return None
+    step, z = choose_smallest_adequate(errors)
+    return z[0] if step == 1 else None
