@@ -131,9 +131,13 @@ def record(loop: str, seed: int, snr: float, duration: float = 30.0) -> tuple[np
 
 
 def fit(t: Any, u: Any, y: Any, **kw: Any) -> tuple[float, float, int, str]:
-    """Worst eigenvalue error (%; inf when the order differs), CPU s, order, method."""
+    """Worst eigenvalue error (%; inf when the order differs or the call raised), CPU s,
+    order (0 when it raised), method (the exception's class when it raised)."""
     c0 = time.process_time()
-    m = identify(t, u, y, **kw)
+    try:
+        m = identify(t, u, y, **kw)
+    except ValueError as exc:  # a method that cannot answer says so: counted, not hidden
+        return float("inf"), time.process_time() - c0, 0, f"raised {type(exc).__name__}"
     cpu = time.process_time() - c0
     ev = m.eigenvalues
     err = 100 * float(np.max(eigenvalue_errors(ev, TRUE))) if ev.size == 4 else float("inf")
