@@ -18,6 +18,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
+from hdpbsid.selection.iterate import keep_iterate
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
 from hdpbsid.selection.scoring import looks_closed_loop, score_model
@@ -29,8 +30,12 @@ def _refine_and_score(
     model: StateSpaceModel, est: tuple, val: tuple, windows: int
 ) -> tuple[StateSpaceModel | None, WindowedError]:
     """``model`` refined on ``est`` (:func:`hdpbsid.refine.pem.refine_pem`; None when
-    the refinement fails or does not converge) and the held-out score
-    (:func:`score_model`) of the refined model, or of ``model`` itself without one."""
+    the refinement fails, or when its budget cut it off and ``est`` does not resolve the
+    iterate as better than ``model``: :func:`~hdpbsid.selection.iterate.keep_iterate`,
+    the rule of the final refinement) and the held-out score (:func:`score_model`) of
+    the refined model, or of ``model`` itself without one.  A resolved iterate counts:
+    scored unrefined, a candidate whose refinement ran out of budget would be compared
+    with the other orders' refined models at its subspace bias."""
     from hdpbsid.refine.pem import refine_pem
 
     refined = None
@@ -38,7 +43,7 @@ def _refine_and_score(
         warnings.simplefilter("ignore")
         try:
             fit = refine_pem(model, *est)
-            if fit.report.converged:
+            if keep_iterate(model, fit, *est).value:
                 refined = fit
         except (ValueError, np.linalg.LinAlgError):
             pass

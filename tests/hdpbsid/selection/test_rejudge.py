@@ -1,11 +1,16 @@
-"""The closed-loop step up of the order re-judgement asks the larger order's plant to
-simulate better (:func:`hdpbsid.selection.rejudge._plant_resolves`): the order is the
-plant's, so a candidate that predicts better only through its noise model does not
-raise it.  Oracle: the record's true plant, and that plant with its resonance moved."""
+"""Pieces of the order re-judgement (:mod:`hdpbsid.selection.rejudge`): the closed-loop
+step up asks the larger order's plant to simulate better (the order is the plant's, so a
+candidate that predicts better only through its noise model does not raise it), and a
+candidate whose refinement runs out of budget is scored by its iterate when the
+estimation part resolves it.  Oracles: the record's true plant, that plant with its
+resonance moved, and a start 30 % too slow."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 from focus_data import A, B, C, white_record
 
 from hdpbsid.models.model import StateSpaceModel
@@ -50,3 +55,28 @@ def test_the_refined_model_stands_for_the_row() -> None:
     up.refined_model = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((2, 1)))
     margin = _plant_resolves(_row(moved, np.zeros((2, 1))), up, (t, u, y), WINDOWS)
     assert margin is not None and margin > 3.0
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_candidate_whose_refinement_runs_out_of_budget_is_scored_by_its_iterate(
+    monkeypatch,
+) -> None:
+    """The re-judgement refines candidates on the estimation part with the final
+    refinement's budget rule (:func:`~hdpbsid.selection.iterate.keep_iterate`): an iterate
+    the estimation part resolves as better than its start is scored, not the start."""
+    import hdpbsid.refine.pem as pem
+    from hdpbsid import identify
+    from hdpbsid.selection.rejudge import _refine_and_score
+    from hdpbsid.selection.scoring import score_model
+
+    t, u, y = white_record(0)
+    cut = 1400
+    est, val = (t[:cut], u[:cut], y[:cut]), (t[cut:], u[cut:], y[cut:])
+    model = identify(*est, 2, method="dt", refine=None)
+    start = dataclasses.replace(model, A=0.7 * model.A, options=dict(model.options))
+    real = pem.refine_pem
+    monkeypatch.setattr(pem, "refine_pem", lambda m, *r: real(m, *r, max_nfev=6))
+    refined, score = _refine_and_score(start, est, val, WINDOWS)
+    # six evaluations from a start 30 % too slow: not converged, yet far better
+    assert refined is not None and not refined.report.converged
+    assert score.total < score_model(start, val, WINDOWS)[0].total
