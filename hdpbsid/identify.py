@@ -364,9 +364,13 @@ def identify(
     error on the last third (the better of the predictors with the model's ``K`` and
     with ``K = 0``, i.e. the simulation error; the prediction error is consistent in
     closed loop); the smallest order within one standard error of the best is
-    identified on the whole record, the scores in ``options["order_selection"]``.  A
-    record too short to score, a list of records and ``order_rule="svd"`` use the
-    method's singular-value rule instead.  A constant input column raises a
+    identified on the whole record, the scores in ``options["order_selection"]``.  With
+    one method given, a record too short to score, a list of records and
+    ``order_rule="svd"`` use the method's singular-value rule instead; with the method
+    not given, a short record compares the orders its last third can score (four
+    windows of three samples per state), and an order given that it cannot score is
+    answered by the first method that reaches it, not compared (a
+    ``SelectionWarning``).  A constant input column raises a
     ``UserWarning`` (not persistently exciting).
 
     *Operating point.*  The levels removed are stored in the model (``model.u0``,

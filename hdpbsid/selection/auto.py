@@ -152,7 +152,7 @@ from hdpbsid.selection.policy import (
     NoCandidate,
     SelectionWarning,
 )
-from hdpbsid.selection.refits import _choose, _warn_if_much_worse
+from hdpbsid.selection.refits import _choose, _unscored, _warn_if_much_worse
 from hdpbsid.selection.rejudge import rejudge_order, rejudge_refined
 from hdpbsid.selection.scoring import (
     beats_the_mean,
@@ -222,6 +222,7 @@ def select_model(
     refined: bool = False,
     judge_feedthrough: bool = False,
     order_given: bool = False,
+    trim_orders: bool = False,
 ) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
     """Score every ``(method, order)`` on held-out data and identify the chosen one on
     the whole record (module docstring).  Returns ``(model, table, rule)``.
@@ -259,7 +260,15 @@ def select_model(
     judge_feedthrough : bool
         Whether candidates with ``D`` join the ranking.
     order_given : bool
-        Whether the user asked for the one order of ``orders``.
+        Whether the user asked for the one order of ``orders``. When the held-out part
+        is too short to score that order (fewer than ``MIN_WINDOWS * SAMPLES_PER_STATE``
+        samples per state), the methods are not compared: the first of ``methods`` that
+        answers at the order on the whole record is returned, with a
+        :class:`SelectionWarning` (:func:`~hdpbsid.selection.refits._unscored`).
+    trim_orders : bool
+        ``orders`` is a default range, not the user's: the orders the held-out part is
+        too short to score are left out (the rule says so), instead of refusing the
+        record. Only a record too short to score order 1 is refused.
 
     Returns
     -------
@@ -275,35 +284,22 @@ def select_model(
         (:class:`~hdpbsid.selection.policy.NoCandidate`, a ``ValueError``, when no
         candidate can be identified).
     """
-    from hdpbsid.data.records import as_records, is_record_list
     from hdpbsid.methods.registry import get_method
 
     if not (isinstance(holdout, float | int) and 0.0 < float(holdout) < 1.0):
         raise ValueError(f"holdout must be a number in (0, 1), got {holdout!r}")
-    several = is_record_list(t) and len(t) > 1
-    if several:
-        # several records: the last one is held out, the others identify the candidates
-        recs = as_records(t, u, y)
-        last = recs[-1]
-        val = (last.t, last.u, last.y)
-        est_list = [(r.t, r.u, r.y) for r in recs[:-1]]
-        est = FitRecord((est_list, None, None) if len(est_list) > 1 else est_list[0])
-        n_val, where = last.t.size, "the last record"
-    else:
-        t, u, y = check_data(t, u, y)
-        split = int(round(t.size * (1.0 - float(holdout))))
-        est = FitRecord((t[:split], u[:split], y[:split]))
-        val = (t[split:], u[split:], y[split:])
-        n_val, where = t.size - split, f"the last {holdout:.0%} of the record"
-    windows = default_windows(n_val, max(orders))
-    if windows < MIN_WINDOWS:
-        raise ValueError(
-            f"choosing the order scores candidates on {where} ({n_val} samples) cut into "
-            f"at least {MIN_WINDOWS} windows of {SAMPLES_PER_STATE * max(orders)} samples "
-            f"({SAMPLES_PER_STATE} per state of the largest order {max(orders)}), i.e. "
-            f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
-            f"longer record, a smaller max_order, or give the order"
+    t, u, y, est, val, where = _split(t, u, y, holdout)
+    n_val = val[0].size
+    opts = method_options or {}
+    whole = FitRecord((t, u, y))
+    orders, windows, trimmed = _held_out_orders(orders, n_val, where, trim_orders, order_given)
+    if windows < MIN_WINDOWS:  # the order given, which the held-out part cannot score
+        reason = (
+            f"{where} ({n_val} samples) is too short to score order {orders[0]} "
+            f"({MIN_WINDOWS} windows of {SAMPLES_PER_STATE} samples per state need "
+            f"{MIN_WINDOWS * SAMPLES_PER_STATE * orders[0]})"
         )
+        return _unscored(get_method, methods, orders[0], whole, opts, reason)
     time_series = val[1].shape[1] == 0
     if time_series and not is_uniform(val[0]):
         raise ValueError(
@@ -311,17 +307,67 @@ def select_model(
             "prediction error on held-out data, which needs uniformly sampled times; "
             "resample the record uniformly or give the order"
         )
-    opts = method_options or {}
-    whole = FitRecord((t, u, y))
     args = (get_method, methods, sorted(orders), est, whole, val, windows, where, opts)
     try:
-        return _select(*args, n_jobs, refined, judge_feedthrough, relax=False)
+        model, table, rule = _select(*args, n_jobs, refined, judge_feedthrough, relax=False)
     except NoCandidate:
         if not order_given:
             raise
-    # no method answers at the order the user asked for with its default settings: the
-    # basis methods that can, at a less precise past window, answer (_fit_at_order)
-    return _select(*args, n_jobs, refined, judge_feedthrough, relax=True)
+        # no method answers at the order the user asked for with its default settings:
+        # the basis methods that can, at a less precise past window, answer (_fit_at_order)
+        model, table, rule = _select(*args, n_jobs, refined, judge_feedthrough, relax=True)
+    return model, table, trimmed + rule
+
+
+def _split(t: Any, u: Any, y: Any, holdout: float) -> tuple[Any, Any, Any, FitRecord, tuple, str]:
+    """``(t, u, y, est, val, where)``: the record (checked, when one), the part that
+    identifies the candidates, the held-out part ``(t, u, y)`` and where it is.  Several
+    records: the last one is held out, the others identify the candidates; one record:
+    its last ``holdout`` share."""
+    from hdpbsid.data.records import as_records, is_record_list
+
+    if is_record_list(t) and len(t) > 1:
+        recs = as_records(t, u, y)
+        last = recs[-1]
+        est_list = [(r.t, r.u, r.y) for r in recs[:-1]]
+        est = FitRecord((est_list, None, None) if len(est_list) > 1 else est_list[0])
+        return t, u, y, est, (last.t, last.u, last.y), "the last record"
+    t, u, y = check_data(t, u, y)
+    split = int(round(t.size * (1.0 - float(holdout))))
+    est = FitRecord((t[:split], u[:split], y[:split]))
+    val = (t[split:], u[split:], y[split:])
+    return t, u, y, est, val, f"the last {holdout:.0%} of the record"
+
+
+def _held_out_orders(
+    orders: Sequence[int], n_val: int, where: str, trim: bool, order_given: bool
+) -> tuple[list[int], int, str]:
+    """``(orders, windows, text)``: the orders the held-out part of ``n_val`` samples
+    scores, its number of windows (:func:`default_windows`) and the rule's note when
+    the default range was cut (``trim``).  A held-out score needs ``MIN_WINDOWS`` windows
+    of ``SAMPLES_PER_STATE`` samples per state, so it scores orders up to ``n_val //
+    (MIN_WINDOWS * SAMPLES_PER_STATE)``.  Fewer windows are returned only for an order
+    given (the caller does not compare the methods then); otherwise a held-out part too
+    short for the orders raises ``ValueError``."""
+    orders = list(orders)
+    scorable = n_val // (MIN_WINDOWS * SAMPLES_PER_STATE)
+    text = ""
+    if trim and max(orders) > scorable >= min(orders):
+        orders = [n for n in orders if n <= scorable]
+        text = (
+            f"orders up to {scorable}, the largest {where} can score ({n_val} samples, "
+            f"{MIN_WINDOWS} windows of {SAMPLES_PER_STATE} samples per state); "
+        )
+    windows = default_windows(n_val, max(orders))
+    if windows < MIN_WINDOWS and not order_given:
+        raise ValueError(
+            f"choosing the order scores candidates on {where} ({n_val} samples) cut into "
+            f"at least {MIN_WINDOWS} windows of {SAMPLES_PER_STATE * max(orders)} samples "
+            f"({SAMPLES_PER_STATE} per state of the largest order {max(orders)}), i.e. "
+            f"{MIN_WINDOWS * SAMPLES_PER_STATE * max(orders)} held-out samples; supply a "
+            f"longer record, a smaller max_order, or give the order"
+        )
+    return orders, windows, text
 
 
 def _select(
@@ -566,6 +612,7 @@ def fit_auto(
         refined=refined,
         judge_feedthrough=judge,
         order_given=order is not None,
+        trim_orders=order is None and max_order is None,
     )
     chosen = model.report.method
     model.options["selection"] = table

@@ -21,6 +21,7 @@ from hdpbsid.selection.candidates import (
     CandidateRow,
     FitRecord,
     _among,
+    _fit_at_order,
     _given,
     _mark_window_rule,
     _refit_settings,
@@ -409,3 +410,62 @@ def _without_floor(
     model.report = model.report.warned(text)
     warnings.warn(text, SelectionWarning, stacklevel=user_stacklevel())
     return model
+
+
+def _unscored(
+    get_method: Any,
+    methods: Sequence[str],
+    order: int,
+    whole: FitRecord,
+    opts: dict,
+    reason: str,
+) -> tuple[StateSpaceModel, list[dict[str, Any]], str]:
+    """The model at the order the user gave when the held-out part is too short to
+    compare the methods there (``reason`` says why): the first of ``methods`` that
+    answers at ``order`` on the ``whole`` record with its own settings, a basis method
+    at the smallest past window that reaches the order if its default cannot
+    (:func:`~hdpbsid.selection.candidates._fit_at_order`).  ``methods`` is the order of
+    preference (:data:`~hdpbsid.selection.policy.AUTO_METHODS`).  Returns ``(model,
+    table, rule)`` as :func:`~hdpbsid.selection.auto.select_model`; the table lists the
+    methods tried, none scored.  A :class:`SelectionWarning` says that the method was
+    not chosen by the data and how to compare them (a longer record, or ``holdout``).
+
+    Why not refuse: the order is the user's, and every method estimates a model of it
+    from these samples (as other tools do at any order); what the record cannot carry is
+    the *comparison*, since a held-out score needs windows whose initial state is
+    determined by several samples per state.  Raises :class:`NoCandidate` when no
+    method answers.
+    """
+    rows = []
+    for name in methods:
+        row = CandidateRow(name, order)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                func = get_method(name)
+                model, extra, p_rule = _fit_at_order(
+                    func, whole, order, dict(opts.get(name, {})), True
+                )
+            why = stationarity_problem(model)
+            if why:
+                raise ValueError(why)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            row.status = f"{type(exc).__name__}: {exc}"
+            rows.append(row)
+            continue
+        row.status, row.settings, row.p_rule = "not scored: " + reason, extra, p_rule
+        rows.append(row)
+        rule = (
+            f"not compared: {reason}; the first of the methods {', '.join(methods)} that "
+            f"answers at the order given, {name}, fitted on the whole record"
+        )
+        warnings.warn(
+            f"the methods were not compared at order {order}: {reason}; returned "
+            f"{name!r}, the first method that answers (pass method= to choose another, or "
+            f"a longer record to compare them)",
+            SelectionWarning,
+            stacklevel=user_stacklevel(),
+        )
+        return model, [r.as_row() for r in rows], rule
+    detail = "; ".join(f"{r.method}: {r.status}" for r in rows)
+    raise NoCandidate(f"no method answers at order {order} on this record ({detail})")
