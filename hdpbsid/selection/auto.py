@@ -303,9 +303,12 @@ def select_model(
     time_series = val[1].shape[1] == 0
     if time_series and not is_uniform(val[0]):
         raise ValueError(
-            "t: choosing the order of a time series (no input) scores the one-step "
-            "prediction error on held-out data, which needs uniformly sampled times; "
-            "resample the record uniformly or give the order"
+            "t: choosing the "
+            + ("method" if order_given else "order")
+            + " of a time series (no input) scores the one-step prediction error on "
+            "held-out data, which needs uniformly sampled times; resample the record "
+            "uniformly or give the "
+            + (f"method (one of {', '.join(methods)})" if order_given else "order")
         )
     args = (get_method, methods, sorted(orders), est, whole, val, windows, where, opts)
     try:

@@ -246,6 +246,20 @@ def test_an_order_given_that_the_held_out_part_cannot_score_still_gets_a_model()
         assert np.min(np.abs(found - lam)) < 0.02 * abs(lam)
 
 
+def test_a_non_uniform_time_series_with_the_order_given_is_asked_for_the_method():
+    """No held-out one-step score exists for a time series on non-uniform times, so
+    neither the order nor the method can be chosen; with the order given, the message
+    asks for the method, not for the order the user gave."""
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.uniform(0.0, 100.0, 600))
+    y = rng.standard_normal((600, 1))
+    with pytest.raises(ValueError, match="give the method") as info:
+        hdpbsid.identify(t, None, y, order=2)
+    assert "give the order" not in str(info.value)
+    with pytest.raises(ValueError, match="give the order"):
+        hdpbsid.identify(t, None, y)
+
+
 def test_constant_input_warns_not_persistently_exciting():
     t, u, y, _ = _record(4)
     # the warning says why; after the mean is removed nothing of u is left, so no model
