@@ -279,8 +279,9 @@ def select_model(
     Raises
     ------
     ValueError
-        When ``holdout`` is not in ``(0, 1)``, when the record is too short to hold out
-        the scoring windows, or when a time series is not uniformly sampled
+        When ``holdout`` is not in ``(0, 1)``, when the held-out part is too short to
+        score the orders (not for an order given, ``order_given``), or when a time series
+        is not uniformly sampled
         (:class:`~hdpbsid.selection.policy.NoCandidate`, a ``ValueError``, when no
         candidate can be identified).
     """
