@@ -464,6 +464,29 @@ def _mark_window_rule(model: StateSpaceModel, rule: str) -> None:
     model.report = model.report.but(past_window=Choice(p, rule, WindowReason.ORDER_NEEDS))
 
 
+def _fit_row(
+    row: CandidateRow, func: Any, rec: FitRecord, settings: dict[str, Any], order_given: bool
+) -> StateSpaceModel:
+    """The model of candidate ``row`` (its method ``func`` at ``row.order``) fitted on
+    ``rec`` with ``settings`` (:func:`_fit_at_order`; a past window it passed beyond
+    them is written to ``row.settings`` and ``row.p_rule``).  Raises ``TypeError`` when
+    the method returns no :class:`StateSpaceModel`, ``ValueError`` when it returns a
+    time-series model that describes no stationary process
+    (:func:`~hdpbsid.selection.scoring.stationarity_problem`), besides what the method
+    raises."""
+    model, extra, p_rule = _fit_at_order(func, rec, row.order, settings, order_given)
+    if extra:
+        row.settings, row.p_rule = extra, p_rule
+    if not isinstance(model, StateSpaceModel):
+        raise TypeError(
+            f"method {row.method!r} returned {type(model).__name__}, expected StateSpaceModel"
+        )
+    why = stationarity_problem(model)
+    if why:
+        raise ValueError(why)
+    return model
+
+
 def _fit_one(
     get_method: Any,
     method: str,
@@ -485,16 +508,7 @@ def _fit_one(
             warnings.simplefilter("ignore")
             func = get_method(method)
             settings = sweep_settings(func, options.get(method, {}))
-            model, extra, p_rule = _fit_at_order(func, est, order, settings, order_given)
-            if extra:
-                row.settings, row.p_rule = extra, p_rule
-            if not isinstance(model, StateSpaceModel):
-                raise TypeError(
-                    f"method {method!r} returned {type(model).__name__}, expected StateSpaceModel"
-                )
-            why = stationarity_problem(model)
-            if why:
-                raise ValueError(why)
+            model = _fit_row(row, func, est, settings, order_given)
             err, use_k = score_model(model, val, windows)
         row.status = (
             "ok"

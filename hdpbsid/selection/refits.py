@@ -21,7 +21,7 @@ from hdpbsid.selection.candidates import (
     CandidateRow,
     FitRecord,
     _among,
-    _fit_at_order,
+    _fit_row,
     _given,
     _mark_window_rule,
     _refit_settings,
@@ -424,11 +424,12 @@ def _unscored(
     compare the methods there (``reason`` says why): the first of ``methods`` that
     answers at ``order`` on the ``whole`` record with its own settings, a basis method
     at the smallest past window that reaches the order if its default cannot
-    (:func:`~hdpbsid.selection.candidates._fit_at_order`).  ``methods`` is the order of
-    preference (:data:`~hdpbsid.selection.policy.AUTO_METHODS`).  Returns ``(model,
-    table, rule)`` as :func:`~hdpbsid.selection.auto.select_model`; the table lists the
-    methods tried, none scored.  A :class:`SelectionWarning` says that the method was
-    not chosen by the data and how to compare them (a longer record, or ``holdout``).
+    (:func:`~hdpbsid.selection.candidates._fit_row`, as the sweep fits a candidate).
+    ``methods`` is the order of preference (:data:`~hdpbsid.selection.policy.AUTO_METHODS`).
+    Returns ``(model, table, rule)`` as :func:`~hdpbsid.selection.auto.select_model`; the
+    table lists the methods tried, none scored.  A :class:`SelectionWarning` says that
+    the method was not chosen by the data and how to compare them (a longer record, or
+    ``holdout``).
 
     Why not refuse: the order is the user's, and every method estimates a model of it
     from these samples (as other tools do at any order); what the record cannot carry is
@@ -442,18 +443,12 @@ def _unscored(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                func = get_method(name)
-                model, extra, p_rule = _fit_at_order(
-                    func, whole, order, dict(opts.get(name, {})), True
-                )
-            why = stationarity_problem(model)
-            if why:
-                raise ValueError(why)
+                model = _fit_row(row, get_method(name), whole, dict(opts.get(name, {})), True)
         except (ValueError, np.linalg.LinAlgError) as exc:
             row.status = f"{type(exc).__name__}: {exc}"
             rows.append(row)
             continue
-        row.status, row.settings, row.p_rule = "not scored: " + reason, extra, p_rule
+        row.status = "not scored: " + reason
         rows.append(row)
         rule = (
             f"not compared: {reason}; the first of the methods {', '.join(methods)} that "
