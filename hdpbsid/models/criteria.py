@@ -82,6 +82,9 @@ class CriteriaSettings:
         Most windows per record.
     min_windows : int
         Fewest windows a held-out score is taken on.
+    reliable_windows : int
+        Fewest windows whose standard error resolves the orders; on fewer the selection
+        warns (:func:`hdpbsid.selection.auto.select_model`).
     predictor_stability_tol : float
         Spectral radius beyond ``1 + tol`` counts as unstable.
     samples_per_state : int
@@ -96,6 +99,10 @@ class CriteriaSettings:
     max_windows: int = 16
     #: fewest windows a held-out score is taken on: below, a record is too short to score
     min_windows: int = 4
+    #: fewest windows whose standard error can tell the orders apart: the one-standard-error
+    #: rule's standard error is estimated from the per-window errors, and a t statistic on
+    #: fewer than ~8 paired differences is too noisy to test anything (see max_windows)
+    reliable_windows: int = 8
     #: a predictor eigenvalue counts as unstable beyond ``1 + tol``: eigenvalues of a sampled
     #: matrix exponential carry rounding of ~1e-15 relative, far below this; a unit
     #: eigenvalue (an integrator) is not a growing mode (:func:`predictor_is_stable`)

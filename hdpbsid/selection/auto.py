@@ -105,12 +105,14 @@ importable from here.
 from __future__ import annotations
 
 import functools
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 from hdpbsid.data.checks import check_data, check_positive_int, is_uniform
 from hdpbsid.data.records import Dataset
 from hdpbsid.models.criteria import (
+    CRITERIA,
     MIN_WINDOWS,
     SAMPLES_PER_STATE,
     SIGNIFICANCE_Z,
@@ -118,7 +120,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Candidate
-from hdpbsid.runtime import library_call
+from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection.candidates import (
     CandidateRow,
     FitRecord,
@@ -294,6 +296,7 @@ def select_model(
     opts = method_options or {}
     whole = FitRecord((t, u, y))
     orders, windows, trimmed = _held_out_orders(orders, n_val, where, trim_orders, order_given)
+    _warn_if_few_windows(orders, windows, n_val, where, order_given)
     if windows < MIN_WINDOWS:  # the order given, which the held-out part cannot score
         reason = (
             f"{where} ({n_val} samples) is too short to score order {orders[0]} "
@@ -341,6 +344,29 @@ def _split(t: Any, u: Any, y: Any, holdout: float) -> tuple[Any, Any, Any, FitRe
     est = FitRecord((t[:split], u[:split], y[:split]))
     val = (t[split:], u[split:], y[split:])
     return t, u, y, est, val, f"the last {holdout:.0%} of the record"
+
+
+def _warn_if_few_windows(
+    orders: Sequence[int], windows: int, n_val: int, where: str, order_given: bool
+) -> None:
+    """A :class:`SelectionWarning` when the order is chosen (several ``orders``, none
+    given) on fewer than :attr:`~hdpbsid.models.criteria.CriteriaSettings.
+    reliable_windows` held-out windows.  The one-standard-error rule estimates its
+    standard error from the per-window errors; on so few windows that estimate is itself
+    noisy, a wide one puts much smaller orders "within one standard error", and the
+    rule then takes the smallest: an order the record would reject on more data can
+    be returned, and nothing in its score shows it."""
+    if order_given or len(orders) < 2 or not MIN_WINDOWS <= windows < CRITERIA.reliable_windows:
+        return
+    warnings.warn(
+        f"the order was chosen on {where} ({n_val} samples) cut into {windows} windows: "
+        f"with fewer than {CRITERIA.reliable_windows} the standard error of the "
+        f"one-standard-error rule is too noisy to tell the orders apart, and a too small "
+        f"order can be chosen; validate the model on other data, supply a longer "
+        f"record, or give the order",
+        SelectionWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _held_out_orders(

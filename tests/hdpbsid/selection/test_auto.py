@@ -222,11 +222,28 @@ def test_auto_on_a_short_record_compares_the_orders_its_held_out_part_can_score(
     """200 samples hold out 67: four windows of three samples per state score up to
     order 5, so the default range 1..8 is cut to 1..5 (it used to refuse the record)."""
     t, u, y, _ = _record(11, T=10.0, dt=0.05)
-    model = hdpbsid.identify(t, u, y)
+    # 67 held-out samples give 4 windows of 15: fewer than the 8 a standard error needs
+    with pytest.warns(SelectionWarning, match="cut into 4 windows: with fewer than 8"):
+        model = hdpbsid.identify(t, u, y)
     assert model.options["selection_rule"].startswith("orders up to 5")
     assert {row["order"] for row in model.options["selection"]} == {1, 2, 3, 4, 5}
     # 30 dB on 200 samples of the second-order system: the held-out part resolves it
     assert model.n == 2
+
+
+def test_few_windows_are_said_only_when_the_order_is_chosen_on_them():
+    """The warning on few held-out windows is about choosing the order: not given for
+    an order the user gave on the same short record, nor for a record whose held-out
+    part gives 8 windows or more (400 samples, orders 1-8: 133 // 24 = 5 windows, warned;
+    orders 1-2 on it: 133 // 6 = 16 windows, not)."""
+    t, u, y, _ = _record(11, T=10.0, dt=0.05)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hdpbsid.identify(t, u, y, order=2)
+        hdpbsid.identify(*_record(11, T=20.0, dt=0.05)[:3], max_order=2)
+    assert not [w for w in caught if "too noisy" in str(w.message)]
+    with pytest.warns(SelectionWarning, match="cut into 5 windows"):
+        hdpbsid.identify(*_record(11, T=20.0, dt=0.05)[:3], max_order=8)
 
 
 def test_an_order_given_that_the_held_out_part_cannot_score_still_gets_a_model():
