@@ -220,12 +220,43 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
     model.report = model.report.but(warm_start=None)
     if not several:
         _warn_if_fallback(model)
+    _warn_if_biased_time_series(model)
     if req.refine is not None:
         timings["refine"] = time.perf_counter() - t_refine
         model.options["refine_time"] = timings["refine"]
     decision = None if req.refine is None else Choice(model.report.refinement is not None, rule)
     model.report = _decided(model, req.order, req.method, decision, timings)
     return model
+
+
+def _warn_if_biased_time_series(model: StateSpaceModel) -> None:
+    """A ``UserWarning`` when a time series (no input) is returned as the subspace
+    estimate of a method whose lag operator is not strictly causal
+    (:func:`hdpbsid.core.varx.is_strictly_causal`; ``model.report.strictly_causal_lag``).
+
+    Such a lag mixes the current coefficient into its own regressor, so a regressor
+    built from noise-driven output is correlated with the equation error
+    (:mod:`hdpbsid.methods.hermite_iv`).  With an input that share is the noise's, small
+    at a good signal-to-noise ratio; a time series is driven by its noise alone, so the
+    whole regression is, and the poles come out far too slow (a first-order process at
+    -0.5 rad/s: -0.002 to -0.02 from the Hermite and Legendre methods).  The
+    prediction-error refinement removes the bias (the default on uniform samples); the
+    sample shift and the Laguerre shift are strictly causal and need no warning."""
+    if model.m or model.report.refinement is not None:
+        return
+    if model.report.strictly_causal_lag is not False:
+        return
+    warnings.warn(
+        f"{model.report.method}: a time series (no input) identified in a basis domain "
+        "and not refined is biased: the method's lag is not strictly causal, so each "
+        "regressor holds part of the noise it should predict, and a time series is all "
+        "noise-driven (poles come out far too slow); the prediction-error refinement "
+        "removes the bias (refine='auto' or 'pem' on uniform samples; why it did not "
+        "run or was not kept: options['refine_rule']), or use method='laguerre' or "
+        "'dt', whose lags are strictly causal",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _finished(

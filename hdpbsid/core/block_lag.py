@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.core.varx import CachedPowers, LagOperator
+from hdpbsid.core.varx import CachedPowers, LagOperator, is_strictly_causal
 
 __all__ = ["BlockLag", "PseudoStore"]
 
@@ -86,6 +86,12 @@ class BlockLag(CachedPowers):
         ]
         # pseudo-row work shared by the BlockPseudo objects built on this lag (BlockPseudo)
         self.pseudo_stores: OrderedDict[tuple[int, ...], PseudoStore] = OrderedDict()
+
+    @property
+    def strictly_causal(self) -> bool:
+        """Whether every block's lag is strictly causal
+        (:func:`~hdpbsid.core.varx.is_strictly_causal`)."""
+        return all(is_strictly_causal(lag) for lag in self.lags)
 
     def columns(self, blocks: Sequence[int]) -> NDArray[np.intp]:
         """Column indices of blocks of equal size.

@@ -20,7 +20,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import qr, solve_discrete_are
 
-from hdpbsid.core.varx import LagOperator, SampleShift, VarxResult, varx
+from hdpbsid.core.varx import (
+    LagOperator,
+    SampleShift,
+    VarxResult,
+    is_strictly_causal,
+    varx,
+)
 from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
@@ -515,6 +521,7 @@ def core_options(
         "stable_k": stable_k,
         "k_method": k_method,
         "lag": repr(lag),
+        "lag_strictly_causal": is_strictly_causal(lag),
     }
     if info:
         options["order_criterion"] = info["criterion"]

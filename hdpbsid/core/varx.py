@@ -36,6 +36,7 @@ from hdpbsid.models.report import Choice
 
 __all__ = [
     "LagOperator",
+    "is_strictly_causal",
     "CachedPowers",
     "SampleShift",
     "MatrixLag",
@@ -157,6 +158,40 @@ class CachedPowers:
         return self._cache[j].copy()
 
 
+def is_strictly_causal(lag: LagOperator) -> bool:
+    """Whether ``lag`` is known to be strictly causal: every column of ``apply(W, 1)`` is
+    a combination of earlier columns of ``W`` only, as the sample shift is.
+
+    What it decides.  The VARX regresses each column of the output on the lagged data.
+    With a strictly causal lag a lagged column holds only earlier samples, so white
+    innovations are uncorrelated with every regressor and least squares is consistent.
+    A lag with a nonzero diagonal (the integrator lag ``M = D'^{-1}`` of the basis
+    domain, whose matrix is full) mixes the current column into its own regressor:
+    projected white noise ``E`` gives ``E[E (E M)^T] = sigma^2 tr(M) != 0``
+    (:mod:`hdpbsid.methods.hermite_iv`), and the part of the output driven by noise
+    biases the estimate.
+
+    Parameters
+    ----------
+    lag : LagOperator
+        The lag operator; one that does not say (no ``strictly_causal`` attribute) is
+        not known to be strictly causal.
+
+    Returns
+    -------
+    bool
+        The operator's ``strictly_causal``, False when it has none.
+
+    Examples
+    --------
+    >>> is_strictly_causal(SampleShift()), is_strictly_causal(MatrixLag(np.eye(2)))
+    (True, False)
+    >>> is_strictly_causal(MatrixLag(np.diag([1.0], 1)))  # "one column back"
+    True
+    """
+    return bool(getattr(lag, "strictly_causal", False))
+
+
 class SampleShift:
     """Backward shift on sampled data: ``apply(W, j)[:, k] = W[:, k - j]``.
 
@@ -234,6 +269,9 @@ class SampleShift:
         """
         return ()
 
+    #: every lagged column holds only earlier samples (:func:`is_strictly_causal`)
+    strictly_causal = True
+
     def __repr__(self) -> str:
         return "SampleShift()"
 
@@ -278,6 +316,12 @@ class MatrixLag:
             raise ValueError("M must be finite (no NaN/inf)")
         self.M = M
         self._powers: dict[int, Array] = {0: np.eye(M.shape[0]), 1: M}
+
+    @property
+    def strictly_causal(self) -> bool:
+        """Whether column ``k`` of ``W M`` holds only columns before ``k`` of ``W``:
+        ``M[i, k] = 0`` for ``i >= k`` (:func:`is_strictly_causal`)."""
+        return not np.any(np.tril(self.M))
 
     def power(self, j: int) -> Array:
         """``M^j``, computed by repeated multiplication and cached.

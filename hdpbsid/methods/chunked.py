@@ -77,6 +77,7 @@ from hdpbsid.bases.segments import LOW_FRACTION, MAP_BYTES, _maps, window_rule
 from hdpbsid.bases.settings import BasisSettings, resolve_settings
 from hdpbsid.core import streamed
 from hdpbsid.core.blocks import BlockLag, BlockPseudo
+from hdpbsid.core.varx import is_strictly_causal
 from hdpbsid.data.checks import check_order, check_positive_int
 from hdpbsid.data.chunked import CHUNK_SAMPLES, ChunkedRecord
 from hdpbsid.models.model import StateSpaceModel
@@ -535,6 +536,7 @@ def _core_out(
     :func:`~hdpbsid.bases.basis_domain.run_core` returns it."""
     lags = ", ".join(sorted({repr(k.lag) for k in kinds.values()}))
     core.options["lag"] = f"BlockLag({int(sizes.size)} blocks: {lags})"
+    core.options["lag_strictly_causal"] = all(is_strictly_causal(k.lag) for k in kinds.values())
     su, sy = vs.su, vs.sy
     ncov = sy[:, None] * core.noise_covariance * sy[None, :]
     opts: dict[str, Any] = dict(core.options)

@@ -440,6 +440,11 @@ class IdentificationReport:
     past_window : Choice of int or None, optional
         The past window ``p`` of a basis method's core and why (``rule`` a
         :class:`~hdpbsid.bases.basis_core.WindowReason`; its text is ``options["p_rule"]``).
+    strictly_causal_lag : bool or None, optional
+        Whether the lag operator of the method's PBSID core is strictly causal
+        (:func:`hdpbsid.core.varx.is_strictly_causal`): with one that is not, the
+        noise-driven part of the output biases the subspace estimate (None when the
+        method did not say).
     refit_settings : Choice of dict or None, optional
         Settings the method chose on held-out data, which a refit of the model on a longer
         record takes as given.
@@ -484,6 +489,7 @@ class IdentificationReport:
     alpha: Choice[float] | None = None
     pole: Choice[float] | None = None
     past_window: Choice[int] | None = None
+    strictly_causal_lag: bool | None = None
     refit_settings: Choice[Mapping[str, Any]] | None = None
     candidates: tuple[Candidate, ...] = ()
     selection_rule: str = ""
@@ -611,6 +617,11 @@ class IdentificationReport:
             feedthrough=DirectTerm.from_option(options.get("feedthrough")),
             windows={k: options[k] for k in ("p", "f") if k in options},
             basis=_numbers(options, ("N", "scale", "alpha")),
+            strictly_causal_lag=(
+                bool(options["lag_strictly_causal"])
+                if isinstance(options.get("lag_strictly_causal"), bool | np.bool_)
+                else None
+            ),
             refit_settings=(
                 Choice(dict(refit), str(options.get("alpha_rule", "")))
                 if isinstance(refit, Mapping)
