@@ -53,7 +53,7 @@ from hdpbsid.refine.pem import (
 from hdpbsid.refine.pem_focus import warn_if_closed_loop
 from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
-from hdpbsid.selection.feedback import refine_decision, refine_plan
+from hdpbsid.selection.feedback import refine_decision, refine_plan, retried
 from hdpbsid.selection.feedthrough import check_feedthrough
 from hdpbsid.selection.focus import choose_focus, given
 from hdpbsid.selection.iterate import IterateRule, keep_iterate
@@ -676,6 +676,8 @@ def _refined(
     if do:
         model = start  # in closed loop, offering the refinement a consistent start
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
+        refined, note = retried(model, refined, t, u, y, stats)
+        rule += note
         unsound = _refinement_problem(model, refined, t, u, y)
         if unsound:
             rule += f"; the refined model is not kept: {unsound}"

@@ -337,6 +337,9 @@ class WindowReason(str, Enum):
     ORDER_NEEDS = "order needs"
     #: the smallest AIC of the VARX fit over the preferred range (or its only window)
     AIC = "min AIC"
+    #: the window the held-out selection's candidate chose on the estimation part, kept
+    #: by its refit on the whole record (:func:`hdpbsid.selection.auto.refit_keeps`)
+    KEPT = "kept from the candidate"
 
 
 @dataclass(frozen=True)

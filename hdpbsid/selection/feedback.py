@@ -60,6 +60,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
+from hdpbsid.bases.basis_core import WindowReason
 from hdpbsid.core.normal_equations import NORMAL_EQUATIONS, lstsq_residuals
 from hdpbsid.models.assessment import correlation
 from hdpbsid.models.model import StateSpaceModel
@@ -76,6 +77,8 @@ __all__ = [
     "FEEDBACK_LAGS",
     "FEEDBACK_LEVEL",
     "closed_loop_start",
+    "retry_start",
+    "retried",
     "refine_plan",
     "feedback_statistics",
     "refine_decision",
@@ -439,9 +442,11 @@ def closed_loop_start(
     the model's order and direct term; the refinement's screen fits the most promising
     start first (:func:`hdpbsid.refine.pem.refine_pem`), so a start that is not better
     costs one evaluation.  Nothing changes in open loop (the basis estimate is consistent
-    there), for a ``dt`` model, or when a warm start is already offered
-    (``method="auto"`` passes its own).  The ``dt`` model carries no input hold into the
-    offer: no prediction-error fit chose one.
+    there), for a ``dt`` model (one whose past window was kept from its held-out
+    candidate gets the record's own ``dt`` model only when its refinement falls short:
+    :func:`retry_start`), or when a warm start is already offered (``method="auto"``
+    passes its own).  The ``dt`` model carries no input hold into the offer: no
+    prediction-error fit chose one.
 
     Parameters
     ----------
@@ -465,6 +470,89 @@ def closed_loop_start(
         return model
     start = _closed_loop_model(model, t, u, y)
     return model if start is None else _offer(model, start)
+
+
+def retry_start(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, statistics: dict[str, Any] | None
+) -> StateSpaceModel | None:
+    """A second starting point for the refinement of ``model`` when the first did not
+    converge: the record's own ``dt`` model (its past window chosen by its criterion on
+    the whole record), when ``model`` is a ``dt`` model refitted with the window its
+    held-out candidate chose on part of the record
+    (:attr:`~hdpbsid.bases.basis_core.WindowReason.KEPT`) and the feedback test found
+    the record closed loop; else None.
+
+    Why.  PBSID on the samples is consistent in closed loop only as far as its past
+    window covers the predictor's memory (:func:`closed_loop_start`); the window
+    criterion takes longer windows on longer records, so the window kept from two
+    thirds of the record can be short for the whole of it, and its truncation can leave
+    the start far from the minimum, where the refinement runs out of its budget.  Fitted
+    only then: where the refinement from the kept window converges, nothing is spent.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model the refinement started from.
+    t, u, y : array_like
+        The record (the front end's detrended signals).
+    statistics : dict or None
+        :func:`feedback_statistics` of ``model`` on the record.
+
+    Returns
+    -------
+    StateSpaceModel or None
+        The ``dt`` model to refine from, or None.
+    """
+    window = model.report.past_window
+    if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
+        return None
+    if model.report.method != CLOSED_LOOP_START_METHOD or window is None:
+        return None
+    return _closed_loop_model(model, t, u, y) if window.rule is WindowReason.KEPT else None
+
+
+def retried(
+    start: StateSpaceModel, refined: StateSpaceModel, t: Any, u: Any, y: Any, stats: Any
+) -> tuple[StateSpaceModel, str]:
+    """``refined`` (the prediction-error refinement of ``start`` on the record ``t, u,
+    y``), or the refinement from a second start when the one from ``start`` ran out of
+    its budget and the record offers one (:func:`retry_start`; ``stats`` the feedback
+    test's), and the note for the refinement's rule.  The second is taken only when it
+    converges: a minimum of the cost is the consistent estimate, an iterate cut off on
+    its way is not.
+
+    Parameters
+    ----------
+    start : StateSpaceModel
+        The model the refinement started from.
+    refined : StateSpaceModel
+        Its refinement (:func:`hdpbsid.refine.pem.refine_pem`).
+    t, u, y : array_like
+        The record (the front end's detrended signals).
+    stats : dict or None
+        :func:`feedback_statistics` of ``start`` on the record.
+
+    Returns
+    -------
+    tuple of (StateSpaceModel, str)
+        The refined model kept and what the rule adds (``""`` when ``refined``).
+    """
+    from hdpbsid.refine.pem import refine_pem
+
+    fit = refined.report.refinement
+    if fit is None or fit.converged:
+        return refined, ""
+    other = retry_start(start, t, u, y, stats)
+    if other is None:
+        return refined, ""
+    again = refine_pem(other, t, u, y)
+    if again.report.refinement is None or not again.report.refinement.converged:
+        return refined, ""
+    return again, (
+        "; the refinement from the dt model with the past window kept from its held-out "
+        "candidate did not converge: refined from the dt model with its window chosen "
+        "on the whole record, which converged"
+    )
 
 
 def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateSpaceModel | None:

@@ -13,9 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from hdpbsid.bases.basis_core import WindowReason
 from hdpbsid.models.criteria import choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.models.report import DirectTerm
+from hdpbsid.models.report import Choice, DirectTerm
 from hdpbsid.runtime import user_stacklevel
 from hdpbsid.selection.candidates import (
     CandidateRow,
@@ -151,11 +152,15 @@ def _accept_refit(model: StateSpaceModel, chosen: CandidateRow, kept: dict[str, 
         model.report = model.report.but(warm_start=warm_start_option(warm))
     _carry_refit_settings(model, chosen.model)
     if kept:
-        model.options["refit_kept"] = kept
-        model.options["refit_kept_rule"] = (
+        rule = (
             "the candidate's own values, judged with it on the held-out part "
             "(hdpbsid.selection.auto.refit_keeps)"
         )
+        model.options["refit_kept"] = kept
+        model.options["refit_kept_rule"] = rule
+        if "p" in kept:
+            window = Choice(int(kept["p"]), rule, WindowReason.KEPT)
+            model.report = model.report.but(past_window=window)
 
 
 def _with_d_asked(model: StateSpaceModel) -> None:

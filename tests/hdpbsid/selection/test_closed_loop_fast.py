@@ -11,10 +11,12 @@ from scipy.linalg import block_diag, expm, solve_discrete_are
 from scipy.signal import place_poles
 
 from hdpbsid import identify
+from hdpbsid.bases.basis_core import WindowReason
 from hdpbsid.models.metrics import eigenvalue_errors, match_eigenvalues
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import Choice
 from hdpbsid.refine.pem import refine_pem
-from hdpbsid.selection.feedback import closed_loop_start
+from hdpbsid.selection.feedback import closed_loop_start, retry_start
 
 TS = 0.004  # 250 Hz
 # two fast real modes and an unstable pair; outputs the rate and its derivative (direct
@@ -30,12 +32,20 @@ OBSERVER_POLES = (-40.0, -45.0, -50.0, -55.0)  # rad/s, faster than every plant 
 
 
 def _loop_record(
-    seed: int, seconds: float, snr_db: float, observer: tuple[float, ...] = OBSERVER_POLES
+    seed: int,
+    seconds: float,
+    snr_db: float,
+    observer: tuple[float, ...] = OBSERVER_POLES,
+    plant: np.ndarray = A,
 ) -> tuple[np.ndarray, ...]:
     """LQR state feedback through a predictor observer fed by both noisy outputs
     (observer poles by placement at ``observer`` rad/s), a random binary excitation held
-    0.02 s added to the command, white sensor noise at ``snr_db`` of each output."""
+    0.02 s added to the command, white sensor noise at ``snr_db`` of each output.
+    ``plant``: the modal ``A`` (with ``B`` and the rate row of the module; the outputs
+    the rate and its exact derivative)."""
     n = 4
+    C = np.vstack([CQ, CQ @ plant])
+    A = plant
     M = np.zeros((n + 1, n + 1))
     M[:n, :n], M[:n, n:] = A * TS, B * TS
     E = expm(M)
@@ -111,6 +121,45 @@ def test_no_start_offered_in_open_loop_or_without_the_statistics(record) -> None
     assert offered is not model and offered.report.warm_start is not None
     assert model.report.warm_start is None  # the caller's model is not changed
     np.testing.assert_array_equal(offered.A, model.A)
+
+
+def test_a_dt_model_with_a_window_kept_from_its_candidate_has_a_second_start(
+    record,
+) -> None:
+    """A ``dt`` model whose past window its held-out candidate chose on part of the
+    record (``WindowReason.KEPT``) has, in closed loop, the record's own ``dt`` model as
+    a second start (its window chosen on the whole record); one whose window was chosen
+    on the record, an open loop, or a basis model has none."""
+    t, u, y = record
+    ud, yd = u - u.mean(0), y - y.mean(0)
+    own = identify(t, u, y, 4, method="dt", feedthrough=True, refine=None)
+    p_own = own.report.windows["p"]
+    short = identify(t, u, y, 4, method="dt", feedthrough=True, refine=None, p=p_own // 3)
+    short.report = short.report.but(
+        past_window=Choice(p_own // 3, "the candidate's", WindowReason.KEPT)
+    )
+    other = retry_start(short, t, ud, yd, {"feedback": True})
+    assert other is not None and other.report.windows["p"] == p_own
+    np.testing.assert_allclose(other.A, own.A, rtol=1e-8, atol=1e-10)
+    assert retry_start(short, t, ud, yd, {"feedback": False}) is None
+    assert retry_start(own, t, ud, yd, {"feedback": True}) is None
+    hermite = identify(t, u, y, 4, method="hermite", feedthrough=True, refine=None)
+    assert retry_start(hermite, t, ud, yd, {"feedback": True}) is None
+
+
+def test_a_refinement_cut_off_from_a_kept_window_is_retried_from_the_records_own() -> None:
+    """A stable variant of the loop (fast modes -22 and -8 rad/s, the pair -0.6 +- 7i):
+    with the order given the selection returns ``dt`` refitted with the past window its
+    candidate chose on two thirds of the record (62 samples; 83 on the whole record).
+    From it the refinement ran out of its budget with the -8 rad/s mode 61 % off; from
+    the record's own ``dt`` model it converges with every eigenvalue within 5 %."""
+    plant = block_diag(-22.0, -8.0, [[-0.6, 7.0], [-7.0, -0.6]])
+    t, u, y = _loop_record(101, 30.0, 20.0, plant=plant)
+    model = identify(t, u, y, 4)
+    assert "window chosen on the whole record" in model.options["refine_rule"]
+    assert model.report.refinement.converged
+    # 30 s at 20 dB: the converged fit is within 5 % (the cut-off iterate: 61 %)
+    assert np.max(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(plant))) < 0.10
 
 
 def test_the_defaults_estimate_the_direct_term_and_the_fast_modes() -> None:
