@@ -17,6 +17,13 @@ the one of ``bench/cases.py`` (an LQG on the rate alone):
 * ``observer-fast``: LQR weights ten times larger on both outputs and the observer poles
   at ``-60, -70, -80, -90`` rad/s.
 
+``--plant`` runs the same loops on plants the library was not developed on, with the
+same input and output rows (``B``, the rate row ``c_q`` and its derivative):
+
+* ``stable-pair``: the oscillatory pair mirrored into the left half-plane,
+  ``-28, -10, -1.2 +- 5.8i``;
+* ``slower-fast``: fast modes ``-22, -8`` and a pair ``-0.6 +- 7i``.
+
 No PI loop on the rate: a grid of proportional and integral gains of either sign
 (``check_stable``) found none that stabilises the unstable pair from the rate alone.
 
@@ -40,7 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.linalg import expm, solve_discrete_are
+from scipy.linalg import block_diag, expm, solve_discrete_are
 from scipy.signal import place_poles
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -51,13 +58,32 @@ from hdpbsid import identify  # noqa: E402
 from hdpbsid.models.metrics import eigenvalue_errors  # noqa: E402
 
 TS = 0.004
-TRUE = bc.TABLE2_EIGENVALUES
 RESULTS = Path(__file__).resolve().parent / "results" / "closed_loop_fast.md"
+
+#: the plants of ``--plant``: name -> (fast real modes, oscillatory pair ``re, im``) in
+#: the modal form of :func:`cases.table2_plant` (``table2``: that plant itself)
+PLANTS: dict[str, tuple[tuple[float, float], tuple[float, float]]] = {
+    "table2": ((-28.0, -10.0), (1.2, 5.8)),
+    "stable-pair": ((-28.0, -10.0), (-1.2, 5.8)),
+    "slower-fast": ((-22.0, -8.0), (-0.6, 7.0)),
+}
+#: the plant in force (``--plant``)
+PLANT = "table2"
+
+
+def plant_matrices(name: str | None = None) -> tuple[np.ndarray, ...]:
+    """``A, B, C, D`` of plant ``name`` (:data:`PLANTS`; default :data:`PLANT`): the
+    modal ``A``, and the input and output rows of :func:`cases.table2_plant`."""
+    (f1, f2), (re, im) = PLANTS[name or PLANT]
+    _, B, _, _ = bc.table2_plant()
+    A = block_diag(f1, f2, [[re, im], [-im, re]])
+    cq = np.array([[1.0, 1.0, 1.0, 0.0]])
+    return A, B, np.vstack([cq, cq @ A]), np.vstack([np.zeros((1, 1)), cq @ B])
 
 
 def sampled_plant(ts: float = TS) -> tuple[np.ndarray, ...]:
     """``Phi, Gamma, C, D`` of the plant sampled with the input held (exact)."""
-    A, B, C, D = bc.table2_plant()
+    A, B, C, D = plant_matrices()
     n = A.shape[0]
     M = np.zeros((n + 1, n + 1))
     M[:n, :n], M[:n, n:] = A * ts, B * ts
@@ -140,7 +166,8 @@ def fit(t: Any, u: Any, y: Any, **kw: Any) -> tuple[float, float, int, str]:
         return float("inf"), time.process_time() - c0, 0, f"raised {type(exc).__name__}"
     cpu = time.process_time() - c0
     ev = m.eigenvalues
-    err = 100 * float(np.max(eigenvalue_errors(ev, TRUE))) if ev.size == 4 else float("inf")
+    true = np.linalg.eigvals(plant_matrices()[0])
+    err = 100 * float(np.max(eigenvalue_errors(ev, true))) if ev.size == 4 else float("inf")
     return err, cpu, int(ev.size), str(m.options.get("method"))
 
 
@@ -151,8 +178,13 @@ def main() -> None:
     ap.add_argument("--loops", nargs="+", default=list(LOOPS), choices=list(LOOPS))
     ap.add_argument("--no-auto-order", action="store_true", help="skip the order-not-given runs")
     ap.add_argument("--calls", nargs="+", default=None, help="only these calls (labels)")
-    ap.add_argument("--out", type=Path, default=RESULTS)
+    ap.add_argument("--plant", default="table2", choices=list(PLANTS))
+    ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
+    global PLANT
+    PLANT = a.plant
+    if a.out is None:
+        a.out = RESULTS if a.plant == "table2" else RESULTS.with_stem(f"{RESULTS.stem}_{a.plant}")
     warnings.simplefilter("ignore")
     runs: list[tuple[str, dict[str, Any]]] = [
         ("order=4", {"order": 4}),
@@ -172,9 +204,10 @@ def main() -> None:
     if a.calls:
         runs = [r for r in runs if r[0] in a.calls]
     lines = [
-        f"# Fast modes in closed loop ({a.seeds} seeds, {a.snr:g} dB)",
+        f"# Fast modes in closed loop ({a.seeds} seeds, {a.snr:g} dB, plant {a.plant})",
         "",
-        "`python bench/closed_loop_fast.py` (module docstring: plant, loops, excitation).",
+        f"`python bench/closed_loop_fast.py --plant {a.plant}` (module docstring: plant, "
+        "loops, excitation).",
         f"CPU seconds per call (process time), load average {os.getloadavg()[0]:.1f} at the "
         "start on a shared 2-core machine.",
         "",
