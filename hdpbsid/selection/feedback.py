@@ -51,6 +51,7 @@ eigenvalue error); the report then says "closed loop" where "misfit" would be ac
 from __future__ import annotations
 
 import copy
+import dataclasses
 import functools
 from dataclasses import dataclass
 from enum import Enum
@@ -477,10 +478,11 @@ def retry_start(
 ) -> StateSpaceModel | None:
     """A second starting point for the refinement of ``model`` when the first did not
     converge: the record's own ``dt`` model (its past window chosen by its criterion on
-    the whole record), when ``model`` is a ``dt`` model refitted with the window its
-    held-out candidate chose on part of the record
-    (:attr:`~hdpbsid.bases.basis_core.WindowReason.KEPT`) and the feedback test found
-    the record closed loop; else None.
+    the whole record), when ``model`` is a ``dt`` model whose window was chosen on part
+    of the record -- refitted with the window its held-out candidate chose
+    (:attr:`~hdpbsid.bases.basis_core.WindowReason.KEPT`), or that candidate itself,
+    returned when no refit held (``report.selection_fallback``) -- and the feedback test
+    found the record closed loop; else None.
 
     Why.  PBSID on the samples is consistent in closed loop only as far as its past
     window covers the predictor's memory (:func:`closed_loop_start`); the window
@@ -503,12 +505,15 @@ def retry_start(
     StateSpaceModel or None
         The ``dt`` model to refine from, or None.
     """
-    window = model.report.past_window
     if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
         return None
-    if model.report.method != CLOSED_LOOP_START_METHOD or window is None:
+    window = model.report.past_window
+    kept = window is not None and window.rule is WindowReason.KEPT
+    if model.report.method != CLOSED_LOOP_START_METHOD or not (
+        kept or model.report.selection_fallback
+    ):
         return None
-    return _closed_loop_model(model, t, u, y) if window.rule is WindowReason.KEPT else None
+    return _closed_loop_model(model, t, u, y)
 
 
 def retried(
@@ -545,14 +550,27 @@ def retried(
     other = retry_start(start, t, u, y, stats)
     if other is None:
         return refined, ""
-    again = refine_pem(other, t, u, y)
+    again = refine_pem(_in_place_of(start, other), t, u, y)
     if again.report.refinement is None or not again.report.refinement.converged:
         return refined, ""
     return again, (
-        "; the refinement from the dt model with the past window kept from its held-out "
-        "candidate did not converge: refined from the dt model with its window chosen "
+        "; the refinement from the dt model whose past window was chosen on part of "
+        "the record did not converge: refined from the dt model with its window chosen "
         "on the whole record, which converged"
     )
+
+
+def _in_place_of(start: StateSpaceModel, other: StateSpaceModel) -> StateSpaceModel:
+    """``other``'s matrices and windows with ``start``'s options and report otherwise
+    (what the selection decided and why stays with the model returned), as a model
+    fitted on the whole record (no selection fallback)."""
+    report = start.report.but(windows=other.report.windows, past_window=None, selection_fallback="")
+    options = {k: v for k, v in start.options.items() if k != "selection_fallback"}
+    options.update(other.report.windows)
+    return dataclasses.replace(
+        start, A=other.A, B=other.B, C=other.C, D=other.D, K=other.K, options=options,
+        report=report,
+    )  # fmt: skip
 
 
 def _closed_loop_model(model: StateSpaceModel, t: Any, u: Any, y: Any) -> StateSpaceModel | None:

@@ -126,8 +126,9 @@ def test_no_start_offered_in_open_loop_or_without_the_statistics(record) -> None
 def test_a_dt_model_with_a_window_kept_from_its_candidate_has_a_second_start(
     record,
 ) -> None:
-    """A ``dt`` model whose past window its held-out candidate chose on part of the
-    record (``WindowReason.KEPT``) has, in closed loop, the record's own ``dt`` model as
+    """A ``dt`` model whose past window was chosen on part of the record (refitted with
+    its held-out candidate's window, ``WindowReason.KEPT``, or the candidate itself,
+    ``report.selection_fallback``) has, in closed loop, the record's own ``dt`` model as
     a second start (its window chosen on the whole record); one whose window was chosen
     on the record, an open loop, or a basis model has none."""
     t, u, y = record
@@ -142,6 +143,10 @@ def test_a_dt_model_with_a_window_kept_from_its_candidate_has_a_second_start(
     assert other is not None and other.report.windows["p"] == p_own
     np.testing.assert_allclose(other.A, own.A, rtol=1e-8, atol=1e-10)
     assert retry_start(short, t, ud, yd, {"feedback": False}) is None
+    # the candidate itself, fitted on part of the record, returned when no refit held
+    part = identify(t[:2000], u[:2000], y[:2000], 4, method="dt", feedthrough=True, refine=None)
+    part.report = part.report.but(selection_fallback="fitted on the estimation part")
+    assert retry_start(part, t, ud, yd, {"feedback": True}) is not None
     assert retry_start(own, t, ud, yd, {"feedback": True}) is None
     hermite = identify(t, u, y, 4, method="hermite", feedthrough=True, refine=None)
     assert retry_start(hermite, t, ud, yd, {"feedback": True}) is None
