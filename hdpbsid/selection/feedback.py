@@ -465,12 +465,20 @@ def closed_loop_start(
         record), else a copy with ``report.warm_start`` set (the ``warm_start`` its
         caller passes to :func:`~hdpbsid.refine.pem.refine_pem`).
     """
-    if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
+    if not _closed_loop_with_input(model, u, statistics):
         return model
     if model.report.method == CLOSED_LOOP_START_METHOD or model.report.warm_start is not None:
         return model
     start = _closed_loop_model(model, t, u, y)
     return model if start is None else _offer(model, start)
+
+
+def _closed_loop_with_input(
+    model: StateSpaceModel, u: Any, statistics: dict[str, Any] | None
+) -> bool:
+    """Whether the feedback test (``statistics``) found the record closed loop and
+    ``model`` has an input: where a ``dt`` start is offered at all."""
+    return bool(statistics and statistics.get("feedback")) and u is not None and model.m > 0
 
 
 def retry_start(
@@ -505,7 +513,7 @@ def retry_start(
     StateSpaceModel or None
         The ``dt`` model to refine from, or None.
     """
-    if not (statistics and statistics.get("feedback")) or u is None or model.m == 0:
+    if not _closed_loop_with_input(model, u, statistics):
         return None
     window = model.report.past_window
     kept = window is not None and window.rule is WindowReason.KEPT
