@@ -107,6 +107,7 @@ P_CAP = WINDOW_BOUNDS.p_cap
 #: windows.  The past-window criterion is one QR of the VARX regressors over up to
 #: ``P_CAP`` lags -- the costliest step of a fit -- and the held-out
 #: judgement validated the candidate's predictor with its windows, not the criterion.
+#: Not kept in closed loop, where the window must grow with the record.
 REFIT_KEEPS = ("p", "f")
 
 

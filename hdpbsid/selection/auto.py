@@ -76,7 +76,9 @@ estimation part inside the method, and one judgement instead of one per order.
 
 A method may also list data-driven settings that the refit keeps from the candidate
 (:func:`refit_keeps`; ``dt``: its past and future windows, whose criterion is most of a
-refit's cost): the held-out part judged the candidate's predictor with them.
+refit's cost): the held-out part judged the candidate's predictor with them.  Not in
+closed loop (:func:`closed_loop_refit`): there ``dt`` is consistent only as its past
+window grows with the record, so the refit chooses it on the whole record.
 
 The expensive order-independent steps of the methods (projection of the record, basis
 operators, the past-window criterion of ``dt``) are memoised
@@ -126,6 +128,7 @@ from hdpbsid.selection.candidates import (
     FitRecord,
     _sweep,
     accepts_held_out,
+    closed_loop_refit,
     refit_keeps,
     settle_candidate,
     sweep_settings,
@@ -192,6 +195,7 @@ __all__ = [
     "sweep_settings",
     "settle_candidate",
     "refit_keeps",
+    "closed_loop_refit",
     "REJUDGE_Z",
     "decide_feedthrough",
     "NoCandidate",

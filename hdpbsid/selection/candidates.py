@@ -28,7 +28,7 @@ from hdpbsid.models.criteria import WindowedError
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
 from hdpbsid.selection.feedthrough import with_d
-from hdpbsid.selection.scoring import score_model, stationarity_problem
+from hdpbsid.selection.scoring import looks_closed_loop, score_model, stationarity_problem
 
 __all__ = [
     "FitRecord",
@@ -38,6 +38,7 @@ __all__ = [
     "sweep_settings",
     "settle_candidate",
     "refit_keeps",
+    "closed_loop_refit",
 ]
 
 
@@ -289,11 +290,14 @@ def sweep_settings(func: Any, given: dict[str, Any]) -> dict[str, Any]:
     return {**(first or {}), **given}
 
 
-def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dict[str, Any]:
+def refit_keeps(
+    func: Any, model: StateSpaceModel, given: dict[str, Any], closed_loop: bool = False
+) -> dict[str, Any]:
     """The data-driven settings of candidate ``model`` that its refit on the whole
     record keeps: those the method ``func`` lists in its ``refit_keeps`` attribute
     (``dt``: the past and future windows), with the values the candidate used, except
-    the ones the user gave (``given``, passed as they are).
+    the ones the user gave (``given``, passed as they are); none on a ``closed_loop``
+    record.
 
     Why: the held-out part judged the candidate's predictor as it was built, windows
     included; the refit re-estimates that structure on more data (as it keeps the
@@ -303,6 +307,18 @@ def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dic
     settings that can be kept are the core's windows ``"p"`` and ``"f"``, which the
     model reports (``model.report.windows``).
 
+    In closed loop the windows are chosen again on the whole record.  PBSID on the
+    samples is consistent under feedback only as its past window grows with the record
+    (Chiuso, "The role of vector autoregressive modeling in predictor-based subspace
+    identification", Automatica 43(6), 2007: ``p`` must grow with ``N``), because the
+    predictor's memory left beyond the window is correlated with the input through the
+    loop; the information criterion takes a longer window on a longer record (its
+    penalty is fixed, the fit a lag adds grows with ``N``), so the window chosen on the
+    estimation part is the shorter one, and its truncation can leave the start of the
+    refinement in another basin of the prediction-error cost than the record's own
+    window does.  In open loop the truncation adds no correlation with the input, and
+    the refinement removes what it leaves.
+
     Parameters
     ----------
     func : callable
@@ -311,15 +327,44 @@ def refit_keeps(func: Any, model: StateSpaceModel, given: dict[str, Any]) -> dic
         The candidate, fitted on the estimation part.
     given : dict
         The settings the user gave the method.
+    closed_loop : bool, optional
+        Whether the record is closed loop (the feedback test on the candidate:
+        :func:`~hdpbsid.selection.scoring.looks_closed_loop`).
 
     Returns
     -------
     dict
         The settings the refit keeps, with the candidate's values.
     """
-    keys = getattr(func, "refit_keeps", ())
+    keys = () if closed_loop else getattr(func, "refit_keeps", ())
     used = model.report.windows
     return {k: used[k] for k in keys if k not in given and k in used}
+
+
+def closed_loop_refit(func: Any, model: StateSpaceModel, record: tuple) -> bool:
+    """Whether the refit of candidate ``model`` by the method ``func`` on ``record``
+    (``(t, u, y)``) is a closed-loop refit for :func:`refit_keeps`: the feedback test
+    declares the record closed loop on the candidate's one-step prediction errors
+    (:func:`~hdpbsid.selection.scoring.looks_closed_loop`).  Asked only of a method whose
+    refit would keep settings, and of one record with an input.
+
+    Parameters
+    ----------
+    func : callable
+        The candidate's method function.
+    model : StateSpaceModel
+        The candidate.
+    record : tuple
+        ``(t, u, y)`` of the refit (``u = None``: several records, or none).
+
+    Returns
+    -------
+    bool
+        Whether the refit is in closed loop.
+    """
+    if not getattr(func, "refit_keeps", ()) or record[1] is None or model.m == 0:
+        return False
+    return looks_closed_loop(model, record)
 
 
 def _refit_settings(model: StateSpaceModel) -> dict[str, Any]:

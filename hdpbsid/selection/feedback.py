@@ -494,10 +494,15 @@ def retry_start(
 
     Why.  PBSID on the samples is consistent in closed loop only as far as its past
     window covers the predictor's memory (:func:`closed_loop_start`); the window
-    criterion takes longer windows on longer records, so the window kept from two
+    criterion takes longer windows on longer records, so the window chosen on two
     thirds of the record can be short for the whole of it, and its truncation can leave
-    the start far from the minimum, where the refinement runs out of its budget.  Fitted
-    only then: where the refinement from the kept window converges, nothing is spent.
+    the start far from the minimum, where the refinement runs out of its budget.  The
+    held-out selection's refit chooses the window on the whole record when its feedback
+    test sees the loop (:func:`~hdpbsid.selection.candidates.closed_loop_refit`); a
+    window chosen on part of the record reaches the refinement of a closed-loop record
+    when no refit held (the candidate itself) or when that test, on the candidate's
+    errors, did not see the loop the first-pass model's test sees.  Fitted only when
+    the refinement falls short: where it converges, nothing is spent.
 
     Parameters
     ----------

@@ -562,7 +562,7 @@ def _whole_record(
     HD-PBSID's streamed core when the plan says so."""
     from hdpbsid.data.records import Dataset
     from hdpbsid.methods.registry import call_method, get_method
-    from hdpbsid.selection.auto import refit_keeps
+    from hdpbsid.selection.candidates import closed_loop_refit, refit_keeps
 
     given = {**{k: v for k, v in opts.items() if k not in _AUTO_ONLY}}
     given.update((opts.get("method_options") or {}).get(method, {}))
@@ -577,12 +577,12 @@ def _whole_record(
         return model
     func = get_method(method)
     refit = chosen.report.refit_settings
+    t, u, y = _segment(rec, 0, rec.ns)
     settings = {
         **given,
-        **refit_keeps(func, chosen, given),
+        **refit_keeps(func, chosen, given, closed_loop_refit(func, chosen, (t, u, y))),
         **({} if refit is None else refit.value),
     }
-    t, u, y = _segment(rec, 0, rec.ns)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         data = functools.partial(Dataset.of, t, u, y)  # made only for a Dataset function

@@ -26,6 +26,7 @@ from hdpbsid.selection.candidates import (
     _given,
     _mark_window_rule,
     _refit_settings,
+    closed_loop_refit,
     refit_keeps,
     settle_candidate,
 )
@@ -100,7 +101,8 @@ def _refit(
     structure with ``D`` is marked as asked for it (:func:`_with_d_asked`)."""
     func = get_method(chosen.method)
     given = _given(chosen, opts)
-    kept = refit_keeps(func, chosen.model, given)
+    closed = closed_loop_refit(func, chosen.model, whole.arrays)
+    kept = refit_keeps(func, chosen.model, given, closed)
     settings = {**given, **kept, **_refit_settings(chosen.model)}
     model = whole.fit(func, chosen.order, **settings)
     if with_d(chosen) and not honours_feedthrough(model) and model.m:

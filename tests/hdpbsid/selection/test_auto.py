@@ -467,6 +467,8 @@ def test_auto_refits_a_dt_candidate_with_the_windows_it_was_judged_with(monkeypa
     assert refit_keeps(dtm.identify_dt, m, {"p": 7}) == {"f": m.options["f"]}
     # a method that declares nothing keeps nothing
     assert refit_keeps(lambda *a, **k: None, m, {}) == {}
+    # nor does a refit on a closed-loop record (its window must grow with the record)
+    assert refit_keeps(dtm.identify_dt, m, {}, closed_loop=True) == {}
 
 
 def _rejudge_rows(t, u, y, true):
