@@ -63,8 +63,9 @@ def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
         blk[: R.shape[0]] = R
         blk[R.shape[0] :, :d] = Phi[:, a:b].T
         blk[R.shape[0] :, d:] = Y[:, a:b].T
-        R = scipy.linalg.qr(blk, mode="r", overwrite_a=True, check_finite=False)[0]
-        R = R[: min(R.shape)]  # the (full-shape) zero rows below the triangle dropped
+        # "raw": the triangle of geqrf's output without the full-height copy of "r"
+        R = scipy.linalg.qr(blk, mode="raw", overwrite_a=True, check_finite=False)[1]
+        R = R[: min(R.shape)]  # (a short chunk: the full-shape triangle, its rows kept)
     if R.shape[0] < w:
         R = np.vstack([R, np.zeros((w - R.shape[0], w))])
     return R

@@ -1159,10 +1159,23 @@ def _lag_block(
     block = np.empty((cols.size, lead + (last - first + 1) * d), order="F")
     if lead:
         block[:, :lead] = U[:, cols].T
+    n = cols.size
+    # the sample shift on consecutive columns: lag j of column k is Z[:, k - j], so
+    # each regressor column is a contiguous slice of a row of Z (no shifted copy of Z)
+    slices = type(lag) is SampleShift and n and cols[0] >= last and cols[-1] - cols[0] == n - 1
+    cs = np.empty(block.shape[1])
+    if lead:
+        cs[:lead] = np.sqrt(np.mean(block[:, :lead] ** 2, axis=0))
     for i, j in enumerate(range(first, last + 1)):
         a = lead + i * d
-        block[:, a : a + d] = lag.apply(Z, j)[:, cols].T
-    cs = np.sqrt(np.mean(block**2, axis=0))
+        if slices:
+            for r in range(d):
+                block[:, a + r] = Z[r, cols[0] - j : cols[0] - j + n]
+        else:
+            block[:, a : a + d] = lag.apply(Z, j)[:, cols].T
+        # each column's RMS while it is in cache (the same per-column reduction as over
+        # the whole block, without a temporary of its size)
+        cs[a : a + d] = np.sqrt(np.mean(block[:, a : a + d] ** 2, axis=0))
     cs[cs == 0] = 1.0
     block /= cs[None, :]
     return block

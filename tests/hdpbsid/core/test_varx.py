@@ -152,6 +152,37 @@ def test_growing_qr_residuals_equal_direct_least_squares(seed, widths):
         np.testing.assert_allclose(qr.residual_gram(k), R.T @ R, rtol=1e-9, atol=1e-9)
 
 
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    first=st.integers(1, 6),
+    extra=st.integers(0, 5),
+    d0=st.sampled_from([0, 1]),
+    contiguous=st.booleans(),
+)
+def test_lag_block_is_the_lagged_samples_scaled(seed, first, extra, d0, contiguous):
+    """The search's regressor block: column ``k``'s lag ``j`` is ``Z[:, k - j]``, the
+    current input first with feedthrough, every column scaled to unit RMS -- built
+    here from the samples directly, on consecutive and on scattered columns."""
+    from hdpbsid.core.varx import _lag_block
+
+    rng = np.random.default_rng(seed)
+    m, l, N = 1, 2, 60
+    Z = rng.standard_normal((m + l, N))
+    last = first + extra
+    cols = (
+        np.arange(last, N)
+        if contiguous
+        else np.sort(rng.choice(np.arange(last, N), 25, replace=False))
+    )
+    block = _lag_block(Z[:m], Z, cols, SampleShift(), first, last, d0)
+    lead = [Z[:m, cols]] if (d0 and first == 1) else []
+    raw = np.vstack(lead + [Z[:, cols - j] for j in range(first, last + 1)]).T
+    # copies of the same samples divided by their RMS, whose mean of squares numpy may
+    # sum in another order for another array shape: a few units in the last place
+    np.testing.assert_allclose(block, raw / np.sqrt(np.mean(raw**2, axis=0)), rtol=1e-14)
+
+
 def _long_memory_record(lag_peak: int, dead_time: bool, N: int = 3000, seed: int = 0):
     """An ARX output with a strong output coefficient at ``lag_peak``, or with the input
     acting ``lag_peak`` samples late (a dead time): AIC wants p >= lag_peak."""
