@@ -65,7 +65,8 @@ def r_factor(Phi: Array, Y: Array, chunk: int = 8192) -> Array:
         blk[R.shape[0] :, d:] = Y[:, a:b].T
         # "raw": the triangle of geqrf's output without the full-height copy of "r"
         R = scipy.linalg.qr(blk, mode="raw", overwrite_a=True, check_finite=False)[1]
-        R = R[: min(R.shape)]  # (a short chunk: the full-shape triangle, its rows kept)
+        # a chunk with fewer rows than columns gives a (rows x w) trapezoid, kept whole
+        R = R[: min(R.shape)]
     if R.shape[0] < w:
         R = np.vstack([R, np.zeros((w - R.shape[0], w))])
     return R

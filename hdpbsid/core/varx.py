@@ -1157,15 +1157,14 @@ def _lag_block(
     d = Z.shape[0]
     lead = d0 if first == 1 else 0
     block = np.empty((cols.size, lead + (last - first + 1) * d), order="F")
+    cs = np.empty(block.shape[1])
     if lead:
         block[:, :lead] = U[:, cols].T
+        cs[:lead] = np.sqrt(np.mean(block[:, :lead] ** 2, axis=0))
     n = cols.size
     # the sample shift on consecutive columns: lag j of column k is Z[:, k - j], so
     # each regressor column is a contiguous slice of a row of Z (no shifted copy of Z)
     slices = type(lag) is SampleShift and n and cols[0] >= last and cols[-1] - cols[0] == n - 1
-    cs = np.empty(block.shape[1])
-    if lead:
-        cs[:lead] = np.sqrt(np.mean(block[:, :lead] ** 2, axis=0))
     for i, j in enumerate(range(first, last + 1)):
         a = lead + i * d
         if slices:
