@@ -136,7 +136,8 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
     Raises
     ------
     ValueError
-        If ``t`` is not 1-D, shorter than ``min_samples``, not finite, or not strictly
+        If ``t`` is not 1-D (a list of time vectors: the message says how several
+        records are passed), shorter than ``min_samples``, not finite, or not strictly
         increasing (the message names the first duplicate or decreasing pair).
     TypeError
         If ``t`` is not real numbers.
@@ -148,6 +149,12 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
     ...
     ValueError: t must be strictly increasing, but has duplicate times at indices 1 and 2 (0.1, 0.1)
     """
+    if isinstance(t, list | tuple) and t and all(np.ndim(x) >= 1 for x in t):
+        raise ValueError(
+            f"{name} must be a 1-D array of shape (Ns,), got a list of {len(t)} arrays; "
+            "several records are passed as one list of (t, u, y) tuples, "
+            "e.g. identify([(t1, u1, y1), (t2, u2, y2)])"
+        )
     arr = as_float_array(t, name)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array of shape (Ns,), got shape {arr.shape}")

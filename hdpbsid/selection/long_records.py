@@ -237,7 +237,11 @@ def is_long(t: Any, u: Any, y: Any, method: str, policy: Any) -> bool:
     if isinstance(t, list | tuple) and (len(t) == 0 or isinstance(t[0], list | tuple)):
         return False
     policy = as_policy(policy)
-    return int(np.shape(y)[0]) > policy.long_samples
+    try:
+        rows = int(np.shape(y)[0])
+    except ValueError:  # ragged: not one record; the data checks say what is wrong
+        return False
+    return rows > policy.long_samples
 
 
 def _levels(rec: ChunkedRecord, progress: _Progress) -> tuple[Array, Array]:

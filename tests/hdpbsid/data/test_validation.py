@@ -41,6 +41,18 @@ def test_bad_time(record, t_bad, match):
         identify_dt(t_bad, u, y)
 
 
+@pytest.mark.parametrize("second", [400, 333])
+def test_records_given_as_lists_of_arrays_say_how_to_pass_several(record, second):
+    """``identify([t1, t2], [u1, u2], [y1, y2])`` (equal or ragged lengths, default
+    method included) names ``t`` and says how several records are passed, before any
+    fit."""
+    from hdpbsid import identify
+
+    t, u, y = record
+    with pytest.raises(ValueError, match=r"t must be .* list of \(t, u, y\) tuples"):
+        identify([t, t[:second]], [u, u[:second]], [y, y[:second]], order=2)
+
+
 def test_bad_signals(record):
     t, u, y = record
     with pytest.raises(ValueError, match=r"u must have 400 rows .* got shape \(399, 1\)"):
