@@ -331,7 +331,8 @@ def identify(
         ``"laguerre"``, ``"legendre"``, ``"dt"``, ... (:func:`available_methods`).
     refine : {"auto", "pem", None}, optional
         ``"auto"`` (default) refines every single uniformly sampled record whose
-        first-pass one-step predictor does not diverge
+        first-pass one-step predictor does not diverge, or whose plant's simulation
+        errors show no feedback when it does
         (:func:`hdpbsid.selection.feedback.refine_plan`); ``"pem"`` always refines
         (:func:`hdpbsid.refine.pem.refine_pem`; one uniformly sampled record);
         None returns the method's subspace model.

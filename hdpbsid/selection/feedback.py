@@ -17,7 +17,13 @@ effect is measured in the regression table, ``bench/regression.py``).
 Rule (:func:`refine_decision`): refine when the data are one record (the front end
 skips lists) sampled uniformly (the sampled predictor has one step) and the first-pass
 model's one-step predictor does not diverge on the record (a start whose prediction
-errors overflow is not a prediction-error start).  A refinement that does not converge
+errors overflow is not a prediction-error start).  A diverging predictor condemns the
+model's noise model ``K``, not its plant: the refinement has a second start, the same
+plant with the Kalman gain of a measurement-noise model (stable by construction,
+:mod:`hdpbsid.refine.pem`), so such a model is refined from it when its plant's own
+errors, its simulation errors, show no feedback (:func:`refine_plan`; in closed loop a
+basis-domain plant can be biased far from the system, and the ``dt`` start decides
+below).  A refinement that does not converge
 within its budget is dropped by the front end (:func:`hdpbsid.identify`).  The feedback
 test below does not change the decision; its result says whether the record looks
 closed loop, i.e. whether the refinement also removes a bias, and is reported in
@@ -40,7 +46,10 @@ rho_w(k)``, ``1/Ns`` when one of the two is white), so
 
     S = Ns sum_{tau=1..M} sum_{i,j} r_ij(tau)^2  ~  chi^2(M m l)
 
-and feedback is declared when ``S`` exceeds the ``1 - FEEDBACK_LEVEL`` quantile.
+and feedback is declared when ``S`` exceeds the ``1 - FEEDBACK_LEVEL`` quantile.  The
+argument holds for any causal error of the model, so also for its simulation errors
+(``K = 0``), however coloured: ``w`` is white, so their cross correlations keep the
+variance ``1/Ns``.
 
 A grossly misfit first-pass model can fire the test in open loop as well: its error
 has a memory longer than the prewhitening order, so ``w`` is no longer orthogonal to it
@@ -82,6 +91,7 @@ __all__ = [
     "retried",
     "refine_plan",
     "feedback_statistics",
+    "plant_decision",
     "refine_decision",
 ]
 
@@ -256,6 +266,12 @@ class RefineReason(str, Enum):
     NOT_UNIFORM = "t is not uniformly sampled"
     #: the first-pass one-step predictor diverges: no prediction-error start
     PREDICTOR_DIVERGES = "the model's one-step predictor diverges on the record"
+    #: the first-pass predictor diverges, its plant simulates the record with no sign of
+    #: feedback: refined from that plant with a measurement-noise predictor
+    PLANT_START = (
+        "the model's one-step predictor diverges on the record, its plant's simulation "
+        "errors show no feedback"
+    )
 
 
 @dataclass(frozen=True)
@@ -297,11 +313,19 @@ class RefineChoice:
             return f"auto: {self.reason.value}"
         st = self.statistics
         loop = "closed" if st["feedback"] else "open"
+        test = (
+            f"(chi2 of the residuals against the prewhitened input at lags 1..{st['lags']}): "
+            f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop"
+        )
+        if self.reason is RefineReason.PLANT_START:
+            return (
+                f"auto: {self.reason.value} {test}: refined from its plant with the Kalman "
+                "gain of a measurement-noise model"
+            )
         return (
             f"auto: refine every single uniformly sampled record (the prediction-error "
-            f"estimate is efficient, and consistent in closed loop); feedback test "
-            f"(chi2 of the residuals against the prewhitened input at lags 1..{st['lags']}): "
-            f"S = {st['statistic']:.4g} vs {st['threshold']:.4g}, {loop} loop: refined"
+            f"estimate is efficient, and consistent in closed loop); feedback test {test}: "
+            "refined"
         )
 
 
@@ -370,6 +394,56 @@ def refine_decision(
     return choice.value, choice.text(), choice.statistics
 
 
+def plant_decision(model: StateSpaceModel, t: Any, u: Any, y: Any) -> RefineChoice:
+    """The ``refine="auto"`` decision for a first-pass model whose one-step predictor
+    diverges on the uniformly sampled record ``t, u, y``, judged on its plant alone.
+
+    The refinement starts from the model's ``K`` only where that predictor is stable, and
+    also from the same plant with the Kalman gain of a measurement-noise model, which is
+    stable by construction (:mod:`hdpbsid.refine.pem`): a diverging predictor rules out
+    the first start, not the second.  What it does rule out is the feedback test on the
+    model's one-step errors; the test is computed on the plant's simulation errors
+    (``K = 0``), valid however coloured they are (module docstring).  Refined
+    (:attr:`RefineReason.PLANT_START`) when that test finds no feedback: in open loop
+    the prediction-error estimate is consistent from any start in its basin, and the
+    basis-domain plant is consistent too.  Not refined
+    (:attr:`RefineReason.PREDICTOR_DIVERGES`) when the plant itself diverges on the
+    record or the test fires: in closed loop the basis-domain plant can be biased far
+    from the system (:func:`refine_plan` then asks the ``dt`` model).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The first-pass model.
+    t, u, y : array_like
+        The single uniformly sampled record it was identified from.
+
+    Returns
+    -------
+    RefineChoice
+        The decision, with the plant's feedback test when it was computed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import StateSpaceModel
+    >>> rng = np.random.default_rng(0)
+    >>> t = 0.1 * np.arange(2000)
+    >>> u = rng.standard_normal((2000, 1))
+    >>> true = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]])
+    >>> y = true.simulate(t, u) + 0.01 * rng.standard_normal((2000, 1))
+    >>> noisy = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[-50.0]])
+    >>> plant_decision(noisy, t, u, y).reason.name
+    'PLANT_START'
+    """
+    plant = dataclasses.replace(model, K=np.zeros_like(model.K))
+    choice = decide_refine(plant, t, u, y, True)
+    st = choice.statistics
+    if not choice.value or st is None or st["feedback"]:
+        return RefineChoice(False, RefineReason.PREDICTOR_DIVERGES, st)
+    return RefineChoice(True, RefineReason.PLANT_START, st)
+
+
 #: the method whose model is offered as a further starting point in closed loop
 #: (:func:`closed_loop_start`): PBSID on the samples, consistent in closed loop
 CLOSED_LOOP_START_METHOD = "dt"
@@ -385,11 +459,16 @@ def refine_plan(
 
     ``start`` is ``model`` offering the ``dt`` model as a further starting point when the
     record is closed loop (:func:`closed_loop_start`).  A first-pass model whose one-step
-    predictor diverges is no prediction-error start (:func:`refine_decision`); in closed
-    loop that is what a basis-domain estimate biased far from the system looks like, so
-    the ``dt`` model is then fitted and tested: when its residuals show feedback, the
-    record is refined from it (the decision and statistics are the ``dt`` model's, the
-    rule says so); in open loop, or when ``dt`` cannot fit the record, nothing changes.
+    predictor diverges is no prediction-error start (:func:`refine_decision`), but its
+    plant may be: when the plant's simulation errors show no feedback
+    (:func:`plant_decision`) the record is refined, from that plant with the
+    measurement-noise Kalman gain (the refinement's own second start; the decision and
+    statistics are the plant's).  Otherwise the record may be closed loop, where a
+    diverging predictor is what a basis-domain estimate biased far from the system looks
+    like, so the ``dt`` model is then fitted and tested: when its residuals show
+    feedback, the record is refined from it (the decision and statistics are the ``dt``
+    model's, the rule says so); in open loop, or when ``dt`` cannot fit the record,
+    nothing changes.
 
     Parameters
     ----------
@@ -412,6 +491,9 @@ def refine_plan(
         return do, rule, stats, closed_loop_start(model, t, u, y, stats)
     if stats is not None or not uniform or u is None or model.m == 0:
         return do, rule, stats, model
+    plant = plant_decision(model, t, u, y)
+    if plant.value:
+        return True, plant.text(), plant.statistics, model
     start = _closed_loop_model(model, t, u, y)
     if start is None:
         return do, rule, stats, model

@@ -217,6 +217,63 @@ def test_auto_does_not_refine_a_model_whose_predictor_diverges() -> None:
     assert not do and "diverges" in rule and stats is None
 
 
+def _with_diverging_predictor(A, B, C, D) -> StateSpaceModel:
+    """The plant ``A, B, C, D`` with a gain ``K = -100 C^T / |C|^2``: ``A - K C`` gains
+    +100 rad/s along ``C``, so the one-step predictor overflows on a long record."""
+    K = -100.0 * C.T / float(np.sum(C * C))
+    return StateSpaceModel(A, B, C, D, K)
+
+
+def test_a_diverging_predictor_on_a_sound_plant_is_refined_in_open_loop() -> None:
+    """Open loop: the first-pass model's ``K`` condemns its predictor, not its plant, whose
+    simulation errors show no feedback; the record is refined (from the plant with the
+    measurement-noise Kalman gain, the refinement's second start) to the prediction-error
+    estimate, which the true plant with a diverging gain is not."""
+    from hdpbsid.refine.pem import refine_pem
+    from hdpbsid.selection.feedback import refine_plan
+    from hdpbsid.systems import second_order
+
+    A, B, C, D = second_order()
+    rng = np.random.default_rng(7)
+    t = 0.05 * np.arange(2000)
+    u = random_steps(rng, t, 0.2)
+    y = add_noise(simulate_zoh(A, B, C, D, t, u), 20.0, rng)[0]
+    model = _with_diverging_predictor(A, B, C, D)
+    assert not refine_decision(model, t, u, y, True)[0]  # the premise: it diverges
+    do, rule, stats, start = refine_plan(model, t, u, y, True)
+    assert do and "simulation errors show no feedback" in rule, rule
+    assert stats is not None and not stats["feedback"]
+    refined = refine_pem(start, t, u, y)
+    assert np.all(np.isfinite(refined.K)) and refined.report.converged
+    # 100 s at 20 dB determine the pair to a fraction of a per cent (its deviation); 2 %
+    # is beyond that and far below any other basin of the cost
+    errors = np.abs(np.sort_complex(refined.eigenvalues) - np.sort_complex(np.linalg.eigvals(A)))
+    assert np.max(errors / np.abs(np.linalg.eigvals(A))) < 0.02, refined.eigenvalues
+
+
+def test_a_diverging_predictor_in_closed_loop_is_not_refined_from_its_plant() -> None:
+    """Closed loop (a proportional controller on the noisy output): the plant's simulation
+    errors show the feedback, so its plant is not taken as an open-loop start
+    (:func:`hdpbsid.selection.feedback.plant_decision`); the ``dt`` start decides."""
+    from hdpbsid.selection.feedback import RefineReason, plant_decision
+
+    h, n = 0.05, 3000
+    rng = np.random.default_rng(3)
+    r = random_steps(rng, h * np.arange(n), 0.5)
+    a, b = np.exp(-h), 1.0 - np.exp(-h)  # x' = -x + u, sampled with a held input
+    x, u, y = 0.0, np.empty((n, 1)), np.empty((n, 1))
+    for k in range(n):
+        y[k, 0] = x + 0.1 * rng.standard_normal()
+        u[k, 0] = r[k, 0] - 2.0 * y[k, 0]
+        x = a * x + b * u[k, 0]
+    one = np.ones((1, 1))
+    model = _with_diverging_predictor(-one, one, one, 0 * one)
+    choice = plant_decision(model, h * np.arange(n), u, y)
+    assert not choice.value and choice.reason is RefineReason.PREDICTOR_DIVERGES
+    # the controller answers the measured noise: far above the 0.1 % quantile
+    assert choice.statistics is not None and choice.statistics["feedback"], choice.statistics
+
+
 @pytest.mark.parametrize("kind", ["binary", "smooth", "two inputs"])
 def test_prewhitening_is_the_least_squares_ar_fit(kind: str) -> None:
     """The normal-equation (or SVD fallback) solution against ``numpy.linalg.lstsq`` on
