@@ -20,10 +20,10 @@ model's one-step predictor does not diverge on the record (a start whose predict
 errors overflow is not a prediction-error start).  A diverging predictor condemns the
 model's noise model ``K``, not its plant: the refinement has a second start, the same
 plant with the Kalman gain of a measurement-noise model (stable by construction,
-:mod:`hdpbsid.refine.pem`), so such a model is refined from it when its plant's own
-errors, its simulation errors, show no feedback (:func:`refine_plan`; in closed loop a
-basis-domain plant can be biased far from the system, and the ``dt`` start decides
-below).  A refinement that does not converge
+:mod:`hdpbsid.refine.pem`), so such a model is refined from it when neither the ``dt``
+model's residuals nor its plant's own errors, its simulation errors, show feedback
+(:func:`refine_plan`; in closed loop a basis-domain plant can be biased far from the
+system, and the ``dt`` start decides, below).  A refinement that does not converge
 within its budget is dropped by the front end (:func:`hdpbsid.identify`).  The feedback
 test below does not change the decision; its result says whether the record looks
 closed loop, i.e. whether the refinement also removes a bias, and is reported in
@@ -409,7 +409,7 @@ def plant_decision(model: StateSpaceModel, t: Any, u: Any, y: Any) -> RefineChoi
     basis-domain plant is consistent too.  Not refined
     (:attr:`RefineReason.PREDICTOR_DIVERGES`) when the plant itself diverges on the
     record or the test fires: in closed loop the basis-domain plant can be biased far
-    from the system (:func:`refine_plan` then asks the ``dt`` model).
+    from the system (:func:`refine_plan` asks the ``dt`` model first).
 
     Parameters
     ----------
@@ -459,16 +459,18 @@ def refine_plan(
 
     ``start`` is ``model`` offering the ``dt`` model as a further starting point when the
     record is closed loop (:func:`closed_loop_start`).  A first-pass model whose one-step
-    predictor diverges is no prediction-error start (:func:`refine_decision`), but its
-    plant may be: when the plant's simulation errors show no feedback
-    (:func:`plant_decision`) the record is refined, from that plant with the
-    measurement-noise Kalman gain (the refinement's own second start; the decision and
-    statistics are the plant's).  Otherwise the record may be closed loop, where a
-    diverging predictor is what a basis-domain estimate biased far from the system looks
-    like, so the ``dt`` model is then fitted and tested: when its residuals show
-    feedback, the record is refined from it (the decision and statistics are the ``dt``
-    model's, the rule says so); in open loop, or when ``dt`` cannot fit the record,
-    nothing changes.
+    predictor diverges is no prediction-error start (:func:`refine_decision`).  In closed
+    loop that is what a basis-domain estimate biased far from the system looks like, so
+    the ``dt`` model is fitted and tested first: when its residuals show feedback, the
+    record is refined from it (the decision and statistics are the ``dt`` model's, the
+    rule says so).  Otherwise the first pass's plant may still be a start: when its
+    simulation errors show no feedback either (:func:`plant_decision`), the record is
+    refined from that plant with the measurement-noise Kalman gain (the refinement's own
+    second start; the decision and statistics are the plant's).  The ``dt`` test comes
+    first because its model is consistent in closed loop, so its residuals are nearly
+    white and its test sharp, while a biased plant's simulation errors carry its bias:
+    on the closed-loop fast-mode records the plant test alone missed loops the ``dt``
+    test finds, and the refinement from the biased plant ended in other minima.
 
     Parameters
     ----------
@@ -491,21 +493,19 @@ def refine_plan(
         return do, rule, stats, closed_loop_start(model, t, u, y, stats)
     if stats is not None or not uniform or u is None or model.m == 0:
         return do, rule, stats, model
+    start = _closed_loop_model(model, t, u, y)
+    stats_dt = None if start is None else refine_decision(start, t, u, y, uniform)[2]
+    if stats_dt is not None and stats_dt["feedback"]:
+        rule = (
+            f"{rule}; the dt model of order {model.n} shows feedback (chi2 of its residuals "
+            f"against the prewhitened input: S = {stats_dt['statistic']:.4g} vs "
+            f"{stats_dt['threshold']:.4g}), closed loop: refined, from it as well"
+        )
+        return True, rule, stats_dt, _offer(model, start)
     plant = plant_decision(model, t, u, y)
     if plant.value:
         return True, plant.text(), plant.statistics, model
-    start = _closed_loop_model(model, t, u, y)
-    if start is None:
-        return do, rule, stats, model
-    do_dt, _, stats_dt = refine_decision(start, t, u, y, uniform)
-    if not (do_dt and stats_dt and stats_dt["feedback"]):
-        return do, rule, stats, model
-    rule = (
-        f"{rule}; the dt model of order {model.n} shows feedback (chi2 of its residuals "
-        f"against the prewhitened input: S = {stats_dt['statistic']:.4g} vs "
-        f"{stats_dt['threshold']:.4g}), closed loop: refined, from it as well"
-    )
-    return True, rule, stats_dt, _offer(model, start)
+    return do, rule, stats, model
 
 
 def closed_loop_start(
