@@ -56,12 +56,6 @@ EVAL_SEED0 = 1
 POLES = {"a=None (default)": None, 'a="bandwidth"': "bandwidth", 'a="dynamics"': "dynamics"}
 #: the first seed of ``--random``'s systems
 RANDOM_SEED0 = 1000
-#: the calls of ``--random``, by label
-RANDOM_CALLS = (
-    "ceiling: prediction-error fit from the true system",
-    "laguerre, a=None (default)",
-    "identify, every default",
-)
 
 
 #: ``stiff-80``: a real pole at -80 and the pair -0.3 +- 1.5i in parallel modal form
@@ -111,7 +105,7 @@ def random_rows(count: int, snr: float) -> list[str]:
         for label in RANDOM_CALLS:
             c0 = time.process_time()
             try:
-                model = _random_call(label, t, u, y, A, B, C)
+                model = RANDOM_CALLS[label](t, u, y, A, B, C)
                 err = 100.0 * float(np.max(eigenvalue_errors(model.eigenvalues, truth)))
             except ValueError:
                 err = float("inf")
@@ -126,14 +120,20 @@ def random_rows(count: int, snr: float) -> list[str]:
     ]
 
 
-def _random_call(label: str, t, u, y, A, B, C) -> Any:
-    """One call of :data:`RANDOM_CALLS` on a random stiff record."""
-    if label == "ceiling: prediction-error fit from the true system":
-        truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((A.shape[0], 1)))
-        return refine_pem(truth, t, u - u.mean(axis=0), y - y.mean(axis=0), hold="zoh")
-    if label == "laguerre, a=None (default)":
-        return hdpbsid.identify(t, u, y, order=A.shape[0], method="laguerre")
-    return hdpbsid.identify(t, u, y, order=A.shape[0])
+def _ceiling(t, u, y, A, B, C) -> Any:
+    """The prediction-error fit started at the true system in its true hold."""
+    truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((A.shape[0], 1)))
+    return refine_pem(truth, t, u - u.mean(axis=0), y - y.mean(axis=0), hold="zoh")
+
+
+#: the calls of ``--random``: label -> call on ``(t, u, y, A, B, C)``
+RANDOM_CALLS = {
+    "ceiling: prediction-error fit from the true system": _ceiling,
+    "laguerre, a=None (default)": lambda t, u, y, A, B, C: hdpbsid.identify(
+        t, u, y, order=A.shape[0], method="laguerre"
+    ),
+    "identify, every default": lambda t, u, y, A, B, C: hdpbsid.identify(t, u, y, order=A.shape[0]),
+}
 
 
 def record(name: str, seed: int, snr: float) -> tuple[np.ndarray, ...]:

@@ -149,7 +149,7 @@ def check_time(t: Any, name: str = "t", min_samples: int = 2) -> NDArray[np.floa
     ...
     ValueError: t must be strictly increasing, but has duplicate times at indices 1 and 2 (0.1, 0.1)
     """
-    if isinstance(t, list | tuple) and t and all(np.ndim(x) >= 1 for x in t):
+    if isinstance(t, list | tuple) and t and np.ndim(t[0]) >= 1:  # O(1): no scan
         raise ValueError(
             f"{name} must be a 1-D array of shape (Ns,), got a list of {len(t)} arrays; "
             "several records are passed as one list of (t, u, y) tuples, "

@@ -437,9 +437,8 @@ def plant_decision(model: StateSpaceModel, t: Any, u: Any, y: Any) -> RefineChoi
     'PLANT_START'
     """
     plant = dataclasses.replace(model, K=np.zeros_like(model.K))
-    choice = decide_refine(plant, t, u, y, True)
-    st = choice.statistics
-    if not choice.value or st is None or st["feedback"]:
+    st = decide_refine(plant, t, u, y, True).statistics  # None: the plant diverges too
+    if st is None or st["feedback"]:
         return RefineChoice(False, RefineReason.PREDICTOR_DIVERGES, st)
     return RefineChoice(True, RefineReason.PLANT_START, st)
 
