@@ -25,12 +25,11 @@ minimiser lies between the slowest and the fastest mode, at their geometric mean
 the damping ratios are equal: the rule is scale-free and needs no constant.
 
 :func:`pole_from_dynamics` is the policy: a first pass at the data-bandwidth pole
-``a0``; the modes the data resolve (between the frequency below which
-:data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of the output energy lies and
-the Nyquist frequency: a mode beyond Nyquist is no mode of the samples) set the minimax
-pole (a model with a mode outside that band, spurious or beyond what the samples
-resolve, is no guide: the band's edges, the slowest mode and the data bandwidth, stand in
-for its modes); the fit is repeated there until ``a`` settles (at most
+``a0``; the modes the samples resolve (:func:`dynamics_band`: between one period of the
+record, ``2 pi / T``, and the Nyquist frequency) set the minimax pole (a model with a
+mode outside that band, spurious or beyond what the samples resolve, is no guide: the
+band's edges, the slowest mode the record resolves and the data bandwidth, stand in for
+its modes); the fit is repeated there until ``a`` settles (at most
 :data:`~hdpbsid.bases.operator_scale.MAX_PASSES` times, as HD-PBSID's operator scale,
 :func:`hdpbsid.bases.operator_scale.alpha_from_dynamics`); the new pole replaces ``a0``
 only when its model simulates the record better by more than one standard error of the
@@ -54,7 +53,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdpbsid.bases.basis_domain import bandwidth
 from hdpbsid.bases.operator_scale import OPERATOR_SCALE, AlphaCheck
 from hdpbsid.data.checks import is_uniform
 
@@ -441,19 +439,30 @@ def _conditioned_pole(
 
 
 def dynamics_band(records: Any) -> tuple[float, float]:
-    """The band of modes that may set the Laguerre pole (:func:`pole_from_dynamics`).
+    """The band of modes the samples resolve, which may set the Laguerre pole
+    (:func:`pole_from_dynamics`).
 
-    The lower edge is the lowest frequency below which
-    :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION` of any record's output
-    energy lies, at least ``2 pi / T`` of the longest record (one period of the slowest
-    component it can resolve; the energy estimate is 0 when that energy is all in the first
-    frequency bin).  The upper edge is the Nyquist frequency of the coarsest median sampling
-    step: a mode beyond it is no mode of the samples.
+    The lower edge is ``2 pi / T`` of the longest record (one period of the slowest
+    component it resolves), the upper edge the Nyquist frequency of the coarsest median
+    sampling step (a mode beyond it is no mode of the samples).  Both are limits of the
+    samples, not of the output's spectrum: the share of the output energy below a
+    frequency is set by the input's spectrum and by how much each mode reaches the output,
+    not by where the modes are.  A stiff record driven by fast steps has nearly all its
+    output energy near the fast mode while its slow pair, a small share of the energy, is
+    determined at a high signal-to-noise ratio; a lower edge at an energy quantile (as
+    HD-PBSID's operator scale uses for its ``alpha``,
+    :data:`~hdpbsid.bases.operator_scale.MODE_ENERGY_FRACTION`) then lies above that
+    pair.  It matters where the first pass at the bandwidth pole resolves the pair least:
+    its slow modes then come out as a spurious mode beyond the Nyquist frequency, the
+    band's edges stand in for the modes (:func:`_guide_modes`), and a lower edge above
+    the pair puts the next pole too high to resolve it either.  A spurious mode inside
+    this wider band can pull the pole away; the in-sample screen of the change
+    (:func:`pole_from_dynamics`) then judges it.
 
     Parameters
     ----------
     records : sequence of Record
-        Objects with ``t`` (times, s) and ``y`` (outputs, ``(Ns, l)``).
+        Objects with ``t`` (times, s).
 
     Returns
     -------
@@ -461,11 +470,15 @@ def dynamics_band(records: Any) -> tuple[float, float]:
         Lower edge (rad/s).
     w_hi : float
         Upper edge (rad/s).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> rec = SimpleNamespace(t=np.arange(1001) * 0.01)
+    >>> [round(w, 4) for w in dynamics_band([rec])]
+    [0.6283, 314.1593]
     """
     longest = max(float(r.t[-1] - r.t[0]) for r in records)
-    w_lo = max(
-        min(bandwidth(r.t, r.y, OPERATOR_SCALE.mode_energy_fraction) for r in records),
-        2 * np.pi / longest,
-    )
     step = max(float(np.median(np.diff(r.t))) for r in records)
-    return w_lo, float(np.pi / step)
+    return 2 * np.pi / longest, float(np.pi / step)
