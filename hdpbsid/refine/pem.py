@@ -47,7 +47,9 @@ The refinement as a procedure (:func:`refine_pem`):
   (:func:`_fit_starts`); from the converged end point the other input hold is screened
   by one Gauss-Newton step, fitted when it predicts evidence for it, and kept when its
   cost is lower by a likelihood ratio significant at 1 % with every mode resolved by the
-  sampling (:func:`_other_hold`, :func:`_modes_resolved`);
+  sampling (:func:`_other_hold`, :func:`_modes_resolved`); when the first hold's fit ran
+  out of budget, the other hold is fitted from the starting points on the same terms
+  (:func:`_search`);
 * stopping rule (:func:`_run_end`): a run that converges at once in a re-centred chart, a
   run stopped by the cost test where the Gauss-Newton model of its centre predicted, or
   a run that moves the estimate by less than a tenth of its standard deviation ends the
@@ -418,7 +420,16 @@ def _starts(
 def _search(task: _Task, settings: RefinementSettings) -> _Search:
     """Fit the starts with the first hold, then screen and fit the other hold from the
     converged end point (module docstring).  The output weighting ``W`` is fixed from the
-    first start's errors, one for both holds so that their costs compare."""
+    first start's errors, one for both holds so that their costs compare.
+
+    When the first hold's fit spent its budget without converging there is no minimum to
+    screen the other hold at, and the first hold's priority -- the method's choice, made
+    on the least-squares VARX residuals (:func:`_candidate_holds`) -- is the weaker
+    evidence: the other hold is then fitted from the same starting points with its own
+    budget (the budget is per hold) and replaces the first on the terms of a converged
+    one (:func:`_switches_hold`).  A wrong hold shifts the input by half a sample, which
+    the model can absorb only by moving its modes far, so its fit is the one that crawls;
+    the cost is at most one more budget, paid only by a fit that ran out of it."""
     lay, hold, l = task.lay, task.holds[0], task.model.l
     record = {hd: _Record(lay, task.un, task.yn, task.h, hd, settings) for hd in task.holds}
     E0 = record[hold](next(iter(task.starts.values())), W=np.eye(l)).reshape(l, -1)
@@ -437,12 +448,15 @@ def _search(task: _Task, settings: RefinementSettings) -> _Search:
     nfev += sum(f.nfev for f in fits.values())
     best = fits[k_start]
     hold_costs: dict[str, Any] = {hold: best.cost}
-    # the other hold is compared at the first hold's minimum: without one (blocked or
-    # out of budget) there is nothing to compare, and the fit is reported unconverged
-    for other in task.holds[1:] if best.converged else ():
-        fit = _other_hold(
-            best.theta, best.cost, lay, weighted[other], kw, task.budget, task.starts, settings
-        )
+    for other in task.holds[1:]:
+        if best.converged:  # screened at the first hold's minimum
+            fit = _other_hold(
+                best.theta, best.cost, lay, weighted[other], kw, task.budget, task.starts,
+                settings,
+            )  # fmt: skip
+        else:  # no minimum to screen at: the other hold's own fit from the starts
+            points = tuple(task.starts.values())
+            fit = _fit_points(points, lay, weighted[other], kw, task.budget, settings)
         nfev += fit.nfev
         hold_costs[other] = fit.cost if np.isfinite(fit.cost) else fit.message
         if _switches_hold(fit, best.cost, lay, task.h, task.n_r, settings):
@@ -586,9 +600,23 @@ def _other_hold(
             f"{cost:.6g} by {settings.evidence:g}/{n_r} of it (no evidence for this hold)"
         )
         return _Fit(theta, float("inf"), 1, message, True)
-    spent = 1
+    return _fit_points((*starts.values(), theta), lay, residuals, kw, budget, settings, spent=1)
+
+
+def _fit_points(
+    points: tuple[Array, ...],
+    lay: _Layout,
+    residuals: Callable[..., Any],
+    kw: dict,
+    budget: int,
+    settings: RefinementSettings = DEFAULT_SETTINGS,
+    spent: int = 0,
+) -> _Fit:
+    """Levenberg-Marquardt from each of ``points`` in turn, sharing the evaluation
+    ``budget`` (``spent`` of it already used): the converged fit of lowest cost, else the
+    unconverged one of lowest cost, with the evaluations spent."""
     best: _Fit | None = None
-    for th in (*starts.values(), theta):
+    for th in points:
         if spent >= budget:
             break
         fit = _lm_fit(th, lay, residuals, kw, budget - spent, settings)

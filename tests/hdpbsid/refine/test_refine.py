@@ -350,3 +350,32 @@ def test_settings_carry_the_budget_and_the_stopping_rule() -> None:
     assert plain.options["refine_converged"] and plain.report.refinement.converged
     with pytest.raises(AttributeError):
         DEFAULT_SETTINGS.max_nfev = 3  # type: ignore[misc]  # frozen
+
+
+def test_a_first_hold_out_of_budget_gives_way_to_the_other_hold() -> None:
+    """The first hold (the method's, here the wrong one) spends its budget without
+    converging: with no minimum to screen the other hold at, the other hold is fitted
+    from the starting points and, converged at a lower cost, is the refinement's result
+    -- the optimum of the fit told the right hold, not an unconverged wrong-hold fit
+    (as when the other hold was tried only from a converged first one)."""
+    from scipy.linalg import block_diag
+
+    rng = np.random.default_rng(3)
+    # stiff: a real pole at -200 with |lambda| h = 0.5 and a slow pair, held steps
+    A = block_diag([[-200.0]], [[-0.25, 0.45], [-0.45, -0.25]])
+    B, C, D = np.array([[200.0], [1.0], [-0.5]]), np.array([[1.0, 1.0, 0.5]]), np.zeros((1, 1))
+    t = 0.0025 * np.arange(4000)
+    u = random_steps(rng, t, 0.0075)
+    y, _ = add_noise(simulate_zoh(A, B, C, D, t, u), 40.0, rng)
+    start = StateSpaceModel(A, B, C, D, np.zeros((3, 1)), options={"input_hold": "foh"})
+    # 90 evaluations: the foh fit from the truth needs about 110 (it absorbs the
+    # half-sample shift by moving the fast pole), the zoh fit about 75
+    m = refine_pem(start, t, u, y, max_nfev=90)
+    assert m.options["refine_converged"] and m.options["refine_hold"] == "zoh"
+    costs = m.options["refine_hold_costs"]
+    assert costs["zoh"] < costs["foh"]
+    zoh = refine_pem(start, t, u, y, hold="zoh")
+    # the same optimum: each fit stops within a tenth of a standard deviation of it
+    # (the stopping rule), so the two within two tenths of the smallest one
+    gap = np.abs(np.sort_complex(m.eigenvalues) - np.sort_complex(zoh.eigenvalues))
+    assert gap.max() <= 0.2 * np.min(m.options["eigenvalue_std"])
