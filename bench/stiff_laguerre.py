@@ -15,14 +15,14 @@ are within 5 %, the CPU seconds per fit and where the pole came from
 (``model.options["a_source"]``; ``bandwidth`` when the first pass was kept).
 
 ``--random N`` adds stiff systems the method was not developed on (:func:`random_stiff`,
-one per seed ``1000 + i``): a real pole between -30 and -300 rad/s, a pair with natural
-frequency 0.3-3 rad/s and damping 0.05-0.5, in 40 % of them a further real pole at -0.3
-to -10, random input and output rows; sampled so the fast pole moves 0.1-0.8 of its time
-constant a sample, 20 periods of the pair (2000-20 000 samples), random steps held 2-7
-samples.  Per system the default ``method="laguerre"`` call, ``identify`` with every
-default (its own choice of method), and the ceiling: the prediction-error fit started at
-the true system (not a method a user can call), whose error is what the record's
-information leaves.  Not a test: nothing is asserted.
+one per seed ``1000 + i``, ``i`` from ``--random-from K``, 0 by default): a real pole
+between -30 and -300 rad/s, a pair with natural frequency 0.3-3 rad/s and damping
+0.05-0.5, in 40 % of them a further real pole at -0.3 to -10, random input and output
+rows; sampled so the fast pole moves 0.1-0.8 of its time constant a sample, 20 periods of
+the pair (2000-20 000 samples), random steps held 2-7 samples.  Per system the default
+``method="laguerre"`` call, ``identify`` with every default (its own choice of method),
+and the ceiling: the prediction-error fit started at the true system (not a method a user
+can call), whose error is what the record's information leaves.  Not a test: nothing is asserted.
 """
 
 from __future__ import annotations
@@ -94,12 +94,14 @@ def random_stiff(i: int, snr: float) -> tuple[np.ndarray, ...]:
     return t, u, add_noise(y, snr, rng)[0], A, B, C
 
 
-def random_rows(count: int, snr: float) -> list[str]:
-    """The table rows of ``--random``: per system the worst eigenvalue error (%) of the
-    default Laguerre call, of ``identify`` with every default, and of the ceiling."""
+def random_rows(count: int, snr: float, first: int = 0) -> list[str]:
+    """The table rows of ``--random``: per system (``first`` .. ``first + count - 1``) the
+    worst eigenvalue error (%) of the default Laguerre call, of ``identify`` with every
+    default, and of the ceiling."""
     errs: dict[str, list[float]] = {k: [] for k in RANDOM_CALLS}
     cpu: dict[str, list[float]] = {k: [] for k in RANDOM_CALLS}
-    for i in range(count):
+    which = f"{count}" if first == 0 else f"{first}..{first + count - 1}"
+    for i in range(first, first + count):
         t, u, y, A, B, C = random_stiff(i, snr)
         truth = np.linalg.eigvals(A)
         for label in RANDOM_CALLS:
@@ -112,7 +114,7 @@ def random_rows(count: int, snr: float) -> list[str]:
             cpu[label].append(time.process_time() - c0)
             errs[label].append(err)
     return [
-        f"| random stiff ({count}) | {snr:g} dB | {label} | "
+        f"| random stiff ({which}) | {snr:g} dB | {label} | "
         f"{' '.join(f'{e:.3g}' for e in errs[label])} | "
         f"{sum(e <= 5.0 for e in errs[label])}/{count} | {np.median(errs[label]):.3g} | "
         f"{np.median(cpu[label]):.2f} | |"
@@ -166,6 +168,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--snr", type=float, nargs="+", default=[40.0, 20.0])
     ap.add_argument("--out", type=Path, default=RESULTS)
     ap.add_argument("--random", type=int, default=0, help="random stiff systems (40 dB)")
+    ap.add_argument("--random-from", type=int, default=0, help="the first random system")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     lines = [
@@ -190,7 +193,7 @@ def main(argv: list[str] | None = None) -> None:
             )
             print(lines[-1], flush=True)
     if args.random:
-        lines += random_rows(args.random, 40.0)
+        lines += random_rows(args.random, 40.0, args.random_from)
         print("\n".join(lines[-len(RANDOM_CALLS) :]), flush=True)
     args.out.write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
