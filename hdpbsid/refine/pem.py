@@ -428,8 +428,9 @@ def _search(task: _Task, settings: RefinementSettings) -> _Search:
     evidence: the other hold is then fitted from the same starting points with its own
     budget (the budget is per hold) and replaces the first on the terms of a converged
     one (:func:`_switches_hold`).  A wrong hold shifts the input by half a sample, which
-    the model can absorb only by moving its modes far, so its fit is the one that crawls;
-    the cost is at most one more budget, paid only by a fit that ran out of it."""
+    a model of fixed order absorbs only by moving its modes, often far (a fast mode), so
+    a crawl is more often the wrong hold's; the cost is at most one more budget, paid
+    only by a fit that ran out of it."""
     lay, hold, l = task.lay, task.holds[0], task.model.l
     record = {hd: _Record(lay, task.un, task.yn, task.h, hd, settings) for hd in task.holds}
     E0 = record[hold](next(iter(task.starts.values())), W=np.eye(l)).reshape(l, -1)
