@@ -107,28 +107,17 @@ def test_laguerre_on_a_stiff_record_takes_its_pole_from_the_dynamics(seed, a):
 
 
 def _random_stiff_17():
-    """A stiff record drawn as ``bench/stiff_laguerre.py --random`` draws its systems
-    (seed 1017): a real pole at -249, a pair at -0.97 +- 1.74i that reaches the output
-    weakly, 20 000 samples with |lambda| h = 0.72 for the fast pole, steps held a few
-    samples, 40 dB."""
-    from scipy.linalg import block_diag
+    """Random stiff system 17 of ``bench/stiff_laguerre.py --random`` (seed 1017): a real
+    pole at -249, a pair at -0.97 +- 1.74i that reaches the output weakly, 20 000 samples
+    with |lambda| h = 0.72 for the fast pole, steps held a few samples, 40 dB."""
+    import sys
+    from pathlib import Path
 
-    rng = np.random.default_rng(1017)
-    fast = -(10 ** rng.uniform(np.log10(30.0), np.log10(300.0)))
-    wn, zeta = 10 ** rng.uniform(np.log10(0.3), np.log10(3.0)), rng.uniform(0.05, 0.5)
-    wd = wn * np.sqrt(1.0 - zeta**2)
-    blocks = [np.array([[fast]]), np.array([[-zeta * wn, wd], [-wd, -zeta * wn]])]
-    if rng.random() < 0.4:
-        blocks.append(np.array([[-(10 ** rng.uniform(-0.5, 1.0))]]))
-    A = block_diag(*blocks)
-    B = rng.standard_normal((A.shape[0], 1))
-    B[0, 0] = abs(fast) * np.sign(B[0, 0]) * rng.uniform(0.5, 1.5)
-    C = rng.standard_normal((1, A.shape[0]))
-    h = rng.uniform(0.1, 0.8) / abs(fast)
-    t = h * np.arange(max(int(min(20 * 2 * np.pi / wn / h, 20_000)), 2000))
-    u = random_steps(rng, t, h * rng.integers(2, 8))
-    y = simulate_zoh(A, B, C, np.zeros((1, 1)), t, u)
-    return t, u, add_noise(y, 40.0, rng)[0], A
+    sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))
+    from stiff_laguerre import random_stiff
+
+    t, u, y, A, _, _ = random_stiff(17, 40.0)
+    return t, u, y, A
 
 
 def test_the_band_is_what_the_samples_resolve_whatever_the_output_spectrum():
