@@ -219,7 +219,7 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
     # a starting point offered to the refinement (method="auto"), not part of the result
     model.report = model.report.but(warm_start=None)
     if not several:
-        _warn_if_fallback(model)
+        _warn_if_fallback(model, first.model)
     _warn_if_biased_time_series(model)
     if req.refine is not None:
         timings["refine"] = time.perf_counter() - t_refine
@@ -797,15 +797,17 @@ def _refinement_problem(
     return refinement_instability(start, refined, (t, u, y))
 
 
-def _warn_if_fallback(model: StateSpaceModel) -> None:
-    """A :class:`~hdpbsid.selection.auto.SelectionWarning` when the held-out selection returned
-    the candidate fitted on part of the record and no refinement on the whole record
-    replaced it: a decision for the user (a longer record, or the method's settings
-    given)."""
+def _warn_if_fallback(model: StateSpaceModel, selected: StateSpaceModel) -> None:
+    """A :class:`~hdpbsid.selection.auto.SelectionWarning` when the held-out selection
+    returned the candidate fitted on part of the record (``selected``) and no refinement
+    on the whole record replaced it (``model`` carries the same refinement as
+    ``selected``, or none): a decision for the user (a longer record, or the method's
+    settings given)."""
     from hdpbsid.selection.auto import SelectionWarning
 
     fallback = model.report.selection_fallback
-    if fallback and model.report.refinement is not None:
+    done = model.report.refinement
+    if fallback and done is not None and done is not selected.report.refinement:
         text = (
             "the held-out selection's candidate, fitted on the estimation part (its refit "
             "on the whole record did not hold), started the refinement on the whole record"

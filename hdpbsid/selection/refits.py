@@ -223,12 +223,20 @@ def _warn_if_much_worse(
 
 
 def _candidate_itself(row: CandidateRow, where: str, warn: bool = True) -> StateSpaceModel:
-    """The candidate ``row``'s own model (fitted on the estimation part), returned when
-    no refit on the whole record holds (:func:`_choose`, step 2), with a
-    :class:`SelectionWarning`
-    (if ``warn``) saying so and what would help; the text is also kept in
-    ``options["selection_fallback"]``."""
+    """The model of candidate ``row`` the held-out part judged, fitted on the estimation
+    part, returned when no refit on the whole record holds (:func:`_choose`, step 2),
+    with a :class:`SelectionWarning` (if ``warn``) saying so and what would help; the
+    text is also kept in ``options["selection_fallback"]``.
+
+    That model is the candidate refined on the estimation part when the order was
+    decided between refined candidates (``row.refined_model``,
+    :func:`~hdpbsid.selection.rejudge.rejudge_refined`): the decision scored the refined
+    model, not the subspace estimate it started from, so the refined model is the one
+    the evidence supports -- unless it grows a mode the candidate did not have (the
+    floor the candidate passed, :func:`_new_growth`).  Else the candidate's own model."""
     model = row.model
+    if row.refined_model is not None and not _new_growth(row.refined_model, model):
+        model = row.refined_model
     text = (
         f"{row.method} order {row.order}: the model fitted on the estimation part "
         f"(all but {where}) is returned, as judged on the held-out part; its refit on the "

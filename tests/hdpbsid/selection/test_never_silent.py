@@ -298,3 +298,52 @@ def test_a_much_worse_fallback_names_what_was_rejected_and_what_to_pass():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _warn_if_much_worse(close, model, failures)
+
+
+def test_the_fallback_is_the_refined_candidate_the_order_was_decided_on():
+    """When no refit on the whole record holds, the model returned is the one the
+    held-out part judged: with the order decided between refined candidates, the
+    candidate refined on the estimation part, not the subspace estimate it started from
+    -- unless the refinement grew a mode the candidate did not have."""
+    from hdpbsid.refine.pem import refine_pem
+    from hdpbsid.selection.refits import _candidate_itself
+
+    t, u, y = _white_input_record(4)
+    est, val = (t[:667], u[:667], y[:667]), (t[667:], u[667:], y[667:])
+    A, B, C, D = second_order()
+    # a biased start (the gain 30 % off, the damping doubled), refined on the estimation
+    # part back to the truth: the oracle is the true system
+    biased = StateSpaceModel(A + np.diag([0.0, -0.8]), 1.3 * B, C, D, np.zeros((2, 1)))
+    row = _row(biased, val)
+    row.refined_model = refine_pem(biased, *est)
+    assert _worst_relative_error(row.refined_model) < 0.02  # 1 % noise: refined to the truth
+    with pytest.warns(SelectionWarning, match="fitted on the estimation part"):
+        model = _candidate_itself(row, "the last third")
+    assert model is row.refined_model and "selection_fallback" in model.options
+    # a refinement that grew a mode the stable candidate did not have is not returned
+    row = _row(biased, val)
+    row.refined_model = _grown_truth(1e-3)
+    with pytest.warns(SelectionWarning):
+        assert _candidate_itself(row, "the last third") is biased
+
+
+def test_the_part_record_fallback_is_said_unless_the_whole_record_refined_it():
+    """``identify`` warns that the model was fitted on the estimation part when the
+    refinement on the whole record did not replace the selection's fallback: the
+    refinement the fallback already carried (from the estimation part) does not count."""
+    from hdpbsid.identify import _warn_if_fallback
+    from hdpbsid.refine.pem import refine_pem
+
+    t, u, y = _white_input_record(4)
+    A, B, C, D = second_order()
+    start = StateSpaceModel(A, 1.3 * B, C, D, np.zeros((2, 1)))
+    part = refine_pem(start, t[:667], u[:667], y[:667])
+    part.report = part.report.but(selection_fallback="fitted on the estimation part")
+    with pytest.warns(SelectionWarning, match="fitted on the estimation part"):
+        _warn_if_fallback(part, part)  # the whole-record refinement was not kept
+    whole = refine_pem(part, t, u, y)
+    whole.report = whole.report.but(selection_fallback="fitted on the estimation part")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _warn_if_fallback(whole, part)  # refined on the whole record: said in the rule
+    assert "started the refinement on the whole record" in whole.report.selection_fallback
