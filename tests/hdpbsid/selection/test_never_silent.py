@@ -316,7 +316,9 @@ def test_the_fallback_is_the_refined_candidate_the_order_was_decided_on():
     biased = StateSpaceModel(A + np.diag([0.0, -0.8]), 1.3 * B, C, D, np.zeros((2, 1)))
     row = _row(biased, val)
     row.refined_model = refine_pem(biased, *est)
-    assert _worst_relative_error(row.refined_model) < 0.02  # 1 % noise: refined to the truth
+    # 1 % noise on 667 samples: refined to the truth (measured 0.04 % on seeds 0-5; the
+    # start is 21 % off), so 2 % separates the two whatever the rounding
+    assert _worst_relative_error(row.refined_model) < 0.02
     with pytest.warns(SelectionWarning, match="fitted on the estimation part"):
         model = _candidate_itself(row, "the last third")
     assert model is row.refined_model and "selection_fallback" in model.options
