@@ -19,7 +19,10 @@ Cholesky factor of the innovation covariance of the first starting point.  For G
 innovations with that covariance, ``V`` is the negative log-likelihood up to constants
 (Ljung sec. 7.4), so ``n_r log(V_1 / V_2)`` is the ``-2 log`` likelihood ratio of two
 fits under one weighting: the evidence scale of
-:class:`~hdpbsid.refine.pem_settings.RefinementSettings`.
+:class:`~hdpbsid.refine.pem_settings.RefinementSettings`.  With several outputs the
+weighting is then set again from the end point's errors until the determinant of their
+covariance stops dropping (:func:`_reweighted`): the estimate is the minimiser of that
+determinant, the likelihood with the innovation covariance unknown (Ljung sec. 7.3).
 
 Step.  Levenberg-Marquardt (:func:`scipy.optimize.least_squares`, ``method="lm"``) on
 the residual vector ``r(theta)`` with its exact Jacobian ``J`` (sensitivity recursions,
@@ -50,6 +53,9 @@ The refinement as a procedure (:func:`refine_pem`):
   sampling (:func:`_other_hold`, :func:`_modes_resolved`); when the first hold's fit ran
   out of budget, the other hold is fitted from the starting points on the same terms
   (:func:`_search`);
+* weighting (:func:`_reweighted`): with several outputs, the converged fit continues
+  under the weighting of its own errors while the determinant of their covariance drops
+  by more than the evidence;
 * stopping rule (:func:`_run_end`): a run that converges at once in a re-centred chart, a
   run stopped by the cost test where the Gauss-Newton model of its centre predicted, or
   a run that moves the estimate by less than a tenth of its standard deviation ends the
@@ -73,7 +79,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, Literal, NamedTuple
 
@@ -323,7 +329,7 @@ def _refine(task: _Task, settings: RefinementSettings) -> StateSpaceModel:
                 f"-> {search.cost:.4g}); keeping the unrefined model",
             ),
         )
-    return _refined_model(task, search)
+    return _refined_model(task, _reweighted(task, search, settings))
 
 
 def _keep(model: StateSpaceModel, kept: _Kept) -> StateSpaceModel:
@@ -436,12 +442,7 @@ def _search(task: _Task, settings: RefinementSettings) -> _Search:
     E0 = record[hold](next(iter(task.starts.values())), W=np.eye(l)).reshape(l, -1)
     W = np.linalg.inv(np.linalg.cholesky(E0 @ E0.T / E0.shape[1]))
     weighted = {hd: partial(record[hd], W=W) for hd in task.holds}
-    kw: dict[str, Any] = {
-        "method": "lm",
-        "x_scale": "jac",
-        "ftol": settings.stall_sd**2 / task.n_r,
-        "xtol": settings.xtol,
-    }
+    kw = _lm_options(task, settings)
     fits, start_costs, predicted, nfev = _fit_starts(
         task.starts, lay, weighted[hold], kw, task.budget, task.n_r, settings
     )
@@ -567,6 +568,76 @@ def _candidate_holds(model: StateSpaceModel, hold: str | None) -> tuple[str, ...
     if model.m == 0 or _hold_was_given(model):
         return (own,)
     return (own, *(hd for hd in HOLDS if hd != own))
+
+
+def _lm_options(task: _Task, settings: RefinementSettings) -> dict[str, Any]:
+    """The options of :func:`scipy.optimize.least_squares` every fit of ``task`` runs
+    with: Levenberg-Marquardt, Jacobian scaling, the stall's cost test and the step
+    tolerance."""
+    return {
+        "method": "lm",
+        "x_scale": "jac",
+        "ftol": settings.stall_sd**2 / task.n_r,
+        "xtol": settings.xtol,
+    }
+
+
+def _reweighted(task: _Task, search: _Search, settings: RefinementSettings) -> _Search:
+    """``search`` continued with the output weighting set again from its end point's
+    errors, while that lowers the determinant of their covariance by more than
+    :attr:`~hdpbsid.refine.pem_settings.RefinementSettings.evidence` units of ``-2 log``
+    likelihood ratio (several outputs and a converged fit only; the evaluations of
+    these fits together within the budget).
+
+    Why.  With unknown innovation covariance the Gaussian maximum-likelihood estimate
+    minimises ``det`` of the one-step errors' covariance (Ljung, *System
+    Identification*, 2nd ed., sec. 7.3, eq. 7.92; the "determinant" criterion), and
+    the weighted least squares ``V`` with ``W`` fixed from the first start's errors has
+    the same minimiser only when those errors have the estimate's covariance (at the
+    minimiser of ``det``, ``W = Sigma^(-1/2)`` of its own errors is stationary).  A start
+    far from the estimate -- in closed loop, a first pass whose noise model is poor --
+    weights the outputs by its own errors' covariance, and the fit then converges to
+    the minimum of that weighting, which can lie far from the determinant's (on a
+    closed-loop plant with rate and acceleration outputs, a fast mode tens of per cent
+    off, which the fit under its own errors' weighting resolved).  Setting the weighting
+    from the end point and fitting again is the relaxation of the determinant
+    criterion; it stops when the determinant no longer drops by the evidence the
+    refinement uses for a further start.  With one output the weighting is a scale, and
+    the minimiser does not depend on it."""
+    l = task.model.l
+    if l < 2 or not search.converged:
+        return search
+    spent, eye = 0, np.eye(l)
+    kw = _lm_options(task, settings)
+    logdet = _log_det(search.record, search.theta, eye)
+    while spent < task.budget:
+        E = search.record(search.theta, W=eye).reshape(l, -1)
+        try:
+            W = np.linalg.inv(np.linalg.cholesky(E @ E.T / E.shape[1]))
+        except np.linalg.LinAlgError:
+            break
+        fit = _lm_fit(search.theta, task.lay, partial(search.record, W=W), kw,
+                      task.budget - spent, settings)  # fmt: skip
+        spent += fit.nfev
+        new = _log_det(search.record, fit.theta, eye)
+        if not (fit.converged and E.shape[1] * (logdet - new) > settings.evidence):
+            break
+        start = task.starts.get(search.start, search.theta)
+        cost0 = float(np.mean(search.record(start, W=W) ** 2))
+        search = replace(
+            search, theta=fit.theta, cost=fit.cost, cost0=cost0, status=fit.message,
+            nfev=search.nfev + fit.nfev, W=W,
+        )  # fmt: skip
+        logdet = new
+    return search
+
+
+def _log_det(record: Callable[..., Any], theta: Array, eye: Array) -> float:
+    """``log det`` of the covariance of the one-step errors at ``theta`` (``inf`` when it
+    is not positive definite)."""
+    E = record(theta, W=eye).reshape(eye.shape[0], -1)
+    sign, value = np.linalg.slogdet(E @ E.T / E.shape[1])
+    return float(value) if sign > 0 and np.isfinite(value) else float("inf")
 
 
 def _other_hold(

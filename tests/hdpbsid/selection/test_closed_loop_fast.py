@@ -234,3 +234,35 @@ def test_a_larger_order_biased_as_a_subspace_candidate_is_refined() -> None:
     assert "closed loop (feedback test): refined" in rule
     # 30 s at 20 dB resolve the -28 rad/s mode to a few per cent
     assert np.max(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(A))) < 0.10
+
+
+def _log_det(model: StateSpaceModel, t: np.ndarray, u: np.ndarray, y: np.ndarray) -> float:
+    """``N log det`` of the covariance of ``model``'s one-step errors on the record: ``-2``
+    times the Gaussian log-likelihood with unknown innovation covariance, up to a
+    constant (the determinant criterion)."""
+    from hdpbsid.refine.pem import one_step_errors
+
+    e = one_step_errors(model, t, u, y)
+    return float(e.shape[0] * np.linalg.slogdet(e.T @ e / e.shape[0])[1])
+
+
+def test_two_outputs_are_weighted_by_the_estimate_s_own_errors() -> None:
+    """The same loop around the plant with its pair mirrored stable (-28, -10,
+    -1.2 +- 5.8i): the refinement starts from the ``dt`` model, whose errors weight the
+    rate and the acceleration far from the estimate's, and the least squares under that
+    weighting converged 18 % off the system.  With the weighting set again from the end
+    point's errors until the determinant of their covariance stops dropping (the
+    maximum-likelihood criterion with unknown innovation covariance), the estimate is
+    where a further refinement from it does not lower the determinant, and the system
+    within the few per cent the prediction-error fit from the truth reaches (3 %)."""
+    plant = block_diag(-28.0, -10.0, [[-1.2, 5.8], [-5.8, -1.2]])
+    t, u, y = _loop_record(2, 30.0, 20.0, plant=plant)
+    model = identify(t, u, y, 4)
+    ud, yd = u - u.mean(axis=0), y - y.mean(axis=0)
+    again = refine_pem(model, t, ud, yd)
+    # a fixed point of the determinant criterion: refined again from itself, no drop of
+    # one unit of -2 log likelihood ratio (the refinement's evidence for a further start;
+    # measured 0, and 159 under the first start's weighting)
+    assert _log_det(model, t, ud, yd) - _log_det(again, t, ud, yd) < 1.0
+    # 30 s at 20 dB: the fit from the true system is 3 % off; 10 % is the bench's mark
+    assert np.max(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(plant))) < 0.10
