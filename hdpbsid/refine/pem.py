@@ -22,7 +22,7 @@ fits under one weighting: the evidence scale of
 :class:`~hdpbsid.refine.pem_settings.RefinementSettings`.  With several outputs the
 weighting is then set again from the end point's errors until the determinant of their
 covariance stops dropping (:func:`_reweighted`): the estimate is the minimiser of that
-determinant, the likelihood with the innovation covariance unknown (Ljung sec. 7.3).
+determinant, the likelihood with the innovation covariance unknown (Ljung sec. 7.4).
 
 Step.  Levenberg-Marquardt (:func:`scipy.optimize.least_squares`, ``method="lm"``) on
 the residual vector ``r(theta)`` with its exact Jacobian ``J`` (sensitivity recursions,
@@ -591,7 +591,7 @@ def _reweighted(task: _Task, search: _Search, settings: RefinementSettings) -> _
 
     Why.  With unknown innovation covariance the Gaussian maximum-likelihood estimate
     minimises ``det`` of the one-step errors' covariance (Ljung, *System
-    Identification*, 2nd ed., sec. 7.3, eq. 7.92; the "determinant" criterion), and
+    Identification*, 2nd ed., sec. 7.4; the "determinant" criterion), and
     the weighted least squares ``V`` with ``W`` fixed from the first start's errors has
     the same minimiser only when those errors have the estimate's covariance (at the
     minimiser of ``det``, ``W = Sigma^(-1/2)`` of its own errors is stationary).  A start
@@ -601,9 +601,11 @@ def _reweighted(task: _Task, search: _Search, settings: RefinementSettings) -> _
     closed-loop plant with rate and acceleration outputs, a fast mode tens of per cent
     off, which the fit under its own errors' weighting resolved).  Setting the weighting
     from the end point and fitting again is the relaxation of the determinant
-    criterion; it stops when the determinant no longer drops by the evidence the
-    refinement uses for a further start.  With one output the weighting is a scale, and
-    the minimiser does not depend on it."""
+    criterion (the covariance that maximises the likelihood for given parameters is
+    that of their residuals, so the two are estimated in turn: Jategaonkar, *Flight
+    Vehicle System Identification*, AIAA, 2006, app. E); it stops when the determinant
+    no longer drops by the evidence the refinement uses for a further start.  With one
+    output the weighting is a scale, and the minimiser does not depend on it."""
     l = task.model.l
     if l < 2 or not search.converged:
         return search
