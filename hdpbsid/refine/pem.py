@@ -21,8 +21,8 @@ innovations with that covariance, ``V`` is the negative log-likelihood up to con
 fits under one weighting: the evidence scale of
 :class:`~hdpbsid.refine.pem_settings.RefinementSettings`.  With several outputs the
 weighting is then set again from the end point's errors until the determinant of their
-covariance stops dropping (:func:`_reweighted`): the estimate is the minimiser of that
-determinant, the likelihood with the innovation covariance unknown (Ljung sec. 7.4).
+covariance stops dropping (:mod:`hdpbsid.refine.pem_weighting`): the estimate is the
+minimiser of that determinant, the likelihood with the innovation covariance unknown.
 
 Step.  Levenberg-Marquardt (:func:`scipy.optimize.least_squares`, ``method="lm"``) on
 the residual vector ``r(theta)`` with its exact Jacobian ``J`` (sensitivity recursions,
@@ -42,9 +42,9 @@ McKelvey, Helmersson & Ribarits, *Automatica* 40 (2004)), re-centred after every
 The refinement as a procedure (:func:`refine_pem`):
 
 * inputs (:class:`_Task`): the start model and the record, scaled to unit RMS; the input
-  holds to fit (:func:`_candidate_holds`); the starting points -- the model's ``K``,
-  the Kalman gain of a sensor-noise-only model (:func:`_kalman_gain`) and an optional
-  warm start; the evaluation budget;
+  holds to fit (:func:`~hdpbsid.refine.pem_starts._candidate_holds`); the starting
+  points -- the model's ``K``, the Kalman gain of a sensor-noise-only model
+  (:func:`_kalman_gain`) and an optional warm start; the evaluation budget;
 * search (:func:`_search`): the start whose Gauss-Newton step predicts the lowest cost is
   fitted first and a further start only when its own prediction could beat that minimum
   (:func:`_fit_starts`); from the converged end point the other input hold is screened
@@ -91,7 +91,8 @@ from hdpbsid.core.normal_equations import lstsq_residuals
 from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
-from hdpbsid.models.uncertainty import ParameterCovariance, covariance_factor, scale_factor
+from hdpbsid.models.uncertainty import ParameterCovariance
+from hdpbsid.refine.pem_covariance import _abcd_factor, _eigenvalue_std
 from hdpbsid.refine.pem_focus import FOCUSES, simulation_focus
 from hdpbsid.refine.pem_predictor import sampled_predictor
 from hdpbsid.refine.pem_residuals import (
@@ -105,13 +106,17 @@ from hdpbsid.refine.pem_residuals import (
 )
 from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS, RefinementSettings
 from hdpbsid.refine.pem_starts import (
+    HOLDS,
+    _candidate_holds,
     _check_warm_start,
+    _hold_was_given,
     _kalman_gain,
     _warm_first,
     _warm_name,
     _warm_start,
     warm_start_option,
 )
+from hdpbsid.refine.pem_weighting import relax_weighting
 from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
@@ -133,8 +138,6 @@ REFINE_CHOICES = ("auto", "pem", None)
 #: reduction test at ``ftol`` (2; 4 with the step test too): such a run ends the fit when
 #: it ended where the Gauss-Newton model at its centre predicted (:func:`_run_end`)
 FTOL_STATUS = (2, 4)
-#: input holds the sampled predictor handles (module docstring)
-HOLDS = ("zoh", "foh")
 #: the option that carried a further starting point in earlier versions (now the
 #: ``warm_start`` argument of :func:`refine_pem`), and the default name of that start in
 #: ``options["refine_start"]``
@@ -244,7 +247,7 @@ def refine_pem(
     hold : {"zoh", "foh"} or None, optional
         How ``u`` behaves between samples.  Default: both are fitted and the smaller
         prediction-error cost decides, unless the method was given its hold
-        (:func:`_candidate_holds`).
+        (:func:`~hdpbsid.refine.pem_starts._candidate_holds`).
     max_nfev : int or None, optional
         Bound on the Levenberg-Marquardt cost evaluations over all starts of one input
         hold together (the other hold, when fitted, has its own).  Default
@@ -430,10 +433,11 @@ def _search(task: _Task, settings: RefinementSettings) -> _Search:
 
     When the first hold's fit spent its budget without converging there is no minimum to
     screen the other hold at, and the first hold's priority -- the method's choice, made
-    on the least-squares VARX residuals (:func:`_candidate_holds`) -- is the weaker
-    evidence: the other hold is then fitted from the same starting points with its own
-    budget (the budget is per hold) and replaces the first on the terms of a converged
-    one (:func:`_switches_hold`).  A wrong hold shifts the input by half a sample, which
+    on the least-squares VARX residuals
+    (:func:`~hdpbsid.refine.pem_starts._candidate_holds`) -- is the weaker evidence: the
+    other hold is then fitted from the same starting points with its own budget (the
+    budget is per hold) and replaces the first on the terms of a converged one
+    (:func:`_switches_hold`).  A wrong hold shifts the input by half a sample, which
     a model of fixed order absorbs only by moving its modes, often far (a fast mode), so
     a crawl is more often the wrong hold's; the cost is at most one more budget, paid
     only by a fit that ran out of it."""
@@ -546,30 +550,6 @@ def _options(task: _Task, search: _Search, n_parameters: int, eig_std: Array) ->
     return options
 
 
-def _candidate_holds(model: StateSpaceModel, hold: str | None) -> tuple[str, ...]:
-    """The input holds the refinement fits: ``hold`` when given; the model's
-    ``options["input_hold"]`` when the method was told it (``input_hold_rule ==
-    "given"``); with no input, one (the hold is then irrelevant); otherwise both, the
-    model's first.
-
-    Why both: a subspace method's choice of hold (the smaller AIC of its least-squares
-    VARX fit) is made on biased residuals in closed loop, and the wrong hold is not a
-    small error: it shifts the input by half a sample, which a model of fixed order
-    absorbs by moving its fast modes.  The two sampled predictors have the same
-    parameters and the same data, so their prediction-error costs under one weighting
-    compare directly (the likelihood ratio of two structures of equal dimension; Ljung,
-    *System Identification*, 2nd ed., sec. 16.4): the hold is chosen with the starting
-    point, by the same criterion.
-    """
-    if hold is not None:
-        return (hold,)
-    own = model.report.hold
-    own = own if own in HOLDS else "zoh"
-    if model.m == 0 or _hold_was_given(model):
-        return (own,)
-    return (own, *(hd for hd in HOLDS if hd != own))
-
-
 def _lm_options(task: _Task, settings: RefinementSettings) -> dict[str, Any]:
     """The options of :func:`scipy.optimize.least_squares` every fit of ``task`` runs
     with: Levenberg-Marquardt, Jacobian scaling, the stall's cost test and the step
@@ -583,63 +563,28 @@ def _lm_options(task: _Task, settings: RefinementSettings) -> dict[str, Any]:
 
 
 def _reweighted(task: _Task, search: _Search, settings: RefinementSettings) -> _Search:
-    """``search`` continued with the output weighting set again from its end point's
-    errors, while that lowers the determinant of their covariance by more than
-    :attr:`~hdpbsid.refine.pem_settings.RefinementSettings.evidence` units of ``-2 log``
-    likelihood ratio (several outputs and a converged fit only; the evaluations of
-    these fits together within the budget).
-
-    Why.  With unknown innovation covariance the Gaussian maximum-likelihood estimate
-    minimises ``det`` of the one-step errors' covariance (Ljung, *System
-    Identification*, 2nd ed., sec. 7.4; the "determinant" criterion), and
-    the weighted least squares ``V`` with ``W`` fixed from the first start's errors has
-    the same minimiser only when those errors have the estimate's covariance (at the
-    minimiser of ``det``, ``W = Sigma^(-1/2)`` of its own errors is stationary).  A start
-    far from the estimate -- in closed loop, a first pass whose noise model is poor --
-    weights the outputs by its own errors' covariance, and the fit then converges to
-    the minimum of that weighting, which can lie far from the determinant's (on a
-    closed-loop plant with rate and acceleration outputs, a fast mode tens of per cent
-    off, which the fit under its own errors' weighting resolved).  Setting the weighting
-    from the end point and fitting again is the relaxation of the determinant
-    criterion (the covariance that maximises the likelihood for given parameters is
-    that of their residuals, so the two are estimated in turn: Jategaonkar, *Flight
-    Vehicle System Identification*, AIAA, 2006, app. E); it stops when the determinant
-    no longer drops by the evidence the refinement uses for a further start.  With one
-    output the weighting is a scale, and the minimiser does not depend on it."""
-    l = task.model.l
-    if l < 2 or not search.converged:
+    """``search`` continued under the weighting of its own errors while the determinant
+    of their covariance drops by the evidence (:mod:`hdpbsid.refine.pem_weighting`:
+    the maximum-likelihood criterion with unknown innovation covariance); several
+    outputs and a converged fit only, within the evaluation budget."""
+    if task.model.l < 2 or not search.converged:
         return search
-    spent, eye = 0, np.eye(l)
     kw = _lm_options(task, settings)
-    logdet = _log_det(search.record, search.theta, eye)
-    while spent < task.budget:
-        E = search.record(search.theta, W=eye).reshape(l, -1)
-        try:
-            W = np.linalg.inv(np.linalg.cholesky(E @ E.T / E.shape[1]))
-        except np.linalg.LinAlgError:
-            break
-        fit = _lm_fit(search.theta, task.lay, partial(search.record, W=W), kw,
-                      task.budget - spent, settings)  # fmt: skip
-        spent += fit.nfev
-        new = _log_det(search.record, fit.theta, eye)
-        if not (fit.converged and E.shape[1] * (logdet - new) > settings.evidence):
-            break
-        start = task.starts.get(search.start, search.theta)
-        cost0 = float(np.mean(search.record(start, W=W) ** 2))
-        search = replace(
-            search, theta=fit.theta, cost=fit.cost, cost0=cost0, status=fit.message,
-            nfev=search.nfev + fit.nfev, W=W,
-        )  # fmt: skip
-        logdet = new
-    return search
 
+    def fit(theta: Array, residuals: Callable[..., Any], budget: int) -> _Fit:
+        return _lm_fit(theta, task.lay, residuals, kw, budget, settings)
 
-def _log_det(record: Callable[..., Any], theta: Array, eye: Array) -> float:
-    """``log det`` of the covariance of the one-step errors at ``theta`` (``inf`` when it
-    is not positive definite)."""
-    E = record(theta, W=eye).reshape(eye.shape[0], -1)
-    sign, value = np.linalg.slogdet(E @ E.T / E.shape[1])
-    return float(value) if sign > 0 and np.isfinite(value) else float("inf")
+    out = relax_weighting(
+        search.theta, search.record, fit, task.model.l, task.budget, settings.evidence
+    )
+    if out is None:
+        return search
+    start = task.starts.get(search.start, search.theta)
+    cost0 = float(np.mean(search.record(start, W=out.W) ** 2))
+    return replace(
+        search, theta=out.theta, cost=out.cost, cost0=cost0, status=out.message,
+        nfev=search.nfev + out.nfev, W=out.W,
+    )  # fmt: skip
 
 
 def _other_hold(
@@ -768,12 +713,6 @@ def _modes_resolved(lay: _Layout, theta: Array, h: float) -> bool:
     input (Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, sec. 6.3)."""
     lam = np.linalg.eigvals(lay.unpack(theta)[0])
     return bool(np.all(np.abs(lam) * h < np.pi))
-
-
-def _hold_was_given(model: StateSpaceModel) -> bool:
-    """Whether the method that produced ``model`` was told its input hold (the basis
-    methods report the hold's reason ``"given"`` then)."""
-    return model.report.input_hold is not None and model.report.input_hold.given
 
 
 def _lm_fit(
@@ -940,57 +879,6 @@ def _fits_feedthrough(model: StateSpaceModel) -> bool:
     """
     fd = model.report.feedthrough
     return fd is not None and fd.asked and model.m > 0
-
-
-def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float) -> Array:
-    """Asymptotic standard deviation of each eigenvalue of ``A`` (sorted like
-    :attr:`StateSpaceModel.eigenvalues`): ``cov(beta) = s^2 (J^T J)^+`` with the
-    weighted residual variance ``s^2`` (Ljung sec. 9.3), mapped to the eigenvalues by
-    their finite-difference gradient; ``sqrt(var Re + var Im)``."""
-    P = cost * np.linalg.pinv(J.T @ J)
-
-    def eig(beta: Array) -> NDArray[np.complex128]:
-        A = lay.unpack(theta + Q @ beta)[0]
-        ev = np.linalg.eigvals(A)
-        return ev[np.lexsort((ev.imag, ev.real))]
-
-    ev0 = eig(np.zeros(Q.shape[1]))
-    G = np.empty((ev0.size, Q.shape[1]), dtype=complex)
-    # forward difference at ~sqrt(eps) relative: truncation and rounding balanced
-    step = 1e-6 * max(1.0, float(np.max(np.abs(ev0))))
-    for k in range(Q.shape[1]):
-        e = np.zeros(Q.shape[1])
-        e[k] = step
-        evp = eig(e)
-        # pair the perturbed eigenvalues with the unperturbed ones (nearest)
-        idx = np.argmin(np.abs(evp[None, :] - ev0[:, None]), axis=1)
-        G[:, k] = (evp[idx] - ev0) / step
-    var = np.einsum("ik,kl,il->i", G.real, P, G.real) + np.einsum("ik,kl,il->i", G.imag, P, G.imag)
-    return np.sqrt(np.maximum(var, 0.0))
-
-
-def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: Array) -> Array:
-    """The covariance factor of ``[vec A, vec B, vec C, vec D]`` in the record's units
-    (:class:`hdpbsid.models.uncertainty.ParameterCovariance`): ``cov(beta) = s^2 (J^T J)^+`` of the
-    local coordinates (as :func:`_eigenvalue_std`), mapped by ``theta = theta_0 + Q beta``
-    (rows of ``K`` dropped, zero rows for a ``D`` that is not a parameter) and by the
-    unit scaling of :func:`_unscale` (``B / us``, ``ys C``, ``ys D / us``)."""
-    n, m, l = lay.n, lay.m, lay.l
-    F = Q @ covariance_factor(cost * np.linalg.pinv(J.T @ J))
-    s = lay.stops
-    parts = [F[s[0] : s[1]], F[s[1] : s[2]], F[s[2] : s[3]]]
-    parts.append(F[s[3] : s[4]] if lay.feedthrough else np.zeros((l * m, F.shape[1])))
-    Fabcd = np.vstack(parts)
-    inv_us = 1.0 / us if m else us
-    return scale_factor(
-        Fabcd,
-        n,
-        m,
-        l,
-        np.broadcast_to(inv_us[None, :], (n, m)),
-        np.broadcast_to(ys[:, None], (l, n)),
-        ys[:, None] * inv_us[None, :],
-    )
 
 
 def _refined_report(model: StateSpaceModel, refinement: Refinement) -> Any:

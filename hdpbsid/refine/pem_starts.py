@@ -1,7 +1,8 @@
 """The starting points of the prediction-error refinement (:mod:`hdpbsid.refine.pem`):
-the Kalman gain of a measurement-noise model (:func:`_kalman_gain`) and the warm start,
+the Kalman gain of a measurement-noise model (:func:`_kalman_gain`), the warm start,
 a prediction-error fit on part of the record offered by the selection
-(:func:`warm_start_option`)."""
+(:func:`warm_start_option`), and the input holds it is fitted with
+(:func:`_candidate_holds`)."""
 
 from __future__ import annotations
 
@@ -15,10 +16,12 @@ from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WarmStart
 from hdpbsid.refine.pem_residuals import _scale
 
-__all__ = ["warm_start_option", "WARM_START_NAME"]
+__all__ = ["warm_start_option", "WARM_START_NAME", "HOLDS"]
 
 Array = NDArray[np.float64]
 
+#: input holds the sampled predictor handles (:mod:`hdpbsid.refine.pem`)
+HOLDS = ("zoh", "foh")
 #: the default name of the warm start in ``options["refine_start"]``
 WARM_START_NAME = "prediction-error fit on part of the record"
 
@@ -97,3 +100,33 @@ def _warm_start(
     if (wm.n, wm.m, wm.l) != (model.n, model.m, model.l):
         return None
     return _scale(wm, ys, us)
+
+
+def _candidate_holds(model: StateSpaceModel, hold: str | None) -> tuple[str, ...]:
+    """The input holds the refinement fits: ``hold`` when given; the model's
+    ``options["input_hold"]`` when the method was told it (``input_hold_rule ==
+    "given"``); with no input, one (the hold is then irrelevant); otherwise both, the
+    model's first.
+
+    Why both: a subspace method's choice of hold (the smaller AIC of its least-squares
+    VARX fit) is made on biased residuals in closed loop, and the wrong hold is not a
+    small error: it shifts the input by half a sample, which a model of fixed order
+    absorbs by moving its fast modes.  The two sampled predictors have the same
+    parameters and the same data, so their prediction-error costs under one weighting
+    compare directly (the likelihood ratio of two structures of equal dimension; Ljung,
+    *System Identification*, 2nd ed., sec. 16.4): the hold is chosen with the starting
+    point, by the same criterion.
+    """
+    if hold is not None:
+        return (hold,)
+    own = model.report.hold
+    own = own if own in HOLDS else "zoh"
+    if model.m == 0 or _hold_was_given(model):
+        return (own,)
+    return (own, *(hd for hd in HOLDS if hd != own))
+
+
+def _hold_was_given(model: StateSpaceModel) -> bool:
+    """Whether the method that produced ``model`` was told its input hold (the basis
+    methods report the hold's reason ``"given"`` then)."""
+    return model.report.input_hold is not None and model.report.input_hold.given
