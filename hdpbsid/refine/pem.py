@@ -116,7 +116,7 @@ from hdpbsid.refine.pem_starts import (
     _warm_start,
     warm_start_option,
 )
-from hdpbsid.refine.pem_weighting import relax_weighting
+from hdpbsid.refine.pem_weighting import error_covariance, relax_weighting, weighting
 from hdpbsid.runtime import library_call, user_stacklevel
 
 __all__ = [
@@ -443,8 +443,7 @@ def _search(task: _Task, settings: RefinementSettings) -> _Search:
     only by a fit that ran out of it."""
     lay, hold, l = task.lay, task.holds[0], task.model.l
     record = {hd: _Record(lay, task.un, task.yn, task.h, hd, settings) for hd in task.holds}
-    E0 = record[hold](next(iter(task.starts.values())), W=np.eye(l)).reshape(l, -1)
-    W = np.linalg.inv(np.linalg.cholesky(E0 @ E0.T / E0.shape[1]))
+    W = weighting(error_covariance(record[hold], next(iter(task.starts.values())), l)[0])
     weighted = {hd: partial(record[hd], W=W) for hd in task.holds}
     kw = _lm_options(task, settings)
     fits, start_costs, predicted, nfev = _fit_starts(

@@ -22,12 +22,13 @@ output the weighting is a scale, and the minimiser does not depend on it.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Relaxed", "relax_weighting"]
+__all__ = ["Relaxed", "relax_weighting", "error_covariance", "weighting"]
 
 Array = NDArray[np.float64]
 
@@ -94,27 +95,64 @@ def relax_weighting(
         The last fit that lowered the determinant by the evidence, with every fit's
         evaluations; None when none did.
     """
-    eye = np.eye(n_outputs)
-    logdet, spent, out = _log_det(record, theta, eye), 0, None
+    S, n_samples = error_covariance(record, theta, n_outputs)
+    spent, out = 0, None
     while spent < budget:
-        E = record(theta, W=eye).reshape(n_outputs, -1)
         try:
-            W = np.linalg.inv(np.linalg.cholesky(E @ E.T / E.shape[1]))
+            W = weighting(S)
         except np.linalg.LinAlgError:
             break
-        end = fit(theta, lambda th, W=W, **kw: record(th, W=W, **kw), budget - spent)
+        end = fit(theta, partial(record, W=W), budget - spent)
         spent += end.nfev
-        new = _log_det(record, end.theta, eye)
-        if not (end.converged and E.shape[1] * (logdet - new) > evidence):
+        S_end = error_covariance(record, end.theta, n_outputs)[0]
+        if not (end.converged and n_samples * (_log_det(S) - _log_det(S_end)) > evidence):
             break
-        theta, logdet = end.theta, new
+        theta, S = end.theta, S_end
         out = Relaxed(end.theta, float(end.cost), W, str(end.message), spent)
     return None if out is None else out._replace(nfev=spent)
 
 
-def _log_det(record: Callable[..., Any], theta: Array, eye: Array) -> float:
-    """``log det`` of the covariance of the one-step errors at ``theta`` (``inf`` when it
-    is not positive definite)."""
-    E = record(theta, W=eye).reshape(eye.shape[0], -1)
-    sign, value = np.linalg.slogdet(E @ E.T / E.shape[1])
+def error_covariance(record: Callable[..., Any], theta: Array, n_outputs: int) -> tuple[Array, int]:
+    """The covariance of the one-step errors at ``theta`` (``record(theta, W=I)``,
+    ``n_outputs`` rows in a flat vector) and the number of samples it is over.
+
+    Parameters
+    ----------
+    record : callable
+        ``record(theta, W=W)``: the weighted one-step errors.
+    theta : ndarray
+        The parameters.
+    n_outputs : int
+        The number of outputs.
+
+    Returns
+    -------
+    tuple of (ndarray, int)
+        ``E E^T / N`` and ``N``.
+    """
+    E = record(theta, W=np.eye(n_outputs)).reshape(n_outputs, -1)
+    return E @ E.T / E.shape[1], int(E.shape[1])
+
+
+def weighting(S: Array) -> Array:
+    """The output weighting that whitens errors of covariance ``S``: the inverse of its
+    Cholesky factor (``W S W^T = I``); ``LinAlgError`` when ``S`` is not positive
+    definite.
+
+    Parameters
+    ----------
+    S : ndarray
+        An error covariance.
+
+    Returns
+    -------
+    ndarray
+        ``W``.
+    """
+    return np.linalg.inv(np.linalg.cholesky(S))
+
+
+def _log_det(S: Array) -> float:
+    """``log det S`` (``inf`` when ``S`` is not positive definite)."""
+    sign, value = np.linalg.slogdet(S)
     return float(value) if sign > 0 and np.isfinite(value) else float("inf")
