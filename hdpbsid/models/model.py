@@ -65,6 +65,7 @@ from hdpbsid.models.simulation import (
     initial_state,
     input_steps,
     input_terms,
+    output_weights,
     step_groups,
     step_matrices,
 )
@@ -401,7 +402,9 @@ class StateSpaceModel(_ModelBase):
             Absolute measured output.
         x0 : {"estimate", "zero"} or array_like, shape (n,), optional
             ``"estimate"`` (default) fits the initial deviation state by least squares (the
-            output is affine in ``x0``); ``"zero"`` or an array use that state.
+            output is affine in ``x0``), each output divided by its spread
+            (:func:`~hdpbsid.models.simulation.output_weights`: the same state in any
+            units); ``"zero"`` or an array use that state.
         method : {"zoh", "foh"}, optional
             Input between samples, as in :meth:`simulate`.
         time_unit : str or None, optional
@@ -448,7 +451,7 @@ class StateSpaceModel(_ModelBase):
             if x0 == "estimate" and self.n > 0 and not is_uniform(t):
                 # non-uniform steps: one pass for the forced and all free responses
                 y_sim, O = forced_and_free(self, t, ud, method)
-                x0v = initial_state(O, (y - Y0 - y_sim).ravel())
+                x0v = initial_state(O, (y - Y0 - y_sim).ravel(), output_weights(y))
                 y_sim = y_sim + Y0 + (O @ x0v).reshape(y.shape)
                 vaf, nrmse = fit_statistics(y, y_sim)
                 return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
@@ -462,7 +465,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = initial_state(O, (y - y_sim).ravel())
+                x0v = initial_state(O, (y - y_sim).ravel(), output_weights(y))
                 y_sim = y_sim + (O @ x0v).reshape(y.shape)
         else:
             x0v = check_x0(self, x0)
@@ -524,7 +527,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = initial_state(O, (yd - yp).ravel())
+                x0v = initial_state(O, (yd - yp).ravel(), output_weights(yd))
                 yp = yp + (O @ x0v).reshape(yd.shape)
         else:
             x0v = check_x0(self, x0)
@@ -557,7 +560,8 @@ class StateSpaceModel(_ModelBase):
             errors are the model's innovations; a large ``k`` approaches :meth:`simulate`.
         x0 : {"estimate", "zero"} or array_like, shape (n,), optional
             ``"estimate"`` (least squares on the prediction errors, in which the predictions
-            are affine), ``"zero"`` or the initial deviation state.
+            are affine; each output divided by its spread, as in :meth:`fit`), ``"zero"``
+            or the initial deviation state.
         method : {"zoh", "foh"}, optional
             Input between samples.
         time_unit : str or None, optional

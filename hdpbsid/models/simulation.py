@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 __all__ = [
     "step_groups",
     "initial_state",
+    "output_weights",
     "check_input",
     "check_x0",
     "check_output",
@@ -46,15 +47,51 @@ __all__ = [
 Array = NDArray[np.float64]
 
 
-def initial_state(O: Array, r: Array) -> Array:
-    """Least-squares ``x0`` of ``O x0 ~ r``.
+def output_weights(y: Array) -> Array:
+    """Weights ``1 / std(y_i)`` that put every output of ``y`` on the same scale.
+
+    The initial state fitted to several outputs at once is a least-squares compromise
+    between them; unweighted, an output measured in small units (a rate in rad/s beside
+    an acceleration in m/s^2) barely enters it, and its own errors grow by what the
+    initial state does for the others.  With each output divided by its own spread the
+    fit is the same in any units, the normalisation of the fit statistics
+    (``NRMSE``, MATLAB's ``fit``) and of the held-out scores
+    (:mod:`hdpbsid.models.criteria`).
+
+    Parameters
+    ----------
+    y : ndarray, shape (Ns, l)
+        The outputs (deviations or absolute: the spread is about each output's mean).
+
+    Returns
+    -------
+    ndarray, shape (l,)
+        ``1 / std(y_i)``; an output with no spread (or not finite) keeps weight 1.
+
+    Examples
+    --------
+    >>> output_weights(np.array([[0.0, 0.0], [2.0, 0.02]]))
+    array([  1., 100.])
+    """
+    with np.errstate(invalid="ignore", over="ignore"):
+        s = np.std(np.asarray(y, dtype=float), axis=0)
+    ok = np.isfinite(s) & (s > 0.0)
+    return np.where(ok, 1.0 / np.where(ok, s, 1.0), 1.0)
+
+
+def initial_state(O: Array, r: Array, weights: Array | None = None) -> Array:
+    """Least-squares ``x0`` of ``O x0 ~ r``, the rows weighted per output.
 
     Parameters
     ----------
     O : ndarray, shape (q, n)
-        The free responses from each unit initial state, stacked.
+        The free responses from each unit initial state, stacked: row ``j l + i`` is
+        output ``i`` at sample ``j`` (a ``(Ns, l)`` response raveled).
     r : ndarray, shape (q,)
-        What the initial state has to explain.
+        What the initial state has to explain, in the same order.
+    weights : ndarray, shape (l,), optional
+        Weight of each output's rows (:func:`output_weights`: the fit independent of
+        the outputs' units); default 1.
 
     Returns
     -------
@@ -82,6 +119,9 @@ def initial_state(O: Array, r: Array) -> Array:
     """
     if not (np.all(np.isfinite(O)) and np.all(np.isfinite(r))):
         raise np.linalg.LinAlgError("initial_state: the free response is not finite")
+    if weights is not None and r.size:
+        w = np.tile(np.asarray(weights, dtype=float), r.size // np.size(weights))
+        O, r = O * w[:, None], r * w
     po = int(scale_exponents(O.ravel(), "O")[0]) if O.size else 0
     pr = int(scale_exponents(r, "r")[0]) if r.size else 0
     x = np.linalg.lstsq(np.ldexp(O, po), np.ldexp(r, pr), rcond=None)[0]

@@ -91,6 +91,7 @@ from hdpbsid.core.normal_equations import lstsq_residuals
 from hdpbsid.data.checks import check_data, is_uniform
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import WARM_START_OPTION, Choice, Refinement, WarmStart
+from hdpbsid.models.simulation import output_weights
 from hdpbsid.models.uncertainty import ParameterCovariance
 from hdpbsid.refine.pem_covariance import _abcd_factor, _eigenvalue_std
 from hdpbsid.refine.pem_focus import FOCUSES, simulation_focus
@@ -811,8 +812,10 @@ def one_step_errors(
 
     The numbers of :meth:`~hdpbsid.models.model.StateSpaceModel.predict` (``k=1``,
     ``x0="estimate"``, ``method=hold``), computed by the compiled passes of the
-    refinement (:mod:`hdpbsid.refine.pem_residuals`) with unit output weighting: the
-    errors ``eps_k`` of the criterion of :func:`refine_pem`.
+    refinement (:mod:`hdpbsid.refine.pem_residuals`): the errors ``eps_k`` of the
+    criterion of :func:`refine_pem`, the initial state fitted with each output divided
+    by its spread (:func:`~hdpbsid.models.simulation.output_weights`) so that the errors
+    of one output do not depend on the units of the others.
 
     Parameters
     ----------
@@ -858,8 +861,9 @@ def one_step_errors(
     pr = sampled_predictor(model.A, model.B, model.C, model.D, model.K, h, hold, feedthrough)
     if not _is_stable(np.linalg.eigvals(pr.F)):
         return None
-    r = _residuals(theta, lay, u, y, h, hold, np.eye(model.l))
-    return np.asarray(r).reshape(model.l, -1).T
+    w = output_weights(y)  # the initial state fitted as predict fits it
+    r = _residuals(theta, lay, u, y, h, hold, np.diag(w))
+    return (np.asarray(r).reshape(model.l, -1) / w[:, None]).T
 
 
 def _fits_feedthrough(model: StateSpaceModel) -> bool:
