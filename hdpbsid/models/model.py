@@ -438,12 +438,18 @@ class StateSpaceModel(_ModelBase):
         self.check_record(t, time_unit)
         return self._fit(t, u, y, x0, method)
 
-    def _fit(self, t: Any, u: Any, y: Any, x0: Any, method: str) -> FitResult:
+    def _fit(
+        self, t: Any, u: Any, y: Any, x0: Any, method: str, weights: Array | None = None
+    ) -> FitResult:
+        """:meth:`fit` with the initial state fitted under the output ``weights`` (default
+        :func:`~hdpbsid.models.simulation.output_weights` of ``y``; a scorer passes the
+        square roots of its own weights, so the state minimises what it scores)."""
         t = check_time(t, "t")
         y = check_output(self, t, y)
         t, u = check_input(self, t, u, method)
         U0, Y0 = self.operating_point(t)
         ud = u - U0
+        w = output_weights(y) if weights is None else weights
         if isinstance(x0, str):
             if x0 not in ("estimate", "zero"):
                 raise ValueError(f"x0 must be 'estimate', 'zero' or an array, got {x0!r}")
@@ -451,7 +457,7 @@ class StateSpaceModel(_ModelBase):
             if x0 == "estimate" and self.n > 0 and not is_uniform(t):
                 # non-uniform steps: one pass for the forced and all free responses
                 y_sim, O = forced_and_free(self, t, ud, method)
-                x0v = initial_state(O, (y - Y0 - y_sim).ravel(), output_weights(y))
+                x0v = initial_state(O, (y - Y0 - y_sim).ravel(), w)
                 y_sim = y_sim + Y0 + (O @ x0v).reshape(y.shape)
                 vaf, nrmse = fit_statistics(y, y_sim)
                 return FitResult(vaf=vaf, nrmse=nrmse, y_sim=y_sim, x0=x0v)
@@ -465,7 +471,7 @@ class StateSpaceModel(_ModelBase):
                     ],
                     axis=1,
                 )
-                x0v = initial_state(O, (y - y_sim).ravel(), output_weights(y))
+                x0v = initial_state(O, (y - y_sim).ravel(), w)
                 y_sim = y_sim + (O @ x0v).reshape(y.shape)
         else:
             x0v = check_x0(self, x0)
