@@ -441,9 +441,9 @@ class StateSpaceModel(_ModelBase):
     def _fit(
         self, t: Any, u: Any, y: Any, x0: Any, method: str, weights: Array | None = None
     ) -> FitResult:
-        """:meth:`fit` with the initial state fitted under the output ``weights`` (default
-        :func:`~hdpbsid.models.simulation.output_weights` of ``y``; a scorer passes the
-        square roots of its own weights, so the state minimises what it scores)."""
+        """:meth:`fit` with the initial state fitted under the output ``weights``, default
+        :func:`~hdpbsid.models.simulation.output_weights` of ``y`` (the held-out window
+        scorer of :mod:`hdpbsid.models.criteria` passes ones: the reason there)."""
         t = check_time(t, "t")
         y = check_output(self, t, y)
         t, u = check_input(self, t, u, method)
