@@ -449,11 +449,11 @@ class StateSpaceModel(_ModelBase):
         t, u = check_input(self, t, u, method)
         U0, Y0 = self.operating_point(t)
         ud = u - U0
-        w = output_weights(y) if weights is None else weights
         if isinstance(x0, str):
             if x0 not in ("estimate", "zero"):
                 raise ValueError(f"x0 must be 'estimate', 'zero' or an array, got {x0!r}")
             x0v = np.zeros(self.n)
+            w = output_weights(y) if weights is None else weights
             if x0 == "estimate" and self.n > 0 and not is_uniform(t):
                 # non-uniform steps: one pass for the forced and all free responses
                 y_sim, O = forced_and_free(self, t, ud, method)

@@ -47,11 +47,10 @@ def _eigenvalue_std(lay: _Layout, theta: Array, Q: Array, J: Array, cost: float)
 def _abcd_factor(lay: _Layout, Q: Array, J: Array, cost: float, ys: Array, us: Array) -> Array:
     """The covariance factor of ``[vec A, vec B, vec C, vec D]`` in the record's units
     (:class:`hdpbsid.models.uncertainty.ParameterCovariance`): ``cov(beta) = s^2
-    (J^T J)^+`` of the
-    local coordinates (as :func:`_eigenvalue_std`), mapped by ``theta = theta_0 + Q beta``
-    (rows of ``K`` dropped, zero rows for a ``D`` that is not a parameter) and by the
-    unit scaling of :func:`~hdpbsid.refine.pem_residuals._unscale` (``B / us``, ``ys C``,
-    ``ys D / us``)."""
+    (J^T J)^+`` of the local coordinates (as :func:`_eigenvalue_std`), mapped by
+    ``theta = theta_0 + Q beta`` (rows of ``K`` dropped, zero rows for a ``D`` that is
+    not a parameter) and by the unit scaling of
+    :func:`~hdpbsid.refine.pem_residuals._unscale` (``B / us``, ``ys C``, ``ys D / us``)."""
     n, m, l = lay.n, lay.m, lay.l
     F = Q @ covariance_factor(cost * np.linalg.pinv(J.T @ J))
     s = lay.stops
