@@ -12,12 +12,14 @@ import numpy as np
 
 from hdpbsid.data.checks import is_uniform
 from hdpbsid.models.criteria import (
+    SIGNIFICANCE_Z,
     WindowedError,
     choose_smallest_adequate,
     windowed_simulation_error,
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
+from hdpbsid.selection.feedthrough import paired_z
 from hdpbsid.selection.iterate import keep_iterate
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
 from hdpbsid.selection.policy import SELECTION_POLICY
@@ -123,12 +125,16 @@ def rejudge_refined(
     declares the record closed loop (:func:`looks_closed_loop`, on the chosen
     candidate's errors over the estimation part; in open loop the subspace candidates
     are consistent and the ranking is not biased), the next larger order is refined too
-    and replaces the decision when, refined, it beats it by more than one standard error
-    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate` with the smaller order
-    listed first: the burden of proof on the larger order) in the held-out score and in
-    the windowed simulation error (the plant's own: an order is the plant's, and a
-    larger order that predicts better only through its noise model adds no mode of it),
-    and so on upwards.
+    and replaces the decision when, refined, the data resolve it -- its held-out score
+    better by more than one standard error (the smaller order listed first: the burden
+    of proof on the larger order), or its likelihood on the estimation part higher by
+    more than the Bayesian information criterion's price of a state
+    (:func:`_larger_resolved`) -- when it adds no mode slower than the record resolves
+    (a drift or offset the smaller order leaves, :func:`_unresolved_modes`), and when
+    its windowed simulation error is better by more than one paired standard error (the
+    plant's own: an order is the plant's, and a larger order that predicts better only
+    through its noise model adds no mode of it, :func:`_plant_resolves`); and so on
+    upwards.
 
     Each refined candidate's score is added to its row (``refined_error``,
     ``refined_fit``).  ``n_jobs``: the refinements known to be needed at the start (the
@@ -263,43 +269,123 @@ def _larger_refined(
 ) -> tuple[CandidateRow, str]:
     """*Up* (:func:`rejudge_refined`): from order ``n_up`` (the one after the order the
     one-standard-error rule chose) upwards, each order's best candidate of ``best_of``
-    replaces ``chosen`` while, refined, it beats it by more than one standard error (the
-    smaller order listed first); the candidate kept and the rule's text."""
+    replaces ``chosen`` while, refined, the data resolve it (:func:`_larger_resolved`),
+    it adds no mode slower than the record resolves (:func:`_unresolved_modes`) and its
+    plant simulates better (:func:`_plant_resolves`); the candidate kept and the rule's
+    text."""
     rule = ""
+    span = float(np.ptp(np.asarray(est[0], dtype=float)))
     while n_up in best_of:
-        e_now = _refined_error(chosen, est, val, windows)
-        e_up = _refined_error(best_of[n_up], est, val, windows)
-        if not (e_now.finite and e_up.finite):
+        up = best_of[n_up]
+        evidence = _larger_resolved(chosen, up, est, val, windows)
+        if evidence is None:
             break
-        step, z = choose_smallest_adequate([e_now, e_up])
-        if step != 1:
-            break
-        plant = _plant_resolves(chosen, best_of[n_up], val, windows)
-        if plant is None:
+        head = f"; closed loop (feedback test): refined, {up.method} order {n_up} {evidence}"
+        slow = _unresolved_modes(up, span) - _unresolved_modes(chosen, span)
+        if slow > 0:
             rule += (
-                f"; closed loop (feedback test): refined, {best_of[n_up].method} order "
-                f"{n_up} predicts better by {z[0]:.1f} SE, but its plant does not simulate "
-                "better by more than 1 SE: not taken"
+                f"{head}, but it adds a mode slower than 2 pi / T = {2 * np.pi / span:.3g} "
+                "rad/s (a drift over the record, not a mode it resolves): not taken"
             )
             break
-        chosen = best_of[n_up]
-        rule += (
-            f"; closed loop (feedback test): refined, {chosen.method} order "
-            f"{chosen.order} beats order {chosen.order - 1} by {z[0]:.1f} SE "
-            f"(its simulation by {plant:.1f} SE)"
-        )
+        plant = _plant_resolves(chosen, up, val, windows)
+        if plant is None:
+            rule += f"{head}, but its plant does not simulate better by more than 1 SE: not taken"
+            break
+        chosen = up
+        rule += f"{head} (its simulation better by {plant:.1f} paired SE)"
         n_up += 1
     return chosen, rule
 
 
+def _larger_resolved(
+    now: CandidateRow, up: CandidateRow, est: tuple, val: tuple, windows: int
+) -> str | None:
+    """How the data resolve the refined larger order ``up`` against the refined ``now``
+    (the rule's text), or None when they do not.
+
+    Two tests, either of which resolves it:
+
+    * the held-out part: ``up``'s one-step prediction error is more than one standard
+      error below ``now``'s (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`,
+      ``now`` listed first: the one-standard-error rule with the burden of proof on the
+      larger order);
+    * the estimation part, on which both were refined by the prediction-error method
+      (maximum likelihood for Gaussian innovations): the likelihood ratio ``N (log det
+      S_now - log det S_up)`` of their one-step errors' covariances ``S`` exceeds the
+      Bayesian information criterion's price ``k ln N`` of the ``k = 2 l + m``
+      parameters a state adds to an innovations model (a row of ``A`` in an observable
+      canonical form, of ``B`` and of ``K``; Schwarz 1978; Ljung, *System
+      Identification*, 2nd ed., 1999, sec. 16.4).  The held-out windows are few (the
+      last third of the record cut into tens of windows), and the window-to-window
+      spread of the errors, which the one-standard-error rule measures against, can
+      hide a mode that the whole estimation part resolves by hundreds of likelihood
+      units; the information criterion is consistent (the true order as ``N`` grows)
+      and its price grows with ``ln N``, so it does not take a state that only fits the
+      noise.
+
+    Both models must have been refined (``refined_model``): a subspace estimate's
+    likelihood is not the maximum of its order's.
+    """
+    e_now = _refined_error(now, est, val, windows)
+    e_up = _refined_error(up, est, val, windows)
+    if not (e_now.finite and e_up.finite):
+        return None
+    step, z = choose_smallest_adequate([e_now, e_up])
+    if step == 1:
+        return f"predicts the held-out part better by {z[0]:.1f} SE"
+    if now.refined_model is None or up.refined_model is None:
+        return None
+    ratio, price = _likelihood_ratio(now.refined_model, up.refined_model, est)
+    if ratio > price:
+        return (
+            f"raises the likelihood on the estimation part by {ratio:.0f} units "
+            f"(-2 log ratio; its information criterion price {price:.0f})"
+        )
+    return None
+
+
+def _likelihood_ratio(now: StateSpaceModel, up: StateSpaceModel, est: tuple) -> tuple[float, float]:
+    """``(N (log det S_now - log det S_up), (2 l + m) ln N)``: the ``-2 log`` likelihood
+    ratio of two models' one-step errors on ``est``
+    (:func:`~hdpbsid.refine.pem.one_step_errors`, ``S`` their covariance) and the
+    Bayesian information criterion's price of one more state (:func:`_larger_resolved`);
+    ``-inf`` when a predictor is unstable."""
+    from hdpbsid.refine.pem import one_step_errors
+
+    logdets = []
+    for model in (now, up):
+        errors = one_step_errors(model, *est)
+        if errors is None:
+            return -np.inf, 0.0
+        n = errors.shape[0]
+        logdets.append(n * float(np.linalg.slogdet(errors.T @ errors / n)[1]))
+    l, m = up.C.shape[0], up.B.shape[1]
+    return logdets[0] - logdets[1], (2 * l + m) * float(np.log(n))
+
+
+def _unresolved_modes(row: CandidateRow, span: float) -> int:
+    """The number of modes of ``row``'s (refined) model slower than ``2 pi / span``, the
+    frequency resolution of a record ``span`` seconds long: over the record such a mode
+    (``|lambda| span < 2 pi``: less than a period, or a decay of less than ``e^{-2 pi}``)
+    is not told apart from a drift or an offset the model does not otherwise explain, so
+    an order that adds one fits the record's trend, not a mode of the plant."""
+    model = row.model if row.refined_model is None else row.refined_model
+    return int(np.sum(np.abs(np.linalg.eigvals(model.A)) * span < 2 * np.pi))
+
+
 def _plant_resolves(now: CandidateRow, up: CandidateRow, val: tuple, windows: int) -> float | None:
     """The larger order's margin in standard errors when its refined plant simulates the
-    held-out part better than the refined ``now`` by more than one standard error
-    (:func:`~hdpbsid.models.criteria.choose_smallest_adequate`, ``now`` listed first);
-    None when it does not.  A larger order that predicts better only through its
-    noise model (``K``) adds no mode of the plant: the order is the plant's, so its
-    extra state must show in the plant's own error, the simulation error (as
-    :func:`~hdpbsid.selection.iterate.keep_iterate` asks of an iterate)."""
+    held-out part better than the refined ``now`` by more than one standard error of
+    their paired difference (:func:`~hdpbsid.selection.feedthrough.paired_z` on the
+    same windows, :data:`~hdpbsid.models.criteria.SIGNIFICANCE_Z`); None when it does
+    not.  A larger order that predicts better only through its noise model (``K``) adds
+    no mode of the plant: the order is the plant's, so its extra state must show in the
+    plant's own error, the simulation error (as
+    :func:`~hdpbsid.selection.iterate.keep_iterate` asks of an iterate).  Paired,
+    because the two models simulate the same windows and share their noise: the
+    window-to-window spread that the one-standard-error rule measures against is not
+    the uncertainty of their difference."""
     models = [r.model if r.refined_model is None else r.refined_model for r in (now, up)]
     try:
         errors = [windowed_simulation_error(m, *val, windows) for m in models]
@@ -307,5 +393,5 @@ def _plant_resolves(now: CandidateRow, up: CandidateRow, val: tuple, windows: in
         return None
     if not all(e.finite for e in errors):
         return None
-    step, z = choose_smallest_adequate(errors)
-    return z[0] if step == 1 else None
+    z = paired_z(*errors)
+    return z if z > SIGNIFICANCE_Z else None
