@@ -314,9 +314,10 @@ def _larger_resolved(
       (maximum likelihood for Gaussian innovations): the likelihood ratio ``N (log det
       S_now - log det S_up)`` of their one-step errors' covariances ``S`` exceeds the
       Bayesian information criterion's price ``k ln N`` of the ``k = 2 l + m``
-      parameters a state adds to an innovations model (a row of ``A`` in an observable
-      canonical form, of ``B`` and of ``K``; Schwarz 1978; Ljung, *System
-      Identification*, 2nd ed., 1999, sec. 16.4).  The held-out windows are few (the
+      parameters a state adds to an innovations model (``n (2 l + m) + l m`` free
+      parameters in a pseudo-canonical form of order ``n``, ``l`` outputs and ``m``
+      inputs; Schwarz 1978; Ljung, *System Identification*, 2nd ed., 1999, secs. 4.3
+      and 16.4).  The held-out windows are few (the
       last third of the record cut into tens of windows), and the window-to-window
       spread of the errors, which the one-standard-error rule measures against, can
       hide a mode that the whole estimation part resolves by hundreds of likelihood
