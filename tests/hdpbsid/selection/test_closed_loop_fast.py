@@ -216,6 +216,19 @@ def test_the_defaults_estimate_the_direct_term_and_the_fast_modes() -> None:
     assert np.max(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(A))) < 0.10
 
 
+def _stepped_up_to_four(t: np.ndarray, u: np.ndarray, y: np.ndarray) -> tuple:
+    """``identify`` with every default on the record, checked to have stepped up to
+    order 4 from the order 3 that the one-standard-error rule alone keeps (the
+    premise of the step-up tests); the model and its selection rule."""
+    model = identify(t, u, y)
+    rows = model.options["selection"]
+    z3 = min(r["z"] for r in rows if r["order"] == 3 and r["z"] is not None)
+    assert z3 <= 1.0, rows
+    rule = model.options["selection_rule"]
+    assert model.n == 4, rule
+    return model, rule
+
+
 def test_a_larger_order_biased_as_a_subspace_candidate_is_refined() -> None:
     """A slower observer (-15..-24 rad/s, inside the band of the fast modes): the
     subspace candidates of orders 3 and 4 tie on the held-out one-step prediction, so
@@ -224,13 +237,7 @@ def test_a_larger_order_biased_as_a_subspace_candidate_is_refined() -> None:
     simulates better by more than one standard error each: the closed-loop step up
     (:func:`hdpbsid.selection.rejudge.rejudge_order`) takes it."""
     t, u, y = _loop_record(1, 30.0, 20.0, (-15.0, -18.0, -21.0, -24.0))
-    model = identify(t, u, y)
-    rows = model.options["selection"]
-    # the premise: the one-standard-error rule alone would keep order 3
-    z3 = min(r["z"] for r in rows if r["order"] == 3 and r["z"] is not None)
-    assert z3 <= 1.0, rows
-    rule = model.options["selection_rule"]
-    assert model.n == 4, rule
+    model, rule = _stepped_up_to_four(t, u, y)
     assert "closed loop (feedback test): refined" in rule
     # 30 s at 20 dB resolve the -28 rad/s mode to a few per cent
     assert np.max(eigenvalue_errors(model.eigenvalues, np.linalg.eigvals(A))) < 0.10
@@ -244,13 +251,7 @@ def test_a_mode_the_estimation_part_resolves_is_taken_in_closed_loop() -> None:
     step up takes it, and the fast modes come with it."""
     plant = block_diag(-22.0, -8.0, [[-0.6, 7.0], [-7.0, -0.6]])
     t, u, y = _loop_record(0, 30.0, 20.0, plant=plant)
-    model = identify(t, u, y)
-    rows = model.options["selection"]
-    # the premise: the one-standard-error rule alone keeps order 3
-    z3 = min(r["z"] for r in rows if r["order"] == 3 and r["z"] is not None)
-    assert z3 <= 1.0, rows
-    rule = model.options["selection_rule"]
-    assert model.n == 4, rule
+    model, rule = _stepped_up_to_four(t, u, y)
     assert "raises the likelihood on the estimation part" in rule
     # the oracle: order 4 fitted from the true system against the library's order 3,
     # -2 log likelihood ratio on the whole record, beyond BIC's price of one state
