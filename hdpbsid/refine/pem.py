@@ -123,6 +123,7 @@ from hdpbsid.runtime import library_call, user_stacklevel
 __all__ = [
     "refine_pem",
     "one_step_errors",
+    "prediction_log_det",
     "warm_start_option",
     "is_uniform",
     "REFINE_CHOICES",
@@ -864,6 +865,40 @@ def one_step_errors(
     w = output_weights(y)  # the initial state fitted as predict fits it
     r = _residuals(theta, lay, u, y, h, hold, np.diag(w))
     return (np.asarray(r).reshape(model.l, -1) / w[:, None]).T
+
+
+def prediction_log_det(
+    model: StateSpaceModel, t: Any, u: Any, y: Any, hold: str | None = None
+) -> float | None:
+    """``N log det S``, ``S`` the covariance of ``model``'s one-step errors on the record.
+
+    ``-2`` times the Gaussian log-likelihood with unknown innovation covariance, up to a
+    constant (the determinant criterion of :func:`refine_pem`): the difference of two
+    models' values on one record is their ``-2 log`` likelihood ratio.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model whose predictor is run (:func:`one_step_errors`).
+    t : array_like
+        Uniform sample times, ``(Ns,)``.
+    u : array_like or None
+        Absolute inputs, ``(Ns, m)``.
+    y : array_like
+        Absolute outputs, ``(Ns, l)``.
+    hold : {"zoh", "foh"} or None, optional
+        The input hold of the sampled predictor (as in :func:`one_step_errors`).
+
+    Returns
+    -------
+    float or None
+        ``N log det S``; None when the sampled predictor is unstable.
+    """
+    errors = one_step_errors(model, t, u, y, hold)
+    if errors is None:
+        return None
+    n = errors.shape[0]
+    return float(n * np.linalg.slogdet(errors.T @ errors / n)[1])
 
 
 def _fits_feedthrough(model: StateSpaceModel) -> bool:

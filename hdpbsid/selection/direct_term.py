@@ -321,7 +321,7 @@ def linear_hold_or_direct_term(
     from scipy.stats import chi2
 
     from hdpbsid.models.report import DirectTerm
-    from hdpbsid.refine.pem import one_step_errors, refine_pem
+    from hdpbsid.refine.pem import prediction_log_det, refine_pem
     from hdpbsid.refine.pem_settings import DEFAULT_SETTINGS
     from hdpbsid.selection.scoring import refinement_instability
 
@@ -351,13 +351,11 @@ def linear_hold_or_direct_term(
     unsound = refinement_instability(alt_start, alt, (t, u, y))
     if unsound:
         return refined, f"{what} not tested: {unsound}; D kept"
-    e1 = one_step_errors(refined, t, u, y, hold="zoh")
-    e0 = one_step_errors(alt, t, u, y, hold="foh")
-    if e0 is None or e1 is None:
+    v1 = prediction_log_det(refined, t, u, y, hold="zoh")
+    v0 = prediction_log_det(alt, t, u, y, hold="foh")
+    if v0 is None or v1 is None:
         return refined, f"{what} not tested: an unstable predictor; D kept"
-    n = e1.shape[0]
-    logdet = [np.linalg.slogdet(e.T @ e / n)[1] for e in (e0, e1)]
-    stat = float(n * (logdet[0] - logdet[1]))
+    stat = v0 - v1
     dof, level = refined.l * refined.m, FEEDTHROUGH_POLICY.linear_hold_level
     bound = float(chi2.ppf(1.0 - level, dof))
     test = (

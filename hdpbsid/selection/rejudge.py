@@ -349,20 +349,16 @@ def _larger_resolved(
 def _likelihood_ratio(now: StateSpaceModel, up: StateSpaceModel, est: tuple) -> tuple[float, float]:
     """``(N (log det S_now - log det S_up), (2 l + m) ln N)``: the ``-2 log`` likelihood
     ratio of two models' one-step errors on ``est``
-    (:func:`~hdpbsid.refine.pem.one_step_errors`, ``S`` their covariance) and the
+    (:func:`~hdpbsid.refine.pem.prediction_log_det`, ``S`` their covariance) and the
     Bayesian information criterion's price of one more state (:func:`_larger_resolved`);
     ``-inf`` when a predictor is unstable."""
-    from hdpbsid.refine.pem import one_step_errors
+    from hdpbsid.refine.pem import prediction_log_det
 
-    logdets = []
-    for model in (now, up):
-        errors = one_step_errors(model, *est)
-        if errors is None:
-            return -np.inf, 0.0
-        n = errors.shape[0]
-        logdets.append(n * float(np.linalg.slogdet(errors.T @ errors / n)[1]))
+    values = [prediction_log_det(model, *est) for model in (now, up)]
+    if values[0] is None or values[1] is None:
+        return -np.inf, 0.0
     l, m = up.C.shape[0], up.B.shape[1]
-    return logdets[0] - logdets[1], (2 * l + m) * float(np.log(n))
+    return values[0] - values[1], (2 * l + m) * float(np.log(np.size(est[0])))
 
 
 def _unresolved_modes(row: CandidateRow, span: float) -> int:
