@@ -4,7 +4,8 @@
   in the stages :mod:`~hdpbsid.selection.candidates` (the sweep),
   :mod:`~hdpbsid.selection.scoring` (scores and checks),
   :mod:`~hdpbsid.selection.order_rule` (the order and method choices),
-  :mod:`~hdpbsid.selection.rejudge` (the order among refined candidates),
+  :mod:`~hdpbsid.selection.rejudge` (the order among refined candidates; a drift mode,
+  :mod:`~hdpbsid.selection.drift`, is not counted as one of the plant),
   :mod:`~hdpbsid.selection.refits` (the model returned) and
   :mod:`~hdpbsid.selection.direct_term` (``feedthrough="auto"``), with the numbers of
   :mod:`~hdpbsid.selection.policy`;

@@ -52,6 +52,8 @@ class OrderReason(str, Enum):
     REFINED = "decided again between refined candidates: the smallest refined error"
     #: closed loop: refined, a larger order beats the decision by more than one SE
     REFINED_LARGER = "closed loop: refined, a larger order beats it by more than one SE"
+    #: refined, the order's extra mode is a drift of the record: the next smaller order
+    DRIFT = "refined, its extra mode is a drift of the record: the smaller order"
 
 
 @dataclass(frozen=True)

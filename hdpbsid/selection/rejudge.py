@@ -19,6 +19,7 @@ from hdpbsid.models.criteria import (
 )
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.selection.candidates import CandidateRow, _index
+from hdpbsid.selection.drift import drift_modes
 from hdpbsid.selection.feedthrough import paired_z
 from hdpbsid.selection.iterate import keep_iterate
 from hdpbsid.selection.order_rule import OrderChoice, OrderReason
@@ -116,6 +117,19 @@ def rejudge_refined(
     mode that adds little output variance, such as an unstable pole held back by the loop,
     whenever the smaller order comes within one standard error).
 
+    *Down over a drift.*  A state the chosen order spends on a drift of the record -- a
+    mode slower than the record resolves that the input drives less than the noise
+    (:func:`~hdpbsid.selection.drift.drift_modes`): an offset or a trend that each
+    held-out window's fitted initial state turns into a better score -- is no mode of
+    the plant.  At a high signal-to-noise ratio the held-out rule resolves that fit and
+    prefers the larger order by many standard errors, while in closed loop the true
+    order's subspace candidates can lie outside the window above through their own
+    bias.  So when the chosen model, refined, has such a mode, the best candidate of the
+    next smaller order takes part whatever its unrefined distance, and replaces it when,
+    refined, it has fewer drift modes and predicts the held-out part within one standard
+    error (:func:`_smaller_over_drift`); and so on downwards.  The step up is then not
+    taken (it would weigh the same state again).
+
     *Up.*  The bias can also make a too small order look adequate: in closed loop the
     subspace candidate of the larger order can be the biased one and tie with the
     smaller order, so the one-standard-error rule keeps the smaller, while refined, the
@@ -129,8 +143,9 @@ def rejudge_refined(
     better by more than one standard error (the smaller order listed first: the burden
     of proof on the larger order), or its likelihood on the estimation part higher by
     more than the Bayesian information criterion's price of a state
-    (:func:`_larger_resolved`) -- when it adds no mode slower than the record resolves
-    (a drift or offset the smaller order leaves, :func:`_unresolved_modes`), and when
+    (:func:`_larger_resolved`) -- when it adds no drift mode (:func:`_adds_drift`: a
+    mode slower than the record resolves that the input drives less than the noise; an
+    offset or trend the smaller order leaves), and when
     its windowed simulation error is better by more than one paired standard error (the
     plant's own: an order is the plant's, and a larger order that predicts better only
     through its noise model adds no mode of it, :func:`_plant_resolves`); and so on
@@ -200,8 +215,9 @@ def rejudge_order(
         ``order`` itself when there is nothing to decide; else the candidate chosen,
         with the reason :attr:`~hdpbsid.selection.order_rule.OrderReason.REFINED_LARGER`
         when a larger order replaced it, :attr:`~hdpbsid.selection.order_rule.
-        OrderReason.REFINED` when the orders up to it were decided again, and the text
-        the rule adds.
+        OrderReason.DRIFT` when a smaller one did over a drift mode,
+        :attr:`~hdpbsid.selection.order_rule.OrderReason.REFINED` when the orders up to
+        it were decided again, and the text the rule adds.
     """
     if isinstance(est[0], list | tuple) or not is_uniform(np.asarray(est[0], dtype=float)):
         return order
@@ -218,6 +234,10 @@ def rejudge_order(
     if lower:
         chosen, rule = _smallest_refined(lower, chosen, est, val, windows)
         reason = OrderReason.REFINED if rule else reason
+    before = chosen
+    chosen, more = _smaller_over_drift(chosen, ok, est, val, windows)
+    if chosen is not before:
+        return OrderChoice(_index(ok, chosen), order.stats, OrderReason.DRIFT, rule + more)
     if upward:
         before = chosen
         chosen, more = _larger_refined(chosen, best_of, n_star + 1, est, val, windows)
@@ -259,6 +279,53 @@ def _smallest_refined(
     )
 
 
+def _smaller_over_drift(
+    chosen: CandidateRow, ok: list[CandidateRow], est: tuple, val: tuple, windows: int
+) -> tuple[CandidateRow, str]:
+    """*Down over a drift* (:func:`rejudge_refined`): while ``chosen``'s refined model has
+    more drift modes (:func:`_adds_drift`) than the best candidate of the next smaller
+    order refined, and that candidate, refined, predicts the held-out part within one
+    standard error of ``chosen`` refined, the smaller order replaces it; the candidate
+    kept and the rule's text.
+
+    The state the larger order adds fits an offset or a trend of the record (the step
+    up refuses such a state for the same reason), and at a high signal-to-noise ratio
+    that fit is resolved: the held-out rule then prefers it by many standard errors of
+    the unrefined candidates, while the smaller order's subspace candidates sit outside
+    :attr:`~hdpbsid.selection.policy.SelectionPolicy.rejudge_z` through their own bias
+    (closed loop), which the noise's standard error does not bound.  So the smaller
+    order's best candidate takes part whatever its unrefined distance, and it must be
+    adequate refined (the one-standard-error rule, the larger order listed second) --
+    a smaller order the held-out part resolves as worse is not returned.  Checked only
+    when a drift mode shows, so a record without one pays no refinement for it."""
+    rule = ""
+    while drift_modes(_refined(chosen), est) > 0:
+        below = _best_of_order(ok, chosen.order - 1)
+        if below is None:
+            break
+        e_now = _refined_error(chosen, est, val, windows)
+        e_below = _refined_error(below, est, val, windows)
+        if not (e_now.finite and e_below.finite) or not _adds_drift(chosen, below, est):
+            break
+        step, z = choose_smallest_adequate([e_below, e_now])
+        if step != 0:
+            break
+        rule += (
+            f"; refined, order {chosen.order}: {_DRIFT_TEXT.format(resolution=_resolution(est))}"
+            f", and {below.method} order {below.order} refined is within {z[0]:.2g} SE of it:"
+            f" order {below.order}"
+        )
+        chosen = below
+    return chosen, rule
+
+
+def _best_of_order(ok: list[CandidateRow], n: int) -> CandidateRow | None:
+    """The candidate of order ``n`` with the smallest held-out error, at any distance
+    from the best; None when ``ok`` has none."""
+    rows = [r for r in ok if r.order == n and r.criterion.finite]
+    return min(rows, key=lambda r: r.criterion.total) if rows else None
+
+
 def _larger_refined(
     chosen: CandidateRow,
     best_of: dict[int, CandidateRow],
@@ -270,23 +337,17 @@ def _larger_refined(
     """*Up* (:func:`rejudge_refined`): from order ``n_up`` (the one after the order the
     one-standard-error rule chose) upwards, each order's best candidate of ``best_of``
     replaces ``chosen`` while, refined, the data resolve it (:func:`_larger_resolved`),
-    it adds no mode slower than the record resolves (:func:`_unresolved_modes`) and its
-    plant simulates better (:func:`_plant_resolves`); the candidate kept and the rule's
-    text."""
+    it adds no drift mode (:func:`_adds_drift`) and its plant simulates better
+    (:func:`_plant_resolves`); the candidate kept and the rule's text."""
     rule = ""
-    span = float(np.ptp(np.asarray(est[0], dtype=float)))
     while n_up in best_of:
         up = best_of[n_up]
         evidence = _larger_resolved(chosen, up, est, val, windows)
         if evidence is None:
             break
         head = f"; closed loop (feedback test): refined, {up.method} order {n_up} {evidence}"
-        slow = _unresolved_modes(up, span) - _unresolved_modes(chosen, span)
-        if slow > 0:
-            rule += (
-                f"{head}, but it adds a mode slower than 2 pi / T = {2 * np.pi / span:.3g} "
-                "rad/s (a drift over the record, not a mode it resolves): not taken"
-            )
+        if _adds_drift(up, chosen, est):
+            rule += f"{head}, but {_DRIFT_TEXT.format(resolution=_resolution(est))}: not taken"
             break
         plant = _plant_resolves(chosen, up, val, windows)
         if plant is None:
@@ -361,14 +422,29 @@ def _likelihood_ratio(now: StateSpaceModel, up: StateSpaceModel, est: tuple) -> 
     return values[0] - values[1], (2 * l + m) * float(np.log(np.size(est[0])))
 
 
-def _unresolved_modes(row: CandidateRow, span: float) -> int:
-    """The number of modes of ``row``'s (refined) model slower than ``2 pi / span``, the
-    frequency resolution of a record ``span`` seconds long: over the record such a mode
-    (``|lambda| span < 2 pi``: less than a period, or a decay of less than ``e^{-2 pi}``)
-    is not told apart from a drift or an offset the model does not otherwise explain, so
-    an order that adds one fits the record's trend, not a mode of the plant."""
-    model = row.model if row.refined_model is None else row.refined_model
-    return int(np.sum(np.abs(np.linalg.eigvals(model.A)) * span < 2 * np.pi))
+def _resolution(rec: tuple) -> float:
+    """``2 pi / T``, the frequency resolution of a record spanning ``T``."""
+    return 2 * np.pi / float(np.ptp(np.asarray(rec[0], dtype=float)))
+
+
+#: the rule's text when an order adds a drift mode (:func:`_adds_drift`)
+_DRIFT_TEXT = (
+    "it adds a mode slower than 2 pi / T = {resolution:.3g} rad/s that the input drives less "
+    "than the noise (a drift over the record, not a mode of the plant)"
+)
+
+
+def _refined(row: CandidateRow) -> StateSpaceModel:
+    return row.model if row.refined_model is None else row.refined_model
+
+
+def _adds_drift(larger: CandidateRow, smaller: CandidateRow, est: tuple) -> bool:
+    """Whether ``larger``'s (refined) model has more drift modes on ``est`` than
+    ``smaller``'s (:func:`~hdpbsid.selection.drift.drift_modes`: slower than the record
+    resolves, ``|lambda| T < 2 pi``, and driven by the input less than the noise): the
+    state it adds fits an offset or a trend of the record, not a mode of the plant.  A
+    plant mode as slow (an integrator) carries the input's effect and is not one."""
+    return drift_modes(_refined(larger), est) > drift_modes(_refined(smaller), est)
 
 
 def _plant_resolves(now: CandidateRow, up: CandidateRow, val: tuple, windows: int) -> float | None:

@@ -80,3 +80,69 @@ def test_a_candidate_whose_refinement_runs_out_of_budget_is_scored_by_its_iterat
     # six evaluations from a start 30 % too slow: not converged, yet far better
     assert refined is not None and not refined.report.converged
     assert score.total < score_model(start, val, WINDOWS)[0].total
+
+
+def _scored(model: StateSpaceModel, val: tuple, order: int) -> CandidateRow:
+    """A candidate judged as refined already (its refined model itself, scored on
+    ``val``): the step down then needs no refinement."""
+    from hdpbsid.selection.scoring import score_model
+
+    row = CandidateRow("dt", order, model=model)
+    row.criterion = row.refined_criterion = score_model(model, val, WINDOWS)[0]
+    row.refined_model = model
+    return row
+
+
+def _with_slow_mode(b_slow: float) -> StateSpaceModel:
+    """The record's pair and a third mode at -0.01 rad/s (``|lambda| T = 0.27`` over the
+    27 s estimation part) seen at the output and driven through ``b_slow``."""
+    A3 = np.zeros((3, 3))
+    A3[:2, :2], A3[2, 2] = A, -0.01
+    return StateSpaceModel(A3, np.vstack([B, [[b_slow]]]), np.hstack([C, [[1.0]]]),
+                           np.zeros((1, 1)), np.zeros((3, 1)))  # fmt: skip
+
+
+def _split(cut: int = 1334) -> tuple[tuple, tuple]:
+    t, u, y = white_record(0)
+    return (t[:cut], u[:cut], y[:cut]), (t[cut:], u[cut:], y[cut:])
+
+
+def test_a_drift_mode_steps_down_to_the_adequate_smaller_order() -> None:
+    """Order 3 is the true pair plus a mode the input does not reach: a drift; the true
+    pair (order 2) predicts the held-out part as well, so it replaces it."""
+    from hdpbsid.selection.rejudge import _smaller_over_drift
+
+    est, val = _split()
+    truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((2, 1)))
+    below, chosen = _scored(truth, val, 2), _scored(_with_slow_mode(0.0), val, 3)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    assert kept is below and "drift" in rule
+
+
+def test_a_drift_mode_stays_when_the_smaller_order_is_resolved_worse() -> None:
+    """The smaller order with half the static gain is many standard errors worse on the
+    held-out part (20 dB): the step down does not return it."""
+    from hdpbsid.selection.rejudge import _smaller_over_drift
+
+    est, val = _split()
+    wrong = StateSpaceModel(A, 0.5 * B, C, np.zeros((1, 1)), np.zeros((2, 1)))
+    below, chosen = _scored(wrong, val, 2), _scored(_with_slow_mode(0.0), val, 3)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    assert kept is chosen and rule == ""
+
+
+def test_no_drift_mode_no_step_and_no_refinement() -> None:
+    """A model without a drift mode is not compared with the smaller order, whose
+    candidate is then never refined (a record without one pays nothing for the step)."""
+    from hdpbsid.selection.rejudge import _smaller_over_drift
+
+    est, val = _split()
+    truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((2, 1)))
+    chosen = _scored(truth, val, 2)
+    below = CandidateRow("dt", 1, model=StateSpaceModel([[-1.0]], [[1.0]], [[1.0]],
+                                                         [[0.0]], [[0.0]]))  # fmt: skip
+    from hdpbsid.selection.scoring import score_model
+
+    below.criterion = score_model(below.model, val, WINDOWS)[0]
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    assert kept is chosen and rule == "" and below.refined_criterion is None
