@@ -27,7 +27,7 @@ from hdpbsid.methods.registry import call_method
 from hdpbsid.models.criteria import WindowedError
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
-from hdpbsid.selection.feedthrough import with_d
+from hdpbsid.selection.feedthrough import honours_feedthrough, with_d, without_own_d
 from hdpbsid.selection.scoring import looks_closed_loop, score_model, stationarity_problem
 
 __all__ = [
@@ -173,6 +173,11 @@ class CandidateRow:
     passed_floor : bool
         Whether it passed the floor of the refits
         (:func:`~hdpbsid.selection.refits._first_that_holds`).
+    own_d_removed : bool
+        Whether the direct term its method estimated of its own accord was set to zero
+        because the data chose the structure without ``D``
+        (:func:`~hdpbsid.selection.feedthrough.without_own_d`); its settled fit and its
+        refit are then made the same structure.
 
     Examples
     --------
@@ -197,6 +202,7 @@ class CandidateRow:
     first_pass: FirstPass | None = None
     settled: bool = False
     passed_floor: bool = False
+    own_d_removed: bool = False
 
     def as_row(self) -> dict[str, Any]:
         """The candidate's entry in the table of the selection (``options["selection"]``,
@@ -417,6 +423,8 @@ def settle_candidate(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = est.fit(func, row.order, **given, held_out=val)
+            if row.own_d_removed and not honours_feedthrough(model):
+                model = without_own_d(model)  # the structure it was judged in
             # a time series' model that is not stationary is no candidate
             bad = bool(stationarity_problem(model))
             err, use_k = (None, False) if bad else score_model(model, val, windows)

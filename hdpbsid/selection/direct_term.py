@@ -14,7 +14,13 @@ import numpy as np
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import MIN_WINDOWS, choose_smallest_adequate, default_windows
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.selection.candidates import CandidateRow, FitRecord, _fit_one, _sweep
+from hdpbsid.selection.candidates import (
+    CandidateRow,
+    FitRecord,
+    _fit_one,
+    _predictor_name,
+    _sweep,
+)
 from hdpbsid.selection.feedthrough import (
     FEEDTHROUGH_POLICY,
     Offer,
@@ -23,8 +29,10 @@ from hdpbsid.selection.feedthrough import (
     judge_direct_term,
     structure_key,
     takes_feedthrough,
+    without_own_d,
 )
 from hdpbsid.selection.policy import HOLDOUT
+from hdpbsid.selection.scoring import score_model
 
 __all__ = ["decide_feedthrough", "linear_hold_or_direct_term"]
 
@@ -99,10 +107,15 @@ def _choose_structure(
     ``feedthrough=`` (a method with its own ``D`` would otherwise stand for "without
     ``D``"), and its candidates then compete in the pool of the structure chosen, as
     candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
-    others with ``D``)."""
+    others with ``D``), and with their ``D`` removed and scored again when the data
+    refuse it or show no direct term (:func:`_without_own_d`): kept, it would let them
+    win by the term refused, and under a controller reacting within the sample that
+    term predicts the noise through the controller."""
     why = offer.why
     scored = [r for r in extra if r.criterion is not None and r.criterion.finite]
     if not scored:
+        if not offer.offered:  # the data show no direct term
+            return _without_own_d(ok, val, windows), why
         return ok, why + ("; no candidate with D could be scored" if extra else "")
     own = [r for r in ok if not honours_feedthrough(r.model)]
     plain = [r for r in ok if honours_feedthrough(r.model)]
@@ -123,10 +136,29 @@ def _choose_structure(
         f"{b.order}: {choice.text()}"
     )
     if not choice.value:
-        return ok, text
+        return _without_own_d(ok, val, windows), text
     for r in own:
         r.settings = {**r.settings, "feedthrough": True}
     return sorted(scored + own, key=structure_key), text
+
+
+def _without_own_d(ok: list[CandidateRow], val: tuple, windows: int) -> list[CandidateRow]:
+    """The pool of the structure without ``D``: every candidate of ``ok`` whose method
+    estimated a direct term of its own (:func:`~hdpbsid.selection.feedthrough.
+    honours_feedthrough` False) has it set to zero
+    (:func:`~hdpbsid.selection.feedthrough.without_own_d`) and is scored again on the
+    held-out part, so that it competes in the structure the data chose and not by a term
+    they refused; sorted again by :func:`~hdpbsid.selection.feedthrough.structure_key`.
+    A candidate that cannot be scored without its ``D`` keeps it."""
+    for r in ok:
+        if r.model is None or honours_feedthrough(r.model) or not np.any(r.model.D):
+            continue
+        model = without_own_d(r.model)
+        err, use_k = score_model(model, val, windows)
+        if err.finite:
+            r.model, r.criterion, r.predictor = model, err, _predictor_name(use_k)
+            r.own_d_removed = True
+    return sorted(ok, key=structure_key)
 
 
 def _feedthrough_report(model: StateSpaceModel, ok: list[CandidateRow], why: str) -> str:

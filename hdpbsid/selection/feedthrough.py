@@ -125,6 +125,7 @@ __all__ = [
     "judge_direct_term",
     "check_feedthrough",
     "honours_feedthrough",
+    "without_own_d",
     "feedthrough_offered",
     "Offer",
     "input_innovation",
@@ -515,6 +516,50 @@ def honours_feedthrough(model: StateSpaceModel) -> bool:
     """
     fd = model.report.feedthrough
     return fd is not None and not fd.by_method and model.m > 0
+
+
+def without_own_d(model: StateSpaceModel) -> StateSpaceModel:
+    """``model`` with the direct term its method estimated of its own accord set to zero
+    (:func:`honours_feedthrough` False: the Laguerre-domain ``D_d`` mapped back), as a
+    structure without ``D``: ``options["feedthrough"]`` False, reported as not
+    estimated, the method's own description kept in ``options["feedthrough_method"]``.
+
+    Where the data decided that the model has no direct term, a candidate whose method
+    estimates one anyway would compete with the candidates without it on a term the
+    decision refused; with a controller that reacts within the sample that term
+    predicts the measurement noise through the controller (module docstring), and
+    the candidate wins by it.  Its dynamics are kept: for a plant without a direct term
+    the mapped-back ``D`` is estimation error, and the refinement refits ``B``, ``C``
+    without it.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        A model whose ``D`` its method estimated whatever it was asked.
+
+    Returns
+    -------
+    StateSpaceModel
+        A copy with ``D = 0``; ``model`` itself when it has no input.
+    """
+    import dataclasses
+
+    from hdpbsid.models.report import DirectTerm
+
+    if model.m == 0:
+        return model
+    own = model.report.feedthrough
+    options = {
+        **model.options,
+        "feedthrough": False,
+        "feedthrough_method": None if own is None else own.reason,
+    }
+    return dataclasses.replace(
+        model,
+        D=np.zeros_like(model.D),
+        options=options,
+        report=model.report.but(feedthrough=DirectTerm(False, False)),
+    )
 
 
 def takes_feedthrough(method: str) -> bool:

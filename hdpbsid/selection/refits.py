@@ -30,7 +30,7 @@ from hdpbsid.selection.candidates import (
     refit_keeps,
     settle_candidate,
 )
-from hdpbsid.selection.feedthrough import honours_feedthrough, with_d
+from hdpbsid.selection.feedthrough import honours_feedthrough, with_d, without_own_d
 from hdpbsid.selection.order_rule import _admitted, _ranked
 from hdpbsid.selection.policy import NoCandidate, SelectionWarning
 from hdpbsid.selection.scoring import (
@@ -105,6 +105,8 @@ def _refit(
     kept = refit_keeps(func, chosen.model, given, closed)
     settings = {**given, **kept, **_refit_settings(chosen.model)}
     model = whole.fit(func, chosen.order, **settings)
+    if chosen.own_d_removed and not honours_feedthrough(model):
+        model = without_own_d(model)  # judged as a structure without D
     if with_d(chosen) and not honours_feedthrough(model) and model.m:
         # judged as a structure with D: D is a parameter of the refinement
         # (hdpbsid.refine.pem), whatever the method says of its own D

@@ -186,6 +186,70 @@ def test_closed_loop_with_an_instantaneous_controller_keeps_d_zero():
         assert np.all(model.D == 0.0)
 
 
+def test_without_own_d_is_the_structure_without_d():
+    """A Laguerre model (its ``D`` estimated whatever it is asked) made a structure
+    without ``D``: ``D`` exactly zero and reported so, its dynamics and noise model
+    unchanged."""
+    from hdpbsid.selection.feedthrough import honours_feedthrough, without_own_d
+
+    t, u, y = _open_loop(0, 0.0)
+    own = _quiet(hdpbsid.identify, t, u, y, 2, method="laguerre", refine=None)
+    assert not honours_feedthrough(own) and np.any(own.D != 0.0)
+    plain = without_own_d(own)
+    assert np.all(plain.D == 0.0) and honours_feedthrough(plain)
+    assert not plain.report.feedthrough.estimated and plain.options["feedthrough"] is False
+    for name in ("A", "B", "C", "K"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(own, name))
+
+
+def _servo(seed: int, snr_db: float = 20.0, ns: int = 3000, h: float = 0.01):
+    """A position servo: ``3 / (s (s + 3))`` (an integrator and a pole at -3 rad/s)
+    sampled exactly (ZOH) under the proportional controller ``u_k = 2 (r_k - y_k)`` on
+    the measured position, which reacts within the sample (``u_k`` depends on the
+    measurement noise ``e_k``); ``r`` random signs held 0.5 s, ``e`` white at ``snr_db``
+    of the noise-free output.  The loop's poles are -1.5 +- 1.9i rad/s."""
+    from scipy.linalg import expm
+
+    A = np.array([[0.0, 1.0], [0.0, -3.0]])
+    B = np.array([[0.0], [3.0]])
+    E = expm(np.block([[A, B], [np.zeros((1, 3))]]) * h)
+    Ad, Bd = E[:2, :2], E[:2, 2]
+    rng = np.random.default_rng(seed)
+    r = np.repeat(rng.choice([-1.0, 1.0], ns // 50 + 1), 50)[:ns]
+
+    def run(noise):
+        x, u, y = np.zeros(2), np.empty(ns), np.empty(ns)
+        for k in range(ns):
+            y[k] = x[0] + noise[k]
+            u[k] = 2.0 * (r[k] - y[k])
+            x = Ad @ x + Bd * u[k]
+        return u, y
+
+    clean = run(np.zeros(ns))[1]
+    u, y = run(rng.standard_normal(ns) * np.sqrt(np.mean(clean**2)) * 10 ** (-snr_db / 20))
+    return h * np.arange(ns), u[:, None], y[:, None]
+
+
+def test_a_method_with_its_own_direct_term_competes_without_it():
+    """Under a controller reacting within the sample, a direct term predicts the noise
+    through the controller.  The rule refuses ``D``; a method that estimates ``D`` of its
+    own (Laguerre's ``D_d`` mapped back) then competes without it: with its own ``D`` it
+    won the selection at order 7 on this record by that prediction, with poles the
+    servo does not have.  With every default: ``D = 0`` exactly, order 2, the pole at
+    -3 rad/s and the integrator."""
+    t, u, y = _servo(0)
+    model = _quiet(hdpbsid.identify, t, u, y)
+    rule = model.options["feedthrough_rule"]
+    # the premise: D offered in closed loop and refused, Laguerre candidates in the pool
+    assert "closed loop" in rule and rule.endswith("returned: D = 0"), rule
+    assert any(row["method"] == "laguerre" for row in model.options["selection"])
+    assert np.all(model.D == 0.0) and model.n == 2, model.options["selection_rule"]
+    ev = np.sort(model.eigenvalues.real)
+    # 30 s at 20 dB: the pole within 5 % (measured 0.7 %), the integrator within
+    # 0.05 rad/s of zero (measured 0.001; the record resolves 2 pi / 30 s = 0.2 rad/s)
+    assert abs(ev[0] / -3.0 - 1.0) < 0.05 and abs(ev[1]) < 0.05
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_closed_loop_with_a_sample_of_delay_estimates_the_direct_term(seed):
     """A loop with one sample of delay (u_k from y_{k-1}) and a direct term of twice the
