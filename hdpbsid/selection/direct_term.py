@@ -107,15 +107,16 @@ def _choose_structure(
     ``feedthrough=`` (a method with its own ``D`` would otherwise stand for "without
     ``D``"), and its candidates then compete in the pool of the structure chosen, as
     candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
-    others with ``D``), and with their ``D`` removed and scored again when the data
-    refuse it or show no direct term (:func:`_without_own_d`): kept, it would let them
-    win by the term refused, and under a controller reacting within the sample that
-    term predicts the noise through the controller."""
+    others with ``D``), and with their ``D`` removed and scored again when the
+    candidates with ``D`` were fitted and lost (:func:`_without_own_d`): kept, it would
+    let them win by the term the judgement refused, and under a controller reacting
+    within the sample that term predicts the noise through the controller.  Where no
+    candidate with ``D`` was judged (``D`` not offered), their own ``D`` stays: at an
+    order below the plant's it stands for the static gain of the fast modes left out,
+    and removing it there made more records worse than better."""
     why = offer.why
     scored = [r for r in extra if r.criterion is not None and r.criterion.finite]
     if not scored:
-        if not offer.offered:  # the data show no direct term
-            return _without_own_d(ok, val, windows), why
         return ok, why + ("; no candidate with D could be scored" if extra else "")
     own = [r for r in ok if not honours_feedthrough(r.model)]
     plain = [r for r in ok if honours_feedthrough(r.model)]
