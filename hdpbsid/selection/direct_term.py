@@ -107,13 +107,14 @@ def _choose_structure(
     ``feedthrough=`` (a method with its own ``D`` would otherwise stand for "without
     ``D``"), and its candidates then compete in the pool of the structure chosen, as
     candidates with ``D`` when ``D`` is chosen (they then rank and tie with the
-    others with ``D``), and with their ``D`` removed and scored again when the
-    candidates with ``D`` were fitted and lost (:func:`_without_own_d`): kept, it would
-    let them win by the term the judgement refused, and under a controller reacting
-    within the sample that term predicts the noise through the controller.  Where no
-    candidate with ``D`` was judged (``D`` not offered), their own ``D`` stays: at an
-    order below the plant's it stands for the static gain of the fast modes left out,
-    and removing it there made more records worse than better."""
+    others with ``D``).  In closed loop, where a controller reacting within the sample
+    could give a direct term part of the error (``offer.bound > 0``), their ``D`` is
+    removed and they are scored again when the candidates with ``D`` were fitted and
+    lost (:func:`_without_own_d`): kept, it would let them win by the term the
+    judgement refused, which there predicts the measurement noise through the
+    controller.  In open loop the input does not carry the noise, and their own ``D``
+    stays: at an order below the plant's it stands for the static gain of the fast
+    modes left out (removed also there, more records came out worse than better)."""
     why = offer.why
     scored = [r for r in extra if r.criterion is not None and r.criterion.finite]
     if not scored:
@@ -137,7 +138,9 @@ def _choose_structure(
         f"{b.order}: {choice.text()}"
     )
     if not choice.value:
-        return _without_own_d(ok, val, windows), text
+        # in closed loop only: there a controller's instantaneous path is what an own D
+        # would predict (offer.bound > 0); in open loop it is the method's own estimate
+        return (_without_own_d(ok, val, windows) if offer.bound > 0 else ok), text
     for r in own:
         r.settings = {**r.settings, "feedthrough": True}
     return sorted(scored + own, key=structure_key), text

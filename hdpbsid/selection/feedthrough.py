@@ -524,7 +524,7 @@ def without_own_d(model: StateSpaceModel) -> StateSpaceModel:
     structure without ``D``: ``options["feedthrough"]`` False, reported as not
     estimated, the method's own description kept in ``options["feedthrough_method"]``.
 
-    Where the judgement refused a direct term, a candidate whose method
+    Where the judgement refused a direct term in closed loop, a candidate whose method
     estimates one anyway would compete with the candidates without it on a term the
     decision refused; with a controller that reacts within the sample that term
     predicts the measurement noise through the controller (module docstring), and
