@@ -175,7 +175,7 @@ class CandidateRow:
         (:func:`~hdpbsid.selection.refits._first_that_holds`).
     own_d_removed : bool
         Whether the direct term its method estimated of its own accord was set to zero
-        because the data chose the structure without ``D``
+        because the judgement refused ``D`` on a closed-loop record
         (:func:`~hdpbsid.selection.feedthrough.without_own_d`); its settled fit and its
         refit are then made the same structure.
 

@@ -459,7 +459,7 @@ def _plant_resolves(now: CandidateRow, up: CandidateRow, val: tuple, windows: in
     because the two models simulate the same windows and share their noise: the
     window-to-window spread that the one-standard-error rule measures against is not
     the uncertainty of their difference."""
-    models = [r.model if r.refined_model is None else r.refined_model for r in (now, up)]
+    models = [_refined(r) for r in (now, up)]
     try:
         errors = [windowed_simulation_error(m, *val, windows) for m in models]
     except ValueError:
