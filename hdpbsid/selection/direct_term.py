@@ -138,22 +138,27 @@ def _choose_structure(
         f"{b.order}: {choice.text()}"
     )
     if not choice.value:
-        # in closed loop only: there a controller's instantaneous path is what an own D
-        # would predict (offer.bound > 0); in open loop it is the method's own estimate
-        return (_without_own_d(ok, val, windows) if offer.bound > 0 else ok), text
+        return _without_own_d(ok, val, windows, offer), text
     for r in own:
         r.settings = {**r.settings, "feedthrough": True}
     return sorted(scored + own, key=structure_key), text
 
 
-def _without_own_d(ok: list[CandidateRow], val: tuple, windows: int) -> list[CandidateRow]:
-    """The pool of the structure without ``D``: every candidate of ``ok`` whose method
-    estimated a direct term of its own (:func:`~hdpbsid.selection.feedthrough.
-    honours_feedthrough` False) has it set to zero
-    (:func:`~hdpbsid.selection.feedthrough.without_own_d`) and is scored again on the
-    held-out part, so that it competes in the structure the data chose and not by a term
-    they refused; sorted again by :func:`~hdpbsid.selection.feedthrough.structure_key`.
-    A candidate that cannot be scored without its ``D`` keeps it."""
+def _without_own_d(
+    ok: list[CandidateRow], val: tuple, windows: int, offer: Offer
+) -> list[CandidateRow]:
+    """The pool of the structure without ``D`` after the judgement refused it: in closed
+    loop (``offer.bound > 0``: a controller reacting within the sample could give a
+    direct term part of the error), every candidate of ``ok`` whose method estimated a
+    direct term of its own (:func:`~hdpbsid.selection.feedthrough.honours_feedthrough`
+    False) has it set to zero (:func:`~hdpbsid.selection.feedthrough.without_own_d`)
+    and is scored again on the held-out part, so that it competes in the structure
+    chosen and not by a term refused; sorted again by
+    :func:`~hdpbsid.selection.feedthrough.structure_key`.  In open loop ``ok`` as it
+    is (:func:`_choose_structure`).  A candidate that cannot be scored without its
+    ``D`` keeps it."""
+    if offer.bound <= 0:
+        return ok
     for r in ok:
         if r.model is None or honours_feedthrough(r.model) or not np.any(r.model.D):
             continue
