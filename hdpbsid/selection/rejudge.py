@@ -124,11 +124,13 @@ def rejudge_refined(
     the plant.  At a high signal-to-noise ratio the held-out rule resolves that fit and
     prefers the larger order by many standard errors, while in closed loop the true
     order's subspace candidates can lie outside the window above through their own
-    bias.  So when the chosen model, refined, has such a mode, the best candidate of the
-    next smaller order takes part whatever its unrefined distance, and replaces it when,
-    refined, it has fewer drift modes and predicts the held-out part within one standard
-    error (:func:`_smaller_over_drift`); and so on downwards.  The step up is then not
-    taken (it would weigh the same state again).
+    bias.  So on a record the feedback test declares closed loop, when the chosen model,
+    refined, has such a mode, the best candidate of the next smaller order takes part
+    whatever its unrefined distance, and replaces it when, refined, it has fewer drift
+    modes and predicts the held-out part within one standard error
+    (:func:`_smaller_over_drift`); and so on downwards.  The step up is then not taken
+    (it would weigh the same state again).  In open loop the held-out ranking of
+    consistent candidates stands.
 
     *Up.*  The bias can also make a too small order look adequate: in closed loop the
     subspace candidate of the larger order can be the biased one and tie with the
@@ -235,7 +237,7 @@ def rejudge_order(
         chosen, rule = _smallest_refined(lower, chosen, est, val, windows)
         reason = OrderReason.REFINED if rule else reason
     before = chosen
-    chosen, more = _smaller_over_drift(chosen, ok, est, val, windows)
+    chosen, more = _smaller_over_drift(chosen, ok, est, val, windows, ok[k].model)
     if chosen is not before:
         return OrderChoice(_index(ok, chosen), order.stats, OrderReason.DRIFT, rule + more)
     if upward:
@@ -280,13 +282,27 @@ def _smallest_refined(
 
 
 def _smaller_over_drift(
-    chosen: CandidateRow, ok: list[CandidateRow], est: tuple, val: tuple, windows: int
+    chosen: CandidateRow,
+    ok: list[CandidateRow],
+    est: tuple,
+    val: tuple,
+    windows: int,
+    tested: StateSpaceModel,
 ) -> tuple[CandidateRow, str]:
-    """*Down over a drift* (:func:`rejudge_refined`): while ``chosen``'s refined model has
+    """*Down over a drift* (:func:`rejudge_refined`): on a record the feedback test
+    declares closed loop (:func:`looks_closed_loop` on the errors of ``tested``, the
+    candidate the one-standard-error rule chose), while ``chosen``'s refined model has
     more drift modes (:func:`_adds_drift`) than the best candidate of the next smaller
     order refined, and that candidate, refined, predicts the held-out part within one
     standard error of ``chosen`` refined, the smaller order replaces it; the candidate
     kept and the rule's text.
+
+    Closed loop only, as the step up: what puts the smaller order out of the window of
+    the other steps is the closed-loop bias of its subspace candidates.  In open loop
+    the candidates are consistent and the held-out ranking that chose the drift mode
+    stands; there the mode models a disturbance the record carries on (a sensor drift
+    of a measured-like record, which its validation part continued: removing the mode
+    cost two points of validation fit).
 
     The state the larger order adds fits an offset or a trend of the record (the step
     up refuses such a state for the same reason), and at a high signal-to-noise ratio
@@ -299,6 +315,8 @@ def _smaller_over_drift(
     a smaller order the held-out part resolves as worse is not returned.  Checked only
     when a drift mode shows, so a record without one pays no refinement for it."""
     rule = ""
+    if drift_modes(_refined(chosen), est) == 0 or not looks_closed_loop(tested, est):
+        return chosen, rule
     while drift_modes(_refined(chosen), est) > 0:
         below = _best_of_order(ok, chosen.order - 1)
         if below is None:

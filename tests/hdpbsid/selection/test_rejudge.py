@@ -107,7 +107,16 @@ def _split(cut: int = 1334) -> tuple[tuple, tuple]:
     return (t[:cut], u[:cut], y[:cut]), (t[cut:], u[cut:], y[cut:])
 
 
-def test_a_drift_mode_steps_down_to_the_adequate_smaller_order() -> None:
+@pytest.fixture
+def closed(monkeypatch):
+    """The feedback test declaring the (open-loop) record closed loop: the step down
+    over a drift is a closed-loop step, its mechanics are tested on the white record."""
+    import hdpbsid.selection.rejudge as rejudge
+
+    monkeypatch.setattr(rejudge, "looks_closed_loop", lambda model, rec: True)
+
+
+def test_a_drift_mode_steps_down_to_the_adequate_smaller_order(closed) -> None:
     """Order 3 is the true pair plus a mode the input does not reach: a drift; the true
     pair (order 2) predicts the held-out part as well, so it replaces it."""
     from hdpbsid.selection.rejudge import _smaller_over_drift
@@ -115,11 +124,11 @@ def test_a_drift_mode_steps_down_to_the_adequate_smaller_order() -> None:
     est, val = _split()
     truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((2, 1)))
     below, chosen = _scored(truth, val, 2), _scored(_with_slow_mode(0.0), val, 3)
-    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS, chosen.model)
     assert kept is below and "drift" in rule
 
 
-def test_a_drift_mode_stays_when_the_smaller_order_is_resolved_worse() -> None:
+def test_a_drift_mode_stays_when_the_smaller_order_is_resolved_worse(closed) -> None:
     """The smaller order with half the static gain is many standard errors worse on the
     held-out part (20 dB): the step down does not return it."""
     from hdpbsid.selection.rejudge import _smaller_over_drift
@@ -127,11 +136,11 @@ def test_a_drift_mode_stays_when_the_smaller_order_is_resolved_worse() -> None:
     est, val = _split()
     wrong = StateSpaceModel(A, 0.5 * B, C, np.zeros((1, 1)), np.zeros((2, 1)))
     below, chosen = _scored(wrong, val, 2), _scored(_with_slow_mode(0.0), val, 3)
-    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS, chosen.model)
     assert kept is chosen and rule == ""
 
 
-def test_no_drift_mode_no_step_and_no_refinement() -> None:
+def test_no_drift_mode_no_step_and_no_refinement(closed) -> None:
     """A model without a drift mode is not compared with the smaller order, whose
     candidate is then never refined (a record without one pays nothing for the step)."""
     from hdpbsid.selection.rejudge import _smaller_over_drift
@@ -144,5 +153,17 @@ def test_no_drift_mode_no_step_and_no_refinement() -> None:
     from hdpbsid.selection.scoring import score_model
 
     below.criterion = score_model(below.model, val, WINDOWS)[0]
-    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS, chosen.model)
     assert kept is chosen and rule == "" and below.refined_criterion is None
+
+
+def test_in_open_loop_the_held_out_ranking_stands() -> None:
+    """The same drift mode on the open-loop record (the feedback test finds no feedback):
+    the candidates are consistent, their ranking stands, and there is no step down."""
+    from hdpbsid.selection.rejudge import _smaller_over_drift
+
+    est, val = _split()
+    truth = StateSpaceModel(A, B, C, np.zeros((1, 1)), np.zeros((2, 1)))
+    below, chosen = _scored(truth, val, 2), _scored(_with_slow_mode(0.0), val, 3)
+    kept, rule = _smaller_over_drift(chosen, [below, chosen], est, val, WINDOWS, truth)
+    assert kept is chosen and rule == ""
