@@ -314,16 +314,19 @@ def _smaller_over_drift(
     adequate refined (the one-standard-error rule, the larger order listed second) --
     a smaller order the held-out part resolves as worse is not returned.  Checked only
     when a drift mode shows, so a record without one pays no refinement for it."""
-    rule = ""
-    if drift_modes(_refined(chosen), est) == 0 or not looks_closed_loop(tested, est):
+    rule, drifts = "", drift_modes(_refined(chosen), est)
+    if drifts == 0 or not looks_closed_loop(tested, est):
         return chosen, rule
-    while drift_modes(_refined(chosen), est) > 0:
+    while drifts > 0:
         below = _best_of_order(ok, chosen.order - 1)
         if below is None:
             break
         e_now = _refined_error(chosen, est, val, windows)
         e_below = _refined_error(below, est, val, windows)
-        if not (e_now.finite and e_below.finite) or not _adds_drift(chosen, below, est):
+        if not (e_now.finite and e_below.finite):
+            break
+        below_drifts = drift_modes(_refined(below), est)
+        if below_drifts >= drifts:  # as many drift modes below: the extra state is none
             break
         step, z = choose_smallest_adequate([e_below, e_now])
         if step != 0:
@@ -333,7 +336,7 @@ def _smaller_over_drift(
             f", and {below.method} order {below.order} refined is within {z[0]:.2g} SE of it:"
             f" order {below.order}"
         )
-        chosen = below
+        chosen, drifts = below, below_drifts
     return chosen, rule
 
 
