@@ -54,7 +54,7 @@ from hdpbsid.refine.pem_focus import warn_if_closed_loop
 from hdpbsid.runtime import library_call, user_stacklevel
 from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_decision, refine_plan, retried
-from hdpbsid.selection.feedthrough import check_feedthrough
+from hdpbsid.selection.feedthrough import check_feedthrough, with_d_asked
 from hdpbsid.selection.focus import choose_focus, given
 from hdpbsid.selection.iterate import IterateRule, keep_iterate
 
@@ -873,9 +873,11 @@ def _run(
     if order is None and method != "auto" and rule == "held-out":
         from hdpbsid.selection.auto import select_order
 
-        return select_order(method, *record, refined=refined, **judged, **options)
+        model = select_order(method, *record, refined=refined, **judged, **options)
+        return _d_asked(model, judged)
     if method == "auto":
-        return call_method(func, record, data, order=order, refined=refined, **judged, **options)
+        model = call_method(func, record, data, order=order, refined=refined, **judged, **options)
+        return _d_asked(model, judged)
     why = ""
     if judge_feedthrough and order is None:
         why = "auto: not judged (order_rule='svd' chooses the order on the whole record); D = 0"
@@ -887,4 +889,10 @@ def _run(
     model = call_method(func, record, data, order=order, **ft, **options)
     if why and isinstance(model, StateSpaceModel):
         model.options["feedthrough_rule"] = why
-    return model
+    return _d_asked(model, ft)
+
+
+def _d_asked(model: Any, settings: dict[str, Any]) -> Any:
+    """``model``, marked as fitted with ``D`` asked for when ``settings`` ask for it: a
+    parameter of the refinement, whatever its method's own ``D`` (:func:`with_d_asked`)."""
+    return with_d_asked(model) if settings.get("feedthrough") is True else model

@@ -107,6 +107,7 @@ from hdpbsid.models.criteria import (
     windowed_simulation_error,
 )
 from hdpbsid.models.model import StateSpaceModel
+from hdpbsid.models.report import DirectTerm
 from hdpbsid.selection.policy import MUCH_WORSE_RATIO
 
 if TYPE_CHECKING:  # the candidates import this rule; the type is for annotations only
@@ -126,6 +127,7 @@ __all__ = [
     "check_feedthrough",
     "honours_feedthrough",
     "without_own_d",
+    "with_d_asked",
     "feedthrough_offered",
     "Offer",
     "input_innovation",
@@ -518,6 +520,48 @@ def honours_feedthrough(model: StateSpaceModel) -> bool:
     return fd is not None and not fd.by_method and model.m > 0
 
 
+def with_d_asked(model: StateSpaceModel) -> StateSpaceModel:
+    """Mark ``model`` as fitted with ``D`` asked for, in place: ``D`` a parameter of the
+    model structure and so of the prediction-error refinement
+    (:mod:`hdpbsid.refine.pem`), whatever its method says of its own ``D`` (kept in
+    ``options["feedthrough_method"]``).
+
+    A method that estimates ``D`` in its own algebra whatever it is asked (the
+    Laguerre-domain ``D_d``, :func:`honours_feedthrough` False) reports it as its own,
+    and the refinement then keeps ``D`` at zero (the structure every method assumes by
+    default).  Where ``D`` was asked for -- by the user (``feedthrough=True``) or by the
+    held-out judgement of the direct term -- that is the structure, and this mark says
+    so.  A model whose method took ``feedthrough=True`` as the choice of ``D``, one
+    without inputs, or anything but a :class:`StateSpaceModel` is left as it is.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        A model fitted by a method with ``D`` asked for.
+
+    Returns
+    -------
+    StateSpaceModel
+        ``model`` itself, marked when it needs it.
+
+    Examples
+    --------
+    >>> from hdpbsid import StateSpaceModel
+    >>> from hdpbsid.models.report import DirectTerm
+    >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.2]], [[0.0]])
+    >>> m.report = m.report.but(feedthrough=DirectTerm(True, True, "own D"))
+    >>> with_d_asked(m).report.feedthrough.asked, m.options["feedthrough_method"]
+    (True, 'own D')
+    """
+    if not isinstance(model, StateSpaceModel) or not model.m or honours_feedthrough(model):
+        return model
+    own = model.report.feedthrough
+    model.options["feedthrough_method"] = None if own is None else own.reason
+    model.options["feedthrough"] = True
+    model.report = model.report.but(feedthrough=DirectTerm(True, False))
+    return model
+
+
 def without_own_d(model: StateSpaceModel) -> StateSpaceModel:
     """``model`` with the direct term its method estimated of its own accord set to zero
     (:func:`honours_feedthrough` False: the Laguerre-domain ``D_d`` mapped back), as a
@@ -543,8 +587,6 @@ def without_own_d(model: StateSpaceModel) -> StateSpaceModel:
         A copy with ``D = 0``; ``model`` itself when it has no input.
     """
     import dataclasses
-
-    from hdpbsid.models.report import DirectTerm
 
     if model.m == 0:
         return model

@@ -16,7 +16,7 @@ import numpy as np
 from hdpbsid.bases.basis_core import WindowReason
 from hdpbsid.models.criteria import choose_smallest_adequate
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.models.report import Choice, DirectTerm
+from hdpbsid.models.report import Choice
 from hdpbsid.runtime import user_stacklevel
 from hdpbsid.selection.candidates import (
     CandidateRow,
@@ -30,7 +30,12 @@ from hdpbsid.selection.candidates import (
     refit_keeps,
     settle_candidate,
 )
-from hdpbsid.selection.feedthrough import honours_feedthrough, with_d, without_own_d
+from hdpbsid.selection.feedthrough import (
+    honours_feedthrough,
+    with_d,
+    with_d_asked,
+    without_own_d,
+)
 from hdpbsid.selection.order_rule import _admitted, _ranked
 from hdpbsid.selection.policy import NoCandidate, SelectionWarning
 from hdpbsid.selection.scoring import (
@@ -98,7 +103,8 @@ def _refit(
     """Candidate ``chosen`` identified again on the ``whole`` record, with the user's
     settings, those it keeps from the candidate (:func:`refit_keeps`) and those its
     method chose on held-out data, and those kept settings.  A candidate judged as a
-    structure with ``D`` is marked as asked for it (:func:`_with_d_asked`)."""
+    structure with ``D`` is marked as asked for it
+    (:func:`~hdpbsid.selection.feedthrough.with_d_asked`)."""
     func = get_method(chosen.method)
     given = _given(chosen, opts)
     closed = closed_loop_refit(func, chosen.model, whole.arrays)
@@ -107,10 +113,10 @@ def _refit(
     model = whole.fit(func, chosen.order, **settings)
     if chosen.own_d_removed and not honours_feedthrough(model):
         model = without_own_d(model)  # judged as a structure without D
-    if with_d(chosen) and not honours_feedthrough(model) and model.m:
+    if with_d(chosen):
         # judged as a structure with D: D is a parameter of the refinement
         # (hdpbsid.refine.pem), whatever the method says of its own D
-        _with_d_asked(model)
+        with_d_asked(model)
     if chosen.p_rule is not None:
         _mark_window_rule(model, chosen.p_rule)
     return model, kept
@@ -165,16 +171,6 @@ def _accept_refit(model: StateSpaceModel, chosen: CandidateRow, kept: dict[str, 
         if "p" in kept:
             window = Choice(int(kept["p"]), rule, WindowReason.KEPT)
             model.report = model.report.but(past_window=window)
-
-
-def _with_d_asked(model: StateSpaceModel) -> None:
-    """Mark the refit ``model`` of a candidate judged as a structure with ``D`` as asked
-    for ``D``: a parameter of the refinement (:mod:`hdpbsid.refine.pem`), whatever the
-    method says of its own ``D`` (kept in ``options["feedthrough_method"]``)."""
-    own = model.report.feedthrough
-    model.options["feedthrough_method"] = None if own is None else own.reason
-    model.options["feedthrough"] = True
-    model.report = model.report.but(feedthrough=DirectTerm(True, False))
 
 
 def _carry_refit_settings(model: StateSpaceModel, candidate: StateSpaceModel) -> None:
