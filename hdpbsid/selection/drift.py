@@ -34,7 +34,7 @@ from scipy.signal import lfilter
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.recursion import modal_form
 
-__all__ = ["drift_modes", "input_driven_rms"]
+__all__ = ["drift_modes", "input_driven_rms", "undriven_modes"]
 
 
 def input_driven_rms(
@@ -100,6 +100,71 @@ def input_driven_rms(
     return lam, out
 
 
+def undriven_modes(model: StateSpaceModel, rec: tuple) -> np.ndarray | None:
+    """Which modes of ``model`` the input of the record ``rec = (t, u, y)`` drives, in
+    every output, less than the noise: the root mean square of the output it drives
+    through the mode (:func:`input_driven_rms`) below that of the model's one-step
+    prediction errors on the record.
+
+    Such a mode adds less to the output's response to the input than the noise the
+    record carries, at any of its samples' scales: the record holds no evidence of it
+    as a mode of the input-output system.  It is what a state spent on a drift of the
+    record (:func:`drift_modes`), on the noise model alone, or on an artefact of a
+    local minimum of the prediction error (a lightly damped pair near the Nyquist
+    frequency, a real mode far beyond the input's band) looks like.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model (continuous time).
+    rec : tuple
+        The uniformly sampled record ``(t, u, y)`` it is judged on.
+
+    Returns
+    -------
+    ndarray of bool or None
+        ``(n,)``, in the order of :func:`input_driven_rms`'s eigenvalues; None when it
+        cannot be judged (no input, a nearly defective ``A``, a one-step predictor that
+        diverges on the record).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdpbsid import StateSpaceModel
+    >>> t = np.arange(0.0, 100.0, 0.01)
+    >>> u = np.sign(np.sin(2.0 * t))[:, None]
+    >>> m = StateSpaceModel([[-1.0, 0.0], [0.0, -3.0]], [[1.0], [1e-4]], [[1.0, 1.0]],
+    ...                     [[0.0]], [[0.0], [0.0]])
+    >>> rng = np.random.default_rng(0)
+    >>> y = m.simulate(t, u) + 0.1 * rng.standard_normal((t.size, 1))
+    >>> undriven_modes(m, (t, u, y)).tolist()  # the second mode's input path is 1e-4
+    [False, True]
+    """
+    found = _undriven(model, rec)
+    return None if found is None else found[1]
+
+
+def _undriven(model: StateSpaceModel, rec: tuple) -> tuple[np.ndarray, np.ndarray] | None:
+    """The eigenvalues of ``model`` and :func:`undriven_modes`'s mask, or None."""
+    from hdpbsid.refine.pem import one_step_errors
+
+    t, u, y = rec
+    t = np.asarray(t, dtype=float)
+    if u is None:
+        return None
+    paths = input_driven_rms(model, t, u)
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        try:
+            errors = one_step_errors(model, t, u, y)
+        except (ValueError, np.linalg.LinAlgError):
+            errors = None
+    if paths is None or errors is None or not np.all(np.isfinite(errors)):
+        return None
+    noise = np.sqrt(np.mean(np.asarray(errors) ** 2, axis=0))
+    return paths[0], np.all(paths[1] < noise, axis=1)
+
+
 def drift_modes(model: StateSpaceModel, rec: tuple) -> int:
     """The number of modes of ``model`` that are a drift of the record ``rec = (t, u, y)``
     (module docstring): slower than ``2 pi / T`` and driven by the input, in every
@@ -118,24 +183,13 @@ def drift_modes(model: StateSpaceModel, rec: tuple) -> int:
         The number of such modes; 0 when it cannot be judged (no input, a nearly
         defective ``A``, a one-step predictor that diverges on the record).
     """
-    from hdpbsid.refine.pem import one_step_errors
-
-    t, u, y = rec
-    t = np.asarray(t, dtype=float)
+    t = np.asarray(rec[0], dtype=float)
     span = float(np.ptp(t))
     slow = np.abs(np.linalg.eigvals(np.asarray(model.A, dtype=float))) * span < 2 * np.pi
-    if u is None or not np.any(slow):
+    if rec[1] is None or not np.any(slow):
         return 0
-    paths = input_driven_rms(model, t, u)
-    with warnings.catch_warnings(), np.errstate(all="ignore"):
-        warnings.simplefilter("ignore")
-        try:
-            errors = one_step_errors(model, t, u, y)
-        except (ValueError, np.linalg.LinAlgError):
-            errors = None
-    if paths is None or errors is None or not np.all(np.isfinite(errors)):
+    found = _undriven(model, rec)
+    if found is None:
         return 0
-    lam, rms = paths
-    noise = np.sqrt(np.mean(np.asarray(errors) ** 2, axis=0))
-    drift = (np.abs(lam) * span < 2 * np.pi) & np.all(rms < noise, axis=1)
-    return int(np.sum(drift))
+    lam, undriven = found
+    return int(np.sum((np.abs(lam) * span < 2 * np.pi) & undriven))

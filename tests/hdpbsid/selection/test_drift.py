@@ -7,11 +7,12 @@ gain), and the invariance of modes under a change of state coordinates."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hdpbsid.models.model import StateSpaceModel
-from hdpbsid.selection.drift import drift_modes, input_driven_rms
+from hdpbsid.selection.drift import drift_modes, input_driven_rms, undriven_modes
 
 
 def _model(A, B, C) -> StateSpaceModel:
@@ -102,3 +103,25 @@ def test_the_count_does_not_depend_on_the_state_coordinates(entries: list[float]
         rec, m = _slow_record(b_slow)
         moved = _model(T @ m.A @ Ti, T @ m.B, m.C @ Ti)
         assert drift_modes(moved, rec) == expected
+
+
+@pytest.mark.parametrize(("noise_ratio", "expected"), [(0.5, False), (2.0, True)])
+def test_a_mode_is_undriven_below_the_noise_at_any_speed(noise_ratio, expected) -> None:
+    """``2 / (s + 5)`` driven by ``sin(2 t)`` (RMS ``2 / sqrt(29) / sqrt(2)``, its
+    frequency response) in white noise at ``noise_ratio`` times that RMS: the model's
+    one-step errors (``K = 0``) are the noise, so the mode is undriven exactly when the
+    noise is the larger.  A fast mode, never a drift."""
+    t, u = _sine(2.0, T=100.0, h=0.01)
+    model = _model([[-5.0]], [[2.0]], [[1.0]])
+    rms = 2.0 / np.sqrt(29.0) / np.sqrt(2.0)
+    rng = np.random.default_rng(0)
+    y = model.simulate(t, u) + noise_ratio * rms * rng.standard_normal((t.size, 1))
+    # a factor of two either side: the noise's sample RMS over 10^4 samples is within 2 %
+    assert undriven_modes(model, (t, u, y)).tolist() == [expected]
+    assert drift_modes(model, (t, u, y)) == 0
+
+
+def test_undriven_modes_cannot_be_judged_without_an_input() -> None:
+    t, u = _sine(2.0, T=10.0, h=0.01)
+    model = _model([[-5.0]], np.zeros((1, 0)), [[1.0]])
+    assert undriven_modes(model, (t, u[:, :0], np.zeros((t.size, 1)))) is None
