@@ -217,7 +217,7 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
         model, req.refine, several, *first.record, judged=judged, focus=req.focus
     )
     # a starting point offered to the refinement (method="auto"), not part of the result
-    model.report = model.report.but(warm_start=None)
+    model.report = model.report.but(warm_start=None, restarts=())
     if not several:
         _warn_if_fallback(model, first.model)
     _warn_if_biased_time_series(model)
@@ -678,6 +678,10 @@ def _refined(
         model = start  # in closed loop, offering the refinement a consistent start
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
         refined, note = retried(model, refined, t, u, y, stats)
+        rule += note
+        from hdpbsid.selection.restarts import restarted
+
+        refined, note = restarted(model, refined, t, u, y, bool((stats or {}).get("feedback")))
         rule += note
         unsound = _refinement_problem(model, refined, t, u, y)
         if unsound:

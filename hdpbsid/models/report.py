@@ -466,6 +466,11 @@ class IdentificationReport:
     warm_start : WarmStart or None, optional
         A starting point the next refinement of this model should be offered (not part of
         a finished identification's result).
+    restarts : tuple of WarmStart, optional
+        Other methods' models of the same order and structure the refinement may start
+        from again when its result has a mode the input does not drive
+        (:mod:`hdpbsid.selection.restarts`; not part of a finished identification's
+        result).
     timings : mapping of str to float, optional
         Seconds spent per stage.
     warnings : tuple of str, optional
@@ -498,6 +503,7 @@ class IdentificationReport:
     refine_decision: Choice[bool] | None = None
     focus: Choice[str] | None = None
     warm_start: WarmStart | None = None
+    restarts: tuple[WarmStart, ...] = ()
     timings: Mapping[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
 
@@ -507,6 +513,7 @@ class IdentificationReport:
         object.__setattr__(self, "timings", _copied(self.timings))
         object.__setattr__(self, "candidates", tuple(self.candidates))
         object.__setattr__(self, "warnings", tuple(self.warnings))
+        object.__setattr__(self, "restarts", tuple(self.restarts))
 
     def __repr__(self) -> str:
         parts = [f"method={self.method!r}"]

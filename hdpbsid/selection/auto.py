@@ -159,6 +159,7 @@ from hdpbsid.selection.policy import (
 )
 from hdpbsid.selection.refits import _choose, _unscored, _warn_if_much_worse
 from hdpbsid.selection.rejudge import rejudge_order, rejudge_refined
+from hdpbsid.selection.restarts import same_order_starts
 from hdpbsid.selection.scoring import (
     beats_the_mean,
     break_tie,
@@ -444,6 +445,12 @@ def _select(
     model, failures, note = _choose(
         get_method, ok, queue, est, whole, val, windows, opts, where, refined
     )
+    if refined and len(orders) == 1:
+        # the order given: nothing was refined before the final refinement, which may end
+        # in a spurious minimum (hdpbsid.selection.restarts); an order chosen in closed
+        # loop was decided between refinements restarted there (rejudge) and the final
+        # one is offered the chosen candidate's refinement as a warm start
+        model.report = model.report.but(restarts=same_order_starts(ok, model))
     rule = _rule_text(where, windows, time_series) + order.rule
     if failures:
         rule += "; not kept: " + "; ".join(why[1] for why in failures)
