@@ -467,8 +467,8 @@ class IdentificationReport:
         A starting point the next refinement of this model should be offered (not part of
         a finished identification's result).
     restarts : tuple of WarmStart, optional
-        Other methods' models of the same order and structure the refinement may start
-        from again when its result has a mode the input does not drive
+        Other candidates' models of the same order the refinement may start from again
+        when its result has a mode the input does not drive
         (:mod:`hdpbsid.selection.restarts`; not part of a finished identification's
         result).
     timings : mapping of str to float, optional

@@ -447,9 +447,10 @@ def _select(
     )
     if refined and len(orders) == 1:
         # the order given: nothing was refined before the final refinement, which may end
-        # in a spurious minimum (hdpbsid.selection.restarts); an order chosen in closed
-        # loop was decided between refinements restarted there (rejudge) and the final
-        # one is offered the chosen candidate's refinement as a warm start
+        # in a spurious minimum (hdpbsid.selection.restarts); an order chosen here offers
+        # the final refinement the chosen candidate's refinement as a warm start where the
+        # order decision refined it, and restarts at the orders above the plant's would
+        # be paid for and not used (their extra modes are undriven from any start)
         model.report = model.report.but(restarts=same_order_starts(ok, model))
     rule = _rule_text(where, windows, time_series) + order.rule
     if failures:

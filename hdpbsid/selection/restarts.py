@@ -25,10 +25,9 @@ of exactly the fits they cannot mend.  Only the symptom triggers it, so a record
 refined model has every mode driven pays nothing.  It runs in the final refinement on
 the whole record when the order was given.  With the order chosen, the final refinement
 is offered the chosen candidate's refinement on the estimation part as a warm start
-where the order decision refined it;
-restarting the refinements the order decision compares (closed loop) found the plant's
-order on more records, but every order above it paid a restart it could not use, and
-the time of the fits grew several-fold (the closed-loop fast-mode bench pages).
+where the order decision refined it.  Restarting also the refinements the order decision
+compares would let a larger order show a mode its own start hid, but every order above
+the plant's would pay for restarts it cannot use, each the time of a fit.
 
 In open loop the subspace candidates are consistent and a mode the input does not drive
 is the noise model's (a coloured disturbance the innovation model spends a state on):
