@@ -113,9 +113,11 @@ def _same_order_rows(
 
 
 def _asked(model: StateSpaceModel) -> bool:
-    """Whether ``D`` is a parameter of ``model``'s refinement (asked for)."""
-    fd = model.report.feedthrough
-    return fd is not None and fd.asked and model.m > 0
+    """Whether ``D`` is a parameter of ``model``'s refinement (asked for): the
+    refinement's own test (:func:`hdpbsid.refine.pem._fits_feedthrough`)."""
+    from hdpbsid.refine.pem import _fits_feedthrough
+
+    return _fits_feedthrough(model)
 
 
 def _structure(row: CandidateRow) -> bool:
