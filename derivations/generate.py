@@ -11,6 +11,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from slbasis import SturmLiouville
 from slbasis.families import families
 
 HERE = Path(__file__).resolve().parent
@@ -29,11 +30,15 @@ REPORTS: dict[str, dict[str, object]] = {
 }
 
 
+def problem(name: str) -> SturmLiouville:
+    """The catalogue problem of one entry of :data:`REPORTS`."""
+    family = "laguerre" if name == "laguerre_functions" else name
+    return families[family](**REPORTS[name])
+
+
 def report_text(name: str) -> str:
     """The Markdown report for one entry of :data:`REPORTS`."""
-    family = "laguerre" if name == "laguerre_functions" else name
-    problem = families[family](**REPORTS[name])
-    return problem.report(fmt="markdown")
+    return problem(name).report(fmt="markdown")
 
 
 def main(argv: list[str] | None = None) -> int:

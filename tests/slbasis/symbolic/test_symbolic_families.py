@@ -1,4 +1,5 @@
-"""verify(nmax=10) for every catalogue family, and the closed forms the issue names.
+"""The closed forms the issue names (``verify(nmax=10)`` of every catalogue family runs with
+its derivation report: ``tests/slbasis/test_derivations.py``).
 
 Oracles: exact arithmetic (sympy) throughout; the textbook closed forms (DLMF, sympy's own
 polynomials) live in ``slbasis.families`` and are compared inside ``verify``.
@@ -11,16 +12,6 @@ import sympy as sp
 
 from slbasis import SturmLiouville, families
 from slbasis.symbolic.parse import N, X
-
-
-@pytest.mark.parametrize("name", sorted(families))
-def test_catalogue_family_verifies(name: str) -> None:
-    report = families[name]().verify(nmax=10)
-    assert report.ok, str(report)
-    # every kind of check ran (a report that skipped them could not fail)
-    names = " ".join(c.name for c in report.checks)
-    for needle in ("ODE", "orthogonality", "ladder form == commutator", "sympy's textbook"):
-        assert needle in names
 
 
 def test_hermite_functions_reproduce_seed_eq_3_exactly() -> None:
