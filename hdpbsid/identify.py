@@ -56,7 +56,7 @@ from hdpbsid.selection import long_records as scaling
 from hdpbsid.selection.feedback import refine_decision, refine_plan, retried
 from hdpbsid.selection.feedthrough import check_feedthrough, with_d_asked
 from hdpbsid.selection.focus import choose_focus, given
-from hdpbsid.selection.iterate import IterateRule, keep_iterate
+from hdpbsid.selection.iterate import IterateRule, continued, keep_iterate
 
 __all__ = ["identify"]
 
@@ -213,6 +213,8 @@ def _refine_step(first: _FirstPass, req: _Request, several: bool, t_method: floa
     t_refine = time.perf_counter()
     timings = {"method": t_refine - t_method}
     judged = req.feedthrough == "auto"
+    if isinstance(req.order, int):  # an order given: its refinement goes on (continued)
+        model.report = model.report.but(order=Choice(model.n, "given"))
     model, rule = _refined(
         model, req.refine, several, *first.record, judged=judged, focus=req.focus
     )
@@ -678,6 +680,8 @@ def _refined(
         model = start  # in closed loop, offering the refinement a consistent start
         refined = refine_pem(model, t, u, y, warm_start=model.report.warm_start)
         refined, note = retried(model, refined, t, u, y, stats)
+        rule += note
+        refined, note = continued(refined, t, u, y)
         rule += note
         from hdpbsid.selection.restarts import restarted
 

@@ -1,4 +1,5 @@
-"""Whether a refinement its evaluation budget cut off is kept (:func:`keep_iterate`).
+"""A refinement its evaluation budget cut off: continued once (:func:`continued`), and
+whether it is kept (:func:`keep_iterate`).
 
 The prediction-error refinement (:func:`hdpbsid.refine.pem.refine_pem`) is a descent
 method: the iterate it returns costs less on the record than its start.  When the
@@ -22,12 +23,30 @@ model, and the start is an estimator's estimate.  Both have the same parameters,
 comparison on the record favours neither by its size.  A kept iterate's report says that
 the refinement did not converge (``report.refinement.converged`` is False), and its
 eigenvalue standard deviations are first-order at the iterate.
+
+Before that rule is asked, such an iterate goes on once from where it stopped
+(:func:`continued`), in its own input hold, with a budget of its own: the budget bounds a
+crawl, but a descent from a start far from the minimum -- a subspace estimate biased by
+feedback, whose refinement must move the fast modes a long way -- is cut off on its way
+to a minimum the data resolve.  The continuation is kept when its likelihood on the
+record is higher (the same parameters and data: the ``-2 log`` likelihood ratio needs no
+price; Ljung, *System Identification*, 2nd ed., 1999, sec. 7.4).  Once: a fit that
+stops short twice is the rare long crawl the budget is there to bound, and its iterate
+is judged by :func:`keep_iterate`.  Only at an order the user gave, whose estimate is the
+minimum of that order's cost: with the order chosen by the data, the final refinement
+starts where the order decision left it, and a descent cut off there can be one
+of an order above the plant's, whose extra state has no minimum the record resolves
+(its mode crawls along a flat valley, towards a lightly damped pair far above the
+plant's band): going on moves the plant no nearer.
 """
 
 from __future__ import annotations
 
 import enum
+import warnings
 from typing import Any
+
+import numpy as np
 
 from hdpbsid.data.checks import check_data
 from hdpbsid.models.criteria import (
@@ -40,7 +59,7 @@ from hdpbsid.models.criteria import (
 from hdpbsid.models.model import StateSpaceModel
 from hdpbsid.models.report import Choice
 
-__all__ = ["IterateRule", "keep_iterate"]
+__all__ = ["IterateRule", "continued", "keep_iterate"]
 
 
 class IterateRule(str, enum.Enum):
@@ -117,3 +136,59 @@ def keep_iterate(
         f"errors are more than {SIGNIFICANCE_Z:g} SE below its start's ({windows} windows)"
     )
     return Choice(True, text, IterateRule.RESOLVED)
+
+
+def continued(refined: StateSpaceModel, t: Any, u: Any, y: Any) -> tuple[StateSpaceModel, str]:
+    """``refined``, or its refinement continued once from where its evaluation budget
+    cut it off when that is likelier on the record, at an order the user gave (module
+    docstring), and the note for the refinement's rule (``""`` when ``refined`` is
+    kept).
+
+    Parameters
+    ----------
+    refined : StateSpaceModel
+        A prediction-error refinement (:func:`hdpbsid.refine.pem.refine_pem`) on the
+        record.
+    t, u, y : array_like
+        The uniformly sampled record it was refined on (the front end's detrended
+        signals).
+
+    Returns
+    -------
+    tuple of (StateSpaceModel, str)
+        The model kept and what the rule adds.
+
+    Examples
+    --------
+    A refinement that converged goes on no further:
+
+    >>> import numpy as np
+    >>> from hdpbsid import identify
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(2000) * 0.05
+    >>> u = rng.standard_normal((2000, 1))
+    >>> y = np.convolve(u[:, 0], np.exp(-t[:100]), "full")[:2000, None] * 0.05
+    >>> m = identify(t, u, y + 0.01 * rng.standard_normal(y.shape), order=1, method="dt")
+    >>> continued(m, t, u, y)[0] is m
+    True
+    """
+    fit, order = refined.report.refinement, refined.report.order
+    if fit is None or fit.converged or order is None or not order.given:
+        return refined, ""
+    from hdpbsid.refine.pem import prediction_log_det, refine_pem
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            again = refine_pem(refined, t, u, y, hold=refined.report.hold)
+        except (ValueError, np.linalg.LinAlgError):
+            return refined, ""
+    costs = [prediction_log_det(m, t, u, y, m.report.hold) for m in (refined, again)]
+    if costs[1] is None or (costs[0] is not None and not costs[1] < costs[0]):
+        return refined, ""
+    gain = "" if costs[0] is None else f", its likelihood higher by {costs[0] - costs[1]:.0f} units"
+    state = "converged" if again.report.converged else "did not converge"
+    return again, (
+        f"; the refinement did not converge in {fit.nfev} evaluations: it went on from "
+        f"where it stopped and {state} in {again.report.refinement.nfev} more{gain}"
+    )

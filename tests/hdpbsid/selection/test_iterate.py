@@ -20,9 +20,9 @@ from hdpbsid.models.criteria import (
     default_windows,
     windowed_prediction_error,
 )
-from hdpbsid.models.report import Refinement
-from hdpbsid.refine.pem import refine_pem
-from hdpbsid.selection.iterate import IterateRule, keep_iterate
+from hdpbsid.models.report import Choice, Refinement
+from hdpbsid.refine.pem import prediction_log_det, refine_pem
+from hdpbsid.selection.iterate import IterateRule, continued, keep_iterate
 
 
 @pytest.fixture(scope="module")
@@ -64,6 +64,50 @@ def test_an_iterate_within_the_records_resolution_leaves_the_start(fitted):
     assert not cut.report.converged
     choice = keep_iterate(start, cut, *rec)
     assert not choice.value and choice.rule is IterateRule.NOT_RESOLVED, choice
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_cut_off_refinement_goes_on_to_the_minimum_from_where_it_stopped(fitted):
+    rec, model = fitted
+    minimum = refine_pem(model, *rec)  # oracle: the refinement from the subspace estimate
+    cut = refine_pem(_detuned(model, 0.7), *rec, max_nfev=6)
+    assert not cut.report.converged and minimum.report.converged
+    kept, note = continued(cut, *rec)
+    assert kept.report.converged and "went on from where it stopped" in note
+    cost = {k: prediction_log_det(m, *rec, m.report.hold) for k, m in
+            (("cut", cut), ("kept", kept), ("minimum", minimum))}  # fmt: skip
+    # the same minimum: within one -2 log-likelihood unit (no evidence; the refinement's
+    # own convergence test stops within a tenth of a standard deviation of it)
+    assert abs(cost["kept"] - cost["minimum"]) < 1.0, cost
+    assert cost["cut"] - cost["kept"] > 5.0, cost  # cut off short of it (measured: 9.7 units)
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_cut_off_refinement_at_an_order_the_data_chose_is_left_to_the_rule(fitted):
+    rec, model = fitted
+    cut = refine_pem(_detuned(model, 0.7), *rec, max_nfev=6)
+    assert cut.report.order.given  # the fixture's order was given
+    cut.report = cut.report.but(order=Choice(2, "held-out selection"))
+    kept, note = continued(cut, *rec)
+    assert kept is cut and note == ""
+
+
+@pytest.mark.parametrize("order", [2, None])
+def test_identify_tells_the_continuation_whether_the_order_was_given(order, monkeypatch):
+    import importlib
+
+    front = importlib.import_module("hdpbsid.identify")  # the module, not the function
+    seen = []
+
+    def spy(refined, *rec):
+        seen.append(refined.report.order)
+        return continued(refined, *rec)
+
+    monkeypatch.setattr(front, "continued", spy)
+    t, u, y = white_record(0)
+    front.identify(t, u, y, order, method="dt")
+    assert len(seen) == 1
+    assert (seen[0] is not None and seen[0].given) == (order is not None), seen
 
 
 def test_a_converged_refinement_is_kept_without_a_test(fitted):
