@@ -160,17 +160,15 @@ def continued(refined: StateSpaceModel, t: Any, u: Any, y: Any) -> tuple[StateSp
 
     Examples
     --------
-    A refinement that converged goes on no further:
+    A model no refinement cut off (here: never refined) goes on no further:
 
-    >>> import numpy as np
-    >>> from hdpbsid import identify
-    >>> rng = np.random.default_rng(0)
-    >>> t = np.arange(2000) * 0.05
-    >>> u = rng.standard_normal((2000, 1))
-    >>> y = np.convolve(u[:, 0], np.exp(-t[:100]), "full")[:2000, None] * 0.05
-    >>> m = identify(t, u, y + 0.01 * rng.standard_normal(y.shape), order=1, method="dt")
-    >>> continued(m, t, u, y)[0] is m
-    True
+    >>> from hdpbsid import StateSpaceModel
+    >>> m = StateSpaceModel([[-1.0]], [[1.0]], [[1.0]], [[0.0]], [[0.0]])
+    >>> t = np.arange(0.0, 10.0, 0.1)
+    >>> u = np.sign(np.sin(t))[:, None]
+    >>> kept, note = continued(m, t, u, m.simulate(t, u))
+    >>> kept is m, note
+    (True, '')
     """
     fit, order = refined.report.refinement, refined.report.order
     if fit is None or fit.converged or order is None or not order.given:
