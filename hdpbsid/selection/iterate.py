@@ -173,7 +173,7 @@ def continued(refined: StateSpaceModel, t: Any, u: Any, y: Any) -> tuple[StateSp
     fit, order = refined.report.refinement, refined.report.order
     if fit is None or fit.converged or order is None or not order.given:
         return refined, ""
-    from hdpbsid.refine.pem import prediction_log_det, refine_pem
+    from hdpbsid.refine.pem import refine_pem
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -181,12 +181,21 @@ def continued(refined: StateSpaceModel, t: Any, u: Any, y: Any) -> tuple[StateSp
             again = refine_pem(refined, t, u, y, hold=refined.report.hold)
         except (ValueError, np.linalg.LinAlgError):
             return refined, ""
-    costs = [prediction_log_det(m, t, u, y, m.report.hold) for m in (refined, again)]
-    if costs[1] is None or (costs[0] is not None and not costs[1] < costs[0]):
+    first, cost = (_likelihood_cost(m, t, u, y) for m in (refined, again))
+    if not cost < first:
         return refined, ""
-    gain = "" if costs[0] is None else f", its likelihood higher by {costs[0] - costs[1]:.0f} units"
+    gain = f", its likelihood higher by {first - cost:.0f} units" if np.isfinite(first) else ""
     state = "converged" if again.report.converged else "did not converge"
     return again, (
         f"; the refinement did not converge in {fit.nfev} evaluations: it went on from "
         f"where it stopped and {state} in {again.report.refinement.nfev} more{gain}"
     )
+
+
+def _likelihood_cost(model: StateSpaceModel, t: Any, u: Any, y: Any) -> float:
+    """``N log det S`` of ``model`` on the record in its own hold (``inf`` when its
+    predictor is unstable): :func:`~hdpbsid.refine.pem.prediction_log_det`."""
+    from hdpbsid.refine.pem import prediction_log_det
+
+    cost = prediction_log_det(model, t, u, y, model.report.hold)
+    return np.inf if cost is None else cost

@@ -48,6 +48,7 @@ from hdpbsid.models.report import Choice, WarmStart
 from hdpbsid.selection.candidates import CandidateRow
 from hdpbsid.selection.drift import undriven_modes
 from hdpbsid.selection.feedthrough import with_d
+from hdpbsid.selection.iterate import _likelihood_cost
 
 __all__ = ["same_order_starts", "restarted", "restart_search"]
 
@@ -241,15 +242,6 @@ def _count_undriven(model: StateSpaceModel, rec: tuple) -> int:
     """The number of :func:`~hdpbsid.selection.drift.undriven_modes` (0 if not judged)."""
     mask = undriven_modes(model, rec)
     return 0 if mask is None else int(np.sum(mask))
-
-
-def _likelihood_cost(model: StateSpaceModel, t: Any, u: Any, y: Any) -> float:
-    """``N log det S`` of ``model`` on the record in its own hold (``inf`` when its
-    predictor is unstable): :func:`~hdpbsid.refine.pem.prediction_log_det`."""
-    from hdpbsid.refine.pem import prediction_log_det
-
-    cost = prediction_log_det(model, t, u, y, model.report.hold)
-    return np.inf if cost is None else cost
 
 
 def _refined_from(start: StateSpaceModel, ws: WarmStart, rec: tuple) -> StateSpaceModel | None:
